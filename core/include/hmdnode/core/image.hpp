@@ -1,0 +1,34 @@
+// CPU images: 8-bit RGBA, rows top to bottom, tightly packed.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <vector>
+
+#include "hmdnode/core/result.hpp"
+
+namespace hmdnode {
+
+struct ImageRGBA8 {
+    int width = 0;
+    int height = 0;
+    std::vector<uint8_t> pixels;  // width * height * 4
+
+    bool empty() const { return width == 0 || height == 0; }
+    const uint8_t* at(int x, int y) const { return &pixels[(size_t(y) * width + x) * 4]; }
+    uint8_t* at(int x, int y) { return &pixels[(size_t(y) * width + x) * 4]; }
+};
+
+// A stereo frame: two eyes of equal size, eye 0 = left, eye 1 = right.
+struct StereoImage {
+    ImageRGBA8 eye[2];
+};
+
+// Writes a PNG atomically (temporary file, then rename).
+Status write_png(const ImageRGBA8& image, const std::filesystem::path& path);
+// Both eyes side by side, left eye on the left.
+ImageRGBA8 side_by_side(const StereoImage& stereo);
+// Reads any PNG/JPEG stb understands, converted to RGBA8.
+Result<ImageRGBA8> read_image(const std::filesystem::path& path);
+
+}  // namespace hmdnode

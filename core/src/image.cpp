@@ -1,0 +1,56 @@
+#include "hmdnode/core/image.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <system_error>
+
+#include <stb_image.h>
+#include <stb_image_write.h>
+
+#include "hmdnode/core/atomic_file.hpp"
+
+namespace hmdnode {
+
+Status write_png(const ImageRGBA8& image, const std::filesystem::path& path) {
+    if (image.empty() || image.pixels.size() != size_t(image.width) * image.height * 4)
+        return make_error(path.string() + ": cannot write an empty or inconsistent image");
+    int len = 0;
+    unsigned char* png =
+        stbi_write_png_to_mem(image.pixels.data(), image.width * 4, image.width, image.height, 4, &len);
+    if (!png) return make_error(path.string() + ": PNG encoding failed");
+    Status st = write_file_atomically(path, std::string_view(reinterpret_cast<char*>(png), size_t(len)));
+    std::free(png);  // stb_image_write allocates with malloc
+    return st;
+}
+
+ImageRGBA8 side_by_side(const StereoImage& stereo) {
+    const ImageRGBA8& l = stereo.eye[0];
+    const ImageRGBA8& r = stereo.eye[1];
+    ImageRGBA8 out;
+    out.width = l.width + r.width;
+    out.height = std::max(l.height, r.height);
+    out.pixels.assign(size_t(out.width) * out.height * 4, 0);
+    for (int y = 0; y < out.height; ++y) {
+        if (y < l.height) std::memcpy(out.at(0, y), l.at(0, y), size_t(l.width) * 4);
+        if (y < r.height) std::memcpy(out.at(l.width, y), r.at(0, y), size_t(r.width) * 4);
+    }
+    return out;
+}
+
+Result<ImageRGBA8> read_image(const std::filesystem::path& path) {
+    int w = 0, h = 0, n = 0;
+    unsigned char* data = stbi_load(path.c_str(), &w, &h, &n, 4);
+    if (!data)
+        return make_error(path.string() + ": cannot read image: " + stbi_failure_reason());
+    ImageRGBA8 img;
+    img.width = w;
+    img.height = h;
+    img.pixels.assign(data, data + size_t(w) * h * 4);
+    stbi_image_free(data);
+    return img;
+}
+
+}  // namespace hmdnode
