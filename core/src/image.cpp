@@ -14,16 +14,22 @@
 
 namespace hmdnode {
 
+std::string encode_png(const ImageRGBA8& image) {
+    std::string out;
+    auto append = [](void* ctx, void* data, int size) {
+        static_cast<std::string*>(ctx)->append(static_cast<const char*>(data), size_t(size));
+    };
+    if (!stbi_write_png_to_func(append, &out, image.width, image.height, 4, image.pixels.data(), image.width * 4))
+        out.clear();
+    return out;
+}
+
 Status write_png(const ImageRGBA8& image, const std::filesystem::path& path) {
     if (image.empty() || image.pixels.size() != size_t(image.width) * image.height * 4)
         return make_error(path.string() + ": cannot write an empty or inconsistent image");
-    int len = 0;
-    unsigned char* png =
-        stbi_write_png_to_mem(image.pixels.data(), image.width * 4, image.width, image.height, 4, &len);
-    if (!png) return make_error(path.string() + ": PNG encoding failed");
-    Status st = write_file_atomically(path, std::string_view(reinterpret_cast<char*>(png), size_t(len)));
-    std::free(png);  // stb_image_write allocates with malloc
-    return st;
+    std::string png = encode_png(image);
+    if (png.empty()) return make_error(path.string() + ": PNG encoding failed");
+    return write_file_atomically(path, png);
 }
 
 ImageRGBA8 side_by_side(const StereoImage& stereo) {

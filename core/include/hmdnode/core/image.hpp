@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <string>
 #include <vector>
 
 #include "hmdnode/core/result.hpp"
@@ -24,6 +25,8 @@ struct StereoImage {
     ImageRGBA8 eye[2];
 };
 
+// PNG bytes of an image (empty on failure).
+std::string encode_png(const ImageRGBA8& image);
 // Writes a PNG atomically (temporary file, then rename).
 Status write_png(const ImageRGBA8& image, const std::filesystem::path& path);
 // Both eyes side by side, left eye on the left.

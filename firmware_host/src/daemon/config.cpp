@@ -1,0 +1,124 @@
+#include "daemon/config.hpp"
+
+#include <set>
+
+#include <nlohmann/json.hpp>
+
+#include "hmdnode/core/atomic_file.hpp"
+
+namespace hmdnode {
+namespace {
+
+using nlohmann::json;
+
+// Reads an optional member of the expected JSON type; records an error naming the key otherwise.
+struct Reader {
+    std::string file;
+    std::string error;
+
+    bool check_keys(const json& obj, const std::string& where, const std::set<std::string>& allowed) {
+        if (!obj.is_object()) {
+            fail(where + " must be an object");
+            return false;
+        }
+        for (const auto& [k, v] : obj.items())
+            if (!allowed.count(k)) {
+                fail("unknown key \"" + where + (where.empty() ? "" : ".") + k + "\"");
+                return false;
+            }
+        return true;
+    }
+    void fail(const std::string& msg) {
+        if (error.empty()) error = file + ": " + msg;
+    }
+    template <class T>
+    void get(const json& obj, const char* key, T* out) {
+        if (!obj.contains(key)) return;
+        try {
+            *out = obj.at(key).get<T>();
+        } catch (const json::exception&) {
+            fail(std::string("\"") + key + "\" has the wrong type");
+        }
+    }
+};
+
+}  // namespace
+
+Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
+    Result<std::string> text = read_file(path);
+    if (!text.ok()) return text.error();
+    json j;
+    try {
+        j = json::parse(*text);
+    } catch (const json::parse_error& e) {
+        return make_error(path.string() + ": not valid JSON at byte " + std::to_string(e.byte) + ": " + e.what());
+    }
+    Reader r{path.string(), ""};
+    DaemonConfig c;
+    const std::filesystem::path base = path.parent_path();
+    auto resolve = [&](const std::string& p) { return p.empty() || p[0] == '/' ? std::filesystem::path(p) : base / p; };
+
+    if (!r.check_keys(j, "", {"scene", "clock", "max_frames", "tracker", "display", "node", "status"}))
+        return make_error(r.error);
+    std::string scene, clock = "real";
+    r.get(j, "scene", &scene);
+    r.get(j, "clock", &clock);
+    r.get(j, "max_frames", &c.max_frames);
+    if (scene.empty()) r.fail("\"scene\" is required");
+    c.scene = resolve(scene);
+    if (clock != "real" && clock != "sim") r.fail("\"clock\" must be \"real\" or \"sim\"");
+    c.simulated_clock = clock == "sim";
+
+    json t = j.value("tracker", json::object());
+    if (r.check_keys(t, "tracker", {"type", "trace", "loop", "resample_hz", "noise_deg", "latency_us", "jitter_us", "seed"})) {
+        std::string type = "sim", trace;
+        double latency_us = 1000.0, jitter_us = 0.0;
+        r.get(t, "type", &type);
+        r.get(t, "trace", &trace);
+        r.get(t, "loop", &c.loop);
+        r.get(t, "resample_hz", &c.tracker.resample_hz);
+        r.get(t, "noise_deg", &c.tracker.noise_deg);
+        r.get(t, "latency_us", &latency_us);
+        r.get(t, "jitter_us", &jitter_us);
+        r.get(t, "seed", &c.tracker.seed);
+        if (type != "sim") r.fail("tracker.type \"" + type + "\" is not available in this build (available: sim)");
+        if (trace.empty()) r.fail("\"tracker.trace\" is required for tracker type sim");
+        c.trace = resolve(trace);
+        c.tracker.latency_ns = int64_t(latency_us * 1000.0);
+        c.tracker.jitter_ns = int64_t(jitter_us * 1000.0);
+    }
+    json d = j.value("display", json::object());
+    if (r.check_keys(d, "display", {"type", "eye_width", "eye_height", "refresh_hz", "persistence_ms", "frames_dir", "frames_every"})) {
+        std::string type = "mock", frames_dir;
+        double persistence_ms = 2.0;
+        r.get(d, "type", &type);
+        r.get(d, "eye_width", &c.display.eye_width);
+        r.get(d, "eye_height", &c.display.eye_height);
+        r.get(d, "refresh_hz", &c.display.refresh_hz);
+        r.get(d, "persistence_ms", &persistence_ms);
+        r.get(d, "frames_dir", &frames_dir);
+        r.get(d, "frames_every", &c.display.frames_every);
+        if (type != "mock") r.fail("display.type \"" + type + "\" is not available in this build (available: mock)");
+        c.display.persistence_ns = ms_to_ns(persistence_ms);
+        if (!frames_dir.empty()) c.display.frames_dir = resolve(frames_dir);
+    }
+    json n = j.value("node", json::object());
+    if (r.check_keys(n, "node", {"ipd_m", "predict", "lod_tolerance_px", "head_height_m"})) {
+        r.get(n, "ipd_m", &c.node.rig.ipd_m);
+        r.get(n, "predict", &c.node.predict);
+        r.get(n, "lod_tolerance_px", &c.node.lod.tolerance_px);
+        r.get(n, "head_height_m", &c.node.default_head_position.y);
+    }
+    json s = j.value("status", json::object());
+    if (r.check_keys(s, "status", {"path", "every_s"})) {
+        std::string sp;
+        r.get(s, "path", &sp);
+        r.get(s, "every_s", &c.status_every_s);
+        if (!sp.empty()) c.status_path = resolve(sp);
+        if (!(c.status_every_s > 0.0)) r.fail("status.every_s must be > 0");
+    }
+    if (!r.error.empty()) return make_error(r.error);
+    return c;
+}
+
+}  // namespace hmdnode

@@ -1,0 +1,144 @@
+// hmdnoded: the node daemon. Runs the frame loop from a JSON config file (docs/daemon.md) until
+// SIGINT/SIGTERM, survives failures of the world (a frame that fails to render or present is
+// logged and skipped; the end of a replayed trace restarts it when `loop` is set), and writes a
+// status JSON file periodically.
+#include <csignal>
+#include <cstdio>
+#include <memory>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#include "daemon/config.hpp"
+#include "hmdnode/core/atomic_file.hpp"
+#include "hmdnode/core/gltf.hpp"
+#include "hmdnode/core/trace.hpp"
+#include "hmdnode/firmware_host/node.hpp"
+#include "hmdnode/firmware_host/replay.hpp"
+
+namespace {
+volatile std::sig_atomic_t g_stop = 0;
+void on_signal(int) { g_stop = 1; }
+}  // namespace
+
+int main(int argc, char** argv) {
+    using namespace hmdnode;
+    CLI::App app{"hmdnoded: the hmdnode rendering-node daemon"};
+    std::string config_path = "/etc/hmdnode/hmdnoded.json";
+    int64_t max_frames = 0;
+    app.add_option("-c,--config", config_path, "Config file (JSON)");
+    app.add_option("--max-frames", max_frames, "Exit after this many frames (0: run until signalled)");
+    CLI11_PARSE(app, argc, argv);
+
+    Result<DaemonConfig> cfg = load_daemon_config(config_path);
+    if (!cfg.ok()) {
+        spdlog::error("{}", cfg.error().message);
+        return 2;
+    }
+    if (max_frames > 0) cfg->max_frames = max_frames;
+    std::signal(SIGINT, on_signal);
+    std::signal(SIGTERM, on_signal);
+
+    Result<Scene> scene = load_gltf(cfg->scene);
+    if (!scene.ok()) {
+        spdlog::error("{}", scene.error().message);
+        return 2;
+    }
+    Result<Trace> trace_r = read_trace_csv(cfg->trace);
+    if (!trace_r.ok()) {
+        spdlog::error("{}", trace_r.error().message);
+        return 2;
+    }
+    auto trace = std::make_shared<const Trace>(std::move(trace_r).value());
+
+    std::unique_ptr<Clock> clock;
+    if (cfg->simulated_clock) clock = std::make_unique<SimulatedClock>(0);
+    else clock = std::make_unique<SystemClock>();
+
+    auto make_tracker = [&]() {
+        SimTrackerConfig tc = cfg->tracker;
+        tc.host_start_ns = clock->now_ns();
+        return create_sim_tracker(trace, *clock, tc);
+    };
+    Result<std::unique_ptr<Tracker>> tracker = make_tracker();
+    if (!tracker.ok()) {
+        spdlog::error("{}: {}", cfg->trace.string(), tracker.error().message);
+        return 2;
+    }
+    MockDisplayConfig dc = cfg->display;
+    dc.vsync_epoch_ns = clock->now_ns();
+    Result<std::unique_ptr<Display>> display = create_mock_display(*clock, dc);
+    if (!display.ok()) {
+        spdlog::error("{}", display.error().message);
+        return 2;
+    }
+    RendererConfig rc;
+    rc.eye_width = dc.eye_width;
+    rc.eye_height = dc.eye_height;
+    Result<std::unique_ptr<Renderer>> renderer = create_vulkan_renderer(rc);
+    if (!renderer.ok()) {
+        spdlog::error("{}", renderer.error().message);
+        return 2;
+    }
+    NodeRuntime node(*clock, **tracker, **display, **renderer, *scene, cfg->node);
+    if (Status st = node.start(); !st.ok()) {
+        spdlog::error("{}", st.error().message);
+        return 2;
+    }
+    spdlog::info("hmdnoded: scene {} ({} objects), trace {} ({} samples), {}x{} per eye at {} Hz, renderer {}",
+                 cfg->scene.string(), node.objects().size(), cfg->trace.string(), trace->samples.size(),
+                 dc.eye_width, dc.eye_height, dc.refresh_hz, (*renderer)->device_name());
+
+    // Status window: the frames since the last status write.
+    std::vector<double> lat, reg;
+    size_t window_frames = 0, window_on_time = 0, errors = 0;
+    uint64_t frames = 0;
+    int64_t next_status = clock->now_ns() + s_to_ns(cfg->status_every_s);
+    FrameRecord rec;
+    while (!g_stop && (cfg->max_frames <= 0 || int64_t(frames) < cfg->max_frames)) {
+        if (node.tracker_finished()) {
+            if (!cfg->loop) {
+                spdlog::info("trace finished");
+                break;
+            }
+            Result<std::unique_ptr<Tracker>> next = make_tracker();
+            if (!next.ok() || !node.replace_tracker(**next).ok()) {
+                spdlog::error("cannot restart the trace replay; stopping");
+                break;
+            }
+            tracker = std::move(next);
+            spdlog::info("trace restarted");
+        }
+        Status st = node.run_frame(&rec, nullptr);
+        if (!st.ok()) {
+            // A failure of the world: log it, count it, keep running.
+            ++errors;
+            spdlog::warn("frame {} failed: {}", frames, st.error().message);
+            clock->sleep_until_ns(clock->now_ns() + (*display)->info().period_ns);
+            continue;
+        }
+        ++frames;
+        ++window_frames;
+        window_on_time += rec.on_time;
+        lat.push_back(rec.latency_ms);
+        if (!cfg->status_path.empty() && clock->now_ns() >= next_status) {
+            Percentiles p = percentiles(lat);
+            nlohmann::json s = {{"frames", frames},
+                                {"errors", errors},
+                                {"window_frames", window_frames},
+                                {"on_time_rate", double(window_on_time) / double(window_frames)},
+                                {"latency_ms", {{"p50", p.p50}, {"p95", p.p95}, {"p99", p.p99}, {"max", p.max}}}};
+            if (Status ws = write_file_atomically(cfg->status_path, s.dump(1)); !ws.ok())
+                spdlog::warn("{}", ws.error().message);
+            spdlog::info("frames {} on-time {:.1f}% latency p50 {:.1f} ms p99 {:.1f} ms", frames,
+                         100.0 * double(window_on_time) / double(window_frames), p.p50, p.p99);
+            lat.clear();
+            window_frames = window_on_time = 0;
+            next_status = clock->now_ns() + s_to_ns(cfg->status_every_s);
+        }
+    }
+    node.stop();
+    spdlog::info("hmdnoded: stopped after {} frames ({} failed)", frames, errors);
+    return 0;
+}

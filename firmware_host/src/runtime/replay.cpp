@@ -1,0 +1,199 @@
+// Replay wiring: scene + trace -> simulated tracker -> node runtime -> Vulkan renderer -> mock
+// display, then the report. The only place (with the daemon) that picks concrete backends.
+#include "hmdnode/firmware_host/replay.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "hmdnode/core/atomic_file.hpp"
+#include "hmdnode/core/gltf.hpp"
+#include "hmdnode/core/trace.hpp"
+
+namespace hmdnode {
+
+Percentiles percentiles(std::vector<double> v) {
+    v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return std::isnan(x); }), v.end());
+    Percentiles p;
+    if (v.empty()) return p;
+    std::sort(v.begin(), v.end());
+    // Linear interpolation between closest ranks.
+    auto q = [&](double f) {
+        const double pos = f * double(v.size() - 1);
+        const size_t i = size_t(pos);
+        const double frac = pos - double(i);
+        return i + 1 < v.size() ? v[i] * (1.0 - frac) + v[i + 1] * frac : v[i];
+    };
+    p.p50 = q(0.50);
+    p.p95 = q(0.95);
+    p.p99 = q(0.99);
+    p.max = v.back();
+    return p;
+}
+
+Result<ReplayResult> run_replay(const ReplayOptions& opt) {
+    const auto wall0 = std::chrono::steady_clock::now();
+    Result<Scene> scene = load_gltf(opt.scene);
+    if (!scene.ok()) return scene.error();
+    Result<Trace> trace_r = read_trace_csv(opt.trace);
+    if (!trace_r.ok())
+        return make_error(trace_r.error().message +
+                          " (replay reads hmdnode trace CSV; convert other tables with `hmdnode trace import`)");
+    auto trace = std::make_shared<const Trace>(std::move(trace_r).value());
+
+    std::unique_ptr<Clock> clock;
+    if (opt.simulated_clock) clock = std::make_unique<SimulatedClock>(0);
+    else clock = std::make_unique<SystemClock>();
+    const int64_t host_start = clock->now_ns();
+
+    SimTrackerConfig tc = opt.tracker;
+    tc.host_start_ns = host_start;
+    tc.start_offset_ns = s_to_ns(opt.start_s);
+    tc.duration_ns = s_to_ns(opt.duration_s);
+    Result<std::unique_ptr<Tracker>> tracker = create_sim_tracker(trace, *clock, tc);
+    if (!tracker.ok()) return make_error(opt.trace.string() + ": " + tracker.error().message);
+
+    MockDisplayConfig dc = opt.display;
+    dc.vsync_epoch_ns = host_start;
+    Result<std::unique_ptr<Display>> display = create_mock_display(*clock, dc);
+    if (!display.ok()) return display.error();
+
+    RendererConfig rc = opt.renderer;
+    rc.eye_width = dc.eye_width;
+    rc.eye_height = dc.eye_height;
+    Result<std::unique_ptr<Renderer>> renderer = create_vulkan_renderer(rc);
+    if (!renderer.ok()) return renderer.error();
+
+    NodeRuntime node(*clock, **tracker, **display, **renderer, *scene, opt.node);
+    if (Status st = node.start(); !st.ok()) return st.error();
+
+    // Truth for registration error: the trace itself, slerped, at the photon time.
+    const int64_t trace_t0 = trace->start_ns() + tc.start_offset_ns;
+    TruthFn truth = [&](int64_t host_ns) { return trace->pose_at(host_ns - host_start + trace_t0).orientation; };
+
+    ReplayResult result;
+    result.device_name = (*renderer)->device_name();
+    for (const SceneObject& o : node.objects()) result.object_names.push_back(o.name);
+    FrameRecord rec;
+    while (!node.tracker_finished() && (opt.max_frames <= 0 || int64_t(result.frames.size()) < opt.max_frames)) {
+        if (Status st = node.run_frame(&rec, truth); !st.ok()) {
+            node.stop();
+            return make_error("frame " + std::to_string(result.frames.size()) + ": " + st.error().message);
+        }
+        result.frames.push_back(rec);
+        if (opt.on_frame) opt.on_frame(rec);
+    }
+    node.stop();
+    result.trace_samples = (*tracker)->counters().samples_delivered;
+
+    ReplaySummary& s = result.summary;
+    s.frames = result.frames.size();
+    std::vector<double> lat, reg, ren;
+    double tri = 0.0;
+    size_t on_time = 0;
+    for (const FrameRecord& f : result.frames) {
+        lat.push_back(f.latency_ms);
+        reg.push_back(f.registration_error_deg);
+        ren.push_back(f.render_ms);
+        tri += double(f.triangles);
+        on_time += f.on_time ? 1 : 0;
+    }
+    s.latency_ms = percentiles(lat);
+    s.registration_error_deg = percentiles(reg);
+    s.render_ms = percentiles(ren);
+    s.on_time_rate = s.frames ? double(on_time) / double(s.frames) : 0.0;
+    s.triangles_mean = s.frames ? tri / double(s.frames) : 0.0;
+    s.replayed_s = s.frames ? ns_to_s(result.frames.back().photon_time_ns - result.frames.front().photon_time_ns) : 0.0;
+    s.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+
+    if (!opt.report.empty()) {
+        const std::string text = replay_report_json(opt, result).dump(1);
+        if (Status st = write_file_atomically(opt.report, text); !st.ok()) return st.error();
+    }
+    return result;
+}
+
+namespace {
+nlohmann::json to_json(const Percentiles& p) {
+    return {{"p50", p.p50}, {"p95", p.p95}, {"p99", p.p99}, {"max", p.max}};
+}
+nlohmann::json finite_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+}  // namespace
+
+nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& r) {
+    using nlohmann::json;
+    json frames = json::array();
+    for (const FrameRecord& f : r.frames) {
+        json levels = json::object();
+        for (size_t i = 0; i < f.levels.size(); ++i) levels[r.object_names[i]] = f.levels[i];
+        frames.push_back({{"index", f.index},
+                          {"target_vsync_ns", f.target_vsync_ns},
+                          {"vsync_ns", f.vsync_ns},
+                          {"pose_sample_time_ns", f.pose_sample_time_ns},
+                          {"predicted_photon_time_ns", f.predicted_photon_time_ns},
+                          {"photon_time_ns", f.photon_time_ns},
+                          {"latency_ms", f.latency_ms},
+                          {"prediction_horizon_ms", f.prediction_horizon_ms},
+                          {"registration_error_deg", finite_or_null(f.registration_error_deg)},
+                          {"angular_speed_dps", f.angular_speed_dps},
+                          {"on_time", f.on_time},
+                          {"lod", levels},
+                          {"triangles", f.triangles},
+                          {"render_ms", f.render_ms},
+                          {"frame_cost_ms", f.frame_cost_ms}});
+    }
+    const ReplaySummary& s = r.summary;
+    return {{"format", "hmdnode-replay-report/1"},
+            {"scene", opt.scene.string()},
+            {"trace", opt.trace.string()},
+            {"clock", opt.simulated_clock ? "sim" : "real"},
+            {"renderer", r.device_name},
+            {"display",
+             {{"eye_width", opt.display.eye_width},
+              {"eye_height", opt.display.eye_height},
+              {"refresh_hz", opt.display.refresh_hz},
+              {"persistence_ms", ns_to_ms(opt.display.persistence_ns)},
+              {"scanout_fraction", opt.display.scanout_fraction}}},
+            {"ipd_m", opt.node.rig.ipd_m},
+            {"prediction", opt.node.predict},
+            {"objects", r.object_names},
+            {"trace_samples", r.trace_samples},
+            {"summary",
+             {{"frames", s.frames},
+              {"latency_ms", to_json(s.latency_ms)},
+              {"registration_error_deg", to_json(s.registration_error_deg)},
+              {"render_ms", to_json(s.render_ms)},
+              {"on_time_rate", s.on_time_rate},
+              {"triangles_mean", s.triangles_mean},
+              {"replayed_s", s.replayed_s},
+              {"wall_s", s.wall_s}}},
+            {"frames", frames}};
+}
+
+std::string replay_summary_table(const ReplayResult& r) {
+    const ReplaySummary& s = r.summary;
+    char buf[1024];
+    std::ostringstream out;
+    std::snprintf(buf, sizeof buf,
+                  "frames %zu over %.1f s of trace (%zu samples), wall %.1f s, renderer %s\n"
+                  "%-26s %8s %8s %8s %8s\n"
+                  "%-26s %8.2f %8.2f %8.2f %8.2f\n"
+                  "%-26s %8.3f %8.3f %8.3f %8.3f\n"
+                  "%-26s %8.2f %8.2f %8.2f %8.2f\n"
+                  "on-time rate %.1f %%, triangles per frame %.0f (mean)\n",
+                  s.frames, s.replayed_s, r.trace_samples, s.wall_s, r.device_name.c_str(), "", "p50",
+                  "p95", "p99", "max", "motion-to-photon (ms)", s.latency_ms.p50, s.latency_ms.p95,
+                  s.latency_ms.p99, s.latency_ms.max, "registration error (deg)", s.registration_error_deg.p50,
+                  s.registration_error_deg.p95, s.registration_error_deg.p99, s.registration_error_deg.max,
+                  "render, measured (ms)", s.render_ms.p50, s.render_ms.p95, s.render_ms.p99, s.render_ms.max,
+                  100.0 * s.on_time_rate, s.triangles_mean);
+    out << buf;
+    return out.str();
+}
+
+}  // namespace hmdnode

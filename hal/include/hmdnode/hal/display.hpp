@@ -1,0 +1,47 @@
+// The display interface of the hardware abstraction layer: vsync timing and presentation of a
+// finished stereo frame. Backends: the mock headset (mock_display.hpp), later Vulkan direct mode.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "hmdnode/core/image.hpp"
+#include "hmdnode/core/result.hpp"
+
+namespace hmdnode {
+
+struct DisplayInfo {
+    std::string name;
+    int eye_width = 0;
+    int eye_height = 0;
+    double refresh_hz = 0.0;
+    int64_t period_ns = 0;
+};
+
+struct PresentResult {
+    uint64_t frame_index = 0;       // counts presents
+    int64_t target_vsync_ns = 0;    // the vsync the frame was meant for
+    int64_t vsync_ns = 0;           // the vsync it was shown at (later than target when late)
+    int64_t photon_time_ns = 0;     // photons of the panel centre (scan-out of the middle row +
+                                    // half the persistence)
+    bool on_time = false;           // vsync_ns == target_vsync_ns
+};
+
+class Display {
+public:
+    virtual ~Display() = default;
+
+    // Any thread.
+    virtual DisplayInfo info() const = 0;
+    // The first vsync strictly after t_ns (host clock).
+    virtual int64_t next_vsync_ns(int64_t t_ns) const = 0;
+    // Time from a vsync to the photons of the panel centre.
+    virtual int64_t photon_offset_ns() const = 0;
+
+    // Frame thread only. Presents a frame at the current time of the display's clock, meant for
+    // target_vsync_ns. image may be null (timing only). A frame that arrives after its vsync's
+    // latch point is shown at the next vsync and counts as late.
+    virtual Result<PresentResult> present(const StereoImage* image, int64_t target_vsync_ns) = 0;
+};
+
+}  // namespace hmdnode

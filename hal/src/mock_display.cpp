@@ -1,0 +1,87 @@
+// Mock headset display. Vsyncs fall at epoch + k * period. A frame presented at time t for vsync V
+// is shown at V when t <= V - latch margin, else at the first vsync whose latch point is after t.
+// Photon time of the panel centre = vsync + scan-out of the middle row + half the persistence.
+#include "hmdnode/hal/mock_display.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <system_error>
+
+namespace hmdnode {
+namespace {
+
+class MockDisplay final : public Display {
+public:
+    MockDisplay(Clock& clock, const MockDisplayConfig& config)
+        : clock_(clock), config_(config), period_ns_(int64_t(std::llround(1e9 / config.refresh_hz))) {
+        info_.name = "mock headset";
+        info_.eye_width = config.eye_width;
+        info_.eye_height = config.eye_height;
+        info_.refresh_hz = config.refresh_hz;
+        info_.period_ns = period_ns_;
+    }
+
+    DisplayInfo info() const override { return info_; }
+
+    int64_t next_vsync_ns(int64_t t_ns) const override {
+        const int64_t rel = t_ns - config_.vsync_epoch_ns;
+        int64_t k = rel >= 0 ? rel / period_ns_ + 1 : -((-rel) / period_ns_);
+        int64_t v = config_.vsync_epoch_ns + k * period_ns_;
+        if (v <= t_ns) v += period_ns_;
+        return v;
+    }
+
+    int64_t photon_offset_ns() const override {
+        return int64_t(std::llround(0.5 * config_.scanout_fraction * double(period_ns_))) +
+               config_.persistence_ns / 2;
+    }
+
+    Result<PresentResult> present(const StereoImage* image, int64_t target_vsync_ns) override {
+        const int64_t now = clock_.now_ns();
+        PresentResult r;
+        r.frame_index = frame_index_++;
+        r.target_vsync_ns = target_vsync_ns;
+        r.vsync_ns = target_vsync_ns;
+        while (now > r.vsync_ns - config_.latch_margin_ns) r.vsync_ns += period_ns_;
+        // A display cannot show two frames at one vsync: the later one waits for the next.
+        if (r.vsync_ns <= last_vsync_ns_) r.vsync_ns = last_vsync_ns_ + period_ns_;
+        last_vsync_ns_ = r.vsync_ns;
+        r.on_time = r.vsync_ns == target_vsync_ns;
+        r.photon_time_ns = r.vsync_ns + photon_offset_ns();
+        if (image && !config_.frames_dir.empty() && r.frame_index % uint64_t(config_.frames_every) == 0) {
+            char name[32];
+            std::snprintf(name, sizeof name, "frame_%06llu.png", (unsigned long long)r.frame_index);
+            Status st = write_png(side_by_side(*image), config_.frames_dir / name);
+            if (!st.ok()) return st.error();
+        }
+        return r;
+    }
+
+private:
+    Clock& clock_;
+    MockDisplayConfig config_;
+    int64_t period_ns_;
+    DisplayInfo info_;
+    uint64_t frame_index_ = 0;
+    int64_t last_vsync_ns_ = INT64_MIN;
+};
+
+}  // namespace
+
+Result<std::unique_ptr<Display>> create_mock_display(Clock& clock, const MockDisplayConfig& config) {
+    if (config.eye_width < 1 || config.eye_height < 1 || config.eye_width > 16384 || config.eye_height > 16384)
+        return make_error("mock display: eye size must be between 1 and 16384 pixels");
+    if (!(config.refresh_hz >= 1.0 && config.refresh_hz <= 1000.0))
+        return make_error("mock display: refresh rate must be between 1 and 1000 Hz");
+    if (!(config.scanout_fraction >= 0.0 && config.scanout_fraction <= 1.0) || config.persistence_ns < 0 ||
+        config.latch_margin_ns < 0 || config.frames_every < 1)
+        return make_error("mock display: scan-out fraction must be in [0,1], persistence and latch margin >= 0, frames_every >= 1");
+    if (!config.frames_dir.empty()) {
+        std::error_code ec;
+        std::filesystem::create_directories(config.frames_dir, ec);
+        if (ec) return make_error("mock display: cannot create " + config.frames_dir.string() + ": " + ec.message());
+    }
+    return std::unique_ptr<Display>(new MockDisplay(clock, config));
+}
+
+}  // namespace hmdnode
