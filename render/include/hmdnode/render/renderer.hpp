@@ -18,10 +18,10 @@
 namespace hmdnode {
 
 struct RendererConfig {
-    int eye_width = 540;   // >= 1, pixels per eye
-    int eye_height = 600;  // >= 1
-    glm::vec4 clear_color{0.0f, 0.0f, 0.0f, 1.0f};
-    bool validation = false;  // enable VK_LAYER_KHRONOS_validation when installed
+    int eye_width = 540;                            // >= 1, pixels per eye
+    int eye_height = 600;                           // >= 1
+    glm::vec4 clear_color{0.0f, 0.0f, 0.0f, 1.0f};  // linear; encoded to sRGB like shaded pixels
+    bool validation = false;  // enable VK_LAYER_KHRONOS_validation when installed (else ignored)
 };
 
 // One draw: a mesh of the uploaded scene (all its primitives) with a world matrix.
@@ -37,22 +37,36 @@ struct StereoViews {
 };
 
 struct RenderStats {
-    uint64_t triangles = 0;       // triangles submitted (both eyes share one multiview pass)
-    int64_t cpu_record_ns = 0;    // recording + submission
-    int64_t gpu_wait_ns = 0;      // submit to fence signalled
-    int64_t readback_ns = 0;      // copy of both eyes into the output image
+    uint64_t triangles = 0;     // triangles of the drawn items, counted once for both eyes
+    int64_t cpu_record_ns = 0;  // recording + submission
+    int64_t gpu_wait_ns = 0;    // submit to fence signalled
+    int64_t readback_ns = 0;    // copy of both eyes into the output image (0 without one)
+    int passes = 0;             // render passes: 1 = both eyes in one multiview pass,
+                                // 2 = one pass per eye (fallback for a broken driver multiview)
 };
 
 class Renderer {
-public:
+  public:
     virtual ~Renderer() = default;
 
     // Uploads every mesh, material and texture of the scene (all LOD levels), once. Replaces any
-    // scene uploaded before.
+    // scene uploaded before (on failure the previous scene stays). Errors name the malformed
+    // mesh, primitive, material or texture, or the GPU failure. Allocates and blocks: not for the
+    // frame path.
+    //
+    // Shading (docs/formats.md): albedo = base_color_factor * base colour texture (sRGB-decoded,
+    // TEXCOORD_0) * COLOR_0; with a lightmap, colour = albedo.rgb * E / pi where E = lightmap
+    // texel (linear, TEXCOORD_1 when lightmap.tex_coord == 1, else TEXCOORD_0) * intensity;
+    // without one, colour = albedo.rgb. Alpha is 1. Output pixels are sRGB-encoded. Single-sided
+    // materials cull back faces (glTF: counter-clockwise is front).
     virtual Status upload(const Scene& scene) = 0;
 
-    // Renders both eyes in one multiview pass and, when out_image is not null, reads both eyes
-    // back into it. Draws exactly the given items, in the given order.
+    // Renders both eyes (one multiview pass; see RenderStats::passes) and, when out_image is not
+    // null, reads both eyes back into it (eye[0] = left, eye[1] = right, rows top to bottom; the
+    // vectors are resized only when the eye size changes). Draws exactly the given items, in the
+    // given order, and waits for the GPU. A DrawItem whose mesh is not in the uploaded scene is an
+    // Error (nothing is drawn). After a lost device or a GPU timeout every later call returns an
+    // Error.
     virtual Result<RenderStats> render(const StereoViews& views, std::span<const DrawItem> items,
                                        StereoImage* out_image) = 0;
 
@@ -60,8 +74,12 @@ public:
     virtual std::string device_name() const = 0;
 };
 
-// The Vulkan backend: the first physical device that supports multiview (a GPU if present,
-// else lavapipe); HMDNODE_VK_DEVICE=<substring> picks a device by name.
+// The Vulkan backend: the first physical device with Vulkan 1.1 and the multiview feature (a GPU if
+// present, else lavapipe); HMDNODE_VK_DEVICE=<substring> picks a device by name. Headless: no
+// window-system extension is used. Errors: no Vulkan driver, no usable device (with the reason
+// per device), an eye buffer beyond the device's limits, out of memory. Creation renders one probe
+// frame to check the driver's multiview; HMDNODE_VK_MULTIVIEW=1 forces the multiview pass, =0 one
+// pass per eye (see render/src/vulkan_renderer.cpp).
 Result<std::unique_ptr<Renderer>> create_vulkan_renderer(const RendererConfig& config);
 
 }  // namespace hmdnode

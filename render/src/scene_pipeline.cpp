@@ -1,0 +1,174 @@
+// Scene pipelines: shader modules from the embedded SPIR-V, layouts and the two cull modes.
+// Cost: pipeline compilation at creation (a few ms on lavapipe); nothing per frame.
+#include "scene_pipeline.hpp"
+
+#include <cstddef>
+
+#include "vk_check.hpp"
+
+namespace hmdnode::vk {
+namespace {
+
+const uint32_t kSceneVert[] =
+#include "scene.vert.spv.h"
+    ;
+const uint32_t kSceneFrag[] =
+#include "scene.frag.spv.h"
+    ;
+
+Result<ShaderModule> create_module(const DeviceContext& ctx, const uint32_t* code, size_t bytes,
+                                   const char* what) {
+    VkShaderModuleCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
+    info.codeSize = bytes;
+    info.pCode = code;
+    VkShaderModule module = VK_NULL_HANDLE;
+    HMDNODE_VK_TRY(vkCreateShaderModule(ctx.device, &info, nullptr, &module), what);
+    return ShaderModule(ctx.device, module);
+}
+
+Result<DescriptorSetLayout> create_set_layout(const DeviceContext& ctx,
+                                              std::span<const VkDescriptorSetLayoutBinding> b) {
+    VkDescriptorSetLayoutCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
+    info.bindingCount = uint32_t(b.size());
+    info.pBindings = b.data();
+    VkDescriptorSetLayout layout = VK_NULL_HANDLE;
+    HMDNODE_VK_TRY(vkCreateDescriptorSetLayout(ctx.device, &info, nullptr, &layout),
+                   "vkCreateDescriptorSetLayout");
+    return DescriptorSetLayout(ctx.device, layout);
+}
+
+}  // namespace
+
+Result<ScenePipeline> create_scene_pipeline(const DeviceContext& ctx, VkRenderPass render_pass) {
+    ScenePipeline p;
+
+    // 1. Layouts.
+    const VkDescriptorSetLayoutBinding frame_bindings[] = {
+        {0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_VERTEX_BIT, nullptr}};
+    auto frame_layout = create_set_layout(ctx, frame_bindings);
+    if (!frame_layout) return frame_layout.error();
+    p.frame_layout = std::move(*frame_layout);
+    const VkDescriptorSetLayoutBinding material_bindings[] = {
+        {0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
+        {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
+        {2, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr}};
+    auto material_layout = create_set_layout(ctx, material_bindings);
+    if (!material_layout) return material_layout.error();
+    p.material_layout = std::move(*material_layout);
+
+    const VkDescriptorSetLayout sets[2] = {p.frame_layout, p.material_layout};
+    const VkPushConstantRange push{VK_SHADER_STAGE_VERTEX_BIT, 0, kPushConstantBytes};
+    VkPipelineLayoutCreateInfo layout_info{};
+    layout_info.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
+    layout_info.setLayoutCount = 2;
+    layout_info.pSetLayouts = sets;
+    layout_info.pushConstantRangeCount = 1;
+    layout_info.pPushConstantRanges = &push;
+    VkPipelineLayout layout = VK_NULL_HANDLE;
+    HMDNODE_VK_TRY(vkCreatePipelineLayout(ctx.device, &layout_info, nullptr, &layout),
+                   "vkCreatePipelineLayout");
+    p.layout = PipelineLayout(ctx.device, layout);
+
+    // 2. Shaders.
+    auto vert = create_module(ctx, kSceneVert, sizeof(kSceneVert), "vkCreateShaderModule (vert)");
+    if (!vert) return vert.error();
+    auto frag = create_module(ctx, kSceneFrag, sizeof(kSceneFrag), "vkCreateShaderModule (frag)");
+    if (!frag) return frag.error();
+    VkPipelineShaderStageCreateInfo stages[2]{};
+    stages[0].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+    stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
+    stages[0].module = *vert;
+    stages[0].pName = "main";
+    stages[1].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+    stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
+    stages[1].module = *frag;
+    stages[1].pName = "main";
+
+    // 3. Fixed function.
+    const VkVertexInputBindingDescription binding{0, sizeof(Vertex), VK_VERTEX_INPUT_RATE_VERTEX};
+    const VkVertexInputAttributeDescription attributes[] = {
+        {0, 0, VK_FORMAT_R32G32B32_SFLOAT, uint32_t(offsetof(Vertex, position))},
+        {2, 0, VK_FORMAT_R32G32_SFLOAT, uint32_t(offsetof(Vertex, uv0))},
+        {3, 0, VK_FORMAT_R32G32_SFLOAT, uint32_t(offsetof(Vertex, uv1))},
+        {4, 0, VK_FORMAT_R32G32B32A32_SFLOAT, uint32_t(offsetof(Vertex, color))}};
+    VkPipelineVertexInputStateCreateInfo vertex_input{};
+    vertex_input.sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO;
+    vertex_input.vertexBindingDescriptionCount = 1;
+    vertex_input.pVertexBindingDescriptions = &binding;
+    vertex_input.vertexAttributeDescriptionCount = uint32_t(std::size(attributes));
+    vertex_input.pVertexAttributeDescriptions = attributes;
+
+    VkPipelineInputAssemblyStateCreateInfo assembly{};
+    assembly.sType = VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO;
+    assembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+
+    VkPipelineViewportStateCreateInfo viewport{};
+    viewport.sType = VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO;
+    viewport.viewportCount = 1;
+    viewport.scissorCount = 1;
+
+    // note: eye_projection() flips y for Vulkan's y-down clip space, so a triangle that is
+    // counter-clockwise in the eye's view stays counter-clockwise in framebuffer coordinates.
+    VkPipelineRasterizationStateCreateInfo raster{};
+    raster.sType = VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO;
+    raster.polygonMode = VK_POLYGON_MODE_FILL;
+    raster.cullMode = VK_CULL_MODE_BACK_BIT;
+    raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+    raster.lineWidth = 1.0f;
+
+    VkPipelineMultisampleStateCreateInfo multisample{};
+    multisample.sType = VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO;
+    multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+
+    VkPipelineDepthStencilStateCreateInfo depth{};
+    depth.sType = VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO;
+    depth.depthTestEnable = VK_TRUE;
+    depth.depthWriteEnable = VK_TRUE;
+    depth.depthCompareOp = VK_COMPARE_OP_LESS;
+
+    VkPipelineColorBlendAttachmentState blend_attachment{};
+    blend_attachment.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
+                                      VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
+    VkPipelineColorBlendStateCreateInfo blend{};
+    blend.sType = VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO;
+    blend.attachmentCount = 1;
+    blend.pAttachments = &blend_attachment;
+
+    const VkDynamicState dynamic_states[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+    VkPipelineDynamicStateCreateInfo dynamic{};
+    dynamic.sType = VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO;
+    dynamic.dynamicStateCount = 2;
+    dynamic.pDynamicStates = dynamic_states;
+
+    VkGraphicsPipelineCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO;
+    info.stageCount = 2;
+    info.pStages = stages;
+    info.pVertexInputState = &vertex_input;
+    info.pInputAssemblyState = &assembly;
+    info.pViewportState = &viewport;
+    info.pRasterizationState = &raster;
+    info.pMultisampleState = &multisample;
+    info.pDepthStencilState = &depth;
+    info.pColorBlendState = &blend;
+    info.pDynamicState = &dynamic;
+    info.layout = p.layout;
+    info.renderPass = render_pass;
+    info.subpass = 0;
+
+    VkPipeline pipeline = VK_NULL_HANDLE;
+    HMDNODE_VK_TRY(
+        vkCreateGraphicsPipelines(ctx.device, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline),
+        "vkCreateGraphicsPipelines (single-sided)");
+    p.single_sided = Pipeline(ctx.device, pipeline);
+    raster.cullMode = VK_CULL_MODE_NONE;
+    HMDNODE_VK_TRY(
+        vkCreateGraphicsPipelines(ctx.device, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline),
+        "vkCreateGraphicsPipelines (double-sided)");
+    p.double_sided = Pipeline(ctx.device, pipeline);
+    return p;
+}
+
+}  // namespace hmdnode::vk

@@ -1,0 +1,55 @@
+// The graphics pipelines of the lightmapped scene (render/shaders/scene.vert, scene.frag): vertex
+// layout, descriptor set layouts (set 0 per frame, set 1 per material), push constants (world
+// matrix) and two pipelines, back-face culled for single-sided materials and unculled for
+// double-sided ones. Created once per renderer.
+#pragma once
+
+#include <cstddef>
+
+#include <glm/glm.hpp>
+
+#include "vk_memory.hpp"
+
+namespace hmdnode::vk {
+
+// Interleaved vertex, 56 bytes. Missing attributes get defaults: normal (0,0,1), uv (0,0),
+// colour (1,1,1,1).
+struct Vertex {
+    glm::vec3 position;
+    glm::vec3 normal;  // not read by the scene shaders today; kept for later lighting passes
+    glm::vec2 uv0;
+    glm::vec2 uv1;
+    glm::vec4 color;
+};
+static_assert(sizeof(Vertex) == 56);
+
+// Set 0, binding 0 (std140).
+struct FrameConstants {
+    glm::mat4 view_projection[2];  // projection * view, eye 0 = left
+};
+
+// Set 1, binding 2 (std140).
+struct MaterialConstants {
+    glm::vec4 base_color_factor;
+    glm::vec4 lightmap;  // x intensity, y uv set (0/1), z 1 when lightmapped, w unused
+};
+
+// Push constants: world is pushed per draw (offset 0), view_base per pass (offset 64).
+struct DrawConstants {
+    glm::mat4 world;
+    uint32_t view_base;
+};
+static_assert(offsetof(DrawConstants, view_base) == 64);
+
+struct ScenePipeline {
+    DescriptorSetLayout frame_layout;     // binding 0: FrameConstants (vertex)
+    DescriptorSetLayout material_layout;  // 0: base colour, 1: lightmap, 2: MaterialConstants
+    PipelineLayout layout;
+    Pipeline single_sided;  // cull back faces; glTF front faces are counter-clockwise
+    Pipeline double_sided;  // no culling
+};
+constexpr uint32_t kPushConstantBytes = offsetof(DrawConstants, view_base) + sizeof(uint32_t);
+
+Result<ScenePipeline> create_scene_pipeline(const DeviceContext& ctx, VkRenderPass render_pass);
+
+}  // namespace hmdnode::vk

@@ -1,0 +1,364 @@
+// The Vulkan backend of Renderer: headless device, multiview stereo targets, the lightmapped scene
+// pipelines and the frame loop (record, submit, wait, read back). Per frame: one command buffer
+// recorded from scratch (O(items * primitives) CPU), no GPU allocation; read-back copies
+// 2 * eye_width * eye_height * 4 bytes.
+//
+// note: Mesa 22.3 lavapipe loses every triangle that needs x/y clipping from view 1 of a multiview
+// pass (the right eye misses all geometry crossing the image edges). create() therefore renders a
+// probe frame with such a triangle; when the eyes differ, it falls back to per-eye mode: one
+// ordinary pass per eye layer, same shaders (view_base push constant). On lavapipe this costs
+// about the same, since llvmpipe repeats the vertex work per view anyway.
+// HMDNODE_VK_MULTIVIEW=1 forces multiview without the probe, =0 forces per-eye passes.
+#include <chrono>
+#include <cstddef>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+
+#include "gpu_scene.hpp"
+#include "hmdnode/render/renderer.hpp"
+#include "scene_pipeline.hpp"
+#include "stereo_targets.hpp"
+#include "vk_check.hpp"
+#include "vk_device.hpp"
+#include "vk_memory.hpp"
+
+namespace hmdnode {
+namespace {
+
+constexpr uint64_t kFenceTimeoutNs = 20'000'000'000;  // a frame that takes 20 s is a hung GPU
+
+int64_t now_ns() {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(
+               std::chrono::steady_clock::now().time_since_epoch())
+        .count();
+}
+
+class VulkanRenderer final : public Renderer {
+  public:
+    static Result<std::unique_ptr<Renderer>> create(const RendererConfig& config);
+    ~VulkanRenderer() override;
+
+    Status upload(const Scene& scene) override;
+    Result<RenderStats> render(const StereoViews& views, std::span<const DrawItem> items,
+                               StereoImage* out_image) override;
+    std::string device_name() const override { return ctx_->name; }
+
+  private:
+    // (Re)creates the targets, pipelines and the per-frame descriptor set for one stereo mode.
+    Status build_frame_path(bool multiview);
+    // Renders a triangle that crosses every edge of both views; false when the eyes differ.
+    Result<bool> multiview_clips_correctly();
+    // Draws of one pass; view_base is 0 with multiview, else the eye the pass renders.
+    void record_draws(std::span<const DrawItem> items, uint32_t view_base);
+    void record(std::span<const DrawItem> items, bool read_back);
+    void read_back(StereoImage& out_image) const;
+
+    RendererConfig config_;
+    std::unique_ptr<vk::DeviceContext> ctx_;  // first: destroyed last
+    vk::StereoTargets targets_;
+    vk::ScenePipeline pipeline_;
+    vk::Buffer frame_constants_;  // FrameConstants, host-visible
+    vk::DescriptorPool frame_pool_;
+    VkDescriptorSet frame_set_ = VK_NULL_HANDLE;
+    VkCommandBuffer cmd_ = VK_NULL_HANDLE;  // freed with the context's pool
+    vk::Fence fence_;
+    std::unique_ptr<vk::GpuScene> scene_;  // null before the first upload
+    std::string lost_;                     // why the device is unusable; empty while it works
+};
+
+Result<std::unique_ptr<Renderer>> VulkanRenderer::create(const RendererConfig& config) {
+    if (config.eye_width < 1 || config.eye_height < 1)
+        return make_error("renderer: eye buffer " + std::to_string(config.eye_width) + "x" +
+                          std::to_string(config.eye_height) + " is empty");
+    auto r = std::unique_ptr<VulkanRenderer>(new VulkanRenderer());
+    r->config_ = config;
+
+    // 1. Device, the reusable command buffer and its fence.
+    auto ctx = vk::create_device_context(config.validation);
+    if (!ctx) return ctx.error();
+    r->ctx_ = std::move(*ctx);
+    const VkDevice device = r->ctx_->device;
+    VkCommandBufferAllocateInfo cmd_info{};
+    cmd_info.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+    cmd_info.commandPool = r->ctx_->command_pool;
+    cmd_info.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    cmd_info.commandBufferCount = 1;
+    HMDNODE_VK_TRY(vkAllocateCommandBuffers(device, &cmd_info, &r->cmd_),
+                   "vkAllocateCommandBuffers (frame)");
+    VkFenceCreateInfo fence_info{};
+    fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+    VkFence fence = VK_NULL_HANDLE;
+    HMDNODE_VK_TRY(vkCreateFence(device, &fence_info, nullptr, &fence), "vkCreateFence (frame)");
+    r->fence_ = vk::Fence(device, fence);
+    auto frame_constants =
+        vk::create_buffer(*r->ctx_, sizeof(vk::FrameConstants), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
+                          vk::MemoryUse::Upload, "frame constants");
+    if (!frame_constants) return frame_constants.error();
+    r->frame_constants_ = std::move(*frame_constants);
+
+    // 2. Targets and pipelines: multiview unless the driver gets it wrong (see the note on top).
+    const char* forced = std::getenv("HMDNODE_VK_MULTIVIEW");
+    const bool force_per_eye = forced && std::string(forced) == "0";
+    const bool force_multiview = forced && std::string(forced) == "1";
+    if (Status s = r->build_frame_path(!force_per_eye); !s) return s.error();
+    if (!force_per_eye && !force_multiview) {
+        auto ok = r->multiview_clips_correctly();
+        if (!ok) return ok.error();
+        if (!*ok)
+            if (Status s = r->build_frame_path(false); !s) return s.error();
+    }
+    return std::unique_ptr<Renderer>(std::move(r));
+}
+
+Status VulkanRenderer::build_frame_path(bool multiview) {
+    vk::DeviceContext& ctx = *ctx_;
+    vkDeviceWaitIdle(ctx.device);
+    frame_pool_.reset();
+    frame_set_ = VK_NULL_HANDLE;
+    auto targets = vk::create_stereo_targets(ctx, uint32_t(config_.eye_width),
+                                             uint32_t(config_.eye_height), multiview);
+    if (!targets) return targets.error();
+    targets_ = std::move(*targets);
+    auto pipeline = vk::create_scene_pipeline(ctx, targets_.render_pass);
+    if (!pipeline) return pipeline.error();
+    pipeline_ = std::move(*pipeline);
+
+    const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1};
+    VkDescriptorPoolCreateInfo pool_info{};
+    pool_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+    pool_info.maxSets = 1;
+    pool_info.poolSizeCount = 1;
+    pool_info.pPoolSizes = &size;
+    VkDescriptorPool pool = VK_NULL_HANDLE;
+    HMDNODE_VK_TRY(vkCreateDescriptorPool(ctx.device, &pool_info, nullptr, &pool),
+                   "vkCreateDescriptorPool (frame)");
+    frame_pool_ = vk::DescriptorPool(ctx.device, pool);
+    const VkDescriptorSetLayout frame_layout = pipeline_.frame_layout;
+    VkDescriptorSetAllocateInfo set_info{};
+    set_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+    set_info.descriptorPool = pool;
+    set_info.descriptorSetCount = 1;
+    set_info.pSetLayouts = &frame_layout;
+    HMDNODE_VK_TRY(vkAllocateDescriptorSets(ctx.device, &set_info, &frame_set_),
+                   "vkAllocateDescriptorSets (frame)");
+    const VkDescriptorBufferInfo buffer_info{frame_constants_.get(), 0, sizeof(vk::FrameConstants)};
+    VkWriteDescriptorSet write{};
+    write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+    write.dstSet = frame_set_;
+    write.dstBinding = 0;
+    write.descriptorCount = 1;
+    write.descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+    write.pBufferInfo = &buffer_info;
+    vkUpdateDescriptorSets(ctx.device, 1, &write, 0, nullptr);
+    return Status::success();
+}
+
+Result<bool> VulkanRenderer::multiview_clips_correctly() {
+    // A triangle far larger than the view, in a colour unlike the clear colour, seen by both eyes
+    // through the same matrices: the eyes must come out identical.
+    Scene probe;
+    Material m;
+    const glm::vec4& clear = config_.clear_color;
+    m.base_color_factor = glm::vec4(clear.r > 0.5f ? 0.0f : 1.0f, 0.5f, 0.5f, 1.0f);
+    probe.materials.push_back(m);
+    Primitive tri;
+    tri.positions = {{-8.0f, -8.0f, -1.0f}, {8.0f, -8.0f, -1.0f}, {0.0f, 8.0f, -1.0f}};
+    tri.indices = {0, 1, 2};
+    tri.material = 0;
+    probe.meshes.push_back(Mesh{"probe", {tri}});
+    if (Status s = upload(probe); !s) return s.error();
+    StereoViews views;
+    const float n = 0.1f, f = 10.0f;  // symmetric 90-degree frustum, Vulkan clip space
+    const glm::mat4 projection(glm::vec4(1, 0, 0, 0), glm::vec4(0, -1, 0, 0),
+                               glm::vec4(0, 0, f / (n - f), -1),
+                               glm::vec4(0, 0, n * f / (n - f), 0));
+    for (int e = 0; e < 2; ++e) {
+        views.view[e] = glm::mat4(1.0f);
+        views.projection[e] = projection;
+    }
+    const DrawItem item{0, glm::mat4(1.0f)};
+    StereoImage image;
+    auto stats = render(views, {&item, 1}, &image);
+    scene_.reset();
+    if (!stats) return stats.error();
+    const int cx = config_.eye_width / 2, cy = config_.eye_height / 2;
+    return std::memcmp(image.eye[0].at(cx, cy), image.eye[1].at(cx, cy), 4) == 0;
+}
+
+VulkanRenderer::~VulkanRenderer() {
+    // note: members destroy their objects after this body; the GPU must be done with them.
+    if (ctx_ && ctx_->device) vkDeviceWaitIdle(ctx_->device);
+}
+
+Status VulkanRenderer::upload(const Scene& scene) {
+    if (!lost_.empty()) return make_error(lost_);
+    // The old scene stays usable until the new one is complete; no frame is in flight here
+    // (render() waits for its fence), so the old one can go at once.
+    auto gpu = vk::upload_scene(*ctx_, scene, pipeline_.material_layout);
+    if (!gpu) return gpu.error();
+    scene_ = std::move(*gpu);
+    return Status::success();
+}
+
+void VulkanRenderer::record_draws(std::span<const DrawItem> items, uint32_t view_base) {
+    vkCmdPushConstants(cmd_, pipeline_.layout, VK_SHADER_STAGE_VERTEX_BIT,
+                       offsetof(vk::DrawConstants, view_base), sizeof(uint32_t), &view_base);
+    if (items.empty() || !scene_ || !scene_->vertices.get()) return;
+    const VkViewport viewport{0.0f, 0.0f, float(targets_.width), float(targets_.height),
+                              0.0f, 1.0f};
+    const VkRect2D scissor{{0, 0}, {targets_.width, targets_.height}};
+    vkCmdSetViewport(cmd_, 0, 1, &viewport);
+    vkCmdSetScissor(cmd_, 0, 1, &scissor);
+    vkCmdBindDescriptorSets(cmd_, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_.layout, 0, 1,
+                            &frame_set_, 0, nullptr);
+    const VkBuffer vertex_buffer = scene_->vertices.get();
+    const VkDeviceSize zero = 0;
+    vkCmdBindVertexBuffers(cmd_, 0, 1, &vertex_buffer, &zero);
+    vkCmdBindIndexBuffer(cmd_, scene_->indices.get(), 0, VK_INDEX_TYPE_UINT32);
+
+    VkPipeline bound_pipeline = VK_NULL_HANDLE;
+    uint32_t bound_material = UINT32_MAX;
+    for (const DrawItem& item : items) {
+        const vk::GpuMesh& mesh = scene_->meshes[size_t(item.mesh)];
+        if (mesh.primitive_count == 0) continue;
+        vkCmdPushConstants(cmd_, pipeline_.layout, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(glm::mat4),
+                           &item.world);
+        for (uint32_t p = 0; p < mesh.primitive_count; ++p) {
+            const vk::GpuPrimitive& prim = scene_->primitives[mesh.first_primitive + p];
+            const VkPipeline pipeline =
+                prim.double_sided ? pipeline_.double_sided.get() : pipeline_.single_sided.get();
+            if (pipeline != bound_pipeline) {
+                vkCmdBindPipeline(cmd_, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
+                bound_pipeline = pipeline;
+            }
+            if (prim.material != bound_material) {
+                vkCmdBindDescriptorSets(cmd_, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_.layout, 1,
+                                        1, &scene_->material_sets[prim.material], 0, nullptr);
+                bound_material = prim.material;
+            }
+            vkCmdDrawIndexed(cmd_, prim.index_count, 1, prim.first_index, prim.vertex_offset, 0);
+        }
+    }
+}
+
+void VulkanRenderer::record(std::span<const DrawItem> items, bool read_back) {
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    vkBeginCommandBuffer(cmd_, &begin);
+
+    VkClearValue clears[2]{};
+    const glm::vec4& c = config_.clear_color;
+    clears[0].color = {{c.r, c.g, c.b, c.a}};
+    clears[1].depthStencil = {1.0f, 0};
+    for (int p = 0; p < targets_.pass_count(); ++p) {
+        VkRenderPassBeginInfo pass{};
+        pass.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
+        pass.renderPass = targets_.render_pass;
+        pass.framebuffer = targets_.framebuffer[p];
+        pass.renderArea = {{0, 0}, {targets_.width, targets_.height}};
+        pass.clearValueCount = 2;
+        pass.pClearValues = clears;
+        vkCmdBeginRenderPass(cmd_, &pass, VK_SUBPASS_CONTENTS_INLINE);
+        record_draws(items, uint32_t(p));
+        vkCmdEndRenderPass(cmd_);
+    }
+
+    if (read_back) {
+        // Both layers in one region: the buffer holds layer 0 (left) then layer 1 (right), each
+        // width * height texels, rows top to bottom.
+        VkBufferImageCopy region{};
+        region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 2};
+        region.imageExtent = {targets_.width, targets_.height, 1};
+        vkCmdCopyImageToBuffer(cmd_, targets_.color.get(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                               targets_.readback.get(), 1, &region);
+        VkBufferMemoryBarrier to_host{};
+        to_host.sType = VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER;
+        to_host.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+        to_host.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+        to_host.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+        to_host.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+        to_host.buffer = targets_.readback.get();
+        to_host.size = VK_WHOLE_SIZE;
+        vkCmdPipelineBarrier(cmd_, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 0,
+                             nullptr, 1, &to_host, 0, nullptr);
+    }
+    vkEndCommandBuffer(cmd_);
+}
+
+void VulkanRenderer::read_back(StereoImage& out_image) const {
+    const size_t eye_bytes = size_t(targets_.width) * targets_.height * 4;
+    const auto* src = static_cast<const uint8_t*>(targets_.readback.mapped());
+    for (int e = 0; e < 2; ++e) {
+        ImageRGBA8& eye = out_image.eye[e];
+        eye.width = int(targets_.width);
+        eye.height = int(targets_.height);
+        eye.pixels.resize(eye_bytes);  // allocates only when the size changes
+        std::memcpy(eye.pixels.data(), src + size_t(e) * eye_bytes, eye_bytes);
+    }
+}
+
+Result<RenderStats> VulkanRenderer::render(const StereoViews& views,
+                                           std::span<const DrawItem> items,
+                                           StereoImage* out_image) {
+    if (!lost_.empty()) return make_error(lost_);
+    RenderStats stats;
+    const size_t mesh_count = scene_ ? scene_->meshes.size() : 0;
+    for (const DrawItem& item : items) {
+        if (item.mesh < 0 || size_t(item.mesh) >= mesh_count)
+            return make_error("renderer: draw item refers to mesh " + std::to_string(item.mesh) +
+                              " but the uploaded scene has " + std::to_string(mesh_count));
+        stats.triangles += scene_->meshes[size_t(item.mesh)].triangles;
+    }
+
+    // 1. Record and submit.
+    const int64_t t0 = now_ns();
+    vk::FrameConstants frame;
+    for (int e = 0; e < 2; ++e) frame.view_projection[e] = views.projection[e] * views.view[e];
+    std::memcpy(frame_constants_.mapped(), &frame, sizeof(frame));
+    if (Status s = frame_constants_.flush(); !s) return s.error();
+    record(items, out_image != nullptr);
+    const VkFence fence = fence_;
+    HMDNODE_VK_TRY(vkResetFences(ctx_->device, 1, &fence), "vkResetFences");
+    VkSubmitInfo submit{};
+    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    submit.commandBufferCount = 1;
+    submit.pCommandBuffers = &cmd_;
+    VkResult r = vkQueueSubmit(ctx_->queue, 1, &submit, fence);
+    if (r != VK_SUCCESS) {
+        if (r == VK_ERROR_DEVICE_LOST) lost_ = vk::vk_error("vkQueueSubmit", r).message;
+        return vk::vk_error("vkQueueSubmit (frame)", r);
+    }
+    const int64_t t1 = now_ns();
+
+    // 2. Wait for the GPU.
+    r = vkWaitForFences(ctx_->device, 1, &fence, VK_TRUE, kFenceTimeoutNs);
+    if (r != VK_SUCCESS) {
+        // note: a frame still in flight keeps the command buffer and fence busy: no later frame
+        // can be recorded safely, so the renderer refuses further work.
+        lost_ = vk::vk_error("vkWaitForFences (frame)", r).message;
+        return make_error(lost_);
+    }
+    const int64_t t2 = now_ns();
+
+    // 3. Read back.
+    if (out_image) {
+        if (Status s = targets_.readback.invalidate(); !s) return s.error();
+        read_back(*out_image);
+    }
+    const int64_t t3 = now_ns();
+    stats.cpu_record_ns = t1 - t0;
+    stats.gpu_wait_ns = t2 - t1;
+    stats.readback_ns = out_image ? t3 - t2 : 0;
+    stats.passes = targets_.pass_count();
+    return stats;
+}
+
+}  // namespace
+
+Result<std::unique_ptr<Renderer>> create_vulkan_renderer(const RendererConfig& config) {
+    return VulkanRenderer::create(config);
+}
+
+}  // namespace hmdnode

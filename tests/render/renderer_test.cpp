@@ -1,0 +1,528 @@
+// The Vulkan stereo renderer against closed-form pixels: lightmapped and unlit shading, sRGB
+// encoding, base-colour texture orientation, depth test, culling of glTF winding, multiview
+// disparity from the IPD, clear colour and statistics. Small eye buffers: runs on lavapipe.
+#include <gtest/gtest.h>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <string>
+
+#include "hmdnode/core/stereo.hpp"
+#include "hmdnode/render/renderer.hpp"
+
+namespace hmdnode {
+namespace {
+
+constexpr double kPiD = 3.14159265358979323846;
+
+// Linear [0,1] -> 8-bit sRGB (IEC 61966-2-1).
+int srgb8(double linear) {
+    const double c = std::clamp(linear, 0.0, 1.0);
+    const double s = c <= 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1.0 / 2.4) - 0.055;
+    return int(std::lround(s * 255.0));
+}
+double srgb_to_linear(int byte) {
+    const double s = byte / 255.0;
+    return s <= 0.04045 ? s / 12.92 : std::pow((s + 0.055) / 1.055, 2.4);
+}
+
+std::unique_ptr<Renderer> make_renderer(int width, int height,
+                                        glm::vec4 clear = {0.0f, 0.0f, 0.0f, 1.0f}) {
+    RendererConfig config;
+    config.eye_width = width;
+    config.eye_height = height;
+    config.clear_color = clear;
+    auto r = create_vulkan_renderer(config);
+    EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message);
+    return r.ok() ? std::move(r.value()) : nullptr;
+}
+
+// Identity head, symmetric 90-degree frustum (tan 1) for both eyes.
+StereoViews straight_views() {
+    StereoViews v;
+    for (int e = 0; e < 2; ++e) {
+        v.view[e] = glm::mat4(1.0f);
+        v.projection[e] = eye_projection(EyeFov{}, 0.1, 100.0);
+    }
+    return v;
+}
+
+// An axis-aligned quad in the plane z, facing +z (towards a viewer at the origin looking down -z)
+// when ccw. uv0 maps the quad like an image: (0,0) at its top-left (x0, y1).
+Primitive quad(float x0, float y0, float x1, float y1, float z, int material, bool ccw = true) {
+    Primitive p;
+    p.positions = {{x0, y0, z}, {x1, y0, z}, {x1, y1, z}, {x0, y1, z}};
+    p.uv0 = {{0, 1}, {1, 1}, {1, 0}, {0, 0}};
+    p.indices =
+        ccw ? std::vector<uint32_t>{0, 1, 2, 0, 2, 3} : std::vector<uint32_t>{0, 2, 1, 0, 3, 2};
+    p.material = material;
+    return p;
+}
+
+Material flat(glm::vec4 color, bool double_sided = false) {
+    Material m;
+    m.base_color_factor = color;
+    m.double_sided = double_sided;
+    return m;
+}
+
+Texture solid_texture(int w, int h, uint8_t r, uint8_t g, uint8_t b) {
+    Texture t;
+    t.width = w;
+    t.height = h;
+    t.rgba8.resize(size_t(w) * h * 4, 255);
+    for (size_t i = 0; i < t.rgba8.size(); i += 4) {
+        t.rgba8[i] = r;
+        t.rgba8[i + 1] = g;
+        t.rgba8[i + 2] = b;
+    }
+    return t;
+}
+
+Mesh mesh_of(Primitive p) {
+    Mesh m;
+    m.primitives.push_back(std::move(p));
+    return m;
+}
+
+// Checks one pixel against an expected RGB (alpha 255) within +-tol.
+void expect_pixel(const ImageRGBA8& img, int x, int y, int r, int g, int b, int tol = 2,
+                  const std::string& what = "") {
+    const uint8_t* p = img.at(x, y);
+    EXPECT_NEAR(p[0], r, tol) << what << " R at " << x << "," << y;
+    EXPECT_NEAR(p[1], g, tol) << what << " G at " << x << "," << y;
+    EXPECT_NEAR(p[2], b, tol) << what << " B at " << x << "," << y;
+    EXPECT_EQ(p[3], 255) << what << " A at " << x << "," << y;
+}
+
+void expect_uniform(const ImageRGBA8& img, int r, int g, int b, int tol = 2,
+                    const std::string& what = "") {
+    for (int y = 0; y < img.height; y += 7)
+        for (int x = 0; x < img.width; x += 7) expect_pixel(img, x, y, r, g, b, tol, what);
+}
+
+StereoImage render_ok(Renderer& r, const StereoViews& views, std::span<const DrawItem> items,
+                      RenderStats* out_stats = nullptr) {
+    StereoImage img;
+    auto stats = r.render(views, items, &img);
+    EXPECT_TRUE(stats.ok()) << (stats.ok() ? "" : stats.error().message);
+    if (stats.ok() && out_stats) *out_stats = *stats;
+    return img;
+}
+
+// Sets an environment variable for the lifetime of the guard.
+struct ScopedEnv {
+    ScopedEnv(const char* name, const char* value) : name_(name) { setenv(name, value, 1); }
+    ~ScopedEnv() { unsetenv(name_); }
+    const char* name_;
+};
+
+TEST(VulkanRenderer, reports_a_device_name) {
+    auto r = make_renderer(8, 8);
+    ASSERT_TRUE(r);
+    EXPECT_FALSE(r->device_name().empty());
+}
+
+TEST(VulkanRenderer, rejects_an_empty_eye_buffer) {
+    RendererConfig config;
+    config.eye_width = 0;
+    auto r = create_vulkan_renderer(config);
+    ASSERT_FALSE(r.ok());
+    EXPECT_NE(r.error().message.find("empty"), std::string::npos);
+}
+
+TEST(VulkanRenderer, device_choice_by_name_reports_what_it_rejected) {
+    ScopedEnv env("HMDNODE_VK_DEVICE", "no-such-device-name");
+    auto r = create_vulkan_renderer(RendererConfig{});
+    ASSERT_FALSE(r.ok());
+    EXPECT_NE(r.error().message.find("HMDNODE_VK_DEVICE=no-such-device-name"), std::string::npos)
+        << r.error().message;
+}
+
+TEST(VulkanRenderer, clear_only_frame_returns_the_srgb_encoded_clear_colour) {
+    const glm::vec4 clear{0.2f, 0.5f, 0.05f, 1.0f};
+    auto r = make_renderer(64, 48, clear);
+    ASSERT_TRUE(r);
+    RenderStats stats;
+    StereoImage img = render_ok(*r, straight_views(), {}, &stats);
+    for (int e = 0; e < 2; ++e) {
+        ASSERT_EQ(img.eye[e].width, 64);
+        ASSERT_EQ(img.eye[e].height, 48);
+        ASSERT_EQ(img.eye[e].pixels.size(), size_t(64 * 48 * 4));
+        expect_uniform(img.eye[e], srgb8(0.2), srgb8(0.5), srgb8(0.05), 1, "clear");
+    }
+    EXPECT_EQ(stats.triangles, 0u);
+    EXPECT_EQ(stats.readback_ns > 0, true);
+
+    // Without an output image nothing is read back.
+    auto no_image = r->render(straight_views(), {}, nullptr);
+    ASSERT_TRUE(no_image.ok());
+    EXPECT_EQ(no_image->readback_ns, 0);
+}
+
+TEST(VulkanRenderer, lightmapped_quad_is_albedo_times_irradiance_over_pi) {
+    // Lightmap 4x1: texels 0-1 hold a, texels 2-3 hold b. uv1 points at the a half, uv0 at the b
+    // half, so the result shows which set the material selects.
+    const int a = 128, b = 40;
+    const float k = 2.0f;
+    Scene scene;
+    Texture lm;
+    lm.width = 4;
+    lm.height = 1;
+    lm.rgba8 = {uint8_t(a), uint8_t(a), uint8_t(a), 255, uint8_t(a), uint8_t(a), uint8_t(a), 255,
+                uint8_t(b), uint8_t(b), uint8_t(b), 255, uint8_t(b), uint8_t(b), uint8_t(b), 255};
+    scene.textures.push_back(lm);
+    for (int tex_coord : {1, 0}) {
+        Material m = flat({0.8f, 0.6f, 0.4f, 1.0f});
+        m.lightmap = {0, tex_coord, k};
+        scene.materials.push_back(m);
+    }
+    for (int mat = 0; mat < 2; ++mat) {
+        Primitive p = quad(-2, -2, 2, 2, -1, mat);
+        p.uv0.assign(4, {0.75f, 0.5f});
+        p.uv1.assign(4, {0.25f, 0.5f});
+        scene.meshes.push_back(mesh_of(p));
+    }
+    auto r = make_renderer(64, 64);
+    ASSERT_TRUE(r);
+    ASSERT_TRUE(r->upload(scene).ok());
+
+    for (int mat = 0; mat < 2; ++mat) {
+        const double texel = (mat == 0 ? a : b) / 255.0;  // UNORM: linear irradiance
+        const double e = texel * k;
+        const DrawItem item{mat, glm::mat4(1.0f)};
+        RenderStats stats;
+        StereoImage img = render_ok(*r, straight_views(), {&item, 1}, &stats);
+        EXPECT_EQ(stats.triangles, 2u);
+        for (int eye = 0; eye < 2; ++eye)
+            expect_uniform(img.eye[eye], srgb8(0.8 * e / kPiD), srgb8(0.6 * e / kPiD),
+                           srgb8(0.4 * e / kPiD), 2,
+                           "lightmap via TEXCOORD_" + std::to_string(mat == 0 ? 1 : 0));
+    }
+}
+
+TEST(VulkanRenderer, texture_used_as_base_colour_and_lightmap_is_decoded_once_each_way) {
+    // One texture, sRGB-decoded as base colour and read as linear UNORM as the lightmap.
+    const int v = 180;
+    Scene scene;
+    scene.textures.push_back(solid_texture(2, 2, v, v, v));
+    Material m;
+    m.base_color_texture = 0;
+    m.lightmap = {0, 0, 3.0f};
+    scene.materials.push_back(m);
+    scene.meshes.push_back(mesh_of(quad(-2, -2, 2, 2, -1, 0)));
+    auto r = make_renderer(32, 32);
+    ASSERT_TRUE(r);
+    ASSERT_TRUE(r->upload(scene).ok());
+    const DrawItem item{0, glm::mat4(1.0f)};
+    StereoImage img = render_ok(*r, straight_views(), {&item, 1});
+    const int expected = srgb8(srgb_to_linear(v) * (v / 255.0) * 3.0 / kPiD);
+    expect_uniform(img.eye[0], expected, expected, expected, 2, "both views");
+}
+
+TEST(VulkanRenderer, unlit_quad_shows_vertex_colour_times_base_colour_factor) {
+    Scene scene;
+    scene.materials.push_back(flat({0.5f, 1.0f, 1.0f, 1.0f}));
+    // Left half and right half of the view, each with one constant vertex colour; the right one
+    // exceeds 1 in red (baked light) and saturates.
+    Primitive left = quad(-2, -2, 0, 2, -1, 0);
+    left.colors.assign(4, {0.8f, 0.4f, 0.2f, 1.0f});
+    Primitive right = quad(0, -2, 2, 2, -1, 0);
+    right.colors.assign(4, {3.0f, 0.05f, 0.6f, 1.0f});
+    Mesh mesh;
+    mesh.primitives = {left, right};
+    scene.meshes.push_back(mesh);
+    // A primitive without material and colours renders white (the default material).
+    scene.meshes.push_back(mesh_of(quad(-2, -2, 2, 2, -1, -1)));
+
+    auto r = make_renderer(64, 64);
+    ASSERT_TRUE(r);
+    ASSERT_TRUE(r->upload(scene).ok());
+    const DrawItem item{0, glm::mat4(1.0f)};
+    StereoImage img = render_ok(*r, straight_views(), {&item, 1});
+    for (int eye = 0; eye < 2; ++eye) {
+        expect_pixel(img.eye[eye], 10, 32, srgb8(0.4), srgb8(0.4), srgb8(0.2), 2, "left half");
+        expect_pixel(img.eye[eye], 54, 32, 255, srgb8(0.05), srgb8(0.6), 2, "right half");
+    }
+    const DrawItem white{1, glm::mat4(1.0f)};
+    img = render_ok(*r, straight_views(), {&white, 1});
+    expect_uniform(img.eye[1], 255, 255, 255, 0, "default material");
+}
+
+TEST(VulkanRenderer, base_colour_checker_maps_to_the_right_quadrants) {
+    // A 2x2 checker of cells, each cell 2x2 texels so linear filtering inside a cell is exact:
+    // top-left red, top-right green, bottom-left blue, bottom-right grey (sRGB bytes).
+    const uint8_t cells[2][2][3] = {{{200, 30, 60}, {20, 180, 40}},
+                                    {{10, 50, 220}, {128, 128, 128}}};
+    Texture t;
+    t.width = 4;
+    t.height = 4;
+    t.rgba8.resize(4 * 4 * 4, 255);
+    for (int y = 0; y < 4; ++y)
+        for (int x = 0; x < 4; ++x)
+            for (int ch = 0; ch < 3; ++ch) t.rgba8[(y * 4 + x) * 4 + ch] = cells[y / 2][x / 2][ch];
+    Scene scene;
+    scene.textures.push_back(t);
+    Material m;
+    m.base_color_texture = 0;
+    scene.materials.push_back(m);
+    scene.meshes.push_back(mesh_of(quad(-1, -1, 1, 1, -1, 0)));  // exactly fills the view
+    auto r = make_renderer(64, 64);
+    ASSERT_TRUE(r);
+    ASSERT_TRUE(r->upload(scene).ok());
+    const DrawItem item{0, glm::mat4(1.0f)};
+    StereoImage img = render_ok(*r, straight_views(), {&item, 1});
+    // The sampler decodes sRGB and the target re-encodes it: the bytes come back.
+    for (int cy = 0; cy < 2; ++cy)
+        for (int cx = 0; cx < 2; ++cx)
+            for (int dy : {-5, 0, 5})
+                for (int dx : {-5, 0, 5}) {
+                    const uint8_t* c = cells[cy][cx];
+                    expect_pixel(img.eye[0], 16 + 32 * cx + dx, 16 + 32 * cy + dy, c[0], c[1], c[2],
+                                 1, "checker cell");
+                }
+}
+
+TEST(VulkanRenderer, nearer_quad_wins_whatever_the_draw_order) {
+    Scene scene;
+    scene.materials.push_back(flat({1, 0, 0, 1}));  // red, near
+    scene.materials.push_back(flat({0, 0, 1, 1}));  // blue, far
+    scene.meshes.push_back(mesh_of(quad(-0.5f, -0.5f, 0.5f, 0.5f, -1, 0)));
+    scene.meshes.push_back(mesh_of(quad(-4, -4, 4, 4, -2, 1)));
+    auto r = make_renderer(64, 64);
+    ASSERT_TRUE(r);
+    ASSERT_TRUE(r->upload(scene).ok());
+    const DrawItem near_item{0, glm::mat4(1.0f)}, far_item{1, glm::mat4(1.0f)};
+    for (bool near_first : {true, false}) {
+        const DrawItem items[2] = {near_first ? near_item : far_item,
+                                   near_first ? far_item : near_item};
+        RenderStats stats;
+        StereoImage img = render_ok(*r, straight_views(), items, &stats);
+        EXPECT_EQ(stats.triangles, 4u);
+        const std::string what = near_first ? "near first" : "near last";
+        for (int eye = 0; eye < 2; ++eye) {
+            expect_pixel(img.eye[eye], 32, 32, 255, 0, 0, 0, what);  // centre: the near quad
+            expect_pixel(img.eye[eye], 20, 44, 255, 0, 0, 0, what);
+            expect_pixel(img.eye[eye], 4, 4, 0, 0, 255, 0, what);  // corner: only the far quad
+        }
+    }
+}
+
+TEST(VulkanRenderer, counter_clockwise_glTF_faces_are_front_faces) {
+    Scene scene;
+    scene.materials.push_back(flat({0, 1, 0, 1}, false));
+    scene.materials.push_back(flat({0, 1, 0, 1}, true));
+    scene.meshes.push_back(mesh_of(quad(-2, -2, 2, 2, -1, 0, true)));   // front, single-sided
+    scene.meshes.push_back(mesh_of(quad(-2, -2, 2, 2, -1, 0, false)));  // back, single-sided
+    scene.meshes.push_back(mesh_of(quad(-2, -2, 2, 2, -1, 1, false)));  // back, double-sided
+    auto r = make_renderer(16, 16);
+    ASSERT_TRUE(r);
+    ASSERT_TRUE(r->upload(scene).ok());
+    const int expected_green[3] = {255, 0, 255};  // visible, culled, visible
+    for (int mesh = 0; mesh < 3; ++mesh) {
+        const DrawItem item{mesh, glm::mat4(1.0f)};
+        StereoImage img = render_ok(*r, straight_views(), {&item, 1});
+        for (int eye = 0; eye < 2; ++eye)
+            expect_uniform(img.eye[eye], 0, expected_green[mesh], 0, 0,
+                           "mesh " + std::to_string(mesh));
+    }
+}
+
+// Coverage-weighted centroid (x, y) of the pixels that differ from black, in pixel units with
+// pixel centres at +0.5.
+glm::dvec2 centroid(const ImageRGBA8& img) {
+    double sx = 0, sy = 0, sw = 0;
+    for (int y = 0; y < img.height; ++y)
+        for (int x = 0; x < img.width; ++x) {
+            const double w = img.at(x, y)[0] / 255.0;
+            sx += w * (x + 0.5);
+            sy += w * (y + 0.5);
+            sw += w;
+        }
+    return sw > 0 ? glm::dvec2(sx / sw, sy / sw) : glm::dvec2(-1);
+}
+
+// A small white square straight ahead of the head at distance d, rendered with the rig's matrices.
+StereoImage render_target(Renderer& r, const StereoRig& rig, double d,
+                          RenderStats* out_stats = nullptr) {
+    Scene scene;
+    scene.materials.push_back(flat({1, 1, 1, 1}));
+    const float h = 0.03f;
+    scene.meshes.push_back(mesh_of(quad(-h, -h, h, h, float(-d), 0)));
+    EXPECT_TRUE(r.upload(scene).ok());
+    StereoViews views;
+    const Pose head;  // identity at the origin
+    for (int e = 0; e < 2; ++e) {
+        views.view[e] = eye_view_matrix(rig, head, e);
+        views.projection[e] = eye_projection(rig.eye[e], rig.near_m, rig.far_m);
+    }
+    const DrawItem item{0, glm::mat4(1.0f)};
+    return render_ok(r, views, {&item, 1}, out_stats);
+}
+
+// Renders the IPD target and checks the disparity; returns the number of passes used.
+int check_ipd_disparity() {
+    // Square pixels: 128x64 with tan 1 horizontally and tan 0.5 vertically.
+    const int w = 128, h = 64;
+    StereoRig rig;
+    rig.ipd_m = 0.064;
+    rig.eye[0] = rig.eye[1] = EyeFov{-1.0, 1.0, 0.5, -0.5};
+    const double d = 0.5;
+    auto r = make_renderer(w, h);
+    if (!r) return 0;
+    RenderStats stats;
+    StereoImage img = render_target(*r, rig, d, &stats);
+    const glm::dvec2 left = centroid(img.eye[0]), right = centroid(img.eye[1]);
+    // The target sits at x = +ipd/2 from the left eye and -ipd/2 from the right one; with a
+    // symmetric frustum x_ndc = (x / d) * m00, m00 = 2 / (tan_right - tan_left).
+    const double m00 = 2.0 / (1.0 - -1.0);
+    const double x_left = (1.0 + 0.5 * rig.ipd_m / d * m00) * 0.5 * w;
+    const double x_right = (1.0 - 0.5 * rig.ipd_m / d * m00) * 0.5 * w;
+    EXPECT_NEAR(left.x, x_left, 1.0);
+    EXPECT_NEAR(right.x, x_right, 1.0);
+    EXPECT_NEAR(left.x - right.x, rig.ipd_m / d * m00 * 0.5 * w, 1.0);  // 8.2 px
+    EXPECT_NEAR(left.y, 0.5 * h, 0.5);
+    EXPECT_NEAR(right.y, 0.5 * h, 0.5);
+    return stats.passes;
+}
+
+TEST(VulkanRenderer, multiview_eyes_are_shifted_by_the_ipd_disparity) {
+    const int passes = check_ipd_disparity();
+    EXPECT_TRUE(passes == 1 || passes == 2) << passes;
+}
+
+TEST(VulkanRenderer, forced_multiview_draws_both_eyes_in_one_pass_with_their_own_views) {
+    // The target needs no clipping, so even lavapipe's multiview (see vulkan_renderer.cpp) draws
+    // it right: this exercises gl_ViewIndex on every device.
+    ScopedEnv env("HMDNODE_VK_MULTIVIEW", "1");
+    EXPECT_EQ(check_ipd_disparity(), 1);
+}
+
+TEST(VulkanRenderer, forced_per_eye_passes_draw_the_same_disparity) {
+    ScopedEnv env("HMDNODE_VK_MULTIVIEW", "0");
+    EXPECT_EQ(check_ipd_disparity(), 2);
+}
+
+TEST(VulkanRenderer, geometry_crossing_the_image_edges_reaches_both_eyes) {
+    // A triangle far beyond the view on every side must be clipped, not lost, in both eyes.
+    Scene scene;
+    scene.materials.push_back(flat({1, 0.5f, 0, 1}, true));
+    Primitive tri;
+    tri.positions = {{-30, -30, -1}, {30, -30, -1}, {0, 30, -1}};
+    tri.indices = {0, 1, 2};
+    tri.material = 0;
+    scene.meshes.push_back(mesh_of(tri));
+    auto r = make_renderer(32, 32);
+    ASSERT_TRUE(r);
+    ASSERT_TRUE(r->upload(scene).ok());
+    const DrawItem item{0, glm::mat4(1.0f)};
+    StereoImage img = render_ok(*r, straight_views(), {&item, 1});
+    for (int eye = 0; eye < 2; ++eye)
+        expect_uniform(img.eye[eye], 255, srgb8(0.5), 0, 1, "eye " + std::to_string(eye));
+}
+
+TEST(VulkanRenderer, asymmetric_typical_rig_projects_the_target_where_the_matrices_say) {
+    const int w = 96, h = 96;
+    const StereoRig rig = StereoRig::typical();
+    const double d = 0.8;
+    auto r = make_renderer(w, h);
+    ASSERT_TRUE(r);
+    StereoImage img = render_target(*r, rig, d);
+    const Pose head;
+    for (int e = 0; e < 2; ++e) {
+        const glm::dvec4 clip = glm::dmat4(eye_projection(rig.eye[e], rig.near_m, rig.far_m)) *
+                                glm::dmat4(eye_view_matrix(rig, head, e)) *
+                                glm::dvec4(0.0, 0.0, -d, 1.0);
+        const glm::dvec2 ndc(clip.x / clip.w, clip.y / clip.w);
+        const glm::dvec2 expected((ndc.x + 1.0) * 0.5 * w, (ndc.y + 1.0) * 0.5 * h);
+        const glm::dvec2 got = centroid(img.eye[e]);
+        EXPECT_NEAR(got.x, expected.x, 1.0) << "eye " << e;
+        EXPECT_NEAR(got.y, expected.y, 1.0) << "eye " << e;
+    }
+    // The nasal sides are narrower: the target lies right of centre in the left eye and left of
+    // centre in the right eye.
+    EXPECT_GT(centroid(img.eye[0]).x, 0.5 * w);
+    EXPECT_LT(centroid(img.eye[1]).x, 0.5 * w);
+}
+
+TEST(VulkanRenderer, zero_ipd_and_symmetric_fov_give_identical_eyes) {
+    StereoRig rig;
+    rig.ipd_m = 0.0;
+    auto r = make_renderer(64, 64);
+    ASSERT_TRUE(r);
+    StereoImage img = render_target(*r, rig, 0.5);
+    EXPECT_GT(centroid(img.eye[0]).x, 0.0);  // something was drawn
+    EXPECT_EQ(img.eye[0].pixels, img.eye[1].pixels);
+}
+
+TEST(VulkanRenderer, world_matrix_of_each_item_places_its_mesh) {
+    Scene scene;
+    scene.materials.push_back(flat({1, 1, 1, 1}));
+    scene.meshes.push_back(mesh_of(quad(-0.1f, -0.1f, 0.1f, 0.1f, 0.0f, 0)));
+    auto r = make_renderer(64, 64);
+    ASSERT_TRUE(r);
+    ASSERT_TRUE(r->upload(scene).ok());
+    // The same mesh twice: up-left and down-right of centre, one metre ahead.
+    const DrawItem items[2] = {{0, glm::translate(glm::mat4(1.0f), glm::vec3(-0.5f, 0.5f, -1.0f))},
+                               {0, glm::translate(glm::mat4(1.0f), glm::vec3(0.5f, -0.5f, -1.0f))}};
+    RenderStats stats;
+    StereoImage img = render_ok(*r, straight_views(), items, &stats);
+    EXPECT_EQ(stats.triangles, 4u);
+    // x_px = (x + 1) / 2 * 64; +y world is up, so the first item is in the top half.
+    expect_pixel(img.eye[0], 16, 16, 255, 255, 255, 0, "item 0");
+    expect_pixel(img.eye[0], 48, 48, 255, 255, 255, 0, "item 1");
+    expect_pixel(img.eye[0], 48, 16, 0, 0, 0, 0, "empty");
+    expect_pixel(img.eye[0], 16, 48, 0, 0, 0, 0, "empty");
+}
+
+TEST(VulkanRenderer, upload_replaces_the_scene_and_a_bad_scene_keeps_the_old_one) {
+    auto r = make_renderer(16, 16);
+    ASSERT_TRUE(r);
+    const DrawItem item{0, glm::mat4(1.0f)};
+    for (glm::vec4 c : {glm::vec4(1, 0, 0, 1), glm::vec4(0, 0, 1, 1)}) {
+        Scene scene;
+        scene.materials.push_back(flat(c));
+        scene.meshes.push_back(mesh_of(quad(-2, -2, 2, 2, -1, 0)));
+        ASSERT_TRUE(r->upload(scene).ok());
+        StereoImage img = render_ok(*r, straight_views(), {&item, 1});
+        expect_uniform(img.eye[0], int(c.r * 255), 0, int(c.b * 255), 0, "replaced scene");
+    }
+
+    Scene bad;
+    bad.meshes.push_back(mesh_of(quad(-2, -2, 2, 2, -1, -1)));
+    bad.meshes[0].primitives[0].indices[2] = 7;
+    Status s = r->upload(bad);
+    ASSERT_FALSE(s.ok());
+    EXPECT_NE(s.error().message.find("mesh 0 primitive 0"), std::string::npos) << s.error().message;
+    StereoImage img = render_ok(*r, straight_views(), {&item, 1});
+    expect_uniform(img.eye[0], 0, 0, 255, 0, "previous scene");
+
+    Scene bad_texture;
+    bad_texture.materials.push_back(Material{});
+    bad_texture.materials[0].lightmap.texture = 3;
+    EXPECT_FALSE(r->upload(bad_texture).ok());
+}
+
+TEST(VulkanRenderer, draw_item_with_unknown_mesh_is_an_error) {
+    auto r = make_renderer(8, 8);
+    ASSERT_TRUE(r);
+    const DrawItem item{0, glm::mat4(1.0f)};
+    StereoImage img;
+    auto before_upload = r->render(straight_views(), {&item, 1}, &img);
+    EXPECT_FALSE(before_upload.ok());
+    Scene scene;
+    scene.meshes.push_back(mesh_of(quad(-1, -1, 1, 1, -1, -1)));
+    ASSERT_TRUE(r->upload(scene).ok());
+    const DrawItem bad{1, glm::mat4(1.0f)};
+    auto stats = r->render(straight_views(), {&bad, 1}, &img);
+    ASSERT_FALSE(stats.ok());
+    EXPECT_NE(stats.error().message.find("mesh 1"), std::string::npos);
+    // The renderer still works afterwards.
+    EXPECT_TRUE(r->render(straight_views(), {&item, 1}, &img).ok());
+}
+
+}  // namespace
+}  // namespace hmdnode
