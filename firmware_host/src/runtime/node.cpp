@@ -137,8 +137,10 @@ Status NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& truth) {
     rec->photon_time_ns = pr->photon_time_ns;
     rec->latency_ms = ns_to_ms(pr->photon_time_ns - rec->pose_sample_time_ns);
     rec->prediction_horizon_ms = ns_to_ms(predicted_photon - rec->pose_sample_time_ns);
-    rec->registration_error_deg = truth ? angle_between_deg(head.orientation, truth(pr->photon_time_ns))
-                                        : std::numeric_limits<double>::quiet_NaN();
+    rec->registration_error_deg = std::numeric_limits<double>::quiet_NaN();
+    if (truth)
+        if (std::optional<glm::dquat> q = truth(pr->photon_time_ns))
+            rec->registration_error_deg = angle_between_deg(head.orientation, *q);
     rec->angular_speed_dps = speed_dps;
     rec->on_time = pr->on_time;
     rec->triangles = triangles;

@@ -74,7 +74,12 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
 
     // Truth for registration error: the trace itself, slerped, at the photon time.
     const int64_t trace_t0 = trace->start_ns() + tc.start_offset_ns;
-    TruthFn truth = [&](int64_t host_ns) { return trace->pose_at(host_ns - host_start + trace_t0).orientation; };
+    const int64_t trace_end = tc.duration_ns > 0 ? std::min(trace->end_ns(), trace_t0 + tc.duration_ns) : trace->end_ns();
+    TruthFn truth = [&](int64_t host_ns) -> std::optional<glm::dquat> {
+        const int64_t t = host_ns - host_start + trace_t0;
+        if (t > trace_end) return std::nullopt;  // past the recording: no truth
+        return trace->pose_at(t).orientation;
+    };
 
     ReplayResult result;
     result.device_name = (*renderer)->device_name();

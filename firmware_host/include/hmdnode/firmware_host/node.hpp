@@ -11,6 +11,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -67,8 +68,9 @@ struct FrameRecord {
     std::vector<double> eccentricity_deg;  // per object
 };
 
-// The truth for registration error: the true head orientation at a host time (replay only).
-using TruthFn = std::function<glm::dquat(int64_t host_time_ns)>;
+// The truth for registration error: the true head orientation at a host time, or nothing where
+// the truth is unknown (replay only: outside the recorded trace).
+using TruthFn = std::function<std::optional<glm::dquat>(int64_t host_time_ns)>;
 
 class NodeRuntime {
 public:
