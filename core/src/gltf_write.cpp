@@ -20,10 +20,9 @@
 
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/gltf.hpp"
+#include "hmdnode/core/image.hpp"
 
 // note: libstb exports this, but stb_image_write.h declares it only in its implementation part
-extern "C" unsigned char* stbi_write_png_to_mem(const unsigned char* pixels, int stride_bytes,
-                                                int x, int y, int n, int* out_len);
 
 namespace hmdnode {
 namespace {
@@ -213,15 +212,12 @@ std::string build(const Scene& s, ModelBuilder* b) {
     tinygltf::Model& m = b->model;
     for (size_t i = 0; i < s.textures.size(); ++i) {
         const Texture& t = s.textures[i];
-        int png_size = 0;
-        unsigned char* png =
-            stbi_write_png_to_mem(t.rgba8.data(), t.width * 4, t.width, t.height, 4, &png_size);
-        if (!png) return cat("texture ", i, ": PNG encoding failed");
+        const std::string png = encode_png(t.rgba8.data(), t.width, t.height);
+        if (png.empty()) return cat("texture ", i, ": PNG encoding failed");
         tinygltf::Image image;
         image.name = t.name;
         image.mimeType = "image/png";
-        image.bufferView = b->add_view(png, size_t(png_size), 0);
-        std::free(png);
+        image.bufferView = b->add_view(png.data(), png.size(), 0);
         m.images.push_back(std::move(image));
         tinygltf::Texture texture;
         texture.name = t.name;

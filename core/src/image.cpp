@@ -14,12 +14,12 @@
 
 namespace hmdnode {
 
-std::string encode_png(const ImageRGBA8& image) {
+std::string encode_png(const uint8_t* rgba, int width, int height) {
     std::string out;
     auto append = [](void* ctx, void* data, int size) {
         static_cast<std::string*>(ctx)->append(static_cast<const char*>(data), size_t(size));
     };
-    if (!stbi_write_png_to_func(append, &out, image.width, image.height, 4, image.pixels.data(), image.width * 4))
+    if (!stbi_write_png_to_func(append, &out, width, height, 4, rgba, width * 4))
         out.clear();
     return out;
 }

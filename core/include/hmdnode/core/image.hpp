@@ -25,8 +25,11 @@ struct StereoImage {
     ImageRGBA8 eye[2];
 };
 
-// PNG bytes of an image (empty on failure).
-std::string encode_png(const ImageRGBA8& image);
+// PNG bytes of an RGBA8 image (empty on failure).
+std::string encode_png(const uint8_t* rgba, int width, int height);
+inline std::string encode_png(const ImageRGBA8& image) {
+    return encode_png(image.pixels.data(), image.width, image.height);
+}
 // Writes a PNG atomically (temporary file, then rename).
 Status write_png(const ImageRGBA8& image, const std::filesystem::path& path);
 // Both eyes side by side, left eye on the left.

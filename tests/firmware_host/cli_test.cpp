@@ -1,0 +1,172 @@
+// The tools as a user runs them: exit codes, messages, and no output on failure.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct CommandRun {
+    int code = -1;
+    std::string output;  // stdout and stderr
+};
+
+CommandRun run(const std::string& cmd) {
+    CommandRun r;
+    FILE* p = popen((cmd + " 2>&1").c_str(), "r");
+    if (!p) return r;
+    std::array<char, 4096> buf;
+    size_t n;
+    while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.output.append(buf.data(), n);
+    int st = pclose(p);
+    r.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    return r;
+}
+
+fs::path temp_dir(const std::string& name) {
+    fs::path d = fs::temp_directory_path() / ("hmdnode_cli_test_" + name);
+    fs::remove_all(d);
+    fs::create_directories(d);
+    return d;
+}
+
+void write(const fs::path& p, const std::string& text) {
+    std::ofstream(p, std::ios::binary) << text;
+}
+
+const std::string kTool = HMDNODE_TOOL;
+const std::string kScene = HMDNODE_DEMO_SCENE;
+const std::string kTrace = HMDNODE_SOURCE_DIR "/data/traces/corbillon2018_user1.csv";
+
+std::string replay_cmd(const fs::path& scene, const fs::path& trace, const fs::path& report) {
+    return kTool + " replay --quiet --eye-width 32 --eye-height 32 --duration 0.5 --scene " + scene.string() +
+           " --trace " + trace.string() + " --report " + report.string();
+}
+
+void expect_replay_fails(const fs::path& scene, const fs::path& trace, std::initializer_list<std::string> parts) {
+    const fs::path report = trace.parent_path() / "report.json";
+    CommandRun r = run(replay_cmd(scene, trace, report));
+    EXPECT_NE(r.code, 0) << r.output;
+    for (const std::string& part : parts) EXPECT_NE(r.output.find(part), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(report)) << "a failed replay must write no report";
+}
+
+const char* kGoodHeader = "time_ns,qw,qx,qy,qz\n";
+
+}  // namespace
+
+TEST(Cli, ReplaysTheBundledRealTrace) {
+    fs::path dir = temp_dir("real");
+    CommandRun r = run(replay_cmd(kScene, kTrace, dir / "report.json") + " --start 30");
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("motion-to-photon"), std::string::npos);
+    std::ifstream in(dir / "report.json");
+    nlohmann::json j = nlohmann::json::parse(in);
+    EXPECT_GE(j["summary"]["frames"].get<int>(), 40);
+    EXPECT_GT(j["summary"]["latency_ms"]["p50"].get<double>(), 5.0);
+    EXPECT_LT(j["summary"]["latency_ms"]["p50"].get<double>(), 60.0);
+    EXPECT_LT(j["summary"]["registration_error_deg"]["p50"].get<double>(), 2.0);
+}
+
+TEST(Cli, TraceWithAMissingColumnFails) {
+    fs::path dir = temp_dir("missing_column");
+    write(dir / "t.csv", "time_ns,qw,qx,qy\n0,1,0,0\n1000000,1,0,0\n");
+    expect_replay_fails(kScene, dir / "t.csv", {"t.csv", "qz"});
+}
+
+TEST(Cli, TraceWithANonNumericFieldFails) {
+    fs::path dir = temp_dir("non_numeric");
+    write(dir / "t.csv", std::string(kGoodHeader) + "0,1,0,0,0\n1000000,1,abc,0,0\n");
+    expect_replay_fails(kScene, dir / "t.csv", {"t.csv:3", "qx", "abc"});
+}
+
+TEST(Cli, TraceWithTimeGoingBackwardsFails) {
+    fs::path dir = temp_dir("backwards");
+    write(dir / "t.csv", std::string(kGoodHeader) + "0,1,0,0,0\n2000000,1,0,0,0\n1000000,1,0,0,0\n");
+    expect_replay_fails(kScene, dir / "t.csv", {"t.csv:4", "backwards"});
+}
+
+TEST(Cli, TruncatedSceneFails) {
+    fs::path dir = temp_dir("truncated");
+    std::ifstream in(kScene, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), {});
+    write(dir / "half.glb", bytes.substr(0, bytes.size() / 2));
+    fs::copy_file(kTrace, dir / "t.csv");
+    expect_replay_fails(dir / "half.glb", dir / "t.csv", {"half.glb", "truncated"});
+}
+
+TEST(Cli, NonGltfSceneFails) {
+    fs::path dir = temp_dir("not_gltf");
+    write(dir / "scene.glb", "this is not a scene\n");
+    fs::copy_file(kTrace, dir / "t.csv");
+    expect_replay_fails(dir / "scene.glb", dir / "t.csv", {"scene.glb"});
+    expect_replay_fails(dir / "missing.glb", dir / "t.csv", {"missing.glb"});
+}
+
+TEST(Cli, ImportsAndReplaysTheRawCorbillonTable) {
+    fs::path dir = temp_dir("import");
+    const fs::path raw = HMDNODE_SOURCE_DIR "/tests/data/traces/corbillon2018_user1_head.txt";
+    CommandRun imp = run(kTool + " trace import --source-frame z-up-x-forward --from " + raw.string() + " --to " +
+                  (dir / "t.csv").string());
+    ASSERT_EQ(imp.code, 0) << imp.output;
+    EXPECT_NE(imp.output.find("sign flips"), std::string::npos);
+    CommandRun r = run(replay_cmd(kScene, dir / "t.csv", dir / "report.json"));
+    EXPECT_EQ(r.code, 0) << r.output;
+    EXPECT_TRUE(fs::exists(dir / "report.json"));
+    // A bad table leaves no output behind.
+    write(dir / "bad.txt", "timestamp w x y z\n0 1 0 0 0\n0.5 1 0 x 0\n");
+    CommandRun bad = run(kTool + " trace import --from " + (dir / "bad.txt").string() + " --to " + (dir / "bad.csv").string());
+    EXPECT_NE(bad.code, 0);
+    EXPECT_FALSE(fs::exists(dir / "bad.csv"));
+}
+
+TEST(Cli, ReplaysBothFullRealTracesWhenSharedDataIsPresent) {
+    for (const char* user : {"1", "2"}) {
+        const fs::path raw = fs::path(HMDNODE_SHARED_DIR) / "data/traces" /
+                             (std::string("corbillon2018_user") + user + "_quaternion.txt");
+        if (!fs::exists(raw)) GTEST_SKIP() << raw << " not present";
+        fs::path dir = temp_dir(std::string("shared_") + user);
+        CommandRun imp = run(kTool + " trace import --source-frame z-up-x-forward --from " + raw.string() + " --to " +
+                      (dir / "t.csv").string());
+        ASSERT_EQ(imp.code, 0) << imp.output;
+        CommandRun r = run(replay_cmd(kScene, dir / "t.csv", dir / "report.json") + " --start 100");
+        EXPECT_EQ(r.code, 0) << r.output;
+    }
+}
+
+TEST(Daemon, RunsTheFrameLoopFromAConfigFileAndWritesStatus) {
+    fs::path dir = temp_dir("daemon");
+    nlohmann::json cfg = {{"scene", kScene},
+                          {"clock", "sim"},
+                          {"tracker", {{"type", "sim"}, {"trace", kTrace}, {"loop", true}}},
+                          {"display", {{"eye_width", 32}, {"eye_height", 32}}},
+                          {"status", {{"path", (dir / "status.json").string()}, {"every_s", 0.5}}}};
+    write(dir / "hmdnoded.json", cfg.dump(1));
+    CommandRun r = run(std::string(HMDNODE_DAEMON) + " --config " + (dir / "hmdnoded.json").string() + " --max-frames 120");
+    ASSERT_EQ(r.code, 0) << r.output;
+    std::ifstream in(dir / "status.json");
+    nlohmann::json s = nlohmann::json::parse(in);
+    EXPECT_GE(s["frames"].get<int>(), 45);
+    EXPECT_EQ(s["errors"].get<int>(), 0);
+    EXPECT_NE(r.output.find("stopped after 120 frames"), std::string::npos) << r.output;
+}
+
+TEST(Daemon, BadConfigNamesTheKeyAndExitsNonZero) {
+    fs::path dir = temp_dir("daemon_bad");
+    write(dir / "hmdnoded.json", R"({"scene": "x.glb", "tracker": {"trace": "t.csv", "lop": true}})");
+    CommandRun r = run(std::string(HMDNODE_DAEMON) + " --config " + (dir / "hmdnoded.json").string());
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.output.find("tracker.lop"), std::string::npos) << r.output;
+    write(dir / "hmdnoded.json", R"({"scene": "x.glb", )");
+    r = run(std::string(HMDNODE_DAEMON) + " --config " + (dir / "hmdnoded.json").string());
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.output.find("not valid JSON"), std::string::npos) << r.output;
+}
