@@ -170,3 +170,10 @@ TEST(Daemon, BadConfigNamesTheKeyAndExitsNonZero) {
     EXPECT_EQ(r.code, 2);
     EXPECT_NE(r.output.find("not valid JSON"), std::string::npos) << r.output;
 }
+
+TEST(DemoScene, HasTheRoomAndTheLodChainsTheDemoNeeds) {
+    CommandRun r = run(kTool + " scene info " + kScene);
+    ASSERT_EQ(r.code, 0) << r.output;
+    for (const char* part : {"bunny", "spot", "sphere"}) EXPECT_NE(r.output.find(part), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("69451"), std::string::npos) << r.output;  // the bunny's full level
+}
