@@ -49,11 +49,15 @@ int main(int argc, char** argv) {
     base.start_s = 20.0;
     base.duration_s = seconds;
 
-    std::printf("hmdnode replay benchmark: demo scene, Corbillon 2018 user 1 from t=20 s, %.1f s of trace per run\n",
-                seconds);
-    std::printf("render time per stereo frame (median of the frames of one run; reference = DESIGN §9 at the same triangles)\n");
-    std::printf("%-11s %10s %10s %10s %10s %8s %12s %10s\n", "eye", "frames", "tri/frame", "render p50",
-                "render p95", "ref ms", "ours/ref", "replay fps");
+    std::printf(
+        "hmdnode replay benchmark: demo scene, Corbillon 2018 user 1 from t=20 s, %.1f s of trace "
+        "per run\n",
+        seconds);
+    std::printf(
+        "render time per stereo frame (median of the frames of one run; reference = DESIGN §9 at "
+        "the same triangles)\n");
+    std::printf("%-11s %10s %10s %10s %10s %8s %12s %10s\n", "eye", "frames", "tri/frame",
+                "render p50", "render p95", "ref ms", "ours/ref", "replay fps");
     std::string device;
     for (const RefRow& r : kReference) {
         ReplayOptions o = base;
@@ -67,11 +71,14 @@ int main(int argc, char** argv) {
         device = res->device_name;
         const ReplaySummary& s = res->summary;
         const double ref = reference_ms(r, s.triangles_mean);
-        std::printf("%4dx%-6d %10zu %10.0f %10.2f %10.2f %8.1f %12.2f %10.1f\n", r.w, r.h, s.frames, s.triangles_mean,
-                    s.render_ms.p50, s.render_ms.p95, ref, s.render_ms.p50 / ref, double(s.frames) / s.wall_s);
+        std::printf("%4dx%-6d %10zu %10.0f %10.2f %10.2f %8.1f %12.2f %10.1f\n", r.w, r.h, s.frames,
+                    s.triangles_mean, s.render_ms.p50, s.render_ms.p95, ref, s.render_ms.p50 / ref,
+                    double(s.frames) / s.wall_s);
     }
     std::printf("device: %s\n", device.c_str());
-    std::printf("replay fps = frames replayed per wall second on the simulated clock (render + read-back +\n"
-                "tracking + LOD + pacing); trace seconds per wall second = replay fps / 90.\n");
+    std::printf(
+        "replay fps = frames replayed per wall second on the simulated clock (render + read-back "
+        "+\n"
+        "tracking + LOD + pacing); trace seconds per wall second = replay fps / 90.\n");
     return 0;
 }

@@ -19,7 +19,9 @@ Status write_file_atomically(const std::filesystem::path& path, std::string_view
         return make_error(path.string() + ": directory " + dir.string() + " does not exist");
     std::string tmpl = (dir / ("." + path.filename().string() + ".tmp.XXXXXX")).string();
     int fd = mkstemp(tmpl.data());
-    if (fd < 0) return make_error(path.string() + ": cannot create temporary file: " + std::strerror(errno));
+    if (fd < 0)
+        return make_error(path.string() +
+                          ": cannot create temporary file: " + std::strerror(errno));
     size_t done = 0;
     while (done < bytes.size()) {
         ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);

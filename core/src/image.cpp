@@ -19,8 +19,7 @@ std::string encode_png(const uint8_t* rgba, int width, int height) {
     auto append = [](void* ctx, void* data, int size) {
         static_cast<std::string*>(ctx)->append(static_cast<const char*>(data), size_t(size));
     };
-    if (!stbi_write_png_to_func(append, &out, width, height, 4, rgba, width * 4))
-        out.clear();
+    if (!stbi_write_png_to_func(append, &out, width, height, 4, rgba, width * 4)) out.clear();
     return out;
 }
 
@@ -49,8 +48,7 @@ ImageRGBA8 side_by_side(const StereoImage& stereo) {
 Result<ImageRGBA8> read_image(const std::filesystem::path& path) {
     int w = 0, h = 0, n = 0;
     unsigned char* data = stbi_load(path.c_str(), &w, &h, &n, 4);
-    if (!data)
-        return make_error(path.string() + ": cannot read image: " + stbi_failure_reason());
+    if (!data) return make_error(path.string() + ": cannot read image: " + stbi_failure_reason());
     ImageRGBA8 img;
     img.width = w;
     img.height = h;

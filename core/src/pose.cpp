@@ -12,7 +12,8 @@ glm::dquat same_hemisphere(const glm::dquat& q, const glm::dquat& ref) {
 glm::dquat slerp_shortest(const glm::dquat& a, const glm::dquat& b_in, double t) {
     glm::dquat b = same_hemisphere(b_in, a);
     double d = std::clamp(glm::dot(a, b), -1.0, 1.0);
-    // note: near-parallel inputs fall back to normalized lerp, where slerp's sin() ratio is unstable.
+    // note: near-parallel inputs fall back to normalized lerp, where slerp's sin() ratio is
+    // unstable.
     if (d > 0.9999995) return glm::normalize(a * (1.0 - t) + b * t);
     double theta = std::acos(d);
     double s = std::sin(theta);
@@ -20,7 +21,8 @@ glm::dquat slerp_shortest(const glm::dquat& a, const glm::dquat& b_in, double t)
 }
 
 double angle_between_rad(const glm::dquat& a, const glm::dquat& b) {
-    // The angle of a^-1 b; |dot| folds the double cover. atan2 form keeps precision at small angles.
+    // The angle of a^-1 b; |dot| folds the double cover. atan2 form keeps precision at small
+    // angles.
     glm::dquat d = glm::conjugate(a) * b;
     double v = std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
     return 2.0 * std::atan2(v, std::abs(d.w));
@@ -52,7 +54,9 @@ glm::dquat integrate(const glm::dquat& q, const glm::dvec3& omega_world, double 
     return glm::normalize(quat_from_rotation_vector(omega_world * dt_s) * q);
 }
 
-glm::dvec3 forward_of(const glm::dquat& q) { return q * glm::dvec3(0.0, 0.0, -1.0); }
+glm::dvec3 forward_of(const glm::dquat& q) {
+    return q * glm::dvec3(0.0, 0.0, -1.0);
+}
 
 Pose interpolate(const Pose& a, const Pose& b, int64_t t_ns) {
     Pose out = a;

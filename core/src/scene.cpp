@@ -23,8 +23,10 @@ glm::dmat4 Node::local_matrix() const {
 
 namespace {
 
-// Bounding sphere of a mesh in world space: centre of the world AABB, radius to its farthest vertex.
-void mesh_bounds(const Mesh& mesh, const glm::dmat4& world, glm::dvec3* out_center, double* out_radius) {
+// Bounding sphere of a mesh in world space: centre of the world AABB, radius to its farthest
+// vertex.
+void mesh_bounds(const Mesh& mesh, const glm::dmat4& world, glm::dvec3* out_center,
+                 double* out_radius) {
     glm::dvec3 lo(1e300), hi(-1e300);
     bool any = false;
     for (const Primitive& p : mesh.primitives)
@@ -65,7 +67,8 @@ std::vector<SceneObject> flatten_objects(const Scene& scene) {
     std::vector<SceneObject> out;
     std::vector<char> visiting(scene.nodes.size(), 0);
     std::function<void(int, const glm::dmat4&)> visit = [&](int idx, const glm::dmat4& parent) {
-        if (idx < 0 || size_t(idx) >= scene.nodes.size() || visiting[idx]) return;  // cycles: loader rejects
+        if (idx < 0 || size_t(idx) >= scene.nodes.size() || visiting[idx])
+            return;  // cycles: loader rejects
         visiting[idx] = 1;
         const Node& node = scene.nodes[idx];
         glm::dmat4 world = parent * node.local_matrix();

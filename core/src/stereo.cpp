@@ -42,7 +42,8 @@ glm::mat4 eye_projection(const EyeFov& fov, double n, double f) {
 }
 
 double pixels_per_radian(const EyeFov& fov, int height_px) {
-    // At the centre, one radian spans height / (tan_up - tan_down) pixels (small-angle slope of tan).
+    // At the centre, one radian spans height / (tan_up - tan_down) pixels (small-angle slope of
+    // tan).
     return double(height_px) / (fov.tan_up - fov.tan_down);
 }
 

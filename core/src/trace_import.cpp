@@ -447,7 +447,8 @@ Result<Trace> import_trace_text(const std::string& text, const std::string& sour
         m[1] = glm::dvec3(-1, 0, 0);
         m[2] = glm::dvec3(0, 1, 0);
         frame_change = glm::quat_cast(m);
-        rep.notes.push_back("axes: source +Z up, +X forward, +Y left converted to +Y up, -Z forward, +X right");
+        rep.notes.push_back(
+            "axes: source +Z up, +X forward, +Y left converted to +Y up, -Z forward, +X right");
     } else if (frame != "hmdnode") {
         return make_error("source frame " + in_quotes(options.source_frame) +
                           " is not one of: hmdnode, z-up-x-forward");

@@ -11,9 +11,11 @@ namespace hmdnode {
 namespace {
 
 class MockDisplay final : public Display {
-public:
+  public:
     MockDisplay(Clock& clock, const MockDisplayConfig& config)
-        : clock_(clock), config_(config), period_ns_(int64_t(std::llround(1e9 / config.refresh_hz))) {
+        : clock_(clock),
+          config_(config),
+          period_ns_(int64_t(std::llround(1e9 / config.refresh_hz))) {
         info_.name = "mock headset";
         info_.eye_width = config.eye_width;
         info_.eye_height = config.eye_height;
@@ -48,7 +50,8 @@ public:
         last_vsync_ns_ = r.vsync_ns;
         r.on_time = r.vsync_ns == target_vsync_ns;
         r.photon_time_ns = r.vsync_ns + photon_offset_ns();
-        if (image && !config_.frames_dir.empty() && r.frame_index % uint64_t(config_.frames_every) == 0) {
+        if (image && !config_.frames_dir.empty() &&
+            r.frame_index % uint64_t(config_.frames_every) == 0) {
             char name[32];
             std::snprintf(name, sizeof name, "frame_%06llu.png", (unsigned long long)r.frame_index);
             Status st = write_png(side_by_side(*image), config_.frames_dir / name);
@@ -57,7 +60,7 @@ public:
         return r;
     }
 
-private:
+  private:
     Clock& clock_;
     MockDisplayConfig config_;
     int64_t period_ns_;
@@ -68,18 +71,24 @@ private:
 
 }  // namespace
 
-Result<std::unique_ptr<Display>> create_mock_display(Clock& clock, const MockDisplayConfig& config) {
-    if (config.eye_width < 1 || config.eye_height < 1 || config.eye_width > 16384 || config.eye_height > 16384)
+Result<std::unique_ptr<Display>> create_mock_display(Clock& clock,
+                                                     const MockDisplayConfig& config) {
+    if (config.eye_width < 1 || config.eye_height < 1 || config.eye_width > 16384 ||
+        config.eye_height > 16384)
         return make_error("mock display: eye size must be between 1 and 16384 pixels");
     if (!(config.refresh_hz >= 1.0 && config.refresh_hz <= 1000.0))
         return make_error("mock display: refresh rate must be between 1 and 1000 Hz");
-    if (!(config.scanout_fraction >= 0.0 && config.scanout_fraction <= 1.0) || config.persistence_ns < 0 ||
-        config.latch_margin_ns < 0 || config.frames_every < 1)
-        return make_error("mock display: scan-out fraction must be in [0,1], persistence and latch margin >= 0, frames_every >= 1");
+    if (!(config.scanout_fraction >= 0.0 && config.scanout_fraction <= 1.0) ||
+        config.persistence_ns < 0 || config.latch_margin_ns < 0 || config.frames_every < 1)
+        return make_error(
+            "mock display: scan-out fraction must be in [0,1], persistence and latch margin >= 0, "
+            "frames_every >= 1");
     if (!config.frames_dir.empty()) {
         std::error_code ec;
         std::filesystem::create_directories(config.frames_dir, ec);
-        if (ec) return make_error("mock display: cannot create " + config.frames_dir.string() + ": " + ec.message());
+        if (ec)
+            return make_error("mock display: cannot create " + config.frames_dir.string() + ": " +
+                              ec.message());
     }
     return std::unique_ptr<Display>(new MockDisplay(clock, config));
 }

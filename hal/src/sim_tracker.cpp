@@ -15,7 +15,7 @@ namespace hmdnode {
 namespace {
 
 class SimTracker final : public Tracker {
-public:
+  public:
     SimTracker(std::vector<TrackerSample> samples, Clock& clock, const SimTrackerConfig& config,
                double rate_hz, bool has_position, bool has_imu)
         : samples_(std::move(samples)), clock_(clock), ring_(config.ring_capacity) {
@@ -50,7 +50,8 @@ public:
         size_t n = 0;
         if (clock_.is_simulated()) {
             const int64_t now = clock_.now_ns();
-            while (n < out.size() && cursor_ < samples_.size() && samples_[cursor_].arrival_ns <= now)
+            while (n < out.size() && cursor_ < samples_.size() &&
+                   samples_[cursor_].arrival_ns <= now)
                 out[n++] = samples_[cursor_++];
         } else {
             while (n < out.size() && ring_.pop(&out[n])) ++n;
@@ -62,7 +63,8 @@ public:
     bool finished() const override {
         if (clock_.is_simulated()) return cursor_ >= samples_.size();
         return producer_done_.load(std::memory_order_acquire) &&
-               delivered_.load(std::memory_order_relaxed) + dropped_.load(std::memory_order_relaxed) >=
+               delivered_.load(std::memory_order_relaxed) +
+                       dropped_.load(std::memory_order_relaxed) >=
                    samples_.size();
     }
 
@@ -71,7 +73,7 @@ public:
                                dropped_.load(std::memory_order_relaxed)};
     }
 
-private:
+  private:
     // Reader thread (system clock only): sleeps until each arrival time, as a USB device delivers.
     void reader_loop() {
         constexpr int64_t kMaxSleepNs = 10 * kNsPerMs;  // bound the reaction time to stop()
@@ -102,18 +104,21 @@ private:
 
 }  // namespace
 
-Result<std::unique_ptr<Tracker>> create_sim_tracker(std::shared_ptr<const Trace> trace, Clock& clock,
-                                                    const SimTrackerConfig& config) {
+Result<std::unique_ptr<Tracker>> create_sim_tracker(std::shared_ptr<const Trace> trace,
+                                                    Clock& clock, const SimTrackerConfig& config) {
     if (!trace || trace->samples.size() < 2)
         return make_error("simulated tracker: the trace needs at least two samples");
     if (config.resample_hz < 0.0 || config.noise_deg < 0.0 || config.latency_ns < 0 ||
         config.jitter_ns < 0 || config.start_offset_ns < 0 || config.duration_ns < 0)
-        return make_error("simulated tracker: negative rate, noise, latency, jitter, offset or duration");
+        return make_error(
+            "simulated tracker: negative rate, noise, latency, jitter, offset or duration");
 
     const int64_t t0 = trace->start_ns() + config.start_offset_ns;
-    const int64_t t_end = config.duration_ns > 0 ? std::min(trace->end_ns(), t0 + config.duration_ns)
-                                                 : trace->end_ns();
-    if (t_end <= t0) return make_error("simulated tracker: the start offset is past the end of the trace");
+    const int64_t t_end = config.duration_ns > 0
+                              ? std::min(trace->end_ns(), t0 + config.duration_ns)
+                              : trace->end_ns();
+    if (t_end <= t0)
+        return make_error("simulated tracker: the start offset is past the end of the trace");
 
     const bool has_position = trace->samples.front().position.has_value();
     const bool has_imu = trace->samples.front().gyro.has_value();
@@ -133,9 +138,11 @@ Result<std::unique_ptr<Tracker>> create_sim_tracker(std::shared_ptr<const Trace>
     } else {
         auto lo = std::lower_bound(trace->samples.begin(), trace->samples.end(), t0,
                                    [](const TraceSample& s, int64_t t) { return s.time_ns < t; });
-        for (auto it = lo; it != trace->samples.end() && it->time_ns <= t_end; ++it) src.push_back(*it);
+        for (auto it = lo; it != trace->samples.end() && it->time_ns <= t_end; ++it)
+            src.push_back(*it);
     }
-    if (src.size() < 2) return make_error("simulated tracker: fewer than two samples in the replayed range");
+    if (src.size() < 2)
+        return make_error("simulated tracker: fewer than two samples in the replayed range");
 
     std::mt19937_64 rng(config.seed);
     std::normal_distribution<double> noise(0.0, deg_to_rad(config.noise_deg));
@@ -154,21 +161,23 @@ Result<std::unique_ptr<Tracker>> create_sim_tracker(std::shared_ptr<const Trace>
         o.orientation = s.orientation;
         if (config.noise_deg > 0.0)
             o.orientation = glm::normalize(
-                quat_from_rotation_vector(glm::dvec3(noise(rng), noise(rng), noise(rng))) * o.orientation);
+                quat_from_rotation_vector(glm::dvec3(noise(rng), noise(rng), noise(rng))) *
+                o.orientation);
         o.orientation = same_hemisphere(o.orientation, prev);
         prev = o.orientation;
         o.position = s.position;
         o.gyro = s.gyro;
         o.accel = s.accel;
         // USB delivers in order: an arrival never precedes the previous one.
-        o.arrival_ns = std::max(last_arrival, o.time_ns + config.latency_ns +
-                                                  (config.jitter_ns > 0 ? jitter(rng) : 0));
+        o.arrival_ns = std::max(
+            last_arrival, o.time_ns + config.latency_ns + (config.jitter_ns > 0 ? jitter(rng) : 0));
         last_arrival = o.arrival_ns;
         out.push_back(o);
     }
-    const double rate_hz = config.resample_hz > 0.0
-                               ? config.resample_hz
-                               : double(out.size() - 1) / ns_to_s(out.back().time_ns - out.front().time_ns);
+    const double rate_hz =
+        config.resample_hz > 0.0
+            ? config.resample_hz
+            : double(out.size() - 1) / ns_to_s(out.back().time_ns - out.front().time_ns);
     return std::unique_ptr<Tracker>(
         new SimTracker(std::move(out), clock, config, rate_hz, has_position, has_imu));
 }

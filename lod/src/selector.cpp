@@ -13,19 +13,24 @@ namespace hmdnode {
 LodSelector::LodSelector(size_t object_count, const LodSelectorParams& params)
     : params_(params), current_(object_count, -1) {}
 
-void LodSelector::reset() { std::fill(current_.begin(), current_.end(), -1); }
+void LodSelector::reset() {
+    std::fill(current_.begin(), current_.end(), -1);
+}
 
-double LodSelector::tolerance_px(const LodSelectorParams& p, double eccentricity_deg, double speed_dps) {
+double LodSelector::tolerance_px(const LodSelectorParams& p, double eccentricity_deg,
+                                 double speed_dps) {
     const double we = 1.0 + p.eccentricity_gain * std::max(0.0, eccentricity_deg - p.foveal_deg);
     const double ws = 1.0 + p.speed_gain * std::max(0.0, speed_dps - p.speed_threshold_dps);
     return p.tolerance_px * std::min(p.max_widening, we * ws);
 }
 
-double LodSelector::projected_error_px(double error_m, double distance_m, double pixels_per_radian) {
+double LodSelector::projected_error_px(double error_m, double distance_m,
+                                       double pixels_per_radian) {
     return error_m / distance_m * pixels_per_radian;
 }
 
-LodDecision LodSelector::select(size_t index, const LodObjectView& object, const LodViewer& viewer) {
+LodDecision LodSelector::select(size_t index, const LodObjectView& object,
+                                const LodViewer& viewer) {
     assert(index < current_.size());
     assert(!object.level_errors_m.empty());
     const int levels = int(object.level_errors_m.size());
@@ -36,7 +41,8 @@ LodDecision LodSelector::select(size_t index, const LodObjectView& object, const
     const double distance = std::max(viewer.near_m, center_dist - object.radius);
     double ecc_deg = 0.0;
     if (center_dist > object.radius && center_dist > 1e-9) {
-        const double cos_a = std::clamp(glm::dot(to_center / center_dist, viewer.gaze_direction), -1.0, 1.0);
+        const double cos_a =
+            std::clamp(glm::dot(to_center / center_dist, viewer.gaze_direction), -1.0, 1.0);
         const double half_size = std::asin(std::min(1.0, object.radius / center_dist));
         ecc_deg = (180.0 / 3.14159265358979323846) * (std::max(0.0, std::acos(cos_a) - half_size));
     }

@@ -8,7 +8,9 @@
 using namespace hmdnode;
 
 namespace {
-glm::dquat yaw(double deg) { return glm::angleAxis(deg_to_rad(deg), glm::dvec3(0, 1, 0)); }
+glm::dquat yaw(double deg) {
+    return glm::angleAxis(deg_to_rad(deg), glm::dvec3(0, 1, 0));
+}
 }  // namespace
 
 TEST(Pose, AngleBetweenIgnoresDoubleCover) {
@@ -48,9 +50,9 @@ TEST(Stereo, ProjectionMapsFrustumEdgesToClipEdges) {
         glm::vec4 c = p * glm::vec4(glm::vec3(v), 1.0f);
         return glm::dvec3(c) / double(c.w);
     };
-    EXPECT_NEAR(ndc({0.8 * 2, 0, -2}).x, 1.0, 1e-5);     // right edge
-    EXPECT_NEAR(ndc({-1.2 * 2, 0, -2}).x, -1.0, 1e-5);   // left edge
-    EXPECT_NEAR(ndc({0, 1.0 * 2, -2}).y, -1.0, 1e-5);    // top edge is -1 in Vulkan
+    EXPECT_NEAR(ndc({0.8 * 2, 0, -2}).x, 1.0, 1e-5);    // right edge
+    EXPECT_NEAR(ndc({-1.2 * 2, 0, -2}).x, -1.0, 1e-5);  // left edge
+    EXPECT_NEAR(ndc({0, 1.0 * 2, -2}).y, -1.0, 1e-5);   // top edge is -1 in Vulkan
     EXPECT_NEAR(ndc({0, -0.9 * 2, -2}).y, 1.0, 1e-5);
     EXPECT_NEAR(ndc({0, 0, -0.1}).z, 0.0, 1e-5);
     EXPECT_NEAR(ndc({0, 0, -50}).z, 1.0, 1e-5);

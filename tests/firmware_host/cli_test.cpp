@@ -47,15 +47,17 @@ const std::string kScene = HMDNODE_DEMO_SCENE;
 const std::string kTrace = HMDNODE_SOURCE_DIR "/data/traces/corbillon2018_user1.csv";
 
 std::string replay_cmd(const fs::path& scene, const fs::path& trace, const fs::path& report) {
-    return kTool + " replay --quiet --eye-width 32 --eye-height 32 --duration 0.5 --scene " + scene.string() +
-           " --trace " + trace.string() + " --report " + report.string();
+    return kTool + " replay --quiet --eye-width 32 --eye-height 32 --duration 0.5 --scene " +
+           scene.string() + " --trace " + trace.string() + " --report " + report.string();
 }
 
-void expect_replay_fails(const fs::path& scene, const fs::path& trace, std::initializer_list<std::string> parts) {
+void expect_replay_fails(const fs::path& scene, const fs::path& trace,
+                         std::initializer_list<std::string> parts) {
     const fs::path report = trace.parent_path() / "report.json";
     CommandRun r = run(replay_cmd(scene, trace, report));
     EXPECT_NE(r.code, 0) << r.output;
-    for (const std::string& part : parts) EXPECT_NE(r.output.find(part), std::string::npos) << r.output;
+    for (const std::string& part : parts)
+        EXPECT_NE(r.output.find(part), std::string::npos) << r.output;
     EXPECT_FALSE(fs::exists(report)) << "a failed replay must write no report";
 }
 
@@ -90,7 +92,8 @@ TEST(Cli, TraceWithANonNumericFieldFails) {
 
 TEST(Cli, TraceWithTimeGoingBackwardsFails) {
     fs::path dir = temp_dir("backwards");
-    write(dir / "t.csv", std::string(kGoodHeader) + "0,1,0,0,0\n2000000,1,0,0,0\n1000000,1,0,0,0\n");
+    write(dir / "t.csv",
+          std::string(kGoodHeader) + "0,1,0,0,0\n2000000,1,0,0,0\n1000000,1,0,0,0\n");
     expect_replay_fails(kScene, dir / "t.csv", {"t.csv:4", "backwards"});
 }
 
@@ -114,8 +117,8 @@ TEST(Cli, NonGltfSceneFails) {
 TEST(Cli, ImportsAndReplaysTheRawCorbillonTable) {
     fs::path dir = temp_dir("import");
     const fs::path raw = HMDNODE_SOURCE_DIR "/tests/data/traces/corbillon2018_user1_head.txt";
-    CommandRun imp = run(kTool + " trace import --source-frame z-up-x-forward --from " + raw.string() + " --to " +
-                  (dir / "t.csv").string());
+    CommandRun imp = run(kTool + " trace import --source-frame z-up-x-forward --from " +
+                         raw.string() + " --to " + (dir / "t.csv").string());
     ASSERT_EQ(imp.code, 0) << imp.output;
     EXPECT_NE(imp.output.find("sign flips"), std::string::npos);
     CommandRun r = run(replay_cmd(kScene, dir / "t.csv", dir / "report.json"));
@@ -123,7 +126,8 @@ TEST(Cli, ImportsAndReplaysTheRawCorbillonTable) {
     EXPECT_TRUE(fs::exists(dir / "report.json"));
     // A bad table leaves no output behind.
     write(dir / "bad.txt", "timestamp w x y z\n0 1 0 0 0\n0.5 1 0 x 0\n");
-    CommandRun bad = run(kTool + " trace import --from " + (dir / "bad.txt").string() + " --to " + (dir / "bad.csv").string());
+    CommandRun bad = run(kTool + " trace import --from " + (dir / "bad.txt").string() + " --to " +
+                         (dir / "bad.csv").string());
     EXPECT_NE(bad.code, 0);
     EXPECT_FALSE(fs::exists(dir / "bad.csv"));
 }
@@ -134,8 +138,8 @@ TEST(Cli, ReplaysBothFullRealTracesWhenSharedDataIsPresent) {
                              (std::string("corbillon2018_user") + user + "_quaternion.txt");
         if (!fs::exists(raw)) GTEST_SKIP() << raw << " not present";
         fs::path dir = temp_dir(std::string("shared_") + user);
-        CommandRun imp = run(kTool + " trace import --source-frame z-up-x-forward --from " + raw.string() + " --to " +
-                      (dir / "t.csv").string());
+        CommandRun imp = run(kTool + " trace import --source-frame z-up-x-forward --from " +
+                             raw.string() + " --to " + (dir / "t.csv").string());
         ASSERT_EQ(imp.code, 0) << imp.output;
         CommandRun r = run(replay_cmd(kScene, dir / "t.csv", dir / "report.json") + " --start 100");
         EXPECT_EQ(r.code, 0) << r.output;
@@ -150,7 +154,8 @@ TEST(Daemon, RunsTheFrameLoopFromAConfigFileAndWritesStatus) {
                           {"display", {{"eye_width", 32}, {"eye_height", 32}}},
                           {"status", {{"path", (dir / "status.json").string()}, {"every_s", 0.5}}}};
     write(dir / "hmdnoded.json", cfg.dump(1));
-    CommandRun r = run(std::string(HMDNODE_DAEMON) + " --config " + (dir / "hmdnoded.json").string() + " --max-frames 120");
+    CommandRun r = run(std::string(HMDNODE_DAEMON) + " --config " +
+                       (dir / "hmdnoded.json").string() + " --max-frames 120");
     ASSERT_EQ(r.code, 0) << r.output;
     std::ifstream in(dir / "status.json");
     nlohmann::json s = nlohmann::json::parse(in);
@@ -161,8 +166,10 @@ TEST(Daemon, RunsTheFrameLoopFromAConfigFileAndWritesStatus) {
 
 TEST(Daemon, BadConfigNamesTheKeyAndExitsNonZero) {
     fs::path dir = temp_dir("daemon_bad");
-    write(dir / "hmdnoded.json", R"({"scene": "x.glb", "tracker": {"trace": "t.csv", "lop": true}})");
-    CommandRun r = run(std::string(HMDNODE_DAEMON) + " --config " + (dir / "hmdnoded.json").string());
+    write(dir / "hmdnoded.json",
+          R"({"scene": "x.glb", "tracker": {"trace": "t.csv", "lop": true}})");
+    CommandRun r =
+        run(std::string(HMDNODE_DAEMON) + " --config " + (dir / "hmdnoded.json").string());
     EXPECT_EQ(r.code, 2);
     EXPECT_NE(r.output.find("tracker.lop"), std::string::npos) << r.output;
     write(dir / "hmdnoded.json", R"({"scene": "x.glb", )");
@@ -174,6 +181,7 @@ TEST(Daemon, BadConfigNamesTheKeyAndExitsNonZero) {
 TEST(DemoScene, HasTheRoomAndTheLodChainsTheDemoNeeds) {
     CommandRun r = run(kTool + " scene info " + kScene);
     ASSERT_EQ(r.code, 0) << r.output;
-    for (const char* part : {"bunny", "spot", "sphere"}) EXPECT_NE(r.output.find(part), std::string::npos) << r.output;
+    for (const char* part : {"bunny", "spot", "sphere"})
+        EXPECT_NE(r.output.find(part), std::string::npos) << r.output;
     EXPECT_NE(r.output.find("69451"), std::string::npos) << r.output;  // the bunny's full level
 }

@@ -8,7 +8,9 @@
 using namespace hmdnode;
 
 namespace {
-glm::dquat yaw(double deg) { return glm::angleAxis(deg_to_rad(deg), glm::dvec3(0, 1, 0)); }
+glm::dquat yaw(double deg) {
+    return glm::angleAxis(deg_to_rad(deg), glm::dvec3(0, 1, 0));
+}
 TrackerSample sample(int64_t t_ns, glm::dquat q) {
     TrackerSample s;
     s.time_ns = t_ns;

@@ -25,7 +25,6 @@ fs::path temp_dir(const std::string& name) {
     return d;
 }
 
-
 // A turn about `axis` (default +Y) at dps, sampled at rate_hz; sign_flip alternates q and -q.
 Trace yaw_trace(double rate_hz, double seconds, double dps, bool sign_flip = false,
                 glm::dvec3 axis = {0, 1, 0}) {
@@ -33,7 +32,8 @@ Trace yaw_trace(double rate_hz, double seconds, double dps, bool sign_flip = fal
     for (int i = 0; i <= int(rate_hz * seconds); ++i) {
         TraceSample s;
         s.time_ns = s_to_ns(i / rate_hz);
-        s.orientation = glm::angleAxis(deg_to_rad(dps * i / rate_hz), axis) * ((sign_flip && i % 2) ? -1.0 : 1.0);
+        s.orientation = glm::angleAxis(deg_to_rad(dps * i / rate_hz), axis) *
+                        ((sign_flip && i % 2) ? -1.0 : 1.0);
         t.samples.push_back(s);
     }
     return t;
@@ -42,13 +42,15 @@ Trace yaw_trace(double rate_hz, double seconds, double dps, bool sign_flip = fal
 // A box (12 triangles) with a two-level LOD chain (levels differ only in their stated error).
 Primitive box(glm::vec3 lo, glm::vec3 hi) {
     Primitive p;
-    const glm::vec3 c[8] = {{lo.x, lo.y, lo.z}, {hi.x, lo.y, lo.z}, {hi.x, hi.y, lo.z}, {lo.x, hi.y, lo.z},
-                            {lo.x, lo.y, hi.z}, {hi.x, lo.y, hi.z}, {hi.x, hi.y, hi.z}, {lo.x, hi.y, hi.z}};
+    const glm::vec3 c[8] = {{lo.x, lo.y, lo.z}, {hi.x, lo.y, lo.z}, {hi.x, hi.y, lo.z},
+                            {lo.x, hi.y, lo.z}, {lo.x, lo.y, hi.z}, {hi.x, lo.y, hi.z},
+                            {hi.x, hi.y, hi.z}, {lo.x, hi.y, hi.z}};
     for (const glm::vec3& v : c) {
         p.positions.push_back(v);
         p.normals.push_back(glm::normalize(v - 0.5f * (lo + hi)));
     }
-    p.indices = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4, 3, 6, 2, 3, 7, 6, 0, 4, 7, 0, 7, 3, 1, 2, 6, 1, 6, 5};
+    p.indices = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4,
+                 3, 6, 2, 3, 7, 6, 0, 4, 7, 0, 7, 3, 1, 2, 6, 1, 6, 5};
     p.material = 0;
     return p;
 }
@@ -158,7 +160,8 @@ TEST(Replay, SignFlipsCauseNoJumps) {
     // From the first frame that had two samples to estimate velocity from, prediction is exact.
     int checked = 0;
     for (const FrameRecord& f : r->frames) {
-        if (f.pose_sample_time_ns < s_to_ns(1.0 / 60.0) || std::isnan(f.registration_error_deg)) continue;
+        if (f.pose_sample_time_ns < s_to_ns(1.0 / 60.0) || std::isnan(f.registration_error_deg))
+            continue;
         EXPECT_NEAR(f.angular_speed_dps, 60.0, 1e-4) << f.index;  // timestamps are whole ns
         EXPECT_LT(f.registration_error_deg, 1e-5) << f.index;
         ++checked;
@@ -195,18 +198,20 @@ TEST(Replay, WritesAReportWithTheDocumentedFields) {
     std::ifstream in(o.report);
     nlohmann::json j = nlohmann::json::parse(in);
     for (const char* k : {"latency_ms", "registration_error_deg"})
-        for (const char* p : {"p50", "p95", "p99", "max"}) EXPECT_TRUE(j["summary"][k][p].is_number()) << k << p;
+        for (const char* p : {"p50", "p95", "p99", "max"})
+            EXPECT_TRUE(j["summary"][k][p].is_number()) << k << p;
     EXPECT_EQ(j["summary"]["frames"], r->summary.frames);
     EXPECT_TRUE(j["summary"]["on_time_rate"].is_number());
     EXPECT_TRUE(j["summary"]["triangles_mean"].is_number());
     const auto& f = j["frames"][3];
-    for (const char* k : {"pose_sample_time_ns", "predicted_photon_time_ns", "latency_ms", "registration_error_deg",
-                          "triangles", "render_ms"})
+    for (const char* k : {"pose_sample_time_ns", "predicted_photon_time_ns", "latency_ms",
+                          "registration_error_deg", "triangles", "render_ms"})
         EXPECT_TRUE(f[k].is_number()) << k;
     EXPECT_TRUE(f["lod"]["ahead"].is_number());
     EXPECT_TRUE(f["lod"]["side"].is_number());
     EXPECT_TRUE(fs::exists(o.display.frames_dir / "frame_000010.png"));
     // Latency is photon time minus the newest sample's time.
     EXPECT_NEAR(f["latency_ms"].get<double>(),
-                (f["photon_time_ns"].get<double>() - f["pose_sample_time_ns"].get<double>()) * 1e-6, 1e-9);
+                (f["photon_time_ns"].get<double>() - f["pose_sample_time_ns"].get<double>()) * 1e-6,
+                1e-9);
 }

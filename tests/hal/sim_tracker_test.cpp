@@ -22,7 +22,8 @@ std::shared_ptr<Trace> yaw_trace(double rate_hz, double duration_s, double dps) 
     return t;
 }
 
-std::vector<TrackerSample> drain_all(Tracker& tr, SimulatedClock& clock, int64_t step_ns, int64_t until_ns) {
+std::vector<TrackerSample> drain_all(Tracker& tr, SimulatedClock& clock, int64_t step_ns,
+                                     int64_t until_ns) {
     std::vector<TrackerSample> all, buf(64);
     while (clock.now_ns() <= until_ns) {
         size_t n;
@@ -93,7 +94,8 @@ TEST(SimTracker, NoiseAndJitterAreDeterministicForASeed) {
         if (i) {
             EXPECT_GE(a[i].arrival_ns, a[i - 1].arrival_ns);
         }
-        glm::dquat truth = glm::angleAxis(deg_to_rad(10.0 * ns_to_s(a[i].time_ns)), glm::dvec3(0, 1, 0));
+        glm::dquat truth =
+            glm::angleAxis(deg_to_rad(10.0 * ns_to_s(a[i].time_ns)), glm::dvec3(0, 1, 0));
         max_noise = std::max(max_noise, angle_between_deg(a[i].orientation, truth));
     }
     EXPECT_GT(max_noise, 0.1);  // the noise is there

@@ -11,7 +11,9 @@ namespace {
 // Levels whose errors double: 0, 1 mm, 2 mm, 4 mm, 8 mm, 16 mm.
 const double kErrors[] = {0.0, 0.001, 0.002, 0.004, 0.008, 0.016};
 
-LodObjectView object_at(glm::dvec3 c) { return LodObjectView{c, 0.1, kErrors}; }
+LodObjectView object_at(glm::dvec3 c) {
+    return LodObjectView{c, 0.1, kErrors};
+}
 
 LodViewer viewer(double speed_dps = 0.0) {
     LodViewer v;
@@ -31,7 +33,8 @@ glm::dvec3 at_angle(double deg, double dist) {
 
 TEST(LodSelector, PicksTheCoarsestLevelWithinTheProjectedTolerance) {
     LodSelector sel(1);
-    // 2.1 m to the sphere's surface: 1 px = 7 mm; level 3 (4 mm -> 0.57 px) fits, level 4 (1.14 px) not.
+    // 2.1 m to the sphere's surface: 1 px = 7 mm; level 3 (4 mm -> 0.57 px) fits, level 4 (1.14 px)
+    // not.
     LodDecision d = sel.select(0, object_at({0, 0, -2.2}), viewer());
     EXPECT_EQ(d.level, 3);
     EXPECT_NEAR(d.projected_error_px, 0.004 / 2.1 * 300.0, 1e-9);
@@ -67,7 +70,8 @@ TEST(LodSelector, LevelRisesWithHeadAngularSpeed) {
 TEST(LodSelector, ToleranceFormula) {
     LodSelectorParams p;
     EXPECT_DOUBLE_EQ(LodSelector::tolerance_px(p, 0.0, 0.0), p.tolerance_px);
-    EXPECT_DOUBLE_EQ(LodSelector::tolerance_px(p, p.foveal_deg, p.speed_threshold_dps), p.tolerance_px);
+    EXPECT_DOUBLE_EQ(LodSelector::tolerance_px(p, p.foveal_deg, p.speed_threshold_dps),
+                     p.tolerance_px);
     EXPECT_DOUBLE_EQ(LodSelector::tolerance_px(p, p.foveal_deg + 10.0, 0.0),
                      p.tolerance_px * (1.0 + 10.0 * p.eccentricity_gain));
     EXPECT_DOUBLE_EQ(LodSelector::tolerance_px(p, 0.0, p.speed_threshold_dps + 100.0),

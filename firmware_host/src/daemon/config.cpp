@@ -16,7 +16,8 @@ struct Reader {
     std::string file;
     std::string error;
 
-    bool check_keys(const json& obj, const std::string& where, const std::set<std::string>& allowed) {
+    bool check_keys(const json& obj, const std::string& where,
+                    const std::set<std::string>& allowed) {
         if (!obj.is_object()) {
             fail(where + " must be an object");
             return false;
@@ -51,14 +52,18 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
     try {
         j = json::parse(*text);
     } catch (const json::parse_error& e) {
-        return make_error(path.string() + ": not valid JSON at byte " + std::to_string(e.byte) + ": " + e.what());
+        return make_error(path.string() + ": not valid JSON at byte " + std::to_string(e.byte) +
+                          ": " + e.what());
     }
     Reader r{path.string(), ""};
     DaemonConfig c;
     const std::filesystem::path base = path.parent_path();
-    auto resolve = [&](const std::string& p) { return p.empty() || p[0] == '/' ? std::filesystem::path(p) : base / p; };
+    auto resolve = [&](const std::string& p) {
+        return p.empty() || p[0] == '/' ? std::filesystem::path(p) : base / p;
+    };
 
-    if (!r.check_keys(j, "", {"scene", "clock", "max_frames", "tracker", "display", "node", "status"}))
+    if (!r.check_keys(j, "",
+                      {"scene", "clock", "max_frames", "tracker", "display", "node", "status"}))
         return make_error(r.error);
     std::string scene, clock = "real";
     r.get(j, "scene", &scene);
@@ -70,7 +75,9 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
     c.simulated_clock = clock == "sim";
 
     json t = j.value("tracker", json::object());
-    if (r.check_keys(t, "tracker", {"type", "trace", "loop", "resample_hz", "noise_deg", "latency_us", "jitter_us", "seed"})) {
+    if (r.check_keys(t, "tracker",
+                     {"type", "trace", "loop", "resample_hz", "noise_deg", "latency_us",
+                      "jitter_us", "seed"})) {
         std::string type = "sim", trace;
         double latency_us = 1000.0, jitter_us = 0.0;
         r.get(t, "type", &type);
@@ -81,14 +88,17 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         r.get(t, "latency_us", &latency_us);
         r.get(t, "jitter_us", &jitter_us);
         r.get(t, "seed", &c.tracker.seed);
-        if (type != "sim") r.fail("tracker.type \"" + type + "\" is not available in this build (available: sim)");
+        if (type != "sim")
+            r.fail("tracker.type \"" + type + "\" is not available in this build (available: sim)");
         if (trace.empty()) r.fail("\"tracker.trace\" is required for tracker type sim");
         c.trace = resolve(trace);
         c.tracker.latency_ns = int64_t(latency_us * 1000.0);
         c.tracker.jitter_ns = int64_t(jitter_us * 1000.0);
     }
     json d = j.value("display", json::object());
-    if (r.check_keys(d, "display", {"type", "eye_width", "eye_height", "refresh_hz", "persistence_ms", "frames_dir", "frames_every"})) {
+    if (r.check_keys(d, "display",
+                     {"type", "eye_width", "eye_height", "refresh_hz", "persistence_ms",
+                      "frames_dir", "frames_every"})) {
         std::string type = "mock", frames_dir;
         double persistence_ms = 2.0;
         r.get(d, "type", &type);
@@ -98,7 +108,9 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         r.get(d, "persistence_ms", &persistence_ms);
         r.get(d, "frames_dir", &frames_dir);
         r.get(d, "frames_every", &c.display.frames_every);
-        if (type != "mock") r.fail("display.type \"" + type + "\" is not available in this build (available: mock)");
+        if (type != "mock")
+            r.fail("display.type \"" + type +
+                   "\" is not available in this build (available: mock)");
         c.display.persistence_ns = ms_to_ns(persistence_ms);
         if (!frames_dir.empty()) c.display.frames_dir = resolve(frames_dir);
     }

@@ -6,9 +6,9 @@
 #include <cstdio>
 #include <memory>
 
+#include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
-#include <spdlog/spdlog.h>
 
 #include "daemon/config.hpp"
 #include "hmdnode/core/atomic_file.hpp"
@@ -19,7 +19,9 @@
 
 namespace {
 volatile std::sig_atomic_t g_stop = 0;
-void on_signal(int) { g_stop = 1; }
+void on_signal(int) {
+    g_stop = 1;
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -28,7 +30,8 @@ int main(int argc, char** argv) {
     std::string config_path = "/etc/hmdnode/hmdnoded.json";
     int64_t max_frames = 0;
     app.add_option("-c,--config", config_path, "Config file (JSON)");
-    app.add_option("--max-frames", max_frames, "Exit after this many frames (0: run until signalled)");
+    app.add_option("--max-frames", max_frames,
+                   "Exit after this many frames (0: run until signalled)");
     CLI11_PARSE(app, argc, argv);
 
     Result<DaemonConfig> cfg = load_daemon_config(config_path);
@@ -53,8 +56,10 @@ int main(int argc, char** argv) {
     auto trace = std::make_shared<const Trace>(std::move(trace_r).value());
 
     std::unique_ptr<Clock> clock;
-    if (cfg->simulated_clock) clock = std::make_unique<SimulatedClock>(0);
-    else clock = std::make_unique<SystemClock>();
+    if (cfg->simulated_clock)
+        clock = std::make_unique<SimulatedClock>(0);
+    else
+        clock = std::make_unique<SystemClock>();
 
     auto make_tracker = [&]() {
         SimTrackerConfig tc = cfg->tracker;
@@ -86,9 +91,11 @@ int main(int argc, char** argv) {
         spdlog::error("{}", st.error().message);
         return 2;
     }
-    spdlog::info("hmdnoded: scene {} ({} objects), trace {} ({} samples), {}x{} per eye at {} Hz, renderer {}",
-                 cfg->scene.string(), node.objects().size(), cfg->trace.string(), trace->samples.size(),
-                 dc.eye_width, dc.eye_height, dc.refresh_hz, (*renderer)->device_name());
+    spdlog::info(
+        "hmdnoded: scene {} ({} objects), trace {} ({} samples), {}x{} per eye at {} Hz, renderer "
+        "{}",
+        cfg->scene.string(), node.objects().size(), cfg->trace.string(), trace->samples.size(),
+        dc.eye_width, dc.eye_height, dc.refresh_hz, (*renderer)->device_name());
 
     // Status window: the frames since the last status write.
     std::vector<double> lat, reg;
@@ -124,11 +131,12 @@ int main(int argc, char** argv) {
         lat.push_back(rec.latency_ms);
         if (!cfg->status_path.empty() && clock->now_ns() >= next_status) {
             Percentiles p = percentiles(lat);
-            nlohmann::json s = {{"frames", frames},
-                                {"errors", errors},
-                                {"window_frames", window_frames},
-                                {"on_time_rate", double(window_on_time) / double(window_frames)},
-                                {"latency_ms", {{"p50", p.p50}, {"p95", p.p95}, {"p99", p.p99}, {"max", p.max}}}};
+            nlohmann::json s = {
+                {"frames", frames},
+                {"errors", errors},
+                {"window_frames", window_frames},
+                {"on_time_rate", double(window_on_time) / double(window_frames)},
+                {"latency_ms", {{"p50", p.p50}, {"p95", p.p95}, {"p99", p.p99}, {"max", p.max}}}};
             if (Status ws = write_file_atomically(cfg->status_path, s.dump(1)); !ws.ok())
                 spdlog::warn("{}", ws.error().message);
             spdlog::info("frames {} on-time {:.1f}% latency p50 {:.1f} ms p99 {:.1f} ms", frames,

@@ -22,7 +22,8 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
     selector_ = LodSelector(objects_.size(), config.lod);
     level_errors_.resize(objects_.size());
     for (size_t i = 0; i < objects_.size(); ++i)
-        for (const LodLevel& l : objects_[i].levels) level_errors_[i].push_back(l.geometric_error_m);
+        for (const LodLevel& l : objects_[i].levels)
+            level_errors_[i].push_back(l.geometric_error_m);
     draws_.reserve(objects_.size());
     order_.reserve(objects_.size());
     read_buf_.resize(256);
@@ -36,7 +37,9 @@ Status NodeRuntime::start() {
     return tracker_->start();
 }
 
-void NodeRuntime::stop() { tracker_->stop(); }
+void NodeRuntime::stop() {
+    tracker_->stop();
+}
 
 Status NodeRuntime::replace_tracker(Tracker& tracker) {
     tracker_->stop();
@@ -44,7 +47,9 @@ Status NodeRuntime::replace_tracker(Tracker& tracker) {
     return tracker_->start();
 }
 
-bool NodeRuntime::tracker_finished() const { return tracker_->finished(); }
+bool NodeRuntime::tracker_finished() const {
+    return tracker_->finished();
+}
 
 void NodeRuntime::drain_tracker() {
     for (;;) {
@@ -58,7 +63,8 @@ StereoViews NodeRuntime::views_for(const Pose& head) const {
     StereoViews v;
     for (int eye = 0; eye < 2; ++eye) {
         v.view[eye] = eye_view_matrix(config_.rig, head, eye);
-        v.projection[eye] = eye_projection(config_.rig.eye[eye], config_.rig.near_m, config_.rig.far_m);
+        v.projection[eye] =
+            eye_projection(config_.rig.eye[eye], config_.rig.near_m, config_.rig.far_m);
     }
     return v;
 }
@@ -68,7 +74,8 @@ Status NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& truth) {
 
     // Pace: the earliest vsync we can still make, and the time to start working for it.
     const int64_t now = clock_.now_ns();
-    const int64_t target_vsync = display_.next_vsync_ns(now + cost_estimate_ns_ + config_.wake_margin_ns);
+    const int64_t target_vsync =
+        display_.next_vsync_ns(now + cost_estimate_ns_ + config_.wake_margin_ns);
     const int64_t wake = target_vsync - cost_estimate_ns_ - config_.wake_margin_ns;
     clock_.sleep_until_ns(wake);
     const int64_t start_ns = clock_.now_ns();
@@ -82,7 +89,8 @@ Status NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& truth) {
     }
 
     const int64_t predicted_photon = target_vsync + display_.photon_offset_ns();
-    Pose head = config_.predict ? history_.pose_at(predicted_photon) : history_.pose_at(history_.newest_time_ns());
+    Pose head = config_.predict ? history_.pose_at(predicted_photon)
+                                : history_.pose_at(history_.newest_time_ns());
     if (!history_.newest().position) head.position = config_.default_head_position;
     const glm::dvec3 omega = history_.angular_velocity();
     const double speed_dps = rad_to_deg(glm::length(omega));
@@ -115,17 +123,20 @@ Status NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& truth) {
     }
 
     const auto t0 = std::chrono::steady_clock::now();
-    Result<RenderStats> stats = renderer_.render(views_for(head), draws_, config_.read_back ? &frame_ : nullptr);
+    Result<RenderStats> stats =
+        renderer_.render(views_for(head), draws_, config_.read_back ? &frame_ : nullptr);
     const auto t1 = std::chrono::steady_clock::now();
     if (!stats.ok()) return stats.error();
 
     if (clock_.is_simulated())
-        clock_.sleep_until_ns(start_ns + config_.sim_cost.cost_ns(triangles, 2ull * info.eye_width * info.eye_height));
+        clock_.sleep_until_ns(start_ns + config_.sim_cost.cost_ns(
+                                             triangles, 2ull * info.eye_width * info.eye_height));
     const int64_t cost = clock_.now_ns() - start_ns;
     // Frame-cost estimate for pacing: fast to rise (avoid repeated misses), slow to fall.
     cost_estimate_ns_ = cost > cost_estimate_ns_ ? cost : (cost_estimate_ns_ * 7 + cost) / 8;
 
-    Result<PresentResult> pr = display_.present(config_.read_back ? &frame_ : nullptr, target_vsync);
+    Result<PresentResult> pr =
+        display_.present(config_.read_back ? &frame_ : nullptr, target_vsync);
     if (!pr.ok()) return pr.error();
 
     rec->index = frame_index_++;

@@ -9,7 +9,8 @@
 
 namespace hmdnode {
 
-PoseHistory::PoseHistory(const PoseHistoryConfig& config) : config_(config), ring_(config.capacity) {
+PoseHistory::PoseHistory(const PoseHistoryConfig& config)
+    : config_(config), ring_(config.capacity) {
     assert(config.capacity >= 2);
 }
 
@@ -28,8 +29,12 @@ const TrackerSample& PoseHistory::newest() const {
     assert(count_ > 0);
     return at(count_ - 1);
 }
-int64_t PoseHistory::newest_time_ns() const { return count_ ? newest().time_ns : 0; }
-int64_t PoseHistory::oldest_time_ns() const { return count_ ? at(0).time_ns : 0; }
+int64_t PoseHistory::newest_time_ns() const {
+    return count_ ? newest().time_ns : 0;
+}
+int64_t PoseHistory::oldest_time_ns() const {
+    return count_ ? at(0).time_ns : 0;
+}
 
 Pose PoseHistory::to_pose(const TrackerSample& s) const {
     Pose p;
@@ -65,8 +70,10 @@ Pose PoseHistory::pose_at(int64_t t_ns, PoseQuery* out_kind) const {
         size_t lo = 0, hi = count_ - 1;
         while (lo < hi) {
             size_t mid = (lo + hi) / 2;
-            if (at(mid).time_ns < t_ns) lo = mid + 1;
-            else hi = mid;
+            if (at(mid).time_ns < t_ns)
+                lo = mid + 1;
+            else
+                hi = mid;
         }
         kind = PoseQuery::Interpolated;
         out = interpolate(to_pose(at(lo - 1)), to_pose(at(lo)), t_ns);

@@ -42,13 +42,16 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     if (!scene.ok()) return scene.error();
     Result<Trace> trace_r = read_trace_csv(opt.trace);
     if (!trace_r.ok())
-        return make_error(trace_r.error().message +
-                          " (replay reads hmdnode trace CSV; convert other tables with `hmdnode trace import`)");
+        return make_error(
+            trace_r.error().message +
+            " (replay reads hmdnode trace CSV; convert other tables with `hmdnode trace import`)");
     auto trace = std::make_shared<const Trace>(std::move(trace_r).value());
 
     std::unique_ptr<Clock> clock;
-    if (opt.simulated_clock) clock = std::make_unique<SimulatedClock>(0);
-    else clock = std::make_unique<SystemClock>();
+    if (opt.simulated_clock)
+        clock = std::make_unique<SimulatedClock>(0);
+    else
+        clock = std::make_unique<SystemClock>();
     const int64_t host_start = clock->now_ns();
 
     SimTrackerConfig tc = opt.tracker;
@@ -74,7 +77,8 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
 
     // Truth for registration error: the trace itself, slerped, at the photon time.
     const int64_t trace_t0 = trace->start_ns() + tc.start_offset_ns;
-    const int64_t trace_end = tc.duration_ns > 0 ? std::min(trace->end_ns(), trace_t0 + tc.duration_ns) : trace->end_ns();
+    const int64_t trace_end =
+        tc.duration_ns > 0 ? std::min(trace->end_ns(), trace_t0 + tc.duration_ns) : trace->end_ns();
     TruthFn truth = [&](int64_t host_ns) -> std::optional<glm::dquat> {
         const int64_t t = host_ns - host_start + trace_t0;
         if (t > trace_end) return std::nullopt;  // past the recording: no truth
@@ -85,10 +89,12 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     result.device_name = (*renderer)->device_name();
     for (const SceneObject& o : node.objects()) result.object_names.push_back(o.name);
     FrameRecord rec;
-    while (!node.tracker_finished() && (opt.max_frames <= 0 || int64_t(result.frames.size()) < opt.max_frames)) {
+    while (!node.tracker_finished() &&
+           (opt.max_frames <= 0 || int64_t(result.frames.size()) < opt.max_frames)) {
         if (Status st = node.run_frame(&rec, truth); !st.ok()) {
             node.stop();
-            return make_error("frame " + std::to_string(result.frames.size()) + ": " + st.error().message);
+            return make_error("frame " + std::to_string(result.frames.size()) + ": " +
+                              st.error().message);
         }
         result.frames.push_back(rec);
         if (opt.on_frame) opt.on_frame(rec);
@@ -113,7 +119,10 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     s.render_ms = percentiles(ren);
     s.on_time_rate = s.frames ? double(on_time) / double(s.frames) : 0.0;
     s.triangles_mean = s.frames ? tri / double(s.frames) : 0.0;
-    s.replayed_s = s.frames ? ns_to_s(result.frames.back().photon_time_ns - result.frames.front().photon_time_ns) : 0.0;
+    s.replayed_s =
+        s.frames
+            ? ns_to_s(result.frames.back().photon_time_ns - result.frames.front().photon_time_ns)
+            : 0.0;
     s.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
 
     if (!opt.report.empty()) {
@@ -127,7 +136,9 @@ namespace {
 nlohmann::json to_json(const Percentiles& p) {
     return {{"p50", p.p50}, {"p95", p.p95}, {"p99", p.p99}, {"max", p.max}};
 }
-nlohmann::json finite_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+nlohmann::json finite_or_null(double v) {
+    return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json();
+}
 }  // namespace
 
 nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& r) {
@@ -191,12 +202,13 @@ std::string replay_summary_table(const ReplayResult& r) {
                   "%-26s %8.3f %8.3f %8.3f %8.3f\n"
                   "%-26s %8.2f %8.2f %8.2f %8.2f\n"
                   "on-time rate %.1f %%, triangles per frame %.0f (mean)\n",
-                  s.frames, s.replayed_s, r.trace_samples, s.wall_s, r.device_name.c_str(), "", "p50",
-                  "p95", "p99", "max", "motion-to-photon (ms)", s.latency_ms.p50, s.latency_ms.p95,
-                  s.latency_ms.p99, s.latency_ms.max, "registration error (deg)", s.registration_error_deg.p50,
-                  s.registration_error_deg.p95, s.registration_error_deg.p99, s.registration_error_deg.max,
-                  "render, measured (ms)", s.render_ms.p50, s.render_ms.p95, s.render_ms.p99, s.render_ms.max,
-                  100.0 * s.on_time_rate, s.triangles_mean);
+                  s.frames, s.replayed_s, r.trace_samples, s.wall_s, r.device_name.c_str(), "",
+                  "p50", "p95", "p99", "max", "motion-to-photon (ms)", s.latency_ms.p50,
+                  s.latency_ms.p95, s.latency_ms.p99, s.latency_ms.max, "registration error (deg)",
+                  s.registration_error_deg.p50, s.registration_error_deg.p95,
+                  s.registration_error_deg.p99, s.registration_error_deg.max,
+                  "render, measured (ms)", s.render_ms.p50, s.render_ms.p95, s.render_ms.p99,
+                  s.render_ms.max, 100.0 * s.on_time_rate, s.triangles_mean);
     out << buf;
     return out.str();
 }

@@ -17,31 +17,46 @@ void add_replay_command(CLI::App& app) {
     auto jitter_us = std::make_shared<double>(0.0);
     auto persistence_ms = std::make_shared<double>(2.0);
 
-    CLI::App* c = app.add_subcommand("replay", "Replay a head trace through tracking, LOD selection, "
-                                               "stereo rendering and a mock headset; write a report");
+    CLI::App* c = app.add_subcommand("replay",
+                                     "Replay a head trace through tracking, LOD selection, "
+                                     "stereo rendering and a mock headset; write a report");
     c->add_option("--scene", opt->scene, "Scene (.glb/.gltf)")->required();
-    c->add_option("--trace", opt->trace, "Trace in hmdnode CSV (see `hmdnode trace import`)")->required();
+    c->add_option("--trace", opt->trace, "Trace in hmdnode CSV (see `hmdnode trace import`)")
+        ->required();
     c->add_option("--report", opt->report, "JSON report to write");
     c->add_option("--frames", *frames_dir, "Directory for PNG frames (both eyes side by side)");
-    c->add_option("--frames-every", opt->display.frames_every, "Write every Nth frame")->check(CLI::PositiveNumber);
+    c->add_option("--frames-every", opt->display.frames_every, "Write every Nth frame")
+        ->check(CLI::PositiveNumber);
     c->add_option("--clock", *clock, "sim: deterministic simulated clock; real: system clock")
         ->check(CLI::IsMember({"sim", "real"}));
-    c->add_option("--start", opt->start_s, "Start this many seconds into the trace")->check(CLI::NonNegativeNumber);
+    c->add_option("--start", opt->start_s, "Start this many seconds into the trace")
+        ->check(CLI::NonNegativeNumber);
     c->add_option("--duration", opt->duration_s, "Replay this many seconds (0: to the end)")
         ->check(CLI::NonNegativeNumber);
     c->add_option("--max-frames", opt->max_frames, "Stop after this many frames (0: no limit)");
-    c->add_option("--eye-width", opt->display.eye_width, "Pixels per eye")->check(CLI::Range(1, 16384));
-    c->add_option("--eye-height", opt->display.eye_height, "Pixels per eye")->check(CLI::Range(1, 16384));
-    c->add_option("--refresh", opt->display.refresh_hz, "Display refresh rate (Hz)")->check(CLI::Range(1.0, 1000.0));
-    c->add_option("--persistence-ms", *persistence_ms, "Panel persistence (ms)")->check(CLI::NonNegativeNumber);
-    c->add_option("--ipd", opt->node.rig.ipd_m, "Interpupillary distance (m)")->check(CLI::Range(0.0, 0.1));
-    c->add_flag("--no-prediction", *no_predict, "Render the newest sample's pose instead of predicting");
-    c->add_option("--resample", opt->tracker.resample_hz, "Resample the trace at this rate (Hz; 0: as recorded)");
-    c->add_option("--noise-deg", opt->tracker.noise_deg, "Gaussian orientation noise (deg, std dev)");
-    c->add_option("--latency-us", *latency_us, "Tracker transport latency (us)")->check(CLI::NonNegativeNumber);
-    c->add_option("--jitter-us", *jitter_us, "Tracker arrival jitter (us, uniform)")->check(CLI::NonNegativeNumber);
+    c->add_option("--eye-width", opt->display.eye_width, "Pixels per eye")
+        ->check(CLI::Range(1, 16384));
+    c->add_option("--eye-height", opt->display.eye_height, "Pixels per eye")
+        ->check(CLI::Range(1, 16384));
+    c->add_option("--refresh", opt->display.refresh_hz, "Display refresh rate (Hz)")
+        ->check(CLI::Range(1.0, 1000.0));
+    c->add_option("--persistence-ms", *persistence_ms, "Panel persistence (ms)")
+        ->check(CLI::NonNegativeNumber);
+    c->add_option("--ipd", opt->node.rig.ipd_m, "Interpupillary distance (m)")
+        ->check(CLI::Range(0.0, 0.1));
+    c->add_flag("--no-prediction", *no_predict,
+                "Render the newest sample's pose instead of predicting");
+    c->add_option("--resample", opt->tracker.resample_hz,
+                  "Resample the trace at this rate (Hz; 0: as recorded)");
+    c->add_option("--noise-deg", opt->tracker.noise_deg,
+                  "Gaussian orientation noise (deg, std dev)");
+    c->add_option("--latency-us", *latency_us, "Tracker transport latency (us)")
+        ->check(CLI::NonNegativeNumber);
+    c->add_option("--jitter-us", *jitter_us, "Tracker arrival jitter (us, uniform)")
+        ->check(CLI::NonNegativeNumber);
     c->add_option("--seed", opt->tracker.seed, "Seed for noise and jitter");
-    c->add_option("--lod-tolerance-px", opt->node.lod.tolerance_px, "LOD pixel tolerance at the gaze point");
+    c->add_option("--lod-tolerance-px", opt->node.lod.tolerance_px,
+                  "LOD pixel tolerance at the gaze point");
     c->add_flag("--quiet", *quiet, "Print only the summary");
 
     c->callback([=] {
@@ -56,7 +71,8 @@ void add_replay_command(CLI::App& app) {
             o.on_frame = [](const FrameRecord& f) {
                 if (f.index % 90 == 0)
                     std::fprintf(stderr, "\rframe %llu  latency %.1f ms  error %.2f deg   ",
-                                 (unsigned long long)f.index, f.latency_ms, f.registration_error_deg);
+                                 (unsigned long long)f.index, f.latency_ms,
+                                 f.registration_error_deg);
             };
         Result<ReplayResult> r = run_replay(o);
         if (!*quiet) std::fprintf(stderr, "\r%60s\r", "");
@@ -67,7 +83,8 @@ void add_replay_command(CLI::App& app) {
         }
         std::fputs(replay_summary_table(*r).c_str(), stdout);
         if (!o.report.empty()) std::printf("report: %s\n", o.report.c_str());
-        if (!o.display.frames_dir.empty()) std::printf("frames: %s\n", o.display.frames_dir.c_str());
+        if (!o.display.frames_dir.empty())
+            std::printf("frames: %s\n", o.display.frames_dir.c_str());
     });
 }
 

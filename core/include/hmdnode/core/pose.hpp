@@ -12,16 +12,20 @@
 namespace hmdnode {
 
 struct Pose {
-    int64_t time_ns = 0;                            // host time the pose is valid at
-    glm::dquat orientation{1.0, 0.0, 0.0, 0.0};     // head-to-world rotation
-    glm::dvec3 position{0.0};                       // metres, world
-    std::optional<glm::dvec3> angular_velocity;     // rad/s, world frame
-    std::optional<glm::dvec3> linear_velocity;      // m/s, world frame
+    int64_t time_ns = 0;                         // host time the pose is valid at
+    glm::dquat orientation{1.0, 0.0, 0.0, 0.0};  // head-to-world rotation
+    glm::dvec3 position{0.0};                    // metres, world
+    std::optional<glm::dvec3> angular_velocity;  // rad/s, world frame
+    std::optional<glm::dvec3> linear_velocity;   // m/s, world frame
 };
 
 constexpr double kPi = 3.14159265358979323846;
-constexpr double deg_to_rad(double d) { return d * kPi / 180.0; }
-constexpr double rad_to_deg(double r) { return r * 180.0 / kPi; }
+constexpr double deg_to_rad(double d) {
+    return d * kPi / 180.0;
+}
+constexpr double rad_to_deg(double r) {
+    return r * 180.0 / kPi;
+}
 
 // q or -q, whichever lies in the same hemisphere as ref (dot >= 0).
 glm::dquat same_hemisphere(const glm::dquat& q, const glm::dquat& ref);

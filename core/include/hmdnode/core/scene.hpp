@@ -107,7 +107,7 @@ struct SceneObject {
     glm::dmat4 world{1.0};
     glm::dvec3 bounds_center{0.0};  // world-space bounding sphere of level 0
     double bounds_radius = 0.0;
-    std::vector<LodLevel> levels;   // size >= 1
+    std::vector<LodLevel> levels;  // size >= 1
 };
 
 // Flattens the node hierarchy of the default scene into objects with world transforms and LOD

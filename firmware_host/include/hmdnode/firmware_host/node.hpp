@@ -33,7 +33,8 @@ struct FrameCostModel {
     double per_triangle_ns = 40.0;  // both eyes (one multiview pass)
     double per_pixel_ns = 2.0;      // both eyes
     int64_t cost_ns(uint64_t triangles, uint64_t pixels) const {
-        return base_ns + int64_t(per_triangle_ns * double(triangles) + per_pixel_ns * double(pixels));
+        return base_ns +
+               int64_t(per_triangle_ns * double(triangles) + per_pixel_ns * double(pixels));
     }
 };
 
@@ -62,7 +63,7 @@ struct FrameRecord {
     double angular_speed_dps = 0.0;
     bool on_time = false;
     uint64_t triangles = 0;
-    double render_ms = 0.0;  // measured wall time of the render call (record, GPU, read-back)
+    double render_ms = 0.0;      // measured wall time of the render call (record, GPU, read-back)
     double frame_cost_ms = 0.0;  // on the node's clock: wake to present
     std::vector<int> levels;     // LOD level per object (index as in objects())
     std::vector<double> eccentricity_deg;  // per object
@@ -73,7 +74,7 @@ struct FrameRecord {
 using TruthFn = std::function<std::optional<glm::dquat>(int64_t host_time_ns)>;
 
 class NodeRuntime {
-public:
+  public:
     // All references must outlive the runtime. The scene is flattened and uploaded by start().
     NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Renderer& renderer,
                 const Scene& scene, const NodeConfig& config);
@@ -101,7 +102,7 @@ public:
     // The last rendered frame (empty unless config.read_back).
     const StereoImage& last_frame() const { return frame_; }
 
-private:
+  private:
     void drain_tracker();
     StereoViews views_for(const Pose& head) const;
 

@@ -14,15 +14,15 @@
 namespace hmdnode {
 
 struct PoseHistoryConfig {
-    size_t capacity = 4096;                       // samples kept (4 s at 1 kHz)
-    int64_t max_extrapolation_ns = 50'000'000;    // beyond newest + this, the pose is held
-    int64_t velocity_window_ns = 20'000'000;      // finite-difference span for angular velocity
+    size_t capacity = 4096;                     // samples kept (4 s at 1 kHz)
+    int64_t max_extrapolation_ns = 50'000'000;  // beyond newest + this, the pose is held
+    int64_t velocity_window_ns = 20'000'000;    // finite-difference span for angular velocity
 };
 
 enum class PoseQuery { Empty, Interpolated, Extrapolated, ClampedOld, ClampedNew };
 
 class PoseHistory {
-public:
+  public:
     explicit PoseHistory(const PoseHistoryConfig& config = {});
 
     // Samples must come in increasing time; an older or equal time is ignored (returns false).
@@ -40,13 +40,15 @@ public:
     // The pose at t_ns (see the file comment). out_kind says how it was obtained.
     Pose pose_at(int64_t t_ns, PoseQuery* out_kind = nullptr) const;
 
-private:
-    const TrackerSample& at(size_t i) const { return ring_[(head_ + ring_.size() - count_ + i) % ring_.size()]; }
+  private:
+    const TrackerSample& at(size_t i) const {
+        return ring_[(head_ + ring_.size() - count_ + i) % ring_.size()];
+    }
     Pose to_pose(const TrackerSample& s) const;
 
     PoseHistoryConfig config_;
     std::vector<TrackerSample> ring_;
-    size_t head_ = 0;   // next write slot
+    size_t head_ = 0;  // next write slot
     size_t count_ = 0;
 };
 

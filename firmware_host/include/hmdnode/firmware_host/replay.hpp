@@ -21,15 +21,15 @@ namespace hmdnode {
 struct ReplayOptions {
     std::filesystem::path scene;
     std::filesystem::path trace;
-    std::filesystem::path report;      // empty: no JSON report
+    std::filesystem::path report;  // empty: no JSON report
     bool simulated_clock = true;
-    double start_s = 0.0;              // offset into the trace
-    double duration_s = 0.0;           // 0: to the end
-    int64_t max_frames = 0;            // 0: no limit
-    SimTrackerConfig tracker;          // host_start/start_offset/duration are filled in by replay
+    double start_s = 0.0;      // offset into the trace
+    double duration_s = 0.0;   // 0: to the end
+    int64_t max_frames = 0;    // 0: no limit
+    SimTrackerConfig tracker;  // host_start/start_offset/duration are filled in by replay
     MockDisplayConfig display;
     NodeConfig node;
-    RendererConfig renderer;           // eye size is taken from the display
+    RendererConfig renderer;                           // eye size is taken from the display
     std::function<void(const FrameRecord&)> on_frame;  // progress (optional)
 };
 
@@ -44,8 +44,8 @@ struct ReplaySummary {
     Percentiles render_ms;
     double on_time_rate = 0.0;
     double triangles_mean = 0.0;
-    double replayed_s = 0.0;          // trace time covered
-    double wall_s = 0.0;              // wall time the replay took
+    double replayed_s = 0.0;  // trace time covered
+    double wall_s = 0.0;      // wall time the replay took
 };
 
 struct ReplayResult {

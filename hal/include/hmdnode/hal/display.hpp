@@ -19,16 +19,16 @@ struct DisplayInfo {
 };
 
 struct PresentResult {
-    uint64_t frame_index = 0;       // counts presents
-    int64_t target_vsync_ns = 0;    // the vsync the frame was meant for
-    int64_t vsync_ns = 0;           // the vsync it was shown at (later than target when late)
-    int64_t photon_time_ns = 0;     // photons of the panel centre (scan-out of the middle row +
-                                    // half the persistence)
-    bool on_time = false;           // vsync_ns == target_vsync_ns
+    uint64_t frame_index = 0;     // counts presents
+    int64_t target_vsync_ns = 0;  // the vsync the frame was meant for
+    int64_t vsync_ns = 0;         // the vsync it was shown at (later than target when late)
+    int64_t photon_time_ns = 0;   // photons of the panel centre (scan-out of the middle row +
+                                  // half the persistence)
+    bool on_time = false;         // vsync_ns == target_vsync_ns
 };
 
 class Display {
-public:
+  public:
     virtual ~Display() = default;
 
     // Any thread.

@@ -14,12 +14,13 @@ struct MockDisplayConfig {
     int eye_width = 540;
     int eye_height = 600;
     double refresh_hz = 90.0;
-    int64_t vsync_epoch_ns = 0;        // a vsync happens at epoch + k * period
-    double scanout_fraction = 1.0;     // rolling scan-out: top to bottom row over this part of a period
+    int64_t vsync_epoch_ns = 0;  // a vsync happens at epoch + k * period
+    double scanout_fraction =
+        1.0;  // rolling scan-out: top to bottom row over this part of a period
     int64_t persistence_ns = 2'000'000;  // each row glows this long after it is scanned
     int64_t latch_margin_ns = 500'000;   // a frame must arrive this long before its vsync
-    std::filesystem::path frames_dir;  // empty: no PNGs
-    int frames_every = 1;              // write every Nth presented frame
+    std::filesystem::path frames_dir;    // empty: no PNGs
+    int frames_every = 1;                // write every Nth presented frame
 };
 
 // Fails when the configuration is invalid (size, rate) or frames_dir cannot be created.

@@ -13,7 +13,7 @@ namespace hmdnode {
 
 template <class T>
 class SpscRing {
-public:
+  public:
     // capacity >= 2; rounded up to a power of two.
     explicit SpscRing(size_t capacity) {
         assert(capacity >= 2);
@@ -49,7 +49,7 @@ public:
         return true;
     }
 
-private:
+  private:
     static constexpr size_t kLine = 64;
     alignas(kLine) std::atomic<size_t> head_{0};
     size_t tail_cache_ = 0;  // producer's view of tail_

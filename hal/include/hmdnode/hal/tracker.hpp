@@ -41,7 +41,7 @@ struct TrackerCounters {
 };
 
 class Tracker {
-public:
+  public:
     virtual ~Tracker() = default;
 
     // Any thread.
