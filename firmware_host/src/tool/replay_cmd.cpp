@@ -59,6 +59,10 @@ void add_replay_command(CLI::App& app) {
                   "LOD pixel tolerance at the gaze point");
     c->add_flag("--quiet", *quiet, "Print only the summary");
 
+    // A later occurrence of an option wins, so scripts/demo's defaults can be overridden.
+    for (CLI::Option* o : c->get_options())
+        if (o->get_expected_max() == 1) o->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
+
     c->callback([=] {
         ReplayOptions o = *opt;
         o.simulated_clock = *clock == "sim";
