@@ -36,6 +36,10 @@ Percentiles percentiles(std::vector<double> v) {
     return p;
 }
 
+nlohmann::json percentiles_json(const Percentiles& p) {
+    return {{"p50", p.p50}, {"p95", p.p95}, {"p99", p.p99}, {"max", p.max}};
+}
+
 Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     const auto wall0 = std::chrono::steady_clock::now();
     Result<Scene> scene = load_gltf(opt.scene);
@@ -133,9 +137,6 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
 }
 
 namespace {
-nlohmann::json to_json(const Percentiles& p) {
-    return {{"p50", p.p50}, {"p95", p.p95}, {"p99", p.p99}, {"max", p.max}};
-}
 nlohmann::json finite_or_null(double v) {
     return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json();
 }
@@ -181,9 +182,9 @@ nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& 
             {"trace_samples", r.trace_samples},
             {"summary",
              {{"frames", s.frames},
-              {"latency_ms", to_json(s.latency_ms)},
-              {"registration_error_deg", to_json(s.registration_error_deg)},
-              {"render_ms", to_json(s.render_ms)},
+              {"latency_ms", percentiles_json(s.latency_ms)},
+              {"registration_error_deg", percentiles_json(s.registration_error_deg)},
+              {"render_ms", percentiles_json(s.render_ms)},
               {"on_time_rate", s.on_time_rate},
               {"triangles_mean", s.triangles_mean},
               {"replayed_s", s.replayed_s},

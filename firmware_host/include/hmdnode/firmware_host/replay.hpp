@@ -57,6 +57,8 @@ struct ReplayResult {
 };
 
 Percentiles percentiles(std::vector<double> values);
+// {"p50", "p95", "p99", "max"}, as the report and the daemon's status file write them.
+nlohmann::json percentiles_json(const Percentiles& p);
 
 // Runs the whole replay and, if options.report is set, writes the JSON report atomically. Fails
 // (and writes no report) on a bad scene or trace, or a renderer/display error.
