@@ -1,0 +1,61 @@
+// Mesh simplification: every algorithm of the source papers behind one entry point, selectable by
+// name (`hmdnode lod --algorithm NAME`). Each algorithm lives in its own file under lod/src/ that
+// opens with the paper it implements and its cost; lod/src/algorithms.hpp is the private table.
+//
+// Pure functions over caller-owned data: no I/O, no globals; `progress` is called on the calling
+// thread.
+#pragma once
+
+#include <cstddef>
+#include <functional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "hmdnode/core/result.hpp"
+#include "hmdnode/core/scene.hpp"
+
+namespace hmdnode {
+
+struct SimplifyOptions {
+    // Open borders (edges with one face) keep their vertices where they are.
+    bool lock_borders = false;
+    // Called now and then with the fraction of the work done, 0..1.
+    std::function<void(double)> progress;
+    // For randomised steps, so that runs are reproducible.
+    uint32_t seed = 1;
+};
+
+struct SimplifiedLevel {
+    Primitive primitive;
+    // The algorithm's own estimate of the geometric error, in the primitive's units (metres of
+    // its space), or a negative number when it has none. The measured error comes from
+    // mesh_distance.hpp.
+    double estimated_error = -1.0;
+};
+
+struct AlgorithmInfo {
+    std::string name;     // as given to --algorithm: "qem", "curvature-qem", "formula1", ...
+    std::string summary;  // one line for --help
+    std::string source;   // the paper (and formula) it implements
+    bool edge_collapse = false;  // true: ordered edge collapses, so progressive meshes and --step
+};
+
+// Every algorithm, in the order --help lists them.
+const std::vector<AlgorithmInfo>& simplification_algorithms();
+// nullptr when there is no algorithm of that name.
+const AlgorithmInfo* find_simplification_algorithm(std::string_view name);
+
+// Simplifies `in` (an indexed triangle list; split vertices at UV / normal / colour seams are
+// welded by position inside and the seams kept) once per target, targets in triangles, strictly
+// decreasing, each below in.triangle_count(). Returns one level per target, in the same order,
+// each with at most max(target, what the algorithm can reach) triangles: an algorithm that cannot
+// reach a target (clustering granularity, locked borders, seams) returns the closest it reached.
+// Edge-collapse algorithms make all levels in one pass. Errors: unknown algorithm, empty input,
+// targets not strictly decreasing or zero.
+Result<std::vector<SimplifiedLevel>> simplify(const Primitive& in, std::string_view algorithm,
+                                              std::span<const size_t> target_triangles,
+                                              const SimplifyOptions& options = {});
+
+}  // namespace hmdnode
