@@ -18,4 +18,35 @@ using AlgorithmFn = Result<std::vector<SimplifiedLevel>> (*)(const Primitive& in
                                                              std::span<const size_t> targets,
                                                              const SimplifyOptions& options);
 
+// Edge collapse on one shared engine (lod/src/collapse_engine.*), one cost per file.
+Result<std::vector<SimplifiedLevel>> simplify_qem(const Primitive&, std::span<const size_t>,
+                                                  const SimplifyOptions&);
+Result<std::vector<SimplifiedLevel>> simplify_curvature_qem(const Primitive&,
+                                                            std::span<const size_t>,
+                                                            const SimplifyOptions&);
+Result<std::vector<SimplifiedLevel>> simplify_formula1(const Primitive&, std::span<const size_t>,
+                                                       const SimplifyOptions&);
+Result<std::vector<SimplifiedLevel>> simplify_melax(const Primitive&, std::span<const size_t>,
+                                                    const SimplifyOptions&);
+// 001: vertex clustering, vertex removal and their hybrids, on OpenMesh connectivity.
+Result<std::vector<SimplifiedLevel>> simplify_ss(const Primitive&, std::span<const size_t>,
+                                                 const SimplifyOptions&);
+Result<std::vector<SimplifiedLevel>> simplify_fad(const Primitive&, std::span<const size_t>,
+                                                  const SimplifyOptions&);
+Result<std::vector<SimplifiedLevel>> simplify_vt(const Primitive&, std::span<const size_t>,
+                                                 const SimplifyOptions&);
+Result<std::vector<SimplifiedLevel>> simplify_ivdd(const Primitive&, std::span<const size_t>,
+                                                   const SimplifyOptions&);
+Result<std::vector<SimplifiedLevel>> simplify_vtd(const Primitive&, std::span<const size_t>,
+                                                  const SimplifyOptions&);
+Result<std::vector<SimplifiedLevel>> simplify_fass(const Primitive&, std::span<const size_t>,
+                                                   const SimplifyOptions&);
+// Uniform-grid vertex clustering (vertex_clustering.cpp) and OpenMesh's own Decimater with
+// ModQuadric (the baseline the benchmark compares with).
+Result<std::vector<SimplifiedLevel>> simplify_grid(const Primitive&, std::span<const size_t>,
+                                                   const SimplifyOptions&);
+Result<std::vector<SimplifiedLevel>> simplify_openmesh_quadric(const Primitive&,
+                                                               std::span<const size_t>,
+                                                               const SimplifyOptions&);
+
 }  // namespace hmdnode::lod_detail
