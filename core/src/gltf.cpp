@@ -578,6 +578,9 @@ Material convert_material(const tinygltf::Model& m, const tinygltf::Material& sr
     out.base_color_texture = texture_ref(m, src.pbrMetallicRoughness.baseColorTexture.index,
                                          label + " baseColorTexture");
     out.double_sided = src.doubleSided;
+    if (src.emissiveFactor.size() == 3)
+        out.emissive_factor = glm::vec3(float(src.emissiveFactor[0]), float(src.emissiveFactor[1]),
+                                        float(src.emissiveFactor[2]));
     auto ext = src.extensions.find("MOZ_lightmap");
     if (ext != src.extensions.end()) {
         const tinygltf::Value& v = ext->second;

@@ -232,6 +232,7 @@ std::string build(const Scene& s, ModelBuilder* b) {
         mat.pbrMetallicRoughness.baseColorTexture.index = src.base_color_texture;
         mat.pbrMetallicRoughness.metallicFactor = 0.0;
         mat.doubleSided = src.double_sided;
+        mat.emissiveFactor = {src.emissive_factor.r, src.emissive_factor.g, src.emissive_factor.b};
         if (src.lightmap.texture >= 0) {
             tinygltf::Value::Object lm;
             lm["index"] = tinygltf::Value(src.lightmap.texture);

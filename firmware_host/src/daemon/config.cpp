@@ -76,9 +76,12 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
 
     json t = j.value("tracker", json::object());
     if (r.check_keys(t, "tracker",
-                     {"type", "trace", "loop", "resample_hz", "noise_deg", "latency_us",
-                      "jitter_us", "seed"})) {
-        std::string type = "sim", trace;
+                     {"type", "backend", "device", "serial", "trace", "loop", "resample_hz",
+                      "noise_deg", "latency_us", "jitter_us", "seed"})) {
+        std::string type = "sim", trace, backend, device, serial;
+        r.get(t, "backend", &backend);
+        r.get(t, "device", &device);
+        r.get(t, "serial", &serial);
         double latency_us = 1000.0, jitter_us = 0.0;
         r.get(t, "type", &type);
         r.get(t, "trace", &trace);
@@ -90,8 +93,26 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         r.get(t, "seed", &c.tracker.seed);
         if (type != "sim")
             r.fail("tracker.type \"" + type + "\" is not available in this build (available: sim)");
-        if (trace.empty()) r.fail("\"tracker.trace\" is required for tracker type sim");
-        c.trace = resolve(trace);
+        // note: "type": "sim" (the older key) is the backend "sim-trace".
+        c.tracker_backend = backend.empty() ? "sim-trace" : backend;
+        if (c.tracker_backend != "sim-trace" && c.tracker_backend != "hidapi" &&
+            c.tracker_backend != "libusb" && c.tracker_backend != "sim-device")
+            r.fail("tracker.backend \"" + c.tracker_backend +
+                   "\" is not one of sim-trace, hidapi, libusb, sim-device");
+        if (c.tracker_backend == "sim-trace") {
+            if (trace.empty())
+                r.fail("\"tracker.trace\" is required for tracker backend sim-trace");
+        } else {
+            Result<DeviceFilter> f = parse_vid_pid(std::string_view(
+                device.empty() && c.tracker_backend == "sim-device" ? "1209:0001" : device));
+            if (!f.ok())
+                r.fail("tracker.device: " + f.error().message + " (required for backend " +
+                       c.tracker_backend + ")");
+            else
+                c.tracker_device = *f;
+            if (!serial.empty()) c.tracker_device.serial = serial;
+        }
+        if (!trace.empty()) c.trace = resolve(trace);
         c.tracker.latency_ns = int64_t(latency_us * 1000.0);
         c.tracker.jitter_ns = int64_t(jitter_us * 1000.0);
     }

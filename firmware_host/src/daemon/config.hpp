@@ -8,6 +8,7 @@
 #include "hmdnode/firmware_host/node.hpp"
 #include "hmdnode/hal/mock_display.hpp"
 #include "hmdnode/hal/sim_tracker.hpp"
+#include "hmdnode/hal/transport.hpp"
 
 namespace hmdnode {
 
@@ -18,6 +19,11 @@ struct DaemonConfig {
     bool simulated_clock = false;
     int64_t max_frames = 0;
     SimTrackerConfig tracker;
+    // "sim-trace" (SimTracker replaying `trace`), "hidapi", "libusb" (a real device through the
+    // DeviceTracker) or "sim-device" (the simulated reference tracker through the DeviceTracker;
+    // its motion is `trace` when given, else synthetic).
+    std::string tracker_backend = "sim-trace";
+    DeviceFilter tracker_device;  // "device": "VID:PID", "serial"
     MockDisplayConfig display;
     NodeConfig node;
     std::filesystem::path status_path;  // empty: none

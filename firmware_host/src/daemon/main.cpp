@@ -16,6 +16,8 @@
 #include "hmdnode/core/trace.hpp"
 #include "hmdnode/firmware_host/node.hpp"
 #include "hmdnode/firmware_host/replay.hpp"
+#include "hmdnode/hal/device_tracker.hpp"
+#include "hmdnode/hal/sim_reference_device.hpp"
 
 namespace {
 volatile std::sig_atomic_t g_stop = 0;
@@ -48,12 +50,15 @@ int main(int argc, char** argv) {
         spdlog::error("{}", scene.error().message);
         return 2;
     }
-    Result<Trace> trace_r = read_trace_csv(cfg->trace);
-    if (!trace_r.ok()) {
-        spdlog::error("{}", trace_r.error().message);
-        return 2;
+    std::shared_ptr<const Trace> trace;  // sim-trace replays it; sim-device moves along it
+    if (!cfg->trace.empty()) {
+        Result<Trace> trace_r = read_trace_csv(cfg->trace);
+        if (!trace_r.ok()) {
+            spdlog::error("{}", trace_r.error().message);
+            return 2;
+        }
+        trace = std::make_shared<const Trace>(std::move(trace_r).value());
     }
-    auto trace = std::make_shared<const Trace>(std::move(trace_r).value());
 
     std::unique_ptr<Clock> clock;
     if (cfg->simulated_clock)
@@ -61,14 +66,41 @@ int main(int argc, char** argv) {
     else
         clock = std::make_unique<SystemClock>();
 
-    auto make_tracker = [&]() {
-        SimTrackerConfig tc = cfg->tracker;
-        tc.host_start_ns = clock->now_ns();
-        return create_sim_tracker(trace, *clock, tc);
+    // A device tracker (hidapi, libusb, sim-device) reconnects by itself and never finishes.
+    DeviceTracker* device_tracker = nullptr;
+    auto make_tracker = [&]() -> Result<std::unique_ptr<Tracker>> {
+        if (cfg->tracker_backend == "sim-trace") {
+            SimTrackerConfig tc = cfg->tracker;
+            tc.host_start_ns = clock->now_ns();
+            return create_sim_tracker(trace, *clock, tc);
+        }
+        std::unique_ptr<TransportBackend> backend;
+        if (cfg->tracker_backend == "sim-device") {
+            SimReferenceDeviceConfig sc;
+            sc.vendor_id = cfg->tracker_device.vendor_id;
+            sc.product_id = cfg->tracker_device.product_id;
+            if (!cfg->tracker_device.serial.empty()) sc.serial = cfg->tracker_device.serial;
+            backend = create_sim_reference_backend(
+                *clock, sc,
+                trace ? motion_from_trace(trace, clock->now_ns()) : sinusoidal_motion());
+        } else {
+            auto b = create_transport_backend(cfg->tracker_backend);
+            if (!b.ok()) return b.error();
+            backend = std::move(*b);
+        }
+        DeviceTrackerConfig tc;
+        tc.filter = cfg->tracker_device;
+        auto t = create_device_tracker(
+            std::move(backend),
+            make_codec_for(cfg->tracker_device.vendor_id, cfg->tracker_device.product_id), *clock,
+            tc);
+        if (!t.ok()) return t.error();
+        device_tracker = t->get();
+        return std::unique_ptr<Tracker>(std::move(*t));
     };
     Result<std::unique_ptr<Tracker>> tracker = make_tracker();
     if (!tracker.ok()) {
-        spdlog::error("{}: {}", cfg->trace.string(), tracker.error().message);
+        spdlog::error("tracker {}: {}", cfg->tracker_backend, tracker.error().message);
         return 2;
     }
     MockDisplayConfig dc = cfg->display;
@@ -91,11 +123,31 @@ int main(int argc, char** argv) {
         spdlog::error("{}", st.error().message);
         return 2;
     }
+    // note: the frame loop waits for the tracker's first sample without looking at signals; a
+    // device that is not plugged in yet is waited for here instead, where SIGTERM still works.
+    if (device_tracker && !clock->is_simulated()) {
+        int64_t next_log = clock->now_ns();
+        while (!g_stop && device_tracker->status().samples == 0) {
+            if (clock->now_ns() >= next_log) {
+                const DeviceTrackerStatus ts = device_tracker->status();
+                spdlog::info(
+                    "waiting for tracker {} via {}{}{}",
+                    format_vid_pid(cfg->tracker_device.vendor_id, cfg->tracker_device.product_id),
+                    cfg->tracker_backend, ts.last_error.empty() ? "" : ": ", ts.last_error);
+                next_log = clock->now_ns() + 5 * kNsPerSecond;
+            }
+            clock->sleep_until_ns(clock->now_ns() + 50 * kNsPerMs);
+        }
+    }
     spdlog::info(
-        "hmdnoded: scene {} ({} objects), trace {} ({} samples), {}x{} per eye at {} Hz, renderer "
-        "{}",
-        cfg->scene.string(), node.objects().size(), cfg->trace.string(), trace->samples.size(),
-        dc.eye_width, dc.eye_height, dc.refresh_hz, (*renderer)->device_name());
+        "hmdnoded: scene {} ({} objects), tracker {} {} ({} trace samples), {}x{} per eye at {} "
+        "Hz, renderer {}",
+        cfg->scene.string(), node.objects().size(), cfg->tracker_backend,
+        cfg->tracker_backend == "sim-trace"
+            ? cfg->trace.string()
+            : format_vid_pid(cfg->tracker_device.vendor_id, cfg->tracker_device.product_id),
+        trace ? trace->samples.size() : 0, dc.eye_width, dc.eye_height, dc.refresh_hz,
+        (*renderer)->device_name());
 
     // Status window: the frames since the last status write.
     std::vector<double> lat, reg;
@@ -140,6 +192,23 @@ int main(int argc, char** argv) {
                                 {"window_frames", window_frames},
                                 {"on_time_rate", double(window_on_time) / double(window_frames)},
                                 {"latency_ms", percentiles_json(p)}};
+            if (device_tracker) {
+                // Recovery figures: a replug shows as a disconnect and the gap it left.
+                const DeviceTrackerStatus ts = device_tracker->status();
+                s["tracker"] = {{"connected", ts.connected},
+                                {"opens", ts.opens},
+                                {"disconnects", ts.disconnects},
+                                {"last_gap_ms", ns_to_ms(ts.last_gap_ns)},
+                                {"total_gap_ms", ns_to_ms(ts.total_gap_ns)},
+                                {"samples", ts.samples},
+                                {"clock_offset_ms", ns_to_ms(ts.clock_offset_ns)},
+                                {"clock_jitter_ms", ts.clock_jitter_ns * 1e-6},
+                                {"sequence_gaps", ts.codec.sequence_gaps},
+                                {"malformed_reports", ts.codec.malformed},
+                                {"last_error", ts.last_error}};
+                if (!ts.connected)
+                    spdlog::warn("tracker disconnected ({}); holding the last pose", ts.last_error);
+            }
             if (!cfg->status_path.empty())
                 if (Status ws = write_file_atomically(cfg->status_path, s.dump(1)); !ws.ok())
                     spdlog::warn("{}", ws.error().message);

@@ -1,5 +1,5 @@
 // The demo scene generator (docs/demo-scene.md): room geometry with a packed lightmap atlas,
-// source meshes from OBJ, LOD chains by vertex clustering, direct-light bake, .glb.
+// source meshes from OBJ, LOD chains by QEM with measured error, path-traced bake, .glb.
 #include "hmdnode/firmware_host/demo_scene.hpp"
 
 #include <algorithm>
@@ -12,9 +12,11 @@
 
 #include <glm/gtc/quaternion.hpp>
 
-#include "hmdnode/bake/direct_bake.hpp"
+#include "hmdnode/bake/bake.hpp"
 #include "hmdnode/core/gltf.hpp"
 #include "hmdnode/core/obj.hpp"
+#include "hmdnode/lod/mesh_distance.hpp"
+#include "hmdnode/lod/simplify.hpp"
 #include "hmdnode/lod/vertex_clustering.hpp"
 
 namespace hmdnode {
@@ -31,7 +33,6 @@ constexpr float kMaxTexelsPerM = 40.0f;
 // 8-bit lightmap's range (set by its brightest texel) is spent on what the viewer looks at.
 constexpr float kLampIntensityCd = 11.0f;
 constexpr float kLampY = 2.5f;
-constexpr float kAmbientRadiance = 0.1f;
 // MSFT_screencoverage: level k is good enough while its error projects under kToleranceScreen of
 // the screen height (1 px of 1000).
 constexpr double kToleranceScreen = 1e-3;
@@ -258,7 +259,7 @@ struct ObjectReport {
 };
 
 // Adds `base` as level 0 of an object on a new root node, then one non-root node per coarser
-// level (clustered from the original, same transform), with errors and screen coverages.
+// level (simplified from the original, same transform), with errors and screen coverages.
 ObjectReport add_lod_object(Builder& b, const std::string& name, Primitive base, int material,
                             const std::vector<size_t>& targets, glm::dvec3 at, double yaw_deg,
                             double scale) {
@@ -277,18 +278,36 @@ ObjectReport add_lod_object(Builder& b, const std::string& name, Primitive base,
     }
     const double diameter = glm::length(hi - lo);
     std::vector<double> errors{0.0};
+    // Levels by the LOD generator's QEM (lod/simplify.hpp, all targets in one pass), each with
+    // its measured symmetric Hausdorff distance to level 0 (lod/mesh_distance.hpp) as its error;
+    // uniform-grid clustering with its displacement bound only if QEM fails.
+    std::vector<Primitive> levels;
+    std::vector<double> level_errors;
+    Result<std::vector<SimplifiedLevel>> made = simplify(base, "qem", targets);
+    MeshDistanceOptions distance;
+    distance.samples = 100'000;  // keeps the build-time generation within a few seconds
     for (size_t k = 0; k < targets.size(); ++k) {
-        ClusteredLevel lvl = cluster_to_triangle_count(base, targets[k]);
+        if (made.ok()) {
+            levels.push_back(std::move((*made)[k].primitive));
+            level_errors.push_back(measure_mesh_distance(base, levels.back(), distance).hausdorff);
+        } else {
+            ClusteredLevel lvl = cluster_to_triangle_count(base, targets[k]);
+            levels.push_back(std::move(lvl.primitive));
+            level_errors.push_back(lvl.max_displacement_m);
+        }
+    }
+    for (size_t k = 0; k < targets.size(); ++k) {
+        const double error_m = level_errors[k];
         const std::string lname = name + "_lod" + std::to_string(k + 1);
         int mk = b.mesh(lname);
-        b.scene.meshes[mk].primitives.push_back(std::move(lvl.primitive));
+        levels[k].material = material;
+        b.scene.meshes[mk].primitives.push_back(std::move(levels[k]));
         int nk = b.node(lname, mk, at, yaw_deg, scale, /*root=*/false);
-        b.scene.nodes[nk].geometric_error_m = lvl.max_displacement_m;
+        b.scene.nodes[nk].geometric_error_m = error_m;
         b.scene.nodes[n0].lod_ids.push_back(nk);
-        errors.push_back(lvl.max_displacement_m);
-        report.levels.push_back(LevelReport{b.scene.meshes[mk].triangle_count(),
-                                            lvl.max_displacement_m,
-                                            lvl.max_displacement_m * scale});
+        errors.push_back(error_m);
+        report.levels.push_back(
+            LevelReport{b.scene.meshes[mk].triangle_count(), error_m, error_m * scale});
     }
     // Coverage (fraction of the screen height) below which level k+1's error projects under the
     // tolerance: diameter / error_{k+1} * tolerance; the last level is kept down to 0.
@@ -425,18 +444,22 @@ Result<Scene> make_demo_scene(const fs::path& data_dir, std::string* out_summary
     }
     const double t_lod = seconds_since(t_lod0);
 
-    // Bake.
+    // Bake: global illumination by the Embree path tracer (docs/baking.md "Demo scene"), with
+    // modest settings so the build-time generation stays a few seconds: 8 paths per texel with
+    // fireflies clamped (the A-trous denoiser smooths the rest), 2 per vertex sample, 2 bounces;
+    // the lightmap's 8-bit range is set by the 98th percentile texel (the insides of the lamp
+    // shades clamp). Deterministic for any thread count.
     const Clock::time_point t_bake0 = Clock::now();
-    DirectBakeOptions bake_opt;
-    bake_opt.ambient_radiance =
-        glm::vec3(kAmbientRadiance * 0.95f, kAmbientRadiance, kAmbientRadiance * 1.08f);
-    bake_opt.dilation_texels = 2;
-    bake_opt.texel_samples = 3;  // antialiased shadow and lamp-shade edges
-    DirectLighting lighting(b.scene, bake_opt);
-    Result<std::vector<LightmapBake>> maps = bake_lightmaps(b.scene, lighting, bake_opt);
-    if (!maps) return make_error("demo scene: " + maps.error().message);
-    const double t_lightmap = seconds_since(t_bake0);
-    const size_t vertices = bake_vertex_colors(b.scene, lighting);
+    BakeOptions bake_opt;
+    bake_opt.samples = 8;
+    bake_opt.firefly_factor = 4.0f;
+    bake_opt.vertex_samples = 2;
+    bake_opt.bounces = 2;
+    bake_opt.validity_rays = 4;
+    bake_opt.intensity_percentile = 0.98;
+    bake_opt.seed = 1;
+    Result<BakeReport> baked = bake_scene(b.scene, bake_opt);
+    if (!baked) return make_error("demo scene: " + baked.error().message);
     const double t_bake = seconds_since(t_bake0);
 
     if (out_summary) {
@@ -459,18 +482,17 @@ Result<Scene> make_demo_scene(const fs::path& data_dir, std::string* out_summary
                     r.levels[k].triangles, r.levels[k].error_world_m, r.levels[k].error_mesh_m);
             s += "\n";
         }
-        for (const LightmapBake& m : *maps)
+        for (const BakedMap& m : baked->maps)
             add("lightmap %dx%d at %.0f texels/m, %zu charts: %zu texels covered (%.0f %%), %zu "
-                "dilated, "
-                "intensity %.3f\n",
-                m.width, m.height, texels_per_m, b.charts.size(), m.covered_texels,
-                100.0 * double(m.covered_texels) / double(m.width * m.height), m.dilated_texels,
+                "invalid, %zu dilated, intensity %.3f\n",
+                m.width, m.height, texels_per_m, b.charts.size(), m.covered,
+                100.0 * double(m.covered) / double(m.width * m.height), m.invalid, m.dilated,
                 m.intensity);
-        add("baked vertices %zu; %zu shadow-casting triangles\n", vertices,
-            lighting.occluders().triangle_count());
-        add("time: load %.2f s, lod %.2f s, bake %.2f s (lightmap %.2f s, vertices %.2f s), total "
-            "%.2f s\n",
-            t_load, t_lod, t_bake, t_lightmap, t_bake - t_lightmap, seconds_since(t_start));
+        add("baked vertices %zu; %zu triangles traced, %.1f M rays (%.1f M rays/s)\n",
+            baked->vertices, baked->triangles, double(baked->rays) / 1e6,
+            baked->rays_per_second / 1e6);
+        add("time: load %.2f s, lod %.2f s, bake %.2f s, total %.2f s\n", t_load, t_lod, t_bake,
+            seconds_since(t_start));
         *out_summary = std::move(s);
     }
     return std::move(b.scene);

@@ -14,6 +14,7 @@
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/gltf.hpp"
 #include "hmdnode/core/trace.hpp"
+#include "hmdnode/hal/device_tracker.hpp"
 
 namespace hmdnode {
 
@@ -44,12 +45,15 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     const auto wall0 = std::chrono::steady_clock::now();
     Result<Scene> scene = load_gltf(opt.scene);
     if (!scene.ok()) return scene.error();
-    Result<Trace> trace_r = read_trace_csv(opt.trace);
-    if (!trace_r.ok())
-        return make_error(
-            trace_r.error().message +
-            " (replay reads hmdnode trace CSV; convert other tables with `hmdnode trace import`)");
-    auto trace = std::make_shared<const Trace>(std::move(trace_r).value());
+    std::shared_ptr<const Trace> trace;  // none for a capture: no truth to compare with
+    if (opt.capture.empty()) {
+        Result<Trace> trace_r = read_trace_csv(opt.trace);
+        if (!trace_r.ok())
+            return make_error(trace_r.error().message +
+                              " (replay reads hmdnode trace CSV; convert other tables with "
+                              "`hmdnode trace import`)");
+        trace = std::make_shared<const Trace>(std::move(trace_r).value());
+    }
 
     std::unique_ptr<Clock> clock;
     if (opt.simulated_clock)
@@ -62,7 +66,13 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     tc.host_start_ns = host_start;
     tc.start_offset_ns = s_to_ns(opt.start_s);
     tc.duration_ns = s_to_ns(opt.duration_s);
-    Result<std::unique_ptr<Tracker>> tracker = create_sim_tracker(trace, *clock, tc);
+    Result<std::unique_ptr<Tracker>> tracker =
+        trace ? create_sim_tracker(trace, *clock, tc) : make_error("");
+    if (!trace) {  // the device's reports through the same decoder, clock sync and fusion as live
+        auto t = create_capture_tracker(opt.capture, opt.capture_device, *clock, host_start);
+        if (!t.ok()) return t.error();
+        tracker = std::unique_ptr<Tracker>(std::move(*t));
+    }
     if (!tracker.ok()) return make_error(opt.trace.string() + ": " + tracker.error().message);
 
     MockDisplayConfig dc = opt.display;
@@ -80,10 +90,13 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     if (Status st = node.start(); !st.ok()) return st.error();
 
     // Truth for registration error: the trace itself, slerped, at the photon time.
-    const int64_t trace_t0 = trace->start_ns() + tc.start_offset_ns;
-    const int64_t trace_end =
-        tc.duration_ns > 0 ? std::min(trace->end_ns(), trace_t0 + tc.duration_ns) : trace->end_ns();
+    const int64_t trace_t0 = trace ? trace->start_ns() + tc.start_offset_ns : 0;
+    const int64_t trace_end = !trace ? 0
+                              : tc.duration_ns > 0
+                                  ? std::min(trace->end_ns(), trace_t0 + tc.duration_ns)
+                                  : trace->end_ns();
     TruthFn truth = [&](int64_t host_ns) -> std::optional<glm::dquat> {
+        if (!trace) return std::nullopt;
         const int64_t t = host_ns - host_start + trace_t0;
         if (t > trace_end) return std::nullopt;  // past the recording: no truth
         return trace->pose_at(t).orientation;

@@ -21,8 +21,10 @@ void add_replay_command(CLI::App& app) {
                                      "Replay a head trace through tracking, LOD selection, "
                                      "stereo rendering and a mock headset; write a report");
     c->add_option("--scene", opt->scene, "Scene (.glb/.gltf)")->required();
-    c->add_option("--trace", opt->trace, "Trace in hmdnode CSV (see `hmdnode trace import`)")
-        ->required();
+    c->add_option("--trace", opt->trace, "Trace in hmdnode CSV (see `hmdnode trace import`)");
+    c->add_option("--capture", opt->capture,
+                  "Instead of --trace: a usbmon capture (pcap or pcap.gz) to replay");
+    c->add_option("--device", opt->capture_device, "VID:PID of the --capture device (hex)");
     c->add_option("--report", opt->report, "JSON report to write");
     c->add_option("--frames", *frames_dir, "Directory for PNG frames (both eyes side by side)");
     c->add_option("--frames-every", opt->display.frames_every, "Write every Nth frame")
@@ -65,6 +67,14 @@ void add_replay_command(CLI::App& app) {
 
     c->callback([=] {
         ReplayOptions o = *opt;
+        if (o.trace.empty() == o.capture.empty() ||
+            (!o.capture.empty() && o.capture_device.empty())) {
+            std::fprintf(stderr,
+                         "hmdnode replay: error: give --trace FILE, or --capture FILE "
+                         "--device VID:PID\n");
+            set_exit_code(2);
+            return;
+        }
         o.simulated_clock = *clock == "sim";
         o.display.frames_dir = *frames_dir;
         o.display.persistence_ns = ms_to_ns(*persistence_ms);

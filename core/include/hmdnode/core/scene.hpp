@@ -33,6 +33,7 @@ struct Material {
     int base_color_texture = -1;  // texture index; sampled with TEXCOORD_0, sRGB
     Lightmap lightmap;            // lightmap.texture == -1: no lightmap
     bool double_sided = false;
+    glm::vec3 emissive_factor{0.0f};  // emissiveFactor: linear emitted radiance (baker light)
 };
 
 // One indexed triangle list. Attribute arrays are either empty or have positions.size() entries.

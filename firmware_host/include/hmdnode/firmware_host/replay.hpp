@@ -21,7 +21,9 @@ namespace hmdnode {
 struct ReplayOptions {
     std::filesystem::path scene;
     std::filesystem::path trace;
-    std::filesystem::path report;  // empty: no JSON report
+    std::filesystem::path capture;  // instead of trace: a usbmon capture (pcap[.gz]) ...
+    std::string capture_device;     // ... and the "VID:PID" of its device to replay
+    std::filesystem::path report;   // empty: no JSON report
     bool simulated_clock = true;
     double start_s = 0.0;      // offset into the trace
     double duration_s = 0.0;   // 0: to the end

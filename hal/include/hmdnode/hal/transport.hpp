@@ -7,6 +7,7 @@
 // No backend type (hid_device, libusb_device_handle, pcap_t) appears here.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -14,6 +15,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "hmdnode/core/result.hpp"
@@ -69,13 +71,83 @@ class Transport {
     virtual bool finished() const { return false; }
 };
 
-// Discovers and opens devices of one backend.
+// A device arriving or leaving, as a hotplug monitor saw it.
+struct HotplugEvent {
+    enum class Kind { arrived, left };
+    Kind kind = Kind::arrived;
+    DeviceId id;  // for `left`, what the monitor knew of it (at least the path)
+};
+
+// Watches one backend's devices come and go. One thread at a time calls wait().
+class HotplugMonitor {
+  public:
+    virtual ~HotplugMonitor() = default;
+    // Waits up to timeout_ms (0: poll, -1: forever) for one event matching the filter the monitor
+    // was created with. nullopt on a timeout; an error when the monitor itself failed.
+    virtual Result<std::optional<HotplugEvent>> wait(int timeout_ms) = 0;
+};
+
+// Discovers and opens devices of one backend. Unless a backend says otherwise, one thread at a
+// time uses a backend and the transports it opened.
 class TransportBackend {
   public:
     virtual ~TransportBackend() = default;
     virtual std::string name() const = 0;  // "hidapi", "libusb", "sim", "capture"
     virtual Result<std::vector<DeviceId>> enumerate(const DeviceFilter& filter) = 0;
     virtual Result<std::unique_ptr<Transport>> open(const DeviceId& id) = 0;
+    // Hotplug notices for devices matching `filter`; an error when the backend (or the platform)
+    // cannot provide them -- the caller then polls enumerate() instead.
+    virtual Result<std::unique_ptr<HotplugMonitor>> watch(const DeviceFilter& filter) {
+        (void)filter;
+        return make_error(name() + ": hotplug notices are not supported");
+    }
 };
+
+// "28de:2000" (hex, case-insensitive, 1-4 digits each) -> a filter on that vendor/product id, or
+// "28de:2000:SERIAL" with a serial too. Errors name the text and what is wrong with it.
+Result<DeviceFilter> parse_vid_pid(std::string_view text);
+// "28de:2000", lower-case, four digits each.
+std::string format_vid_pid(uint16_t vendor_id, uint16_t product_id);
+
+// Options of the real backends.
+struct TransportBackendOptions {
+    // libusb: let libusb detach the kernel driver (usbhid) while the interface is claimed and
+    // re-attach it on close (libusb_set_auto_detach_kernel_driver).
+    bool detach_kernel_driver = true;
+    // libusb: asynchronous interrupt-in transfers kept in flight (>= 1).
+    int transfers_in_flight = 8;
+    // hidapi hotplug: "udev" (events after udevd applied the rules; needs udevd) or "kernel"
+    // (raw kernel uevents; works with no udevd, e.g. in a bare initramfs).
+    std::string udev_event_source = "udev";
+};
+
+// The backend called `name`: "hidapi" (hidraw) or "libusb". ("sim" devices are made by
+// create_sim_reference_backend, sim_reference_device.hpp; captures by t1's capture backend.)
+Result<std::unique_ptr<TransportBackend>> create_transport_backend(
+    const std::string& name, const TransportBackendOptions& options = {});
+Result<std::unique_ptr<TransportBackend>> create_hidapi_backend(
+    const TransportBackendOptions& options = {});
+Result<std::unique_ptr<TransportBackend>> create_libusb_backend(
+    const TransportBackendOptions& options = {});
+
+// HID class-specific control requests (HID 1.11 §7.2), as the libusb backend sends them for
+// feature reports. Pure functions, exposed so their bytes can be tested.
+enum class HidReportType : uint8_t { input = 1, output = 2, feature = 3 };
+struct UsbSetupPacket {
+    uint8_t request_type = 0;  // bmRequestType
+    uint8_t request = 0;       // bRequest
+    uint16_t value = 0;        // wValue
+    uint16_t index = 0;        // wIndex
+    uint16_t length = 0;       // wLength
+    // The 8 bytes on the wire (little-endian words).
+    std::array<uint8_t, 8> bytes() const;
+};
+// GET_REPORT: bmRequestType 0xA1 (device-to-host, class, interface), bRequest 0x01,
+// wValue = (type << 8) | report_id, wIndex = interface, wLength = length.
+UsbSetupPacket hid_get_report_setup(HidReportType type, uint8_t report_id, uint16_t interface,
+                                    uint16_t length);
+// SET_REPORT: bmRequestType 0x21 (host-to-device, class, interface), bRequest 0x09.
+UsbSetupPacket hid_set_report_setup(HidReportType type, uint8_t report_id, uint16_t interface,
+                                    uint16_t length);
 
 }  // namespace hmdnode

@@ -1,0 +1,87 @@
+// The bake pipeline (docs/baking.md): UV atlas -> texel rasterisation -> texel validity /
+// back-face push-off -> path-traced irradiance per texel -> dilation of invalid and gutter texels
+// -> edge-aware A-trous denoise -> seam blending -> encoding (EXR master + scaled PNG in the glTF
+// with MOZ_lightmap.intensity), and per-vertex COLOR_0 for the primitives without a lightmap (or
+// all, with `vertex`).
+//
+// Stored quantity: linear irradiance E (texel x intensity); the renderer's diffuse is
+// albedo x E / pi (docs/formats.md). Vertex colours: COLOR_0 = (E / pi, 1).
+//
+// Deterministic: texel t of map m draws its random numbers from Pcg32(seed, hash(m, t)), so a
+// given seed gives the same result for any thread count.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "hmdnode/core/result.hpp"
+#include "hmdnode/core/scene.hpp"
+
+namespace hmdnode {
+
+struct BakeOptions {
+    double texels_per_metre = 0.0;  // > 0: build a UV atlas for primitives without uv1 / lightmap
+    int samples = 64;               // paths per texel (>= 1)
+    int bounces = 3;                // reflections (>= 0)
+    int threads = 0;                // 0: all cores
+    uint64_t seed = 1;
+    bool vertex = false;  // per-vertex COLOR_0 for every primitive, no lightmaps
+    glm::vec3 sky_radiance{0.0f};
+    int strata = 2;                   // n x n candidate sample points per texel
+    int validity_rays = 8;            // per sample (0: no validity pass)
+    float validity_threshold = 0.1f;  // invalid when more of its rays see back faces (Unity's
+                                      // default backface tolerance 0.9)
+    int dilate_rings = 4;
+    int denoise_iterations = 3;  // 0: off
+    int seam_iterations = 64;    // seam-blend sweeps (0: off)
+    // > 0 (and samples >= 4): a path brighter than this x the mean of the texel's other paths is
+    // clamped to it (firefly suppression; biased). 0: off, the unbiased estimate.
+    float firefly_factor = 0.0f;
+    int vertex_samples = 0;  // paths per vertex-oracle call (0: samples)
+    // MOZ_lightmap.intensity = this quantile of the texels' max channel: the 8-bit range goes to
+    // the bulk of the map and the brightest 0.1 % (e.g. next to a bulb) clamp in the PNG (the EXR
+    // master keeps them). 1: the maximum, nothing clamps.
+    double intensity_percentile = 0.999;
+    std::string exr_prefix;  // non-empty: write <prefix><k>.exr (linear E) per map
+};
+
+struct BakedMap {
+    int texture = -1;
+    int width = 0, height = 0;
+    float intensity = 1.0f;
+    size_t covered = 0, invalid = 0, dilated = 0, pushed_samples = 0, seams = 0;
+    std::vector<glm::vec3> raw;      // E before dilation and denoising (0 where uncovered)
+    std::vector<glm::vec3> final_e;  // E as encoded (before 8-bit quantisation)
+    std::vector<uint8_t> valid;      // covered and valid texels
+    std::filesystem::path exr;       // written master, if any
+};
+
+struct BakeReport {
+    std::vector<BakedMap> maps;
+    size_t texels = 0;     // covered texels over all maps
+    size_t vertices = 0;   // baked vertex colours
+    uint64_t rays = 0;     // all rays cast (validity + paths)
+    double seconds = 0.0;  // wall time of the whole bake
+    double trace_seconds = 0.0;
+    double rays_per_second = 0.0;  // rays / trace_seconds
+    size_t triangles = 0;
+    std::vector<std::string> warnings;
+};
+
+// progress(fraction in [0, 1]) is called from the calling thread now and then.
+using BakeProgress = std::function<void(double fraction)>;
+
+// Errors: no punctual light, no emissive material and no sky (nothing to bake); non-finite
+// positions (mesh / vertex named); a mesh too large for the atlas at the requested density;
+// lightmap textures without a size. Missing base-colour textures are warnings. On error the
+// scene may be partly modified: callers write it out only on success.
+Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
+                              const BakeProgress& progress = {});
+
+}  // namespace hmdnode

@@ -1,0 +1,129 @@
+// A CPU path tracer on Embree 3 for baking diffuse global illumination (docs/baking.md).
+//
+// Scene: every object of flatten_objects() at its level 0, in world space, one Embree triangle
+// geometry; per triangle its material's Lambertian albedo (base colour factor x base-colour
+// texture at uv0, bilinear, sRGB -> linear) and emission (emissive_factor, front side only unless
+// the material is double-sided). Lights: KHR_lights_punctual (point, spot, directional, with the
+// range window and cone of direct_bake.hpp), emissive triangles, a constant sky radiance for rays
+// that escape.
+//
+// Estimators (one sample each; average many):
+//   irradiance(p, n):  E = integral of L_in cos over the hemisphere of n, with next-event
+//     estimation of punctual lights and emissive triangles (area sampling proportional to power)
+//     combined with the cosine-sampled continuation by the balance heuristic (MIS), so an emitter
+//     is never counted twice; sky only through escaping rays. `bounces` reflections at most
+//     between a light and p (0: direct light only), Russian roulette after rr_min_bounces
+//     (unbiased).
+//   radiance(o, d):  the radiance arriving at o from direction -d (camera rays): emission of the
+//     first hit + albedo / pi x irradiance there.
+// A back face of a single-sided material absorbs (it is the inside of a closed object).
+//
+// Threads: build on one thread; a built PathTracer is immutable and its queries run on any number
+// of threads at once. Callers give each thread / texel its own Pcg32, seeded from (seed, texel
+// index), so results do not depend on the thread count.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+
+#include <glm/glm.hpp>
+
+#include "hmdnode/core/result.hpp"
+#include "hmdnode/core/scene.hpp"
+
+namespace hmdnode {
+
+// PCG32 (O'Neill 2014, pcg32_random_r): 64-bit state, stream selected by `stream`.
+class Pcg32 {
+  public:
+    Pcg32(uint64_t seed, uint64_t stream) : inc_((stream << 1u) | 1u) {
+        next();
+        state_ += seed;
+        next();
+    }
+    uint32_t next() {
+        uint64_t old = state_;
+        state_ = old * 6364136223846793005ULL + inc_;
+        uint32_t xorshifted = uint32_t(((old >> 18u) ^ old) >> 27u);
+        uint32_t rot = uint32_t(old >> 59u);
+        return (xorshifted >> rot) | (xorshifted << ((-rot) & 31));
+    }
+    // Uniform in [0, 1).
+    float uniform() { return float(next() >> 8) * (1.0f / 16777216.0f); }
+
+  private:
+    uint64_t state_ = 0;
+    uint64_t inc_;
+};
+
+struct PathTracerOptions {
+    glm::vec3 sky_radiance{0.0f};  // radiance of rays that leave the scene (W/sr/m^2 units of E)
+    int bounces = 3;               // reflections between a light and the point, >= 0
+    int rr_min_bounces = 3;        // Russian roulette on reflections after this many
+};
+
+struct TraceHit {
+    float t = 0.0f;
+    uint32_t triangle = 0;
+    float u = 0.0f, v = 0.0f;     // barycentrics of corners 1 and 2
+    glm::vec3 face_normal{0.0f};  // unit, winding (front) side
+    bool front = true;            // the ray arrived on the front side
+    bool double_sided = false;    // the triangle's material is double-sided (no back face)
+};
+
+// Sets flush-to-zero and denormals-are-zero on the calling thread (Embree's recommendation).
+void set_ftz_daz();
+
+// Runs fn(i, thread) for i in [0, count) on `threads` threads (0: all cores), FTZ/DAZ set on each,
+// in chunks of `chunk` items taken in order from a shared counter.
+void parallel_for(size_t count, int threads, size_t chunk,
+                  const std::function<void(size_t i, int thread)>& fn);
+int resolve_threads(int threads);
+
+class PathTracer {
+  public:
+    // Errors: a non-finite world position (mesh, primitive and vertex named), Embree failing.
+    static Result<PathTracer> build(const Scene& scene, const PathTracerOptions& options);
+    PathTracer(PathTracer&&) noexcept;
+    PathTracer& operator=(PathTracer&&) noexcept;
+    ~PathTracer();
+
+    // One-sample estimates; `rays` (optional) is incremented by the rays cast.
+    glm::vec3 irradiance(const glm::vec3& p, const glm::vec3& n, Pcg32& rng,
+                         uint64_t* rays = nullptr) const;
+    glm::vec3 radiance(const glm::vec3& origin, const glm::vec3& dir, Pcg32& rng,
+                       uint64_t* rays = nullptr) const;
+    // Direct light only (punctual lights + emitters by NEE + sky by one cosine sample).
+    glm::vec3 direct_irradiance(const glm::vec3& p, const glm::vec3& n, Pcg32& rng,
+                                uint64_t* rays = nullptr) const;
+
+    std::optional<TraceHit> intersect(const glm::vec3& origin, const glm::vec3& dir, float t_near,
+                                      float t_far) const;
+    bool occluded(const glm::vec3& origin, const glm::vec3& dir, float t_near, float t_far) const;
+
+    // Distance to lift a ray origin off a surface at p (scales with the scene's extent).
+    float ray_offset(const glm::vec3& p) const;
+    size_t triangle_count() const;
+    size_t emissive_triangle_count() const;
+    size_t punctual_light_count() const;
+    bool has_light() const;  // some punctual light, emissive triangle or a non-zero sky
+    const PathTracerOptions& options() const;
+    glm::vec3 bounds_min() const;
+    glm::vec3 bounds_max() const;
+    // Warnings from the build (e.g. missing textures: base colour only).
+    const std::vector<std::string>& warnings() const;
+
+    // The limit for the benchmark: `count` rays with origins uniform in the scene bounds and
+    // uniform directions, plain rtcIntersect1 on `threads` threads. Returns rays per second.
+    double raw_rays_per_second(size_t count, int threads, uint64_t seed) const;
+
+  private:
+    struct Impl;
+    explicit PathTracer(std::unique_ptr<Impl> impl);
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace hmdnode

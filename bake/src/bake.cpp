@@ -1,0 +1,312 @@
+// The bake pipeline (bake.hpp): the order of the passes and their bookkeeping; each pass is its
+// own file (uv_atlas, texel_raster, texel_validity, path_tracer, atrous_denoise, dilate,
+// seam_blend, lightmap_encode, vertex_bake). Monte Carlo estimation of the texel mean
+// irradiance: N paths per texel, path j starting at the texel's sample j mod S (S stratified
+// sample points), so the texel's area is covered evenly (stratified sampling, Owen 2013 ch. 10).
+// Cost: O(texels x samples x bounces) rays; memory O(texels) per map.
+#include "hmdnode/bake/bake.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <set>
+#include <string>
+
+#include "hmdnode/bake/lightmap_encode.hpp"
+#include "hmdnode/bake/path_tracer.hpp"
+#include "hmdnode/bake/texel_raster.hpp"
+#include "hmdnode/bake/uv_atlas.hpp"
+#include "hmdnode/bake/vertex_bake.hpp"
+#include "lightmap_passes.hpp"
+
+namespace hmdnode {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) {
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+uint64_t mix(uint64_t a, uint64_t b) {
+    uint64_t z = a * 0x9e3779b97f4a7c15ULL + b + 0x632be59bd9b4e019ULL;
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    return z ^ (z >> 31);
+}
+
+bool has_lightmap(const Scene& scene, const Primitive& prim) {
+    return prim.material >= 0 && size_t(prim.material) < scene.materials.size() &&
+           scene.materials[prim.material].lightmap.texture >= 0 &&
+           prim.uv1.size() == prim.positions.size();
+}
+
+float luminance(const glm::vec3& c) {
+    return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b;
+}
+
+// Winsorises outliers: every sample brighter than `factor` x the mean luminance of the others
+// (all but the brightest) is scaled down to that. Biased (dark), but only for rare, very bright
+// paths -- the fireflies of low sample counts (e.g. a path that finds a lamp's hot shade).
+void clamp_fireflies(std::vector<glm::vec3>& values, float factor) {
+    size_t brightest = 0;
+    double total = 0.0;
+    for (size_t i = 0; i < values.size(); ++i) {
+        total += luminance(values[i]);
+        if (luminance(values[i]) > luminance(values[brightest])) brightest = i;
+    }
+    const double others = (total - luminance(values[brightest])) / double(values.size() - 1);
+    if (!(others > 0.0)) return;
+    const float limit = float(factor * others);
+    for (glm::vec3& v : values) {
+        const float l = luminance(v);
+        if (l > limit) v *= limit / l;
+    }
+}
+
+}  // namespace
+
+Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
+                              const BakeProgress& progress) {
+    const Clock::time_point t0 = Clock::now();
+    BakeReport report;
+    if (options.samples < 1) return make_error("samples must be >= 1");
+    if (options.bounces < 0) return make_error("bounces must be >= 0");
+
+    // Is there any light at all?
+    bool emissive = false;
+    for (const Material& m : scene.materials)
+        if (m.emissive_factor.r > 0.0f || m.emissive_factor.g > 0.0f || m.emissive_factor.b > 0.0f)
+            emissive = true;
+    const bool sky = options.sky_radiance.r > 0.0f || options.sky_radiance.g > 0.0f ||
+                     options.sky_radiance.b > 0.0f;
+    if (scene.lights.empty() && !emissive && !sky)
+        return make_error(
+            "nothing to bake: the scene has no KHR_lights_punctual light, no emissive material, "
+            "and the sky is black (give --sky R,G,B or add a light)");
+
+    // 1. Atlas.
+    if (!options.vertex && options.texels_per_metre > 0.0) {
+        AtlasOptions ao;
+        ao.texels_per_metre = options.texels_per_metre;
+        Result<AtlasReport> atlas = build_uv_atlas(scene, ao);
+        if (!atlas) return atlas.error();
+        for (const std::string& s : atlas->kept_without_lightmap)
+            report.warnings.push_back(s +
+                                      " keeps its TEXCOORD_1 but has no lightmap material: "
+                                      "baked as vertex colours");
+    }
+
+    // 2. Tracer.
+    PathTracerOptions po;
+    po.sky_radiance = options.sky_radiance;
+    po.bounces = options.bounces;
+    Result<PathTracer> built = PathTracer::build(scene, po);
+    if (!built) return built.error();
+    const PathTracer& tracer = *built;
+    report.triangles = tracer.triangle_count();
+    for (const std::string& w : tracer.warnings()) report.warnings.push_back(w);
+
+    const Clock::time_point t_trace0 = Clock::now();
+    std::atomic<uint64_t> total_rays{0};
+
+    // 3. Lightmaps.
+    if (!options.vertex) {
+        Result<std::vector<TexelRaster>> rasters = rasterize_texels(scene, options.strata);
+        if (!rasters) return rasters.error();
+        size_t total_texels = 0;
+        for (const TexelRaster& r : *rasters) total_texels += r.covered;
+        size_t done_texels = 0;
+        for (size_t mi = 0; mi < rasters->size(); ++mi) {
+            TexelRaster& r = (*rasters)[mi];
+            const size_t n = size_t(r.width) * r.height;
+            BakedMap map;
+            map.texture = r.texture;
+            map.width = r.width;
+            map.height = r.height;
+            map.covered = r.covered;
+            // Validity and push-off.
+            if (options.validity_rays > 0) {
+                detail::ValidityResult v = detail::fix_texel_validity(
+                    r, tracer, options.validity_rays, options.validity_threshold, options.threads,
+                    mix(options.seed, 0x76616c6964ULL + mi));
+                map.valid = std::move(v.valid);
+                map.invalid = v.invalid;
+                map.pushed_samples = v.pushed;
+                total_rays += v.rays;
+            } else {
+                map.valid.assign(n, 0);
+                for (size_t i = 0; i < n; ++i) map.valid[i] = r.is_covered(i) ? 1 : 0;
+            }
+            // Trace.
+            map.raw.assign(n, glm::vec3(0.0f));
+            std::vector<float> stddev(n, 0.0f);
+            std::vector<glm::vec3> normals(n, glm::vec3(0.0f)), positions(n, glm::vec3(0.0f));
+            std::vector<uint64_t> rays(n, 0);
+            std::atomic<size_t> finished{0};
+            double last_report = -1.0;
+            const int samples = options.samples;
+            parallel_for(n, options.threads, 16, [&](size_t texel, int thread) {
+                const uint32_t b = r.first[texel], e = r.first[texel + 1];
+                if (b == e) return;
+                glm::vec3 nsum(0.0f), psum(0.0f);
+                for (uint32_t s = b; s < e; ++s) {
+                    nsum += r.samples[s].normal;
+                    psum += r.samples[s].position;
+                }
+                const float nl = glm::length(nsum);
+                normals[texel] = nl > 0.0f ? nsum / nl : r.samples[b].face_normal;
+                positions[texel] = psum / float(e - b);
+                if (map.valid[texel]) {
+                    Pcg32 rng(options.seed, mix(mi + 1, texel));
+                    glm::vec3 sum(0.0f);
+                    double l1 = 0.0, l2 = 0.0;
+                    uint64_t rc = 0;
+                    thread_local std::vector<glm::vec3> values;
+                    values.clear();
+                    for (int j = 0; j < samples; ++j) {
+                        const TexelSample& s = r.samples[b + uint32_t(j) % (e - b)];
+                        glm::vec3 v = tracer.irradiance(s.position, s.normal, rng, &rc);
+                        if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
+                            v = glm::vec3(0.0f);
+                        values.push_back(v);
+                    }
+                    if (options.firefly_factor > 0.0f && samples >= 4)
+                        clamp_fireflies(values, options.firefly_factor);
+                    for (const glm::vec3& v : values) {
+                        sum += v;
+                        const double l = luminance(v);
+                        l1 += l;
+                        l2 += l * l;
+                    }
+                    map.raw[texel] = sum / float(samples);
+                    const double mean = l1 / samples;
+                    const double var = std::max(0.0, l2 / samples - mean * mean);
+                    stddev[texel] = float(std::sqrt(var / samples));
+                    rays[texel] = rc;
+                }
+                const size_t f = ++finished;
+                if (thread == 0 && progress) {
+                    const double frac =
+                        double(done_texels + f) / double(std::max<size_t>(1, total_texels));
+                    if (frac - last_report >= 0.005) {
+                        last_report = frac;
+                        progress(std::min(1.0, frac));
+                    }
+                }
+            });
+            done_texels += r.covered;
+            for (uint64_t x : rays) total_rays += x;
+            // Denoise the valid texels, then fill invalid and gutter texels.
+            map.final_e = map.raw;
+            if (options.denoise_iterations > 0) {
+                double size_sum = 0.0;
+                size_t size_n = 0;
+                for (size_t i = 0; i < n; ++i)
+                    if (map.valid[i]) {
+                        size_sum += r.texel_size_m[i];
+                        ++size_n;
+                    }
+                const float texel_m = size_n ? float(size_sum / size_n) : 0.01f;
+                detail::atrous_denoise(map.final_e, map.valid, normals, positions, stddev, r.width,
+                                       r.height, options.denoise_iterations, 2.0f * texel_m, 4.0f);
+            }
+            std::vector<uint8_t> filled = map.valid;
+            // Invalid texels inside charts: fill until done (bounded by the map size).
+            std::vector<uint8_t> want(n, 0);
+            for (size_t i = 0; i < n; ++i) want[i] = r.is_covered(i) && !map.valid[i];
+            size_t rings = 0;
+            for (bool more = map.invalid > 0; more && rings < size_t(r.width + r.height); ++rings) {
+                map.dilated += detail::dilate(map.final_e, filled, r.width, r.height, 1);
+                more = false;
+                for (size_t i = 0; i < n && !more; ++i) more = want[i] && !filled[i];
+            }
+            map.dilated += detail::dilate(map.final_e, filled, r.width, r.height,
+                                          std::max(0, options.dilate_rings));
+            for (size_t i = 0; i < n; ++i)
+                if (!filled[i]) map.final_e[i] = glm::vec3(0.0f);
+            if (options.seam_iterations > 0)
+                map.seams = detail::blend_seams(scene, r.texture, map.final_e, r.width, r.height,
+                                                options.seam_iterations);
+            // Encode: PNG-able RGBA8 + intensity in the glTF, EXR master beside the output.
+            HdrImage img;
+            img.width = r.width;
+            img.height = r.height;
+            img.rgb = map.final_e;
+            Result<float> intensity =
+                store_lightmap(scene, r.texture, img, options.intensity_percentile, filled);
+            if (!intensity) return intensity.error();
+            map.intensity = *intensity;
+            if (!options.exr_prefix.empty()) {
+                map.exr = options.exr_prefix + std::to_string(mi) + ".exr";
+                if (Status st = write_exr(map.exr, img); !st) return st.error();
+            }
+            report.texels += r.covered;
+            report.maps.push_back(std::move(map));
+        }
+    } else {
+        for (Material& m : scene.materials) m.lightmap.texture = -1;
+    }
+
+    // 4. Vertex colours for every primitive without a lightmap. The oracle is called in a
+    // deterministic order on this thread: a first pass records the query points, the irradiance
+    // is traced in parallel, and a second pass replays the answers in the same order.
+    const int vsamples = options.vertex_samples > 0 ? options.vertex_samples : options.samples;
+    std::set<int> done_meshes;
+    uint64_t query_base = 0;
+    for (const SceneObject& obj : flatten_objects(scene)) {
+        for (size_t li = 0; li < obj.levels.size(); ++li) {
+            const LodLevel& level = obj.levels[li];
+            if (!done_meshes.insert(level.mesh).second) continue;
+            // A coarse level's surface lies within its geometric error of level 0 (the traced
+            // geometry), often inside it: its points are lifted by twice that error along the
+            // normal before tracing, as direct_bake skips shadow hits that close.
+            const float lift = li == 0 ? 0.0f : float(2.0 * level.geometric_error_m);
+            for (Primitive& prim : scene.meshes[level.mesh].primitives) {
+                if (has_lightmap(scene, prim) || prim.positions.empty()) continue;
+                std::vector<std::pair<glm::vec3, glm::vec3>> queries;
+                IrradianceOracle record = [&](const glm::vec3& p, const glm::vec3& n) {
+                    queries.emplace_back(p, n);
+                    return glm::vec3(0.0f);
+                };
+                Result<std::vector<glm::vec3>> dry =
+                    vertex_irradiance_least_squares(prim, obj.world, record, 2);
+                if (!dry) return dry.error();
+                std::vector<glm::vec3> answers(queries.size());
+                std::vector<uint64_t> rays(queries.size(), 0);
+                parallel_for(queries.size(), options.threads, 16, [&](size_t q, int) {
+                    Pcg32 rng(options.seed, mix(0x7665727465ULL, query_base + q));
+                    glm::vec3 sum(0.0f);
+                    const glm::vec3 p = queries[q].first + queries[q].second * lift;
+                    for (int j = 0; j < vsamples; ++j)
+                        sum += tracer.irradiance(p, queries[q].second, rng, &rays[q]);
+                    answers[q] = sum / float(vsamples);
+                });
+                query_base += queries.size();
+                for (uint64_t x : rays) total_rays += x;
+                size_t next = 0;
+                IrradianceOracle replay = [&](const glm::vec3&, const glm::vec3&) {
+                    return next < answers.size() ? answers[next++] : glm::vec3(0.0f);
+                };
+                Result<std::vector<glm::vec3>> e =
+                    vertex_irradiance_least_squares(prim, obj.world, replay, 2);
+                if (!e) return e.error();
+                prim.colors.resize(prim.positions.size());
+                for (size_t i = 0; i < prim.positions.size(); ++i)
+                    prim.colors[i] = glm::vec4(
+                        glm::max((*e)[i], glm::vec3(0.0f)) / std::numbers::pi_v<float>, 1.0f);
+                report.vertices += prim.positions.size();
+            }
+        }
+    }
+    if (progress) progress(1.0);
+    report.rays = total_rays;
+    report.trace_seconds = seconds_since(t_trace0);
+    report.rays_per_second =
+        report.trace_seconds > 0.0 ? double(report.rays) / report.trace_seconds : 0.0;
+    report.seconds = seconds_since(t0);
+    return report;
+}
+
+}  // namespace hmdnode

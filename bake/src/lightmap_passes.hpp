@@ -1,0 +1,50 @@
+// Private: the lightmap passes of the bake pipeline (bake.cpp), one algorithm per file:
+// texel_validity.cpp, dilate.cpp, atrous_denoise.cpp.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "hmdnode/bake/path_tracer.hpp"
+#include "hmdnode/bake/texel_raster.hpp"
+#include "hmdnode/core/scene.hpp"
+
+namespace hmdnode::detail {
+
+struct ValidityResult {
+    std::vector<uint8_t> valid;  // per texel: 1 covered and valid
+    size_t invalid = 0;          // covered texels marked invalid
+    size_t pushed = 0;           // samples moved in front of a back face
+    uint64_t rays = 0;
+};
+
+// texel_validity.cpp: from every sample, `rays_per_sample` rays of length 1.5 x texel size over
+// the sphere; a back-face hit moves the sample in front of the nearest back face; a texel whose
+// back-face fraction exceeds `threshold` is invalid. Modifies the samples' positions.
+ValidityResult fix_texel_validity(TexelRaster& raster, const PathTracer& tracer,
+                                  int rays_per_sample, float threshold, int threads, uint64_t seed);
+
+// dilate.cpp: `rings` passes; each fills every texel without a value (valid == 0) that has valued
+// 8-neighbours with their mean and marks it valued. Returns the number of texels filled.
+size_t dilate(std::vector<glm::vec3>& texels, std::vector<uint8_t>& valid, int width, int height,
+              int rings);
+
+// atrous_denoise.cpp: edge-aware A-trous wavelet filter (Dammertz et al. 2010) over the texels
+// with mask != 0, guided by per-texel normal and position; `iterations` passes with step 2^i.
+// sigma_position_m scales the position weight (typically ~2 texel sizes); the luminance weight is
+// exp(-|l - l'| / (sigma_luminance x stddev + eps)) with stddev the texel's standard error.
+void atrous_denoise(std::vector<glm::vec3>& texels, const std::vector<uint8_t>& mask,
+                    const std::vector<glm::vec3>& normals, const std::vector<glm::vec3>& positions,
+                    const std::vector<float>& stddev, int width, int height, int iterations,
+                    float sigma_position_m, float sigma_luminance);
+
+// seam_blend.cpp: for every edge shared in 3-D (positions equal within 10 um) by two triangles of
+// primitives lightmapped into `texture` but split in uv1, samples the edge at 2 points per texel
+// on both sides and moves the texels of the two bilinear footprints so both sides read their mean
+// (`iterations` Gauss-Seidel sweeps). Returns the number of seam edges.
+size_t blend_seams(const Scene& scene, int texture, std::vector<glm::vec3>& texels, int width,
+                   int height, int iterations);
+
+}  // namespace hmdnode::detail

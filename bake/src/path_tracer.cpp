@@ -1,0 +1,529 @@
+// Unidirectional path tracing of diffuse irradiance (Kajiya, "The Rendering Equation", 1986),
+// with next-event estimation and multiple importance sampling by the balance heuristic (Veach &
+// Guibas, "Optimally Combining Sampling Techniques for Monte Carlo Rendering", 1995, sec. 3),
+// cosine-weighted hemisphere sampling (Malley's method), triangle area sampling (Turk 1990 /
+// Shirley's square-root mapping), Russian roulette (Arvo & Kirk 1990) and the branchless
+// orthonormal basis of Duff et al. 2017.
+//
+// Departures: Lambertian only (the baker stores irradiance; the renderer multiplies by albedo);
+// one light sample per vertex: the emissive triangles are one "light" chosen by power, punctual
+// lights are all evaluated (they are delta lights: no MIS); back faces of single-sided materials
+// absorb. Cost per sample: O(bounces x (2 + punctual lights)) rays of O(log T) each; memory
+// O(T) for the per-triangle data (corners, uv0, material, emitter CDF).
+#include "hmdnode/bake/path_tracer.hpp"
+
+#include <pmmintrin.h>
+#include <xmmintrin.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <string>
+#include <thread>
+
+#include "embree_scene.hpp"
+#include "hmdnode/bake/direct_bake.hpp"
+
+namespace hmdnode {
+namespace {
+
+constexpr float kPi = std::numbers::pi_v<float>;
+
+float srgb_to_linear(float c) {
+    return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
+}
+
+// Duff et al. 2017: tangent frame of unit n.
+void onb(const glm::vec3& n, glm::vec3& t, glm::vec3& b) {
+    float sign = std::copysign(1.0f, n.z);
+    const float a = -1.0f / (sign + n.z);
+    const float bb = n.x * n.y * a;
+    t = glm::vec3(1.0f + sign * n.x * n.x * a, sign * bb, -sign * n.x);
+    b = glm::vec3(bb, sign + n.y * n.y * a, -n.y);
+}
+
+glm::vec3 cosine_sample(const glm::vec3& n, Pcg32& rng) {
+    const float u1 = rng.uniform(), u2 = rng.uniform();
+    const float r = std::sqrt(u1), phi = 2.0f * kPi * u2;
+    glm::vec3 t, b;
+    onb(n, t, b);
+    const float z = std::sqrt(std::max(0.0f, 1.0f - u1));
+    return glm::normalize(t * (r * std::cos(phi)) + b * (r * std::sin(phi)) + n * z);
+}
+
+float max3(const glm::vec3& v) {
+    return std::max(v.x, std::max(v.y, v.z));
+}
+
+struct LinearTexture {
+    int w = 0, h = 0;
+    std::vector<glm::vec3> rgb;  // linear
+    glm::vec3 sample(glm::vec2 uv) const {
+        // Bilinear with repeat wrapping (glTF default sampler), texel centres at +0.5.
+        float x = uv.x * w - 0.5f, y = uv.y * h - 0.5f;
+        if (!std::isfinite(x) || !std::isfinite(y)) return rgb[0];
+        float fx = std::floor(x), fy = std::floor(y);
+        float ax = x - fx, ay = y - fy;
+        auto at = [&](long ix, long iy) {
+            ix %= w;
+            iy %= h;
+            if (ix < 0) ix += w;
+            if (iy < 0) iy += h;
+            return rgb[size_t(iy) * w + ix];
+        };
+        long ix = long(fx), iy = long(fy);
+        return (1 - ay) * ((1 - ax) * at(ix, iy) + ax * at(ix + 1, iy)) +
+               ay * ((1 - ax) * at(ix, iy + 1) + ax * at(ix + 1, iy + 1));
+    }
+};
+
+struct TriMaterial {
+    glm::vec3 albedo{0.8f};
+    glm::vec3 emission{0.0f};
+    int texture = -1;  // index into Impl::textures
+    bool double_sided = false;
+};
+
+}  // namespace
+
+void set_ftz_daz() {
+    _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
+    _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
+}
+
+int resolve_threads(int threads) {
+    if (threads > 0) return threads;
+    unsigned hc = std::thread::hardware_concurrency();
+    return hc > 0 ? int(hc) : 1;
+}
+
+void parallel_for(size_t count, int threads, size_t chunk,
+                  const std::function<void(size_t i, int thread)>& fn) {
+    threads = resolve_threads(threads);
+    chunk = std::max<size_t>(1, chunk);
+    std::atomic<size_t> next{0};
+    auto worker = [&](int thread) {
+        set_ftz_daz();
+        for (;;) {
+            size_t begin = next.fetch_add(chunk);
+            if (begin >= count) break;
+            size_t end = std::min(count, begin + chunk);
+            for (size_t i = begin; i < end; ++i) fn(i, thread);
+        }
+    };
+    if (threads == 1) {
+        worker(0);
+        return;
+    }
+    std::vector<std::thread> pool;
+    for (int t = 1; t < threads; ++t) pool.emplace_back(worker, t);
+    worker(0);
+    for (std::thread& t : pool) t.join();
+}
+
+struct PathTracer::Impl {
+    PathTracerOptions options;
+    detail::EmbreeScene embree;
+    std::vector<glm::vec3> corners;  // 3 per triangle, world
+    std::vector<glm::vec3> normals;  // 1 per triangle, unit face normal
+    std::vector<float> areas;
+    std::vector<glm::vec2> uv0;      // 3 per triangle (zero when absent)
+    std::vector<uint32_t> material;  // per triangle, index into mats
+    std::vector<TriMaterial> mats;
+    std::vector<LinearTexture> textures;
+    std::vector<WorldLight> lights;
+    // Emitters: triangles with emission, chosen with probability ~ luminance x area.
+    std::vector<uint32_t> emitters;
+    std::vector<float> emitter_cdf;       // inclusive, last = 1
+    std::vector<float> emitter_pdf_area;  // per triangle: P(choose) / area (0: not an emitter)
+    glm::vec3 lo{0.0f}, hi{0.0f};
+    float offset_scale = 1e-4f;
+    std::vector<std::string> warnings;
+
+    glm::vec3 albedo(uint32_t tri, float u, float v) const {
+        const TriMaterial& m = mats[material[tri]];
+        if (m.texture < 0) return m.albedo;
+        glm::vec2 uv = (1 - u - v) * uv0[3 * tri] + u * uv0[3 * tri + 1] + v * uv0[3 * tri + 2];
+        return m.albedo * textures[m.texture].sample(uv);
+    }
+
+    float offset(const glm::vec3& p) const {
+        return offset_scale *
+               (1.0f + std::max(std::abs(p.x), std::max(std::abs(p.y), std::abs(p.z))));
+    }
+
+    std::optional<TraceHit> intersect(const glm::vec3& o, const glm::vec3& d, float tn,
+                                      float tf) const {
+        std::optional<detail::EmbreeHit> h = embree.intersect(o, d, tn, tf);
+        if (!h) return std::nullopt;
+        TraceHit out;
+        out.t = h->t;
+        out.triangle = h->prim;
+        out.u = h->u;
+        out.v = h->v;
+        out.face_normal = normals[h->prim];
+        out.front = glm::dot(out.face_normal, d) < 0.0f;
+        out.double_sided = mats[material[h->prim]].double_sided;
+        return out;
+    }
+
+    // Punctual lights at p with normal n, shadowed (direct_bake.cpp's formula, Embree rays).
+    glm::vec3 punctual(const glm::vec3& p, const glm::vec3& n, uint64_t* rays) const {
+        glm::vec3 e(0.0f);
+        const glm::vec3 origin = p + n * offset(p);
+        for (const WorldLight& l : lights) {
+            glm::vec3 to_light;
+            float falloff, t_max;
+            if (l.type == Light::Type::Directional) {
+                to_light = -l.direction;
+                falloff = 1.0f;
+                t_max = std::numeric_limits<float>::infinity();
+            } else {
+                glm::vec3 d = l.position - p;
+                float dist = glm::length(d);
+                if (dist <= 0.0f) continue;
+                to_light = d / dist;
+                falloff = 1.0f / (dist * dist);
+                if (l.range > 0.0f) {
+                    float q = dist / l.range;
+                    falloff *= std::clamp(1.0f - q * q * q * q, 0.0f, 1.0f);
+                }
+                if (l.type == Light::Type::Spot) {
+                    float a =
+                        std::clamp(glm::dot(l.direction, -to_light) * l.cone_scale + l.cone_offset,
+                                   0.0f, 1.0f);
+                    falloff *= a * a;
+                }
+                glm::vec3 d2 = l.position - origin;
+                t_max = glm::length(d2);
+                to_light = d2 / t_max;
+            }
+            float cos_theta = glm::dot(n, to_light);
+            if (cos_theta <= 0.0f || falloff <= 0.0f) continue;
+            if (rays) ++*rays;
+            if (embree.occluded(origin, to_light, 0.0f, t_max)) continue;
+            e += l.intensity_rgb * (cos_theta * falloff);
+        }
+        return e;
+    }
+
+    // Solid-angle pdf of light sampling for direction arriving at emitter triangle `tri` at
+    // distance t with cos_l at the emitter.
+    float light_pdf(uint32_t tri, float t, float cos_l) const {
+        if (emitter_pdf_area.empty() || cos_l <= 0.0f) return 0.0f;
+        return emitter_pdf_area[tri] * t * t / cos_l;
+    }
+
+    // One emitter sample (MIS-weighted against cosine sampling) at p with normal n.
+    glm::vec3 emitter_sample(const glm::vec3& p, const glm::vec3& n, Pcg32& rng,
+                             uint64_t* rays) const {
+        if (emitters.empty()) return glm::vec3(0.0f);
+        const float u = rng.uniform();
+        size_t k = size_t(std::lower_bound(emitter_cdf.begin(), emitter_cdf.end(), u) -
+                          emitter_cdf.begin());
+        k = std::min(k, emitters.size() - 1);
+        const uint32_t tri = emitters[k];
+        float s = std::sqrt(rng.uniform()), r2 = rng.uniform();
+        const glm::vec3& a = corners[3 * tri];
+        const glm::vec3& b = corners[3 * tri + 1];
+        const glm::vec3& c = corners[3 * tri + 2];
+        const glm::vec3 q = (1 - s) * a + s * (1 - r2) * b + s * r2 * c;
+        const glm::vec3 origin = p + n * offset(p);
+        glm::vec3 d = q - origin;
+        const float dist = glm::length(d);
+        if (dist <= 0.0f) return glm::vec3(0.0f);
+        d /= dist;
+        const float cos_s = glm::dot(n, d);
+        if (cos_s <= 0.0f) return glm::vec3(0.0f);
+        const TriMaterial& m = mats[material[tri]];
+        float cos_l = -glm::dot(normals[tri], d);
+        if (m.double_sided) cos_l = std::abs(cos_l);
+        if (cos_l <= 0.0f) return glm::vec3(0.0f);
+        const float pdf_l = emitter_pdf_area[tri] * dist * dist / cos_l;
+        if (!(pdf_l > 0.0f)) return glm::vec3(0.0f);
+        if (rays) ++*rays;
+        if (embree.occluded(origin, d, 0.0f, dist * (1.0f - 1e-4f) - offset(q)))
+            return glm::vec3(0.0f);
+        const float pdf_b = cos_s / kPi;
+        const float w = pdf_l / (pdf_l + pdf_b);
+        return m.emission * (cos_s / pdf_l * w);
+    }
+
+    // Irradiance at (p, n) with up to `bounces` reflections.
+    glm::vec3 irradiance(const glm::vec3& p, const glm::vec3& n, Pcg32& rng, uint64_t* rays,
+                         int bounces) const {
+        glm::vec3 e = punctual(p, n, rays) + emitter_sample(p, n, rng, rays);
+        // Continuation: radiance along a cosine-sampled direction, times pi.
+        glm::vec3 x = p, nx = n;
+        glm::vec3 d = cosine_sample(nx, rng);
+        float pdf_b = glm::dot(nx, d) / kPi;
+        glm::vec3 beta(kPi);  // estimator weight: cos / pdf
+        for (int k = 0;; ++k) {
+            if (rays) ++*rays;
+            std::optional<TraceHit> h =
+                intersect(x + nx * offset(x), d, 0.0f, std::numeric_limits<float>::infinity());
+            if (!h) {
+                e += beta * options.sky_radiance;
+                break;
+            }
+            const TriMaterial& m = mats[material[h->triangle]];
+            if (!h->front && !m.double_sided) break;  // inside a closed object: absorbed
+            const glm::vec3 ns = h->front ? h->face_normal : -h->face_normal;
+            if (m.emission.x > 0.0f || m.emission.y > 0.0f || m.emission.z > 0.0f) {
+                const float pdf_l = light_pdf(h->triangle, h->t, glm::dot(ns, -d));
+                const float w = pdf_b / (pdf_b + pdf_l);
+                e += beta * m.emission * w;
+            }
+            if (k + 1 > bounces) break;
+            const glm::vec3 a = albedo(h->triangle, h->u, h->v);
+            if (max3(a) <= 0.0f) break;
+            x = x + nx * offset(x) + d * h->t;
+            nx = ns;
+            beta *= a / kPi;
+            e += beta * (punctual(x, nx, rays) + emitter_sample(x, nx, rng, rays));
+            beta *= kPi;  // cosine sampling: f cos / pdf = albedo
+            if (k + 1 >= options.rr_min_bounces) {
+                const float q = std::min(0.95f, max3(beta) / kPi);
+                if (rng.uniform() >= q) break;
+                beta /= q;
+            }
+            d = cosine_sample(nx, rng);
+            pdf_b = glm::dot(nx, d) / kPi;
+        }
+        return e;
+    }
+};
+
+PathTracer::PathTracer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+PathTracer::PathTracer(PathTracer&&) noexcept = default;
+PathTracer& PathTracer::operator=(PathTracer&&) noexcept = default;
+PathTracer::~PathTracer() = default;
+
+Result<PathTracer> PathTracer::build(const Scene& scene, const PathTracerOptions& options) {
+    auto impl = std::make_unique<Impl>();
+    impl->options = options;
+    impl->options.bounces = std::max(0, options.bounces);
+
+    // Textures used as base colour: decoded to linear once.
+    std::vector<int> tex_slot(scene.textures.size(), -1);
+    for (const Material& sm : scene.materials) {
+        TriMaterial m;
+        m.albedo = glm::vec3(sm.base_color_factor);
+        m.emission = glm::max(sm.emissive_factor, glm::vec3(0.0f));
+        m.double_sided = sm.double_sided;
+        const int t = sm.base_color_texture;
+        if (t >= 0) {
+            const Texture* tex = size_t(t) < scene.textures.size() ? &scene.textures[t] : nullptr;
+            if (!tex || tex->width <= 0 || tex->height <= 0 ||
+                tex->rgba8.size() < size_t(tex->width) * tex->height * 4) {
+                impl->warnings.push_back("material '" + sm.name + "': base colour texture " +
+                                         std::to_string(t) +
+                                         " is missing or empty; using the base colour factor only");
+            } else {
+                if (tex_slot[t] < 0) {
+                    tex_slot[t] = int(impl->textures.size());
+                    LinearTexture lt;
+                    lt.w = tex->width;
+                    lt.h = tex->height;
+                    lt.rgb.resize(size_t(lt.w) * lt.h);
+                    for (size_t i = 0; i < lt.rgb.size(); ++i)
+                        for (int c = 0; c < 3; ++c)
+                            lt.rgb[i][c] = srgb_to_linear(tex->rgba8[4 * i + c] / 255.0f);
+                    impl->textures.push_back(std::move(lt));
+                }
+                m.texture = tex_slot[t];
+            }
+        }
+        impl->mats.push_back(m);
+    }
+    const uint32_t default_mat = uint32_t(impl->mats.size());
+    impl->mats.push_back(TriMaterial{});  // glTF default material: white... use 0.8 grey
+
+    // Lights (world space), as direct_bake does.
+    const std::vector<glm::dmat4> node_world = node_world_matrices(scene);
+    for (const Light& l : scene.lights) {
+        WorldLight w;
+        w.type = l.type;
+        glm::dmat4 m = (l.node >= 0 && size_t(l.node) < node_world.size()) ? node_world[l.node]
+                                                                           : glm::dmat4(1.0);
+        w.position = glm::vec3(m[3]);
+        glm::vec3 fwd = -glm::vec3(m[2]);
+        float len = glm::length(fwd);
+        w.direction = len > 0.0f ? fwd / len : glm::vec3(0.0f, 0.0f, -1.0f);
+        w.intensity_rgb = l.color * l.intensity;
+        w.range = l.range;
+        if (l.type == Light::Type::Spot) {
+            float cos_outer = std::cos(l.outer_cone_rad), cos_inner = std::cos(l.inner_cone_rad);
+            w.cone_scale = 1.0f / std::max(1e-4f, cos_inner - cos_outer);
+            w.cone_offset = -cos_outer * w.cone_scale;
+        }
+        impl->lights.push_back(w);
+    }
+
+    bool first = true;
+    for (const SceneObject& obj : flatten_objects(scene)) {
+        const Mesh& mesh = scene.meshes[obj.levels[0].mesh];
+        for (size_t pi = 0; pi < mesh.primitives.size(); ++pi) {
+            const Primitive& prim = mesh.primitives[pi];
+            std::vector<glm::vec3> world(prim.positions.size());
+            for (size_t i = 0; i < prim.positions.size(); ++i) {
+                world[i] = glm::vec3(obj.world * glm::dvec4(glm::dvec3(prim.positions[i]), 1.0));
+                if (!std::isfinite(world[i].x) || !std::isfinite(world[i].y) ||
+                    !std::isfinite(world[i].z))
+                    return make_error("mesh '" + mesh.name + "' primitive " + std::to_string(pi) +
+                                      " vertex " + std::to_string(i) +
+                                      " has a non-finite position");
+                if (first) {
+                    impl->lo = impl->hi = world[i];
+                    first = false;
+                }
+                impl->lo = glm::min(impl->lo, world[i]);
+                impl->hi = glm::max(impl->hi, world[i]);
+            }
+            const uint32_t mat =
+                prim.material >= 0 && size_t(prim.material) < scene.materials.size()
+                    ? uint32_t(prim.material)
+                    : default_mat;
+            const bool has_uv = prim.uv0.size() == prim.positions.size();
+            for (size_t t = 0; t + 2 < prim.indices.size(); t += 3) {
+                uint32_t ia = prim.indices[t], ib = prim.indices[t + 1], ic = prim.indices[t + 2];
+                if (ia >= world.size() || ib >= world.size() || ic >= world.size()) continue;
+                glm::vec3 cr = glm::cross(world[ib] - world[ia], world[ic] - world[ia]);
+                float len = glm::length(cr);
+                if (!(len > 0.0f)) continue;  // degenerate: never hit, never sampled
+                impl->corners.insert(impl->corners.end(), {world[ia], world[ib], world[ic]});
+                impl->normals.push_back(cr / len);
+                impl->areas.push_back(0.5f * len);
+                if (has_uv)
+                    impl->uv0.insert(impl->uv0.end(), {prim.uv0[ia], prim.uv0[ib], prim.uv0[ic]});
+                else
+                    impl->uv0.insert(impl->uv0.end(), 3, glm::vec2(0.0f));
+                impl->material.push_back(mat);
+            }
+        }
+    }
+    const glm::vec3 extent = impl->hi - impl->lo;
+    impl->offset_scale = 2e-5f;
+    (void)extent;
+
+    // Emitter distribution by power (luminance x area).
+    const size_t tris = impl->material.size();
+    std::vector<double> power;
+    for (size_t t = 0; t < tris; ++t) {
+        const glm::vec3& le = impl->mats[impl->material[t]].emission;
+        double lum = 0.2126 * le.r + 0.7152 * le.g + 0.0722 * le.b;
+        if (lum > 0.0) {
+            impl->emitters.push_back(uint32_t(t));
+            power.push_back(lum * impl->areas[t]);
+        }
+    }
+    if (!impl->emitters.empty()) {
+        double total = 0.0;
+        for (double p : power) total += p;
+        impl->emitter_pdf_area.assign(tris, 0.0f);
+        double acc = 0.0;
+        for (size_t k = 0; k < impl->emitters.size(); ++k) {
+            acc += power[k];
+            impl->emitter_cdf.push_back(float(acc / total));
+            const uint32_t t = impl->emitters[k];
+            impl->emitter_pdf_area[t] = float(power[k] / total / impl->areas[t]);
+        }
+        impl->emitter_cdf.back() = 1.0f;
+    }
+
+    if (Status st = impl->embree.build(impl->corners); !st) return st.error();
+    return PathTracer(std::move(impl));
+}
+
+glm::vec3 PathTracer::irradiance(const glm::vec3& p, const glm::vec3& n, Pcg32& rng,
+                                 uint64_t* rays) const {
+    return impl_->irradiance(p, n, rng, rays, impl_->options.bounces);
+}
+
+glm::vec3 PathTracer::direct_irradiance(const glm::vec3& p, const glm::vec3& n, Pcg32& rng,
+                                        uint64_t* rays) const {
+    return impl_->irradiance(p, n, rng, rays, 0);
+}
+
+glm::vec3 PathTracer::radiance(const glm::vec3& origin, const glm::vec3& dir, Pcg32& rng,
+                               uint64_t* rays) const {
+    if (rays) ++*rays;
+    std::optional<TraceHit> h =
+        impl_->intersect(origin, dir, 0.0f, std::numeric_limits<float>::infinity());
+    if (!h) return impl_->options.sky_radiance;
+    const TriMaterial& m = impl_->mats[impl_->material[h->triangle]];
+    if (!h->front && !m.double_sided) return glm::vec3(0.0f);
+    const glm::vec3 ns = h->front ? h->face_normal : -h->face_normal;
+    const glm::vec3 x = origin + dir * h->t;
+    const glm::vec3 a = impl_->albedo(h->triangle, h->u, h->v);
+    glm::vec3 l = m.emission;
+    if (max3(a) > 0.0f) l += a / kPi * impl_->irradiance(x, ns, rng, rays, impl_->options.bounces);
+    return l;
+}
+
+std::optional<TraceHit> PathTracer::intersect(const glm::vec3& origin, const glm::vec3& dir,
+                                              float t_near, float t_far) const {
+    return impl_->intersect(origin, dir, t_near, t_far);
+}
+
+bool PathTracer::occluded(const glm::vec3& origin, const glm::vec3& dir, float t_near,
+                          float t_far) const {
+    return impl_->embree.occluded(origin, dir, t_near, t_far);
+}
+
+float PathTracer::ray_offset(const glm::vec3& p) const {
+    return impl_->offset(p);
+}
+size_t PathTracer::triangle_count() const {
+    return impl_->material.size();
+}
+size_t PathTracer::emissive_triangle_count() const {
+    return impl_->emitters.size();
+}
+size_t PathTracer::punctual_light_count() const {
+    return impl_->lights.size();
+}
+bool PathTracer::has_light() const {
+    return !impl_->lights.empty() || !impl_->emitters.empty() ||
+           max3(impl_->options.sky_radiance) > 0.0f;
+}
+const PathTracerOptions& PathTracer::options() const {
+    return impl_->options;
+}
+glm::vec3 PathTracer::bounds_min() const {
+    return impl_->lo;
+}
+glm::vec3 PathTracer::bounds_max() const {
+    return impl_->hi;
+}
+const std::vector<std::string>& PathTracer::warnings() const {
+    return impl_->warnings;
+}
+
+double PathTracer::raw_rays_per_second(size_t count, int threads, uint64_t seed) const {
+    const glm::vec3 lo = impl_->lo, ext = impl_->hi - impl_->lo;
+    std::atomic<uint64_t> hits{0};
+    const size_t chunk = 4096;
+    const size_t chunks = (count + chunk - 1) / chunk;
+    auto t0 = std::chrono::steady_clock::now();
+    parallel_for(chunks, threads, 1, [&](size_t c, int) {
+        Pcg32 rng(seed, c);
+        uint64_t h = 0;
+        const size_t end = std::min(count, (c + 1) * chunk);
+        for (size_t i = c * chunk; i < end; ++i) {
+            glm::vec3 o = lo + ext * glm::vec3(rng.uniform(), rng.uniform(), rng.uniform());
+            float z = 1.0f - 2.0f * rng.uniform(), phi = 2.0f * kPi * rng.uniform();
+            float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
+            glm::vec3 d(r * std::cos(phi), r * std::sin(phi), z);
+            if (impl_->embree.intersect(o, d, 0.0f, std::numeric_limits<float>::infinity())) ++h;
+        }
+        hits += h;
+    });
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return s > 0.0 ? double(count) / s : 0.0;
+}
+
+}  // namespace hmdnode

@@ -1,0 +1,73 @@
+// Texel validity and back-face push-off, as Unity's progressive lightmapper ("texel validity",
+// backface tolerance) and Bakery do it: a sample point that sees back faces within about a texel
+// is inside or behind geometry (under a box on the floor, inside a wall); it is moved just in
+// front of the nearest back face it sees, and a texel whose rays mostly hit back faces is marked
+// invalid and later filled from valid neighbours (dilate.cpp).
+//
+// Departure: rays are spread over the whole sphere (not only the hemisphere), so a sample on a
+// floor that passes under a wall's bottom edge sees the wall's back face sideways too.
+// Cost: rays_per_sample short rays per sample, O(log T) each; no extra memory but one byte per
+// texel.
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "lightmap_passes.hpp"
+
+namespace hmdnode::detail {
+
+ValidityResult fix_texel_validity(TexelRaster& raster, const PathTracer& tracer,
+                                  int rays_per_sample, float threshold, int threads,
+                                  uint64_t seed) {
+    const size_t n = size_t(raster.width) * raster.height;
+    ValidityResult out;
+    out.valid.assign(n, 0);
+    std::vector<uint32_t> pushed(n, 0), invalid(n, 0);
+    std::vector<uint64_t> rays(n, 0);
+    rays_per_sample = std::max(1, rays_per_sample);
+    parallel_for(n, threads, 64, [&](size_t texel, int) {
+        if (!raster.is_covered(texel)) return;
+        Pcg32 rng(seed ^ 0x9e3779b97f4a7c15ULL, texel);
+        const float len = 1.5f * std::max(raster.texel_size_m[texel], 1e-5f);
+        size_t back = 0, total = 0;
+        for (uint32_t si = raster.first[texel]; si < raster.first[texel + 1]; ++si) {
+            TexelSample& s = raster.samples[si];
+            const float off = tracer.ray_offset(s.position);
+            const glm::vec3 origin = s.position + s.face_normal * off;
+            float nearest = INFINITY;
+            glm::vec3 push_to(0.0f), push_n(0.0f);
+            for (int k = 0; k < rays_per_sample; ++k) {
+                // Stratified in z over the sphere.
+                float z = 1.0f - 2.0f * (k + rng.uniform()) / float(rays_per_sample);
+                float phi = 2.0f * std::numbers::pi_v<float> * rng.uniform();
+                float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
+                glm::vec3 d(r * std::cos(phi), r * std::sin(phi), z);
+                ++total;
+                ++rays[texel];
+                std::optional<TraceHit> h = tracer.intersect(origin, d, 0.0f, len);
+                if (!h || h->front || h->double_sided) continue;
+                ++back;
+                if (h->t < nearest) {
+                    nearest = h->t;
+                    push_n = h->face_normal;  // front side of the back face we see
+                    push_to = origin + d * h->t;
+                }
+            }
+            if (nearest < INFINITY) {
+                s.position = push_to + push_n * (2.0f * tracer.ray_offset(push_to));
+                ++pushed[texel];
+            }
+        }
+        const bool bad = total > 0 && float(back) > threshold * float(total);
+        invalid[texel] = bad ? 1 : 0;
+        out.valid[texel] = bad ? 0 : 1;
+    });
+    for (size_t i = 0; i < n; ++i) {
+        out.pushed += pushed[i];
+        out.invalid += invalid[i];
+        out.rays += rays[i];
+    }
+    return out;
+}
+
+}  // namespace hmdnode::detail

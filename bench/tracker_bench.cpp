@@ -1,0 +1,199 @@
+// Tracker pipeline costs at 1 kHz, side by side with the budget they must fit:
+//  1. decode + clock sync + fusion cost per sample (the real Vive capture's reports when the
+//     shared data is there, else synthetic ones), against the 1,000,000 ns a 1 kHz sample period
+//     gives -- and against the simplest possible baseline in the same run: a plain memcpy of the
+//     report (what any decoder at least costs);
+//  2. sample-to-pose-history latency through the device tracker's reader thread and SPSC ring,
+//     on the system clock with the simulated reference tracker (t2's sim backend, 1 kHz, zero
+//     transport latency), median / p99 / max -- beside the same figure for the trace-replay
+//     sim_tracker, whose reader thread only sleeps and pushes (the ring alone).
+//
+// Usage: bench_tracker_bench [seconds=3]
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <thread>
+#include <vector>
+
+#include "hmdnode/firmware_host/pose_history.hpp"
+#include "hmdnode/hal/clock_sync.hpp"
+#include "hmdnode/hal/device_tracker.hpp"
+#include "hmdnode/hal/imu_fusion.hpp"
+#include "hmdnode/hal/reference_protocol.hpp"
+#include "hmdnode/hal/sim_reference_device.hpp"
+#include "hmdnode/hal/sim_tracker.hpp"
+#include "hmdnode/hal/usbmon_capture.hpp"
+#include "hmdnode/hal/vive_imu.hpp"
+
+using namespace hmdnode;
+using Clk = std::chrono::steady_clock;
+
+namespace {
+
+double pct(std::vector<double> v, double f) {
+    if (v.empty()) return 0.0;
+    std::sort(v.begin(), v.end());
+    return v[size_t(f * double(v.size() - 1))];
+}
+
+std::vector<std::vector<uint8_t>> vive_reports() {
+    std::vector<std::vector<uint8_t>> out;
+    const auto file =
+        std::filesystem::path(HMDNODE_SOURCE_DIR) / "../shared/data/traces/vive_cal.pcap.gz";
+    if (auto cap = read_usbmon_capture(file); cap.ok()) {
+        for (const UsbPacket& u : cap->packets)
+            if (u.event == 'C' && u.transfer_type == 1 && !u.data.empty() &&
+                u.data[0] == vive::kImuReportId)
+                out.push_back(u.data);
+        std::printf("decode input: %zu Vive IMU reports from %s\n", out.size(),
+                    file.string().c_str());
+        return out;
+    }
+    for (uint32_t k = 0; k < 20000; ++k) {
+        std::array<vive::RawSlot, 3> s{};
+        for (uint32_t j = 0; j < 3; ++j) {
+            s[j].sequence = uint8_t(k + j);
+            s[j].ticks = (k + j) * 48000;
+            s[j].accel = {10, 8192, -20};
+            s[j].gyro = {3, -2, 1};
+        }
+        auto b = vive::encode_imu_report(s);
+        out.emplace_back(b.begin(), b.end());
+    }
+    std::printf("decode input: 20000 synthetic Vive IMU reports (shared capture absent)\n");
+    return out;
+}
+
+void bench_decode() {
+    const auto reports = vive_reports();
+    const int reps = 5;
+    // Baseline: copying each report once.
+    std::vector<uint8_t> sink(64);
+    auto t0 = Clk::now();
+    uint64_t bytes = 0;
+    for (int r = 0; r < reps; ++r)
+        for (const auto& rep : reports) {
+            std::memcpy(sink.data(), rep.data(), std::min<size_t>(rep.size(), 64));
+            bytes += sink[r % 64];
+        }
+    const double copy_ns =
+        std::chrono::duration<double, std::nano>(Clk::now() - t0).count() / (reps * reports.size());
+
+    uint64_t samples = 0;
+    double decode_ns = 0, full_ns = 0;
+    for (int pass = 0; pass < 2; ++pass) {
+        t0 = Clk::now();
+        samples = 0;
+        for (int r = 0; r < reps; ++r) {
+            vive::ImuDecoder dec;
+            ClockSync sync;
+            ImuFusion fusion;
+            std::array<vive::ImuSample, 3> out;
+            int64_t host = 0;
+            for (const auto& rep : reports) {
+                const size_t n = dec.decode(rep, out);
+                host += 1'000'000;
+                for (size_t i = 0; i < n; ++i) {
+                    if (pass == 1) {
+                        sync.update(out[i].device_time_ns, host);
+                        fusion.update(out[i].device_time_ns, out[i].gyro, out[i].accel);
+                    }
+                }
+                samples += n;
+            }
+            bytes += uint64_t(fusion.orientation().w * 10);
+        }
+        const double ns = std::chrono::duration<double, std::nano>(Clk::now() - t0).count();
+        (pass == 0 ? decode_ns : full_ns) = ns / double(samples);
+    }
+    std::printf("\n1. cost per sample (ns; %llu samples x %d runs)       hmdnode    reference\n",
+                (unsigned long long)(samples / reps), reps);
+    std::printf("   memcpy of the report (per report)               %9.1f\n", copy_ns);
+    std::printf("   Vive decode                                     %9.1f\n", decode_ns);
+    std::printf(
+        "   decode + clock sync + Mahony fusion             %9.1f    1000000 (1 kHz "
+        "period): %.4f %% of a core\n",
+        full_ns, full_ns / 1e4);
+    if (bytes == 42) std::printf(" ");
+}
+
+struct Lat {
+    std::vector<double> us;
+    uint64_t samples = 0, dropped = 0;
+};
+
+// Polls the tracker every 50 µs (a frame thread would poll once per frame; the poll interval
+// adds to the figure, up to 50 µs) and pushes into a pose history.
+Lat consume(Tracker& t, Clock& clock, double seconds) {
+    Lat l;
+    PoseHistory history;
+    std::array<TrackerSample, 256> buf;
+    const int64_t end = clock.now_ns() + s_to_ns(seconds);
+    while (clock.now_ns() < end) {
+        const size_t n = t.read(buf);
+        const int64_t now = clock.now_ns();
+        for (size_t i = 0; i < n; ++i) {
+            history.push(buf[i]);
+            l.us.push_back(double(now - buf[i].arrival_ns) / 1e3);
+        }
+        l.samples += n;
+        std::this_thread::sleep_for(std::chrono::microseconds(50));
+    }
+    l.dropped = t.counters().samples_dropped;
+    return l;
+}
+
+void bench_latency(double seconds) {
+    SystemClock clock;
+    // Device tracker over the simulated reference tracker (reader thread, decode, sync, ring).
+    SimReferenceDeviceConfig dc;
+    dc.latency_ns = 0;
+    auto backend = create_sim_reference_backend(clock, dc, sinusoidal_motion());
+    DeviceTrackerConfig cfg;
+    cfg.filter = DeviceFilter{dc.vendor_id, dc.product_id, {}};
+    auto dt = create_device_tracker(std::move(backend), make_reference_codec(), clock, cfg);
+    if (!dt.ok()) {
+        std::fprintf(stderr, "device tracker: %s\n", dt.error().message.c_str());
+        std::exit(1);
+    }
+    (void)(*dt)->start();
+    const Lat a = consume(**dt, clock, seconds);
+    (*dt)->stop();
+
+    // Reference: the trace-replay sim tracker (a reader thread that sleeps and pushes).
+    auto trace = std::make_shared<Trace>();
+    for (int i = 0; i <= int(seconds * 1000) + 1000; ++i) {
+        TraceSample s;
+        s.time_ns = int64_t(i) * 1'000'000;
+        trace->samples.push_back(s);
+    }
+    SimTrackerConfig sc;
+    sc.host_start_ns = clock.now_ns() + 5'000'000;
+    sc.latency_ns = 0;
+    auto st = create_sim_tracker(trace, clock, sc);
+    (void)(*st)->start();
+    const Lat b = consume(**st, clock, seconds);
+    (*st)->stop();
+
+    std::printf("\n2. sample arrival -> pose history (us, 1 kHz, %.0f s, 50 us polling)\n",
+                seconds);
+    std::printf("                                 samples  dropped   median      p99      max\n");
+    std::printf("   device tracker (sim ref dev)  %7llu  %7llu  %7.1f  %7.1f  %7.1f\n",
+                (unsigned long long)a.samples, (unsigned long long)a.dropped, pct(a.us, 0.5),
+                pct(a.us, 0.99), pct(a.us, 1.0));
+    std::printf("   reference: sim_tracker ring   %7llu  %7llu  %7.1f  %7.1f  %7.1f\n",
+                (unsigned long long)b.samples, (unsigned long long)b.dropped, pct(b.us, 0.5),
+                pct(b.us, 0.99), pct(b.us, 1.0));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    const double seconds = argc > 1 ? std::atof(argv[1]) : 3.0;
+    bench_decode();
+    bench_latency(seconds > 0 ? seconds : 3.0);
+    return 0;
+}

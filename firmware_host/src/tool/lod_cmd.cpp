@@ -1,0 +1,223 @@
+// `hmdnode lod`: LOD chains for every mesh of a glTF, .glb, OBJ, PLY or OFF file, written as a
+// .glb with MSFT_lod and each level's measured error (extras.geometric_error). Input is checked
+// and repaired first (lod/mesh_repair.hpp). Formats and figures: docs/lod-generation.md.
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "hmdnode/core/atomic_file.hpp"
+#include "hmdnode/core/gltf.hpp"
+#include "hmdnode/lod/lod_chain.hpp"
+#include "hmdnode/lod/mesh_file.hpp"
+#include "hmdnode/lod/mesh_repair.hpp"
+#include "tool/commands.hpp"
+
+namespace hmdnode::tool {
+namespace {
+
+struct LodArgs {
+    std::string in, out, algorithm = "qem", error, report;
+    std::vector<double> ratios;
+    std::vector<size_t> triangles;
+    size_t step = 0;
+    size_t samples = MeshDistanceOptions{}.samples;
+    uint32_t seed = 1;
+    bool lock_borders = false;
+    bool list_algorithms = false;
+    bool no_progress = false;
+};
+
+void fail(const std::string& message) {
+    std::fprintf(stderr, "hmdnode lod: %s\n", message.c_str());
+    set_exit_code(1);
+}
+
+// A bar redrawn in place on a terminal; nothing when stderr is not one (logs, pipes, tests).
+class ProgressBar {
+  public:
+    explicit ProgressBar(bool enabled) : enabled_(enabled && isatty(STDERR_FILENO)) {}
+    void update(double fraction) {
+        if (!enabled_) return;
+        const int pct = int(std::lround(std::clamp(fraction, 0.0, 1.0) * 100.0));
+        if (pct == last_) return;
+        last_ = pct;
+        const int width = 40, filled = pct * width / 100;
+        std::fprintf(stderr, "\r[%s%s] %3d%%", std::string(size_t(filled), '#').c_str(),
+                     std::string(size_t(width - filled), ' ').c_str(), pct);
+        std::fflush(stderr);
+    }
+    void finish() {
+        if (enabled_ && last_ >= 0) std::fprintf(stderr, "\r%60s\r", "");
+        last_ = -1;
+    }
+
+  private:
+    bool enabled_;
+    int last_ = -1;
+};
+
+void list_algorithms() {
+    std::printf("%-18s %-13s %s\n", "algorithm", "edge collapse", "summary (source)");
+    for (const AlgorithmInfo& a : simplification_algorithms())
+        std::printf("%-18s %-13s %s (%s)\n", a.name.c_str(), a.edge_collapse ? "yes" : "no",
+                    a.summary.c_str(), a.source.c_str());
+}
+
+void run_lod(const LodArgs& args) {
+    using Clock = std::chrono::steady_clock;
+    const Clock::time_point t0 = Clock::now();
+    if (args.list_algorithms) {
+        list_algorithms();
+        return;
+    }
+    if (args.in.empty() || args.out.empty()) return fail("--in and --out are required");
+
+    LodChainOptions options;
+    options.algorithm = args.algorithm;
+    options.targets.ratios = args.ratios;
+    options.targets.triangles = args.triangles;
+    options.targets.step = args.step;
+    if (!args.error.empty()) {
+        std::string e = args.error;
+        const bool pct = !e.empty() && e.back() == '%';
+        if (pct) e.pop_back();
+        char* end = nullptr;
+        const double v = std::strtod(e.c_str(), &end);
+        if (e.empty() || *end || !(v > 0.0) || !std::isfinite(v))
+            return fail("--error \"" + args.error +
+                        "\": give a positive number of metres, or a percentage of the "
+                        "bounding-box diagonal like 0.5%");
+        (pct ? options.targets.max_error_pct : options.targets.max_error_m) = v;
+    }
+    if (options.targets.ratios.empty() && options.targets.triangles.empty() &&
+        options.targets.max_error_m < 0 && options.targets.max_error_pct < 0 &&
+        options.targets.step == 0)
+        options.targets.ratios = {0.5, 0.1, 0.01};
+    if (std::string e = check_lod_targets(options.targets); !e.empty()) return fail(e);
+    const AlgorithmInfo* algo = find_simplification_algorithm(args.algorithm);
+    if (!algo) return fail("unknown algorithm \"" + args.algorithm + "\" (see --list-algorithms)");
+    if (args.step > 0 && !algo->edge_collapse)
+        return fail("--step needs an edge-collapse algorithm; \"" + args.algorithm +
+                    "\" is not one (see --list-algorithms)");
+    options.simplify.lock_borders = args.lock_borders;
+    options.simplify.seed = args.seed;
+    options.distance.samples = args.samples;
+    options.distance.seed = args.seed;
+
+    Result<Scene> scene = load_mesh_file(args.in);
+    if (!scene.ok()) return fail(scene.error().message + "; nothing written");
+    RepairReport repair;
+    if (Status s = repair_scene(*scene, repair); !s.ok())
+        return fail(s.error().message + "; nothing written");
+    for (const std::string& m : repair.messages)
+        std::fprintf(stderr, "hmdnode lod: warning: %s\n", m.c_str());
+
+    ProgressBar bar(!args.no_progress);
+    options.progress = [&bar](double f) { bar.update(f); };
+    Result<LodChainReport> report = generate_lod_chains(*scene, options);
+    bar.finish();
+    if (!report.ok()) return fail(report.error().message + "; nothing written");
+    for (const std::string& n : report->notes)
+        std::fprintf(stderr, "hmdnode lod: note: %s\n", n.c_str());
+
+    if (Status s = save_glb(*scene, args.out); !s.ok())
+        return fail(s.error().message + "; nothing written");
+
+    std::printf("%-24s %5s %10s %12s %9s %9s %10s %10s\n", "mesh", "level", "triangles", "error m",
+                "error %", "mean %", "simplify ms", "measure ms");
+    for (const LodLevelReport& l : report->levels)
+        std::printf("%-24s %5d %10zu %12.6g %9.4f %9.4f %10.1f %10.1f\n", l.mesh_name.c_str(),
+                    l.level, l.triangles, l.hausdorff_m, l.hausdorff_pct, l.mean_pct, l.simplify_ms,
+                    l.measure_ms);
+    const double total_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    std::printf("wrote %s: %zu meshes, %zu nodes with chains (%s, %.0f ms)\n", args.out.c_str(),
+                report->meshes, report->nodes, args.algorithm.c_str(), total_ms);
+
+    if (!args.report.empty()) {
+        nlohmann::json j;
+        j["input"] = args.in;
+        j["output"] = args.out;
+        j["algorithm"] = args.algorithm;
+        j["targets"] = {{"ratios", options.targets.ratios},
+                        {"triangles", options.targets.triangles},
+                        {"max_error_m", options.targets.max_error_m},
+                        {"max_error_pct", options.targets.max_error_pct},
+                        {"step", options.targets.step}};
+        j["lock_borders"] = args.lock_borders;
+        j["samples"] = args.samples;
+        j["repair"] = {{"degenerate_faces", repair.degenerate_faces},
+                       {"duplicate_faces", repair.duplicate_faces},
+                       {"non_manifold_faces", repair.non_manifold_faces},
+                       {"reoriented_faces", repair.reoriented_faces},
+                       {"unreferenced_vertices", repair.unreferenced_vertices},
+                       {"messages", repair.messages}};
+        nlohmann::json levels = nlohmann::json::array();
+        for (const LodLevelReport& l : report->levels)
+            levels.push_back({{"mesh", l.mesh},
+                              {"mesh_name", l.mesh_name},
+                              {"level", l.level},
+                              {"triangles", l.triangles},
+                              {"target", l.target},
+                              {"error_m", l.hausdorff_m},
+                              {"error_pct_diag", l.hausdorff_pct},
+                              {"mean_m", l.mean_m},
+                              {"mean_pct_diag", l.mean_pct},
+                              {"estimated_error", l.estimated_error},
+                              {"simplify_ms", l.simplify_ms},
+                              {"measure_ms", l.measure_ms}});
+        j["levels"] = std::move(levels);
+        j["notes"] = report->notes;
+        j["total_ms"] = total_ms;
+        if (Status s = write_file_atomically(args.report, j.dump(2) + "\n"); !s.ok())
+            return fail(s.error().message);
+    }
+}
+
+void add_lod_command(CLI::App& app) {
+    auto args = std::make_shared<LodArgs>();
+    CLI::App* lod = app.add_subcommand(
+        "lod", "Make LOD chains (MSFT_lod, measured error) for every mesh of a scene or mesh file");
+    lod->add_option("--in", args->in, "Input: glTF, .glb, OBJ, PLY or OFF");
+    lod->add_option("--out", args->out, "Output .glb (written only on success)");
+    lod->add_option("--algorithm", args->algorithm, "Simplification algorithm (--list-algorithms)")
+        ->capture_default_str();
+    auto* ratios = lod->add_option("--ratios", args->ratios,
+                                   "Fractions of each mesh's triangles, decreasing "
+                                   "(default 0.5,0.1,0.01)")
+                       ->delimiter(',');
+    auto* tris =
+        lod->add_option("--triangles", args->triangles, "Triangle counts per mesh, decreasing")
+            ->delimiter(',');
+    auto* error = lod->add_option("--error", args->error,
+                                  "One level: the coarsest with Hausdorff error <= E metres "
+                                  "(or E% of the bounding-box diagonal)");
+    ratios->excludes(tris)->excludes(error);
+    tris->excludes(error);
+    lod->add_option("--step", args->step,
+                    "A level every N triangles (edge-collapse algorithms; down to the smallest "
+                    "ratio or count, else to one triangle)");
+    lod->add_flag("--lock-borders", args->lock_borders, "Keep open-border vertices in place");
+    lod->add_option("--report", args->report, "Write the table of levels as JSON here");
+    lod->add_option("--samples", args->samples,
+                    "Surface samples per direction for the error measurement")
+        ->capture_default_str();
+    lod->add_option("--seed", args->seed, "Seed of randomised steps and of the sampling")
+        ->capture_default_str();
+    lod->add_flag("--no-progress", args->no_progress,
+                  "No progress bar (it is drawn only when stderr is a terminal)");
+    lod->add_flag("--list-algorithms", args->list_algorithms, "List the algorithms and exit");
+    lod->callback([args] { run_lod(*args); });
+}
+
+const CommandRegistration reg{40, add_lod_command};
+
+}  // namespace
+}  // namespace hmdnode::tool

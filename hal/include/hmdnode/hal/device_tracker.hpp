@@ -1,0 +1,130 @@
+// A Tracker over a real (or replayed, or simulated) device: a TransportBackend finds and opens the
+// device, a ReportCodec turns its input reports into samples on the device clock, ClockSync maps
+// them to the host clock, ImuFusion gives IMU-only devices an orientation, and the samples reach
+// the frame thread through a single-producer ring, as in sim_tracker.
+//
+// Recovery: when the transport fails (unplug), the tracker closes it, re-enumerates and re-opens
+// every reopen_interval_ns, and counts the gap; the pose history holds the last pose meanwhile
+// (PoseHistory bounds extrapolation to max_extrapolation_ns, then holds).
+//
+// One code path for live and replay: on the system clock a reader thread blocks in read_input();
+// on a simulated clock there is no thread, and read() pumps the same processing step until the
+// next report's host time is past clock.now_ns() -- a capture then delivers its samples at capture
+// time, deterministically (replay only: that step may allocate, which the live path never does on
+// the frame thread).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+
+#include "hmdnode/core/result.hpp"
+#include "hmdnode/core/time.hpp"
+#include "hmdnode/hal/clock_sync.hpp"
+#include "hmdnode/hal/imu_fusion.hpp"
+#include "hmdnode/hal/tracker.hpp"
+#include "hmdnode/hal/transport.hpp"
+
+namespace hmdnode {
+
+// One decoded measurement, still on the device clock.
+// A sample with gyro and accel but no orientation is fused by the tracker (IMU-only devices).
+struct DeviceSample {
+    uint64_t sequence = 0;
+    int64_t device_time_ns = 0;  // unwrapped device clock
+    bool clock_reset = false;    // the device says its clock restarted
+    bool has_orientation = false;
+    glm::dquat orientation{1, 0, 0, 0};
+    std::optional<glm::dvec3> position;
+    std::optional<glm::dvec3> gyro;   // rad/s, head frame
+    std::optional<glm::dvec3> accel;  // m/s^2, head frame
+};
+
+struct CodecCounters {
+    uint64_t reports = 0;    // reports decoded
+    uint64_t samples = 0;    // samples produced
+    uint64_t malformed = 0;  // known id, bad content: skipped
+    uint64_t unknown = 0;    // unknown report id: skipped
+    uint64_t sequence_gaps = 0;
+    uint64_t missing_samples = 0;
+};
+
+// Report codec of one device family. Reader thread only.
+class ReportCodec {
+  public:
+    static constexpr size_t kMaxSamplesPerReport = 4;
+    virtual ~ReportCodec() = default;
+    virtual std::string name() const = 0;
+    // After each open: read what the codec needs from feature reports (ranges, device info);
+    // failures fall back to defaults.
+    virtual void configure(Transport& transport) = 0;
+    // After a reconnect: forget sequence and clock state.
+    virtual void reset() = 0;
+    // Decodes one input report into out (oldest first); returns how many.
+    virtual size_t decode(std::span<const uint8_t> report,
+                          std::span<DeviceSample, kMaxSamplesPerReport> out) = 0;
+    virtual CodecCounters counters() const = 0;
+};
+
+// HTC Vive / Valve Index IMU (report 0x20; ranges from feature report 0x01).
+std::unique_ptr<ReportCodec> make_vive_codec(uint16_t product_id);
+// The hmdnode reference tracker protocol (pose report 0x01, IMU report 0x02).
+std::unique_ptr<ReportCodec> make_reference_codec();
+// By VID:PID: 28de:2000 / 28de:2300 -> Vive/Index, 2833:0021 / 2833:0031 -> Rift DK2/CV1 IMU
+// (no keep-alive yet: a live Rift stops after its keep-alive interval), anything else ->
+// reference protocol.
+std::unique_ptr<ReportCodec> make_codec_for(uint16_t vendor_id, uint16_t product_id);
+
+struct DeviceTrackerConfig {
+    DeviceFilter filter;
+    std::string name;  // for TrackerInfo; default: the codec's name
+    int64_t reopen_interval_ns = 150 * kNsPerMs;
+    int read_timeout_ms = 20;  // reader thread: bounds the reaction to stop()
+    size_t ring_capacity = 4096;
+    double nominal_rate_hz = 1000.0;
+    ClockSyncConfig clock;
+    ImuFusionConfig fusion;
+    // Replay of a recording: shift report host times so the first report arrives at this host
+    // time (a capture's times are the recording host's clock). Unset: times are used as they are.
+    std::optional<int64_t> first_report_host_ns;
+};
+
+struct DeviceTrackerStatus {
+    bool connected = false;
+    uint64_t opens = 0;          // successful opens (the first one included)
+    uint64_t disconnects = 0;    // transport failures
+    uint64_t open_failures = 0;  // enumerate/open attempts that found nothing
+    int64_t last_gap_ns = 0;     // last disconnect -> first sample after the reopen
+    int64_t total_gap_ns = 0;
+    uint64_t samples = 0;
+    int64_t clock_offset_ns = 0;
+    double clock_drift_ppm = 0.0;
+    double clock_jitter_ns = 0.0;
+    uint64_t clock_resets = 0;
+    CodecCounters codec;
+    std::string last_error;
+};
+
+class DeviceTracker : public Tracker {
+  public:
+    // Any thread (a consistent snapshot, taken under a lock off the frame path).
+    virtual DeviceTrackerStatus status() const = 0;
+};
+
+Result<std::unique_ptr<DeviceTracker>> create_device_tracker(
+    std::unique_ptr<TransportBackend> backend, std::unique_ptr<ReportCodec> codec, Clock& clock,
+    const DeviceTrackerConfig& config);
+
+// `hmdnode replay --capture FILE --device VID:PID`: a device tracker over one device of a usbmon
+// capture (VID:PID from the capture's descriptors, its ".usbdevs" sidecar, or -- when exactly
+// one unidentified device sends interrupt-IN reports -- the id given), its first report arriving
+// at first_report_host_ns on `clock`. Errors name the file and say which devices it holds.
+Result<std::unique_ptr<DeviceTracker>> create_capture_tracker(const std::filesystem::path& capture,
+                                                              const std::string& vid_pid,
+                                                              Clock& clock,
+                                                              int64_t first_report_host_ns);
+
+}  // namespace hmdnode

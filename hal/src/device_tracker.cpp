@@ -1,0 +1,358 @@
+// Device tracker: transport -> codec -> clock sync -> (fusion) -> ring, with reconnection.
+// The pipeline composes clock_sync.cpp (windowed-minimum clock tracking) and imu_fusion.cpp
+// (Mahony); the ring is the Lamport SPSC queue of spsc_ring.hpp. Reconnection follows the
+// practice of public runtimes (Monado's and OpenHMD's HID drivers: on a read error close the
+// device, poll enumeration at a fixed interval, reopen).
+// Cost: O(1) per report plus the codec; memory O(ring capacity).
+// Departures: on a simulated clock the processing step runs inside read() (no thread), so a replay
+// is deterministic; that path may allocate (replay only).
+#include <algorithm>
+#include <atomic>
+#include <deque>
+#include <mutex>
+#include <thread>
+
+#include "hmdnode/hal/device_tracker.hpp"
+#include "hmdnode/hal/spsc_ring.hpp"
+#include "hmdnode/hal/usbmon_capture.hpp"
+
+namespace hmdnode {
+namespace {
+
+class DeviceTrackerImpl final : public DeviceTracker {
+  public:
+    DeviceTrackerImpl(std::unique_ptr<TransportBackend> backend, std::unique_ptr<ReportCodec> codec,
+                      Clock& clock, const DeviceTrackerConfig& config)
+        : backend_(std::move(backend)),
+          codec_(std::move(codec)),
+          clock_(clock),
+          config_(config),
+          ring_(std::max<size_t>(config.ring_capacity, 2)),
+          sync_(config.clock),
+          fusion_(config.fusion) {
+        info_.name = config.name.empty() ? codec_->name() : config.name;
+        info_.nominal_rate_hz = config.nominal_rate_hz;
+        info_.provides_orientation = true;
+        info_.provides_imu = true;
+    }
+    ~DeviceTrackerImpl() override { stop(); }
+
+    TrackerInfo info() const override {
+        std::lock_guard lock(mutex_);
+        return info_;
+    }
+
+    Status start() override {
+        if (started_) return {};
+        started_ = true;
+        next_open_ns_ = clock_.now_ns();
+        if (!clock_.is_simulated()) {
+            stop_requested_ = false;
+            thread_ = std::thread([this] { reader_loop(); });
+        }
+        return {};
+    }
+
+    void stop() override {
+        stop_requested_ = true;
+        if (thread_.joinable()) thread_.join();
+    }
+
+    size_t read(std::span<TrackerSample> out) override {
+        if (!started_) return 0;
+        size_t n = 0;
+        if (clock_.is_simulated()) {
+            const int64_t now = clock_.now_ns();
+            pump_until(now);
+            while (n < out.size() && !pending_.empty() && pending_.front().arrival_ns <= now) {
+                out[n++] = pending_.front();
+                pending_.pop_front();
+            }
+        } else {
+            while (n < out.size() && ring_.pop(&out[n])) ++n;
+        }
+        delivered_.fetch_add(n, std::memory_order_relaxed);
+        return n;
+    }
+
+    bool finished() const override {
+        if (clock_.is_simulated())
+            return source_finished_.load(std::memory_order_acquire) && pending_.empty() &&
+                   !lookahead_;
+        if (!producer_done_.load(std::memory_order_acquire)) return false;
+        return delivered_.load(std::memory_order_relaxed) +
+                   dropped_.load(std::memory_order_relaxed) >=
+               produced_.load(std::memory_order_relaxed);
+    }
+
+    TrackerCounters counters() const override {
+        return TrackerCounters{delivered_.load(std::memory_order_relaxed),
+                               dropped_.load(std::memory_order_relaxed)};
+    }
+
+    DeviceTrackerStatus status() const override {
+        std::lock_guard lock(mutex_);
+        DeviceTrackerStatus s = status_;
+        s.codec = codec_counters_;
+        return s;
+    }
+
+  private:
+    // ---- shared steps (reader thread, or the frame thread on a simulated clock) ----
+
+    // Tries to open the device; true when open.
+    bool try_open(int64_t now) {
+        if (transport_) return true;
+        if (now < next_open_ns_) return false;
+        next_open_ns_ = now + config_.reopen_interval_ns;
+        auto ids = backend_->enumerate(config_.filter);
+        std::string error;
+        if (ids && !ids->empty()) {
+            auto t = backend_->open(ids->front());
+            if (t) {
+                transport_ = std::move(*t);
+                codec_->reset();
+                codec_->configure(*transport_);
+                std::lock_guard lock(mutex_);
+                ++status_.opens;
+                status_.connected = true;
+                info_.serial = transport_->id().serial;
+                return true;
+            }
+            error = t.error().message;
+        } else {
+            error = ids ? "no device matches the filter" : ids.error().message;
+        }
+        std::lock_guard lock(mutex_);
+        ++status_.open_failures;
+        status_.last_error = error;
+        return false;
+    }
+
+    void on_transport_error(const std::string& message, int64_t now) {
+        transport_.reset();
+        lookahead_.reset();
+        gap_open_ = true;
+        gap_start_ns_ = last_arrival_ns_ ? last_arrival_ns_ : now;
+        next_open_ns_ = now + config_.reopen_interval_ns;
+        sync_ = ClockSync(config_.clock);  // the device may come back with a new clock
+        std::lock_guard lock(mutex_);
+        ++status_.disconnects;
+        status_.connected = false;
+        status_.last_error = message;
+    }
+
+    // Decodes one report and emits its samples through emit(sample).
+    template <class Emit>
+    void process(const InputReport& report, Emit&& emit) {
+        std::array<DeviceSample, ReportCodec::kMaxSamplesPerReport> buf;
+        const size_t n = codec_->decode(report.bytes, buf);
+        for (size_t i = 0; i < n; ++i) {
+            const DeviceSample& d = buf[i];
+            if (d.clock_reset) sync_ = ClockSync(config_.clock);
+            TrackerSample t;
+            t.arrival_ns = report.host_time_ns;
+            t.time_ns = sync_.update(d.device_time_ns, report.host_time_ns);
+            t.sequence = d.sequence;
+            t.position = d.position;
+            t.accel = d.accel;
+            if (d.has_orientation) {
+                t.has_orientation = true;
+                t.orientation = d.orientation;
+                t.gyro = d.gyro;
+            } else if (d.gyro && d.accel) {
+                fusion_.update(d.device_time_ns, *d.gyro, *d.accel);
+                t.has_orientation = fusion_.initialized();
+                t.orientation = fusion_.orientation();
+                t.gyro = fusion_.angular_velocity();
+            }
+            if (gap_open_) {
+                gap_open_ = false;
+                const int64_t gap = t.arrival_ns - gap_start_ns_;
+                std::lock_guard lock(mutex_);
+                status_.last_gap_ns = gap;
+                status_.total_gap_ns += gap;
+            }
+            last_arrival_ns_ = t.arrival_ns;
+            emit(t);
+        }
+        std::lock_guard lock(mutex_);
+        status_.samples += n;
+        status_.clock_offset_ns = sync_.valid() ? sync_.offset_ns() : 0;
+        status_.clock_drift_ppm = sync_.drift_ppm();
+        status_.clock_jitter_ns = sync_.jitter_ns();
+        status_.clock_resets += sync_.resets() - seen_resets_;
+        seen_resets_ = sync_.resets();
+        codec_counters_ = codec_->counters();
+    }
+
+    // A report's host time, rebased for a replayed recording.
+    int64_t rebase(int64_t t) {
+        if (!config_.first_report_host_ns) return t;
+        if (!have_shift_) {
+            have_shift_ = true;
+            shift_ns_ = *config_.first_report_host_ns - t;
+        }
+        return t + shift_ns_;
+    }
+
+    // ---- simulated clock ----
+
+    void pump_until(int64_t now) {
+        while (true) {
+            if (!lookahead_) {
+                if (!transport_ && !try_open(now)) return;
+                auto r = transport_->read_input(0);
+                if (!r) {
+                    on_transport_error(r.error().message, now);
+                    continue;  // try_open() waits for the reopen interval
+                }
+                if (!r->has_value()) {
+                    if (transport_->finished()) source_finished_.store(true);
+                    return;
+                }
+                lookahead_ = std::move(**r);
+                lookahead_->host_time_ns = rebase(lookahead_->host_time_ns);
+            }
+            if (lookahead_->host_time_ns > now) return;
+            const InputReport report = std::move(*lookahead_);
+            lookahead_.reset();
+            process(report, [&](const TrackerSample& s) {
+                pending_.push_back(s);
+                produced_.fetch_add(1, std::memory_order_relaxed);
+            });
+        }
+    }
+
+    // ---- system clock: the reader thread ----
+
+    void reader_loop() {
+        while (!stop_requested_) {
+            const int64_t now = clock_.now_ns();
+            if (!transport_ && !try_open(now)) {
+                clock_.sleep_until_ns(std::min(next_open_ns_, now + 10 * kNsPerMs));
+                continue;
+            }
+            auto r = transport_->read_input(config_.read_timeout_ms);
+            if (!r) {
+                on_transport_error(r.error().message, clock_.now_ns());
+                continue;
+            }
+            if (!r->has_value()) {
+                if (transport_->finished()) break;
+                continue;
+            }
+            InputReport& report = **r;
+            report.host_time_ns = rebase(report.host_time_ns);
+            // A recording replayed in real time: wait for the report's time.
+            while (!stop_requested_ && clock_.now_ns() < report.host_time_ns)
+                clock_.sleep_until_ns(
+                    std::min(report.host_time_ns, clock_.now_ns() + 10 * kNsPerMs));
+            process(report, [&](const TrackerSample& s) {
+                produced_.fetch_add(1, std::memory_order_relaxed);
+                if (!ring_.push(s)) dropped_.fetch_add(1, std::memory_order_relaxed);
+            });
+        }
+        producer_done_.store(true, std::memory_order_release);
+    }
+
+    std::unique_ptr<TransportBackend> backend_;
+    std::unique_ptr<ReportCodec> codec_;
+    Clock& clock_;
+    DeviceTrackerConfig config_;
+    SpscRing<TrackerSample> ring_;
+
+    // Owned by the producer side (reader thread, or the frame thread on a simulated clock).
+    std::unique_ptr<Transport> transport_;
+    ClockSync sync_;
+    ImuFusion fusion_;
+    int64_t next_open_ns_ = 0;
+    bool gap_open_ = false;
+    int64_t gap_start_ns_ = 0;
+    int64_t last_arrival_ns_ = 0;
+    uint64_t seen_resets_ = 0;
+    bool have_shift_ = false;
+    int64_t shift_ns_ = 0;
+    std::optional<InputReport> lookahead_;  // simulated clock
+    std::deque<TrackerSample> pending_;     // simulated clock
+
+    mutable std::mutex mutex_;  // guards info_, status_, codec_counters_
+    TrackerInfo info_;
+    DeviceTrackerStatus status_;
+    CodecCounters codec_counters_;
+
+    std::thread thread_;
+    bool started_ = false;
+    std::atomic<bool> stop_requested_{false};
+    std::atomic<bool> producer_done_{false};
+    std::atomic<bool> source_finished_{false};
+    std::atomic<uint64_t> produced_{0};
+    std::atomic<uint64_t> delivered_{0};
+    std::atomic<uint64_t> dropped_{0};
+};
+
+}  // namespace
+
+Result<std::unique_ptr<DeviceTracker>> create_device_tracker(
+    std::unique_ptr<TransportBackend> backend, std::unique_ptr<ReportCodec> codec, Clock& clock,
+    const DeviceTrackerConfig& config) {
+    if (!backend) return make_error("device tracker: no transport backend");
+    if (!codec) return make_error("device tracker: no report codec");
+    if (config.reopen_interval_ns <= 0 || config.read_timeout_ms < 0)
+        return make_error("device tracker: reopen interval and read timeout must be positive");
+    return std::unique_ptr<DeviceTracker>(
+        new DeviceTrackerImpl(std::move(backend), std::move(codec), clock, config));
+}
+
+Result<std::unique_ptr<DeviceTracker>> create_capture_tracker(const std::filesystem::path& file,
+                                                              const std::string& vid_pid,
+                                                              Clock& clock,
+                                                              int64_t first_report_host_ns) {
+    auto filter = parse_vid_pid(vid_pid);
+    if (!filter) return filter.error();
+    auto cap = read_usbmon_capture(file);
+    if (!cap) return cap.error();
+    CaptureSummary summary = summarize_capture(*cap);
+    const std::filesystem::path sidecar = file.string() + ".usbdevs";
+    if (std::filesystem::exists(sidecar)) {
+        auto applied = apply_usbdevs_sidecar(sidecar, &summary);
+        if (!applied) return applied.error();
+    }
+    auto has_intr_in = [](const CaptureDeviceSummary& d) {
+        for (const auto& e : d.endpoints)
+            if (e.transfer_type == 1 && (e.endpoint & 0x80) && e.completions > 0) return true;
+        return false;
+    };
+    size_t matching = 0, unknown_with_reports = 0;
+    for (const auto& d : summary.devices) {
+        if (d.vendor_id == filter->vendor_id && d.product_id == filter->product_id) ++matching;
+        if (d.id_source.empty() && has_intr_in(d)) ++unknown_with_reports;
+    }
+    if (matching == 0 && unknown_with_reports == 1)
+        for (auto& d : summary.devices)
+            if (d.id_source.empty() && has_intr_in(d)) {
+                d.vendor_id = filter->vendor_id;
+                d.product_id = filter->product_id;
+                d.id_source = "given";
+            }
+    if (matching == 0 && unknown_with_reports != 1) {
+        std::string held;
+        for (const auto& d : summary.devices)
+            held += " " + std::to_string(d.bus) + "-" + std::to_string(d.address) + "=" +
+                    (d.id_source.empty() ? std::string("unknown")
+                                         : format_vid_pid(d.vendor_id, d.product_id));
+        return make_error(file.string() + ": no device " + vid_pid + " in the capture (it holds" +
+                          held + ")");
+    }
+    DeviceTrackerConfig cfg;
+    cfg.filter = *filter;
+    cfg.first_report_host_ns = first_report_host_ns;
+    cfg.name = "capture " + file.filename().string() + " " + vid_pid;
+    auto codec = make_codec_for(filter->vendor_id, filter->product_id);
+    auto backend = create_capture_backend(std::make_shared<UsbCapture>(std::move(*cap)), summary);
+    auto t = create_device_tracker(std::move(backend), std::move(codec), clock, cfg);
+    if (!t) return t.error();
+    return std::move(*t);
+}
+
+}  // namespace hmdnode

@@ -1,0 +1,219 @@
+// The V4L2 camera backend: memory-mapped streaming I/O (V4L2 API, "Streaming I/O (Memory
+// Mapping)"): VIDIOC_QUERYCAP -> S_FMT -> REQBUFS(MMAP) -> QUERYBUF + mmap -> QBUF all ->
+// STREAMON; each frame is poll + DQBUF, copied out, and QBUF'd back at once so the driver never
+// runs out of buffers. Timestamps: a buffer flagged V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC carries the
+// capture time on CLOCK_MONOTONIC -- the host clock of hmdnode -- and is used as is; any other
+// timestamp source is replaced by the dequeue time (and said by timestamps_from_driver()).
+// Cost: one copy of each frame (bytesused); memory the driver's buffers (mapped) + one frame.
+// Departs from libv4l2: plain ioctls on the kernel's device -- no format emulation, so the
+// device must offer the requested fourcc (the error lists what it offers).
+#include <fcntl.h>
+#include <linux/videodev2.h>
+#include <poll.h>
+#include <sys/ioctl.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <ctime>
+#include <vector>
+
+#include "hmdnode/hal/camera.hpp"
+
+namespace hmdnode {
+namespace {
+
+int xioctl(int fd, unsigned long request, void* arg) {
+    int r;
+    do r = ioctl(fd, request, arg);
+    while (r == -1 && errno == EINTR);
+    return r;
+}
+
+std::string errno_text(int e) {
+    const char* name = e == ENOENT   ? "ENOENT"
+                       : e == EBUSY  ? "EBUSY"
+                       : e == EACCES ? "EACCES"
+                       : e == ENODEV ? "ENODEV"
+                       : e == ENOTTY ? "ENOTTY"
+                       : e == EINVAL ? "EINVAL"
+                                     : nullptr;
+    return std::string(std::strerror(e)) + (name ? std::string(" (") + name + ")" : "");
+}
+
+std::string explain(const std::string& device, const std::string& what, int e) {
+    std::string m = device + ": " + what + ": " + errno_text(e);
+    if (e == ENOENT) m += " -- no such device; is the camera plugged in (ls /dev/video*)?";
+    if (e == EBUSY) m += " -- the device is busy: another program is streaming from it";
+    if (e == EACCES) m += " -- no permission; add the user to the \"video\" group";
+    if (e == ENODEV) m += " -- the device was removed";
+    return m;
+}
+
+int64_t monotonic_now_ns() {
+    timespec ts{};
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return static_cast<int64_t>(ts.tv_sec) * kNsPerSecond + ts.tv_nsec;
+}
+
+class V4l2Camera final : public Camera {
+  public:
+    V4l2Camera(std::string device, int fd) : device_(std::move(device)), fd_(fd) {}
+    ~V4l2Camera() override {
+        stop();
+        for (const Mapping& m : maps_)
+            if (m.ptr != MAP_FAILED) munmap(m.ptr, m.length);
+        close(fd_);
+    }
+
+    Status configure(const V4l2CameraConfig& config) {
+        v4l2_capability cap{};
+        if (xioctl(fd_, VIDIOC_QUERYCAP, &cap) == -1)
+            return make_error(errno == ENOTTY ? device_ + ": not a V4L2 device (VIDIOC_QUERYCAP: " +
+                                                    errno_text(errno) + ")"
+                                              : explain(device_, "VIDIOC_QUERYCAP", errno));
+        const uint32_t caps =
+            (cap.capabilities & V4L2_CAP_DEVICE_CAPS) ? cap.device_caps : cap.capabilities;
+        if (!(caps & V4L2_CAP_VIDEO_CAPTURE))
+            return make_error(device_ + ": \"" + reinterpret_cast<const char*>(cap.card) +
+                              "\" is not a video capture device");
+        if (!(caps & V4L2_CAP_STREAMING))
+            return make_error(device_ + ": \"" + reinterpret_cast<const char*>(cap.card) +
+                              "\" does not support streaming I/O");
+
+        v4l2_format fmt{};
+        fmt.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+        fmt.fmt.pix.width = config.width;
+        fmt.fmt.pix.height = config.height;
+        fmt.fmt.pix.pixelformat = config.fourcc;
+        fmt.fmt.pix.field = V4L2_FIELD_ANY;
+        if (xioctl(fd_, VIDIOC_S_FMT, &fmt) == -1)
+            return make_error(explain(device_, "VIDIOC_S_FMT", errno));
+        if (fmt.fmt.pix.pixelformat != config.fourcc) {
+            std::string offered;
+            v4l2_fmtdesc d{};
+            d.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+            for (d.index = 0; xioctl(fd_, VIDIOC_ENUM_FMT, &d) == 0; ++d.index)
+                offered += (offered.empty() ? "" : ", ") + fourcc_to_string(d.pixelformat);
+            return make_error(device_ + ": pixel format " + fourcc_to_string(config.fourcc) +
+                              " is not offered (offered: " + offered + ")");
+        }
+        width_ = fmt.fmt.pix.width;
+        height_ = fmt.fmt.pix.height;
+        fourcc_ = fmt.fmt.pix.pixelformat;
+        bytes_per_line_ = fmt.fmt.pix.bytesperline;
+
+        v4l2_requestbuffers req{};
+        req.count = config.buffers < 2 ? 2 : config.buffers;
+        req.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+        req.memory = V4L2_MEMORY_MMAP;
+        if (xioctl(fd_, VIDIOC_REQBUFS, &req) == -1)
+            return make_error(explain(device_, "VIDIOC_REQBUFS (mmap)", errno));
+        if (req.count < 2)
+            return make_error(device_ + ": the driver gave " + std::to_string(req.count) +
+                              " buffer(s); streaming needs at least 2");
+        for (uint32_t i = 0; i < req.count; ++i) {
+            v4l2_buffer b{};
+            b.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+            b.memory = V4L2_MEMORY_MMAP;
+            b.index = i;
+            if (xioctl(fd_, VIDIOC_QUERYBUF, &b) == -1)
+                return make_error(explain(device_, "VIDIOC_QUERYBUF", errno));
+            Mapping m;
+            m.length = b.length;
+            m.ptr = mmap(nullptr, b.length, PROT_READ | PROT_WRITE, MAP_SHARED, fd_, b.m.offset);
+            if (m.ptr == MAP_FAILED) return make_error(explain(device_, "mmap", errno));
+            maps_.push_back(m);
+        }
+        return {};
+    }
+
+    std::string name() const override { return device_; }
+    uint32_t width() const override { return width_; }
+    uint32_t height() const override { return height_; }
+    uint32_t fourcc() const override { return fourcc_; }
+
+    Status start() override {
+        if (streaming_) return {};
+        for (uint32_t i = 0; i < maps_.size(); ++i) {
+            v4l2_buffer b{};
+            b.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+            b.memory = V4L2_MEMORY_MMAP;
+            b.index = i;
+            if (xioctl(fd_, VIDIOC_QBUF, &b) == -1)
+                return make_error(explain(device_, "VIDIOC_QBUF", errno));
+        }
+        int type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+        if (xioctl(fd_, VIDIOC_STREAMON, &type) == -1)
+            return make_error(explain(device_, "VIDIOC_STREAMON", errno));
+        streaming_ = true;
+        return {};
+    }
+
+    void stop() override {
+        if (!streaming_) return;
+        int type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+        xioctl(fd_, VIDIOC_STREAMOFF, &type);  // also dequeues every buffer
+        streaming_ = false;
+    }
+
+    Result<std::optional<CameraFrame>> next_frame(int timeout_ms) override {
+        if (!streaming_) return make_error(device_ + ": next_frame before start()");
+        pollfd p{fd_, POLLIN, 0};
+        const int rc = poll(&p, 1, timeout_ms);
+        if (rc < 0) return make_error(explain(device_, "poll", errno));
+        if (rc == 0) return std::optional<CameraFrame>{};
+        if (p.revents & (POLLERR | POLLHUP | POLLNVAL))
+            return make_error(device_ + ": the device failed or was removed (poll error)");
+        v4l2_buffer b{};
+        b.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+        b.memory = V4L2_MEMORY_MMAP;
+        if (xioctl(fd_, VIDIOC_DQBUF, &b) == -1) {
+            if (errno == EAGAIN) return std::optional<CameraFrame>{};
+            return make_error(explain(device_, "VIDIOC_DQBUF", errno));
+        }
+        const int64_t now = monotonic_now_ns();
+        CameraFrame f;
+        f.width = width_;
+        f.height = height_;
+        f.fourcc = fourcc_;
+        f.bytes_per_line = bytes_per_line_;
+        f.sequence = b.sequence;
+        if ((b.flags & V4L2_BUF_FLAG_TIMESTAMP_MASK) == V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC &&
+            (b.timestamp.tv_sec || b.timestamp.tv_usec)) {
+            f.host_time_ns = static_cast<int64_t>(b.timestamp.tv_sec) * kNsPerSecond +
+                             static_cast<int64_t>(b.timestamp.tv_usec) * kNsPerUs;
+        } else {
+            f.host_time_ns = now;
+        }
+        const auto* src = static_cast<const uint8_t*>(maps_[b.index].ptr);
+        f.bytes.assign(src, src + std::min<size_t>(b.bytesused, maps_[b.index].length));
+        if (xioctl(fd_, VIDIOC_QBUF, &b) == -1)
+            return make_error(explain(device_, "VIDIOC_QBUF (requeue)", errno));
+        return std::optional<CameraFrame>{std::move(f)};
+    }
+
+  private:
+    struct Mapping {
+        void* ptr = MAP_FAILED;
+        size_t length = 0;
+    };
+    std::string device_;
+    int fd_;
+    std::vector<Mapping> maps_;
+    bool streaming_ = false;
+    uint32_t width_ = 0, height_ = 0, fourcc_ = 0, bytes_per_line_ = 0;
+};
+
+}  // namespace
+
+Result<std::unique_ptr<Camera>> open_v4l2_camera(const V4l2CameraConfig& config) {
+    const int fd = open(config.device.c_str(), O_RDWR | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) return make_error(explain(config.device, "cannot open", errno));
+    auto cam = std::make_unique<V4l2Camera>(config.device, fd);
+    if (Status s = cam->configure(config); !s.ok()) return s.error();
+    return std::unique_ptr<Camera>(std::move(cam));
+}
+
+}  // namespace hmdnode

@@ -1,0 +1,451 @@
+// Mesh file input for the LOD tool: PLY (Turk, "The PLY polygon file format", 1994: ascii and
+// both binary byte orders) and OFF (Geomview) readers written here, glTF and OBJ through core's
+// loaders. Cost: O(file size) time, the mesh plus the file in memory.
+#include "hmdnode/lod/mesh_file.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <sstream>
+
+#include "hmdnode/core/atomic_file.hpp"
+#include "hmdnode/core/gltf.hpp"
+#include "hmdnode/core/obj.hpp"
+
+namespace hmdnode {
+namespace {
+
+template <class... Args>
+std::string cat(Args&&... args) {
+    std::ostringstream s;
+    (s << ... << args);
+    return s.str();
+}
+
+void compute_normals(Primitive& p) {
+    p.normals.assign(p.positions.size(), glm::vec3(0.0f));
+    for (size_t i = 0; i + 2 < p.indices.size(); i += 3) {
+        const glm::vec3 a = p.positions[p.indices[i]], b = p.positions[p.indices[i + 1]],
+                        c = p.positions[p.indices[i + 2]];
+        const glm::vec3 n = glm::cross(b - a, c - a);  // length = 2 * area
+        for (int k = 0; k < 3; ++k) p.normals[p.indices[i + k]] += n;
+    }
+    for (glm::vec3& n : p.normals) {
+        const float len = glm::length(n);
+        n = len > 0.0f && std::isfinite(len) ? n / len : glm::vec3(0.0f, 1.0f, 0.0f);
+    }
+}
+
+Scene single_mesh_scene(Mesh mesh) {
+    Scene s;
+    Node n;
+    n.name = mesh.name;
+    n.mesh = 0;
+    s.meshes.push_back(std::move(mesh));
+    s.nodes.push_back(std::move(n));
+    s.roots.push_back(0);
+    return s;
+}
+
+// Fan-triangulates a polygon; indices checked against `vertices`.
+Status add_polygon(const std::vector<int64_t>& poly, size_t vertices, Primitive& p,
+                   const std::string& where) {
+    if (poly.size() < 3) return make_error(cat(where, ": a face with ", poly.size(), " corners"));
+    for (int64_t i : poly)
+        if (i < 0 || uint64_t(i) >= vertices)
+            return make_error(
+                cat(where, ": vertex index ", i, " out of range (", vertices, " vertices)"));
+    for (size_t k = 1; k + 1 < poly.size(); ++k)
+        p.indices.insert(p.indices.end(),
+                         {uint32_t(poly[0]), uint32_t(poly[k]), uint32_t(poly[k + 1])});
+    return {};
+}
+
+// ---- PLY ----
+
+enum class PlyType { Int8, Uint8, Int16, Uint16, Int32, Uint32, Float32, Float64 };
+
+bool ply_type(const std::string& s, PlyType& out) {
+    static const std::pair<const char*, PlyType> names[] = {
+        {"char", PlyType::Int8},      {"int8", PlyType::Int8},       {"uchar", PlyType::Uint8},
+        {"uint8", PlyType::Uint8},    {"short", PlyType::Int16},     {"int16", PlyType::Int16},
+        {"ushort", PlyType::Uint16},  {"uint16", PlyType::Uint16},   {"int", PlyType::Int32},
+        {"int32", PlyType::Int32},    {"uint", PlyType::Uint32},     {"uint32", PlyType::Uint32},
+        {"float", PlyType::Float32},  {"float32", PlyType::Float32}, {"double", PlyType::Float64},
+        {"float64", PlyType::Float64}};
+    for (auto& [n, t] : names)
+        if (s == n) {
+            out = t;
+            return true;
+        }
+    return false;
+}
+
+size_t ply_size(PlyType t) {
+    switch (t) {
+        case PlyType::Int8:
+        case PlyType::Uint8:
+            return 1;
+        case PlyType::Int16:
+        case PlyType::Uint16:
+            return 2;
+        case PlyType::Int32:
+        case PlyType::Uint32:
+        case PlyType::Float32:
+            return 4;
+        case PlyType::Float64:
+            return 8;
+    }
+    return 1;
+}
+
+bool ply_integer(PlyType t) {
+    return t != PlyType::Float32 && t != PlyType::Float64;
+}
+
+struct PlyProperty {
+    std::string name;
+    PlyType type = PlyType::Float32;
+    bool list = false;
+    PlyType count_type = PlyType::Uint8;
+};
+
+struct PlyElement {
+    std::string name;
+    size_t count = 0;
+    std::vector<PlyProperty> properties;
+};
+
+// Reads scalars from the body in the file's encoding.
+class PlyBody {
+  public:
+    PlyBody(const std::string& bytes, size_t offset, int format)
+        : bytes_(bytes), pos_(offset), format_(format) {}
+
+    // Returns false at the end of the data or on a malformed token.
+    bool read(PlyType t, double& out) {
+        if (format_ == 0) {
+            while (pos_ < bytes_.size() && std::isspace(static_cast<unsigned char>(bytes_[pos_])))
+                ++pos_;
+            if (pos_ >= bytes_.size()) return false;
+            const char* begin = bytes_.data() + pos_;
+            char* end = nullptr;
+            out = std::strtod(begin, &end);
+            if (end == begin) return false;
+            pos_ += size_t(end - begin);
+            return true;
+        }
+        const size_t n = ply_size(t);
+        if (pos_ + n > bytes_.size()) return false;
+        unsigned char b[8];
+        std::memcpy(b, bytes_.data() + pos_, n);
+        pos_ += n;
+        const bool little = format_ == 1;
+        if (little != (std::endian::native == std::endian::little)) std::reverse(b, b + n);
+        switch (t) {
+            case PlyType::Int8:
+                out = double(int8_t(b[0]));
+                break;
+            case PlyType::Uint8:
+                out = double(b[0]);
+                break;
+            case PlyType::Int16:
+                out = double(load<int16_t>(b));
+                break;
+            case PlyType::Uint16:
+                out = double(load<uint16_t>(b));
+                break;
+            case PlyType::Int32:
+                out = double(load<int32_t>(b));
+                break;
+            case PlyType::Uint32:
+                out = double(load<uint32_t>(b));
+                break;
+            case PlyType::Float32:
+                out = double(load<float>(b));
+                break;
+            case PlyType::Float64:
+                out = load<double>(b);
+                break;
+        }
+        return true;
+    }
+
+  private:
+    template <class T>
+    static T load(const unsigned char* b) {
+        T v;
+        std::memcpy(&v, b, sizeof v);
+        return v;
+    }
+    const std::string& bytes_;
+    size_t pos_;
+    int format_;  // 0 ascii, 1 little, 2 big
+};
+
+Result<Scene> load_ply(const std::filesystem::path& path, const std::string& bytes) {
+    const std::string file = path.string();
+    // Header: lines up to "end_header".
+    size_t pos = 0;
+    int format = -1;
+    std::vector<PlyElement> elements;
+    int line_no = 0;
+    bool ended = false;
+    while (pos < bytes.size()) {
+        size_t eol = bytes.find('\n', pos);
+        if (eol == std::string::npos) eol = bytes.size();
+        std::string line = bytes.substr(pos, eol - pos);
+        pos = std::min(bytes.size(), eol + 1);
+        ++line_no;
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        std::istringstream in(line);
+        std::string word;
+        in >> word;
+        const std::string where = cat(file, ": header line ", line_no);
+        if (word == "ply" || word == "comment" || word == "obj_info" || word.empty()) continue;
+        if (word == "end_header") {
+            ended = true;
+            break;
+        }
+        if (word == "format") {
+            std::string f;
+            in >> f;
+            if (f == "ascii")
+                format = 0;
+            else if (f == "binary_little_endian")
+                format = 1;
+            else if (f == "binary_big_endian")
+                format = 2;
+            else
+                return make_error(cat(where, ": unknown format \"", f, "\""));
+        } else if (word == "element") {
+            PlyElement e;
+            long long count = -1;
+            in >> e.name >> count;
+            if (e.name.empty() || count < 0)
+                return make_error(cat(where, ": malformed element line"));
+            e.count = size_t(count);
+            elements.push_back(std::move(e));
+        } else if (word == "property") {
+            if (elements.empty()) return make_error(cat(where, ": property before any element"));
+            PlyProperty p;
+            std::string type;
+            in >> type;
+            if (type == "list") {
+                std::string ct, it;
+                in >> ct >> it >> p.name;
+                if (!ply_type(ct, p.count_type) || !ply_type(it, p.type))
+                    return make_error(cat(where, ": unknown list type \"", ct, " ", it, "\""));
+                p.list = true;
+            } else {
+                if (!ply_type(type, p.type))
+                    return make_error(cat(where, ": unknown type \"", type, "\""));
+                in >> p.name;
+            }
+            elements.back().properties.push_back(std::move(p));
+        } else {
+            return make_error(cat(where, ": unknown keyword \"", word, "\""));
+        }
+    }
+    if (!ended) return make_error(cat(file, ": PLY header without end_header"));
+    if (format < 0) return make_error(cat(file, ": PLY header without a format line"));
+
+    Mesh mesh;
+    mesh.name = path.stem().string();
+    Primitive prim;
+    size_t vertex_count = 0;
+    bool have_vertices = false, have_faces = false;
+    bool any_normal = false, any_uv = false, any_color = false;
+    PlyBody body(bytes, pos, format);
+    for (const PlyElement& e : elements) {
+        const bool is_vertex = e.name == "vertex";
+        const bool is_face = e.name == "face";
+        // Property roles.
+        std::vector<int> role(e.properties.size(), -1);
+        int face_list = -1;
+        const char* vnames[] = {"x",   "y",     "z",    "nx",   "ny",        "nz",
+                                "u",   "v",     "s",    "t",    "texture_u", "texture_v",
+                                "red", "green", "blue", "alpha"};
+        for (size_t i = 0; i < e.properties.size(); ++i) {
+            const PlyProperty& p = e.properties[i];
+            if (is_vertex && !p.list)
+                for (int r = 0; r < 16; ++r)
+                    if (p.name == vnames[r]) role[i] = r;
+            if (is_face && p.list && (p.name == "vertex_indices" || p.name == "vertex_index"))
+                face_list = int(i);
+        }
+        if (is_vertex) {
+            bool xyz[3] = {false, false, false};
+            for (size_t i = 0; i < role.size(); ++i)
+                if (role[i] >= 0 && role[i] < 3) xyz[role[i]] = true;
+            if (!xyz[0] || !xyz[1] || !xyz[2])
+                return make_error(cat(file, ": element vertex lacks x, y or z"));
+            for (size_t i = 0; i < role.size(); ++i) {
+                any_normal |= role[i] >= 3 && role[i] <= 5;
+                any_uv |= role[i] >= 6 && role[i] <= 11;
+                any_color |= role[i] >= 12;
+            }
+            have_vertices = true;
+            vertex_count = e.count;
+            prim.positions.reserve(e.count);
+        }
+        if (is_face) {
+            if (face_list < 0)
+                return make_error(cat(file, ": element face has no vertex_indices list"));
+            have_faces = true;
+        }
+        std::vector<int64_t> poly;
+        for (size_t item = 0; item < e.count; ++item) {
+            glm::vec3 pos3(0.0f), nrm(0.0f);
+            glm::vec2 uv(0.0f);
+            glm::vec4 col(1.0f);
+            for (size_t i = 0; i < e.properties.size(); ++i) {
+                const PlyProperty& p = e.properties[i];
+                auto truncated = [&] {
+                    return make_error(cat(file, ": element ", e.name, " ", item, " property ",
+                                          p.name, ": truncated or not a number"));
+                };
+                if (p.list) {
+                    double n = 0;
+                    if (!body.read(p.count_type, n)) return truncated();
+                    if (n < 0 || n > 1e6)
+                        return make_error(cat(file, ": element ", e.name, " ", item, " property ",
+                                              p.name, ": list length ", n));
+                    if (int(i) == face_list) poly.clear();
+                    for (size_t k = 0; k < size_t(n); ++k) {
+                        double v = 0;
+                        if (!body.read(p.type, v)) return truncated();
+                        if (int(i) == face_list) poly.push_back(int64_t(v));
+                    }
+                    continue;
+                }
+                double v = 0;
+                if (!body.read(p.type, v)) return truncated();
+                const int r = role[i];
+                if (r < 0) continue;
+                if (r < 3)
+                    pos3[r] = float(v);
+                else if (r < 6)
+                    nrm[r - 3] = float(v);
+                else if (r < 12)
+                    uv[(r - 6) % 2] = float(v);
+                else
+                    col[r - 12] = ply_integer(p.type) ? float(v / 255.0) : float(v);
+            }
+            if (is_vertex) {
+                prim.positions.push_back(pos3);
+                if (any_normal) prim.normals.push_back(nrm);
+                if (any_uv) prim.uv0.emplace_back(uv.x, 1.0f - uv.y);
+                if (any_color) prim.colors.push_back(col);
+            } else if (is_face) {
+                if (!have_vertices)
+                    return make_error(cat(file, ": element face before element vertex"));
+                if (Status s = add_polygon(poly, vertex_count, prim, cat(file, ": face ", item));
+                    !s.ok())
+                    return s.error();
+            }
+        }
+    }
+    if (!have_vertices) return make_error(cat(file, ": no element vertex"));
+    if (!have_faces || prim.indices.empty()) return make_error(cat(file, ": no faces"));
+    if (prim.normals.empty()) compute_normals(prim);
+    mesh.primitives.push_back(std::move(prim));
+    return single_mesh_scene(std::move(mesh));
+}
+
+// ---- OFF ----
+
+Result<Scene> load_off(const std::filesystem::path& path, const std::string& bytes) {
+    const std::string file = path.string();
+    std::istringstream in(bytes);
+    std::string line;
+    int line_no = 0;
+    // Tokens with their line numbers, comments stripped.
+    std::vector<std::pair<std::string, int>> tokens;
+    while (std::getline(in, line)) {
+        ++line_no;
+        if (size_t h = line.find('#'); h != std::string::npos) line.resize(h);
+        std::istringstream ls(line);
+        std::string t;
+        while (ls >> t) tokens.emplace_back(t, line_no);
+    }
+    size_t k = 0;
+    if (tokens.empty() || tokens[0].first.find("OFF") == std::string::npos)
+        return make_error(cat(file, ": not an OFF file"));
+    ++k;
+    auto number = [&](double& out) -> Status {
+        if (k >= tokens.size()) return make_error(cat(file, ": truncated (line ", line_no, ")"));
+        const std::string& t = tokens[k].first;
+        char* end = nullptr;
+        out = std::strtod(t.c_str(), &end);
+        if (end == t.c_str() || *end)
+            return make_error(
+                cat(file, ": line ", tokens[k].second, ": \"", t, "\" is not a number"));
+        ++k;
+        return {};
+    };
+    double v = 0, f = 0, e = 0;
+    for (double* x : {&v, &f, &e})
+        if (Status s = number(*x); !s.ok()) return s.error();
+    if (v < 0 || f < 0 || v > 1e9 || f > 1e9) return make_error(cat(file, ": bad counts"));
+    Mesh mesh;
+    mesh.name = path.stem().string();
+    Primitive prim;
+    for (size_t i = 0; i < size_t(v); ++i) {
+        glm::dvec3 p;
+        for (int c = 0; c < 3; ++c)
+            if (Status s = number(p[c]); !s.ok()) return s.error();
+        prim.positions.emplace_back(p);
+    }
+    std::vector<int64_t> poly;
+    for (size_t i = 0; i < size_t(f); ++i) {
+        double n = 0;
+        if (Status s = number(n); !s.ok()) return s.error();
+        const int line_of_face = tokens[k - 1].second;
+        poly.clear();
+        for (size_t c = 0; c < size_t(std::max(0.0, n)); ++c) {
+            double idx = 0;
+            if (Status s = number(idx); !s.ok()) return s.error();
+            poly.push_back(int64_t(idx));
+        }
+        // Skip optional colour values up to the end of the face's line.
+        while (k < tokens.size() && tokens[k].second == line_of_face) ++k;
+        if (Status s =
+                add_polygon(poly, prim.positions.size(), prim, cat(file, ": line ", line_of_face));
+            !s.ok())
+            return s.error();
+    }
+    if (prim.indices.empty()) return make_error(cat(file, ": no faces"));
+    compute_normals(prim);
+    mesh.primitives.push_back(std::move(prim));
+    return single_mesh_scene(std::move(mesh));
+}
+
+}  // namespace
+
+Result<Scene> load_mesh_file(const std::filesystem::path& path) {
+    Result<std::string> bytes = read_file(path);
+    if (!bytes.ok()) return bytes.error();
+    const std::string& b = *bytes;
+    if (b.empty()) return make_error(cat(path.string(), ": empty file"));
+    if (b.compare(0, 4, "glTF") == 0) return load_gltf(path);
+    if (b.compare(0, 3, "ply") == 0) return load_ply(path, b);
+    const size_t first = b.find_first_not_of(" \t\r\n");
+    if (first != std::string::npos && b[first] == '{') return load_gltf(path);
+    const size_t off = b.find("OFF");
+    if (off != std::string::npos && off < 4 && b.find_first_of("\n", 0) > off)
+        return load_off(path, b);
+    std::string ext = path.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return std::tolower(c); });
+    if (ext == ".obj") {
+        Result<Mesh> m = load_obj(path);
+        if (!m.ok()) return m.error();
+        return single_mesh_scene(std::move(m).value());
+    }
+    return make_error(
+        cat(path.string(), ": not a glTF, .glb, OBJ, PLY or OFF file (by content and extension)"));
+}
+
+}  // namespace hmdnode

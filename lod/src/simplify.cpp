@@ -1,0 +1,150 @@
+// simplify(): the table of algorithms (name -> entry point) and the checks of its arguments.
+// Each algorithm is in its own file; lod/src/algorithms.hpp declares the entry points.
+//
+// Cost: O(V + F) for the checks, then the algorithm's.
+#include "hmdnode/lod/simplify.hpp"
+
+#include <cmath>
+#include <string>
+
+#include "algorithms.hpp"
+#include "collapse_engine.hpp"
+
+namespace hmdnode {
+namespace {
+
+struct Entry {
+    AlgorithmInfo info;
+    lod_detail::AlgorithmFn fn;
+};
+
+const std::vector<Entry>& table() {
+    static const std::vector<Entry> entries = {
+        {{"qem", "Garland-Heckbert quadric error metric, optimal placement",
+          "Garland & Heckbert 1997, 002 eq. (1)-(5)", true},
+         lod_detail::simplify_qem},
+        {{"curvature-qem", "QEM weighted by absolute curvature |k1|+|k2| and edge length",
+          "002 eq. (7)-(12)", true},
+         lod_detail::simplify_curvature_qem},
+        {{"formula1", "edge length / dot of the two face normals, half-edge collapse",
+          "000 Formula 1", true},
+         lod_detail::simplify_formula1},
+        {{"melax", "Melax: |u-v| * max_f min_n (1 - f.n)/2, half-edge collapse",
+          "000 Formula 2 (Melax 1998)", true},
+         lod_detail::simplify_melax},
+        {{"ss", "spherical scanning: vertices within a sphere merged, radius found for the target",
+          "001 sec. III.IV (SS)", false},
+         lod_detail::simplify_ss},
+        {{"fad", "face angle dependency: flattest vertices removed first (half-edge collapse)",
+          "001 sec. III.II (FAD)", false},
+         lod_detail::simplify_fad},
+        {{"vt", "vertex triplex: smallest triangles aggregated into their circumcentres",
+          "001 sec. III.I (VT)", false},
+         lod_detail::simplify_vt},
+        {{"ivdd", "intervertex distance: shortest edges to midpoints, small triangles to centres",
+          "001 sec. III.III (IVDD)", false},
+         lod_detail::simplify_ivdd},
+        {{"vtd", "vertex triplex distance: hybrid of VT and IVDD, by shortest triangle edge",
+          "001 sec. III.V.I (VTD)", false},
+         lod_detail::simplify_vtd},
+        {{"fass", "face angle spherical scanning: FAD under 30 degrees, then SS to the target",
+          "001 sec. III.V.II (FASS)", false},
+         lod_detail::simplify_fass},
+        {{"grid", "uniform-grid vertex clustering, cell size found for the target",
+          "Rossignac & Borrel 1993", false},
+         lod_detail::simplify_grid},
+        {{"openmesh-quadric", "OpenMesh Decimater with ModQuadric + ModNormalFlipping (baseline)",
+          "Garland & Heckbert 1997 as in OpenMesh", false},
+         lod_detail::simplify_openmesh_quadric},
+    };
+    return entries;
+}
+
+}  // namespace
+
+const std::vector<AlgorithmInfo>& simplification_algorithms() {
+    static const std::vector<AlgorithmInfo> infos = [] {
+        std::vector<AlgorithmInfo> out;
+        for (const Entry& e : table()) out.push_back(e.info);
+        return out;
+    }();
+    return infos;
+}
+
+const AlgorithmInfo* find_simplification_algorithm(std::string_view name) {
+    for (const AlgorithmInfo& info : simplification_algorithms()) {
+        if (info.name == name) return &info;
+    }
+    return nullptr;
+}
+
+namespace lod_detail {
+
+// The checks simplify() and build_progressive_mesh() share: the entry points' contract.
+Status check_simplify_arguments(const Primitive& in, std::string_view algorithm,
+                                std::span<const size_t> targets) {
+    if (!find_simplification_algorithm(algorithm)) {
+        return make_error("unknown simplification algorithm '" + std::string(algorithm) + "'");
+    }
+    if (in.indices.size() % 3 != 0) {
+        return make_error("index count " + std::to_string(in.indices.size()) +
+                          " is not a multiple of 3");
+    }
+    if (in.triangle_count() == 0) return make_error("the mesh has no triangles");
+    const size_t n = in.positions.size();
+    auto check_size = [n](size_t size, const char* name) -> Status {
+        if (size != 0 && size != n) {
+            return make_error(std::string(name) + " has " + std::to_string(size) + " entries for " +
+                              std::to_string(n) + " positions");
+        }
+        return Status::success();
+    };
+    for (Status s : {check_size(in.normals.size(), "normals"), check_size(in.uv0.size(), "uv0"),
+                     check_size(in.uv1.size(), "uv1"), check_size(in.colors.size(), "colors")}) {
+        if (!s) return s;
+    }
+    for (size_t i = 0; i < in.indices.size(); ++i) {
+        if (in.indices[i] >= n) {
+            return make_error("index " + std::to_string(i) + " is " +
+                              std::to_string(in.indices[i]) + ", out of range (" +
+                              std::to_string(n) + " vertices)");
+        }
+    }
+    for (size_t i = 0; i < n; ++i) {
+        const glm::vec3 p = in.positions[i];
+        if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
+            return make_error("position " + std::to_string(i) + " is not finite");
+        }
+    }
+    if (targets.empty()) return make_error("no target triangle count");
+    for (size_t i = 0; i < targets.size(); ++i) {
+        if (targets[i] == 0) return make_error("target " + std::to_string(i) + " is zero");
+        if (targets[i] >= in.triangle_count()) {
+            return make_error("target " + std::to_string(i) + " (" + std::to_string(targets[i]) +
+                              " triangles) is not below the input's " +
+                              std::to_string(in.triangle_count()));
+        }
+        if (i > 0 && targets[i] >= targets[i - 1]) {
+            return make_error("targets are not strictly decreasing at " + std::to_string(i) + " (" +
+                              std::to_string(targets[i - 1]) + " then " +
+                              std::to_string(targets[i]) + ")");
+        }
+    }
+    return Status::success();
+}
+
+}  // namespace lod_detail
+
+Result<std::vector<SimplifiedLevel>> simplify(const Primitive& in, std::string_view algorithm,
+                                              std::span<const size_t> target_triangles,
+                                              const SimplifyOptions& options) {
+    if (Status s = lod_detail::check_simplify_arguments(in, algorithm, target_triangles); !s) {
+        return s.error();
+    }
+    for (const Entry& e : table()) {
+        if (e.info.name == algorithm) return e.fn(in, target_triangles, options);
+    }
+    return make_error("unknown simplification algorithm '" + std::string(algorithm) + "'");
+}
+
+}  // namespace hmdnode

@@ -1,0 +1,352 @@
+// The bake pipeline against closed-form answers at lightmap texels: a point light over a plane
+// (E = I cos / r^2) with the hard shadow of an occluder where geometry puts it, a plane under a
+// uniform sky (E = pi Ls), a closed room lit only from outside (about 0 inside), the texels under
+// a box (invalid, filled from neighbours), determinism across thread counts, and input errors.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <vector>
+
+#include "hmdnode/bake/bake.hpp"
+
+namespace hmdnode {
+namespace {
+
+constexpr float kPi = std::numbers::pi_v<float>;
+
+struct Builder {
+    Scene s;
+    // mesh per material kind: 0 lightmapped floor, 1 other geometry
+    Builder(glm::vec3 floor_albedo, glm::vec3 other_albedo, int lightmap_size) {
+        Material floor;
+        floor.name = "floor";
+        floor.base_color_factor = glm::vec4(floor_albedo, 1.0f);
+        floor.lightmap.texture = 0;
+        Material other;
+        other.name = "other";
+        other.base_color_factor = glm::vec4(other_albedo, 1.0f);
+        s.materials = {floor, other};
+        Texture t;
+        t.name = "lightmap";
+        t.width = t.height = lightmap_size;
+        t.rgba8.assign(size_t(lightmap_size) * lightmap_size * 4, 0);
+        s.textures.push_back(t);
+        for (int i = 0; i < 2; ++i) {
+            Mesh m;
+            m.name = i == 0 ? "floor" : "other";
+            m.primitives.emplace_back();
+            m.primitives[0].material = i;
+            s.meshes.push_back(m);
+            Node n;
+            n.name = m.name;
+            n.mesh = i;
+            s.nodes.push_back(n);
+            s.roots.push_back(i);
+        }
+    }
+    // Quad o, o+u, o+u+v, o+v (front = u x v) into mesh k; uv1 maps u to x and v to y of the
+    // whole lightmap when `uv` (floor only).
+    void quad(int k, glm::vec3 o, glm::vec3 u, glm::vec3 v, bool uv) {
+        Primitive& p = s.meshes[k].primitives[0];
+        const uint32_t b = uint32_t(p.positions.size());
+        p.positions.insert(p.positions.end(), {o, o + u, o + u + v, o + v});
+        const glm::vec3 n = glm::normalize(glm::cross(u, v));
+        p.normals.insert(p.normals.end(), 4, n);
+        if (uv) p.uv1.insert(p.uv1.end(), {{0, 0}, {1, 0}, {1, 1}, {0, 1}});
+        p.indices.insert(p.indices.end(), {b, b + 1, b + 2, b, b + 2, b + 3});
+    }
+    void point_light(glm::vec3 at, float intensity) {
+        Node n;
+        n.name = "light";
+        n.translation = glm::dvec3(at);
+        s.nodes.push_back(n);
+        s.roots.push_back(int(s.nodes.size()) - 1);
+        Light l;
+        l.intensity = intensity;
+        l.node = int(s.nodes.size()) - 1;
+        s.lights.push_back(l);
+    }
+};
+
+// The floor [-2, 2] x [-2, 2] at y = 0, normal +y; uv1 (0,0) at (-2, 0, -2), u along +z... we
+// pick o = (-2,0,-2), u = (0,0,4), v = (4,0,0): texel (x, y) spans z in [-2 + 4x/W, ...] and x
+// in [-2 + 4y/H, ...].
+glm::vec3 floor_point(float tx, float ty, int size) {
+    return {-2.0f + 4.0f * ty / size, 0.0f, -2.0f + 4.0f * tx / size};
+}
+
+TEST(Bake, PointLightOverPlaneWithHardShadow) {
+    const int size = 32;
+    Builder b(glm::vec3(0.0f), glm::vec3(0.0f), size);  // black: no indirect light
+    b.quad(0, {-2, 0, -2}, {0, 0, 4}, {4, 0, 0}, true);
+    b.quad(1, {-0.2f, 0.5f, -0.2f}, {0, 0, 0.4f}, {0.4f, 0, 0}, false);  // occluder, y = 0.5
+    const float intensity = 10.0f;
+    b.point_light({0, 1, 0}, intensity);
+    BakeOptions o;
+    o.samples = 8;
+    o.strata = 2;
+    o.threads = 2;
+    Result<BakeReport> r = bake_scene(b.s, o);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    ASSERT_EQ(r->maps.size(), 1u);
+    const BakedMap& m = r->maps[0];
+    EXPECT_EQ(m.covered, size_t(size * size));
+    EXPECT_EQ(m.invalid, 0u);
+    auto formula = [&](glm::vec3 p) {
+        glm::vec3 d = glm::vec3(0, 1, 0) - p;
+        float rr = glm::length(d);
+        return intensity * (d.y / rr) / (rr * rr);
+    };
+    size_t lit = 0, umbra = 0;
+    for (int y = 0; y < size; ++y)
+        for (int x = 0; x < size; ++x) {
+            const glm::vec3 lo = floor_point(float(x), float(y), size);
+            const glm::vec3 hi = floor_point(float(x + 1), float(y + 1), size);
+            const float e = m.raw[size_t(y) * size + x].r;
+            // The umbra of the occluder is [-0.4, 0.4]^2; its edge is hard (point light).
+            const bool inside = hi.x < 0.4f && lo.x > -0.4f && hi.z < 0.4f && lo.z > -0.4f;
+            const bool outside = lo.x > 0.4f || hi.x < -0.4f || lo.z > 0.4f || hi.z < -0.4f;
+            if (inside) {
+                EXPECT_EQ(e, 0.0f) << x << "," << y;
+                ++umbra;
+            } else if (outside) {
+                // Mean of the formula at the 2 x 2 stratum centres.
+                float ref = 0.0f;
+                for (float sy : {0.25f, 0.75f})
+                    for (float sx : {0.25f, 0.75f})
+                        ref += 0.25f * formula(floor_point(x + sx, y + sy, size));
+                EXPECT_NEAR(e, ref, 0.02f * ref) << x << "," << y;
+                ++lit;
+            }
+        }
+    EXPECT_EQ(umbra, 36u);  // 6 x 6 texels of 0.125 m fit in the 0.8 m umbra
+    EXPECT_GT(lit, 900u);
+}
+
+TEST(Bake, PlaneUnderUniformSky) {
+    const int size = 16;
+    Builder b(glm::vec3(0.5f), glm::vec3(0.5f), size);
+    b.quad(0, {-2, 0, -2}, {0, 0, 4}, {4, 0, 0}, true);
+    BakeOptions o;
+    o.samples = 4;
+    o.sky_radiance = glm::vec3(0.2f, 0.4f, 0.8f);
+    Result<BakeReport> r = bake_scene(b.s, o);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    const BakedMap& m = r->maps[0];
+    for (size_t i = 0; i < m.raw.size(); ++i)
+        for (int c = 0; c < 3; ++c) {
+            const float ref = kPi * o.sky_radiance[c];
+            ASSERT_NEAR(m.raw[i][c], ref, 0.02f * ref) << i;
+            ASSERT_NEAR(m.final_e[i][c], ref, 0.02f * ref) << i;
+        }
+    // The stored texture decodes to E within 8-bit quantisation.
+    const Material& mat = b.s.materials[0];
+    const float decoded = b.s.textures[0].rgba8[2] / 255.0f * mat.lightmap.intensity;
+    EXPECT_NEAR(decoded, kPi * 0.8f, 0.01f * kPi * 0.8f);
+}
+
+// A closed room [-1, 1] x [0, 2] x [-1, 1] of zero-thickness double-sided walls (thin walls: the
+// classic leak), a floor that runs 0.5 m past the walls, a sun and a sky outside: inside is dark,
+// outside is lit.
+TEST(Bake, ClosedRoomLitFromOutsideIsDarkInside) {
+    const int size = 24;  // floor 3 m -> 0.125 m texels
+    Builder b(glm::vec3(0.8f), glm::vec3(0.8f), size);
+    b.s.materials[1].double_sided = true;
+    b.quad(0, {-1.5f, 0, -1.5f}, {0, 0, 3}, {3, 0, 0}, true);
+    b.quad(1, {-1, 2, -1}, {2, 0, 0}, {0, 0, 2}, false);  // ceiling, normal -y
+    b.quad(1, {-1, 0, -1}, {0, 2, 0}, {0, 0, 2}, false);  // x = -1, normal +x
+    b.quad(1, {1, 0, -1}, {0, 0, 2}, {0, 2, 0}, false);   // x = +1, normal -x
+    b.quad(1, {-1, 0, -1}, {2, 0, 0}, {0, 2, 0}, false);  // z = -1, normal +z
+    b.quad(1, {-1, 0, 1}, {0, 2, 0}, {2, 0, 0}, false);   // z = +1, normal -z
+    Node sun;
+    sun.rotation = glm::angleAxis(-1.0, glm::dvec3(1, 0, 0)) *
+                   glm::angleAxis(0.3, glm::dvec3(0, 1, 0));  // shines down and sideways
+    b.s.nodes.push_back(sun);
+    Light l;
+    l.type = Light::Type::Directional;
+    l.intensity = 5.0f;
+    l.node = int(b.s.nodes.size()) - 1;
+    b.s.lights.push_back(l);
+    BakeOptions o;
+    o.samples = 32;
+    o.bounces = 3;
+    o.sky_radiance = glm::vec3(1.0f);
+    Result<BakeReport> r = bake_scene(b.s, o);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    const BakedMap& m = r->maps[0];
+    float max_inside = 0.0f, min_outside = 1e9f;
+    for (int y = 0; y < size; ++y)
+        for (int x = 0; x < size; ++x) {
+            // Texel (x, y): z in [-1.5 + 3x/size, ...], x in [-1.5 + 3y/size, ...].
+            const float z0 = -1.5f + 3.0f * x / size, z1 = z0 + 3.0f / size;
+            const float x0 = -1.5f + 3.0f * y / size, x1 = x0 + 3.0f / size;
+            const size_t i = size_t(y) * size + x;
+            if (x0 > -1 && x1 < 1 && z0 > -1 && z1 < 1) {
+                max_inside = std::max({max_inside, m.raw[i].r, m.final_e[i].r});
+            } else if (x0 > 1 || x1 < -1 || z0 > 1 || z1 < -1) {
+                min_outside = std::min(min_outside, m.raw[i].r);
+            }
+        }
+    EXPECT_GT(min_outside, 0.4f * kPi);  // about half the sky (a wall hides the rest) and more
+    EXPECT_LT(max_inside, 1e-3f * min_outside);
+}
+
+// A low box standing on the floor, its sides off the texel grid: the floor texels under it see
+// the back faces of its top and sides within a texel; they are marked invalid and filled from
+// their lit neighbours, and the samples of the texels its sides cut through are pushed out in
+// front of the nearest back face, so those texels read like their outside neighbours instead
+// of half dark.
+TEST(Bake, TexelsUnderABoxAreInvalidAndFilled) {
+    const int size = 32;  // 4 m floor -> 0.125 m texels
+    Builder b(glm::vec3(0.0f), glm::vec3(0.0f), size);
+    b.quad(0, {-2, 0, -2}, {0, 0, 4}, {4, 0, 0}, true);
+    const float h = 0.56f, t = 0.1f;  // box [-h, h]^2 x [0, t], outward faces, no bottom
+    b.quad(1, {-h, t, -h}, {0, 0, 2 * h}, {2 * h, 0, 0}, false);  // top, +y
+    b.quad(1, {-h, 0, -h}, {0, t, 0}, {2 * h, 0, 0}, false);      // z = -h: normal -z
+    b.quad(1, {-h, 0, h}, {2 * h, 0, 0}, {0, t, 0}, false);       // z = +h: normal +z
+    b.quad(1, {-h, 0, -h}, {0, 0, 2 * h}, {0, t, 0}, false);      // x = -h: normal -x
+    b.quad(1, {h, 0, -h}, {0, t, 0}, {0, 0, 2 * h}, false);       // x = +h: normal +x
+    BakeOptions o;
+    o.samples = 64;
+    o.sky_radiance = glm::vec3(1.0f);
+    o.denoise_iterations = 0;
+    Result<BakeReport> r = bake_scene(b.s, o);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    const BakedMap& m = r->maps[0];
+    size_t invalid_under = 0;
+    for (int y = 0; y < size; ++y)
+        for (int x = 0; x < size; ++x) {
+            const glm::vec3 lo = floor_point(float(x), float(y), size);
+            const glm::vec3 hi = floor_point(float(x + 1), float(y + 1), size);
+            const size_t i = size_t(y) * size + x;
+            if (lo.x >= -h && hi.x <= h && lo.z >= -h && hi.z <= h) {
+                invalid_under += m.valid[i] ? 0 : 1;
+                EXPECT_GT(m.final_e[i].r, 0.5f) << "filled from neighbours " << x << "," << y;
+            }
+        }
+    EXPECT_EQ(invalid_under, 64u);  // [-0.5, 0.5]^2: 8 x 8 texels lie fully under the box
+    EXPECT_LE(m.invalid, 100u);     // plus at most the ring the box's sides cut through
+    EXPECT_GT(m.pushed_samples, 0u);
+    // Texels cut by the side x = -h (x in [-0.625, -0.5]) against their outside neighbours
+    // (x in [-0.75, -0.625]), along the middle of that side, where the validity pass kept them.
+    const int row_cut = 11, row_out = 10;  // floor_point: x = -2 + 4 y / 32
+    for (int col = 13; col <= 18; ++col) {
+        const size_t cut = size_t(row_cut) * size + col, out = size_t(row_out) * size + col;
+        if (!m.valid[cut]) continue;
+        EXPECT_NEAR(m.raw[cut].r, m.raw[out].r, 0.25f * m.raw[out].r) << col;
+    }
+}
+
+// A plane cut into two charts along x = 0, lit by a point light off to one side: without seam
+// blending the two sides of the cut read different light (about 7 %); with it, bilinear lookups
+// along the cut agree on both sides.
+TEST(Bake, SeamBlendingMakesBothSidesOfASplitEdgeAgree) {
+    auto run = [](int seam_iterations) {
+        Builder b(glm::vec3(0.0f), glm::vec3(0.0f), 16);
+        Texture& t = b.s.textures[0];
+        t.width = 32;
+        t.rgba8.assign(32 * 16 * 4, 0);
+        Primitive& p = b.s.meshes[0].primitives[0];
+        // Chart A: x in [-1, 0] -> texels x [2, 14); chart B: x in [0, 1] -> [18, 30); z in
+        // [-0.5, 0.5] -> texels y [2, 14). Normal +y (u = +z... use o + z-edge first).
+        auto chart = [&](float x0, float tx0) {
+            const uint32_t base = uint32_t(p.positions.size());
+            p.positions.insert(
+                p.positions.end(),
+                {{x0, 0, -0.5f}, {x0, 0, 0.5f}, {x0 + 1, 0, 0.5f}, {x0 + 1, 0, -0.5f}});
+            p.normals.insert(p.normals.end(), 4, glm::vec3(0, 1, 0));
+            p.uv1.insert(p.uv1.end(), {{tx0 / 32, 2.0f / 16},
+                                       {tx0 / 32, 14.0f / 16},
+                                       {(tx0 + 12) / 32, 14.0f / 16},
+                                       {(tx0 + 12) / 32, 2.0f / 16}});
+            p.indices.insert(p.indices.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
+        };
+        chart(-1.0f, 2.0f);
+        chart(0.0f, 18.0f);
+        b.point_light({0.3f, 1.0f, 0.0f}, 10.0f);
+        BakeOptions o;
+        o.samples = 4;
+        o.seam_iterations = seam_iterations;
+        Result<BakeReport> r = bake_scene(b.s, o);
+        EXPECT_TRUE(r.ok()) << r.error().message;
+        return *r;
+    };
+    auto lookup = [](const BakedMap& m, glm::vec2 texel) {
+        const float x = texel.x - 0.5f, y = texel.y - 0.5f;
+        const int x0 = int(std::floor(x)), y0 = int(std::floor(y));
+        const float fx = x - x0, fy = y - y0;
+        auto at = [&](int xi, int yi) { return m.final_e[size_t(yi) * m.width + xi].r; };
+        return (1 - fy) * ((1 - fx) * at(x0, y0) + fx * at(x0 + 1, y0)) +
+               fy * ((1 - fx) * at(x0, y0 + 1) + fx * at(x0 + 1, y0 + 1));
+    };
+    const BakeReport plain = run(0), blended = run(BakeOptions{}.seam_iterations);
+    EXPECT_EQ(blended.maps[0].seams, 1u);  // the edge x = 0
+    float worst_plain = 0.0f, worst_blended = 0.0f;
+    for (float ty = 2.5f; ty < 13.6f; ty += 0.5f) {
+        const float a0 = lookup(plain.maps[0], {14, ty}), b0 = lookup(plain.maps[0], {18, ty});
+        const float a1 = lookup(blended.maps[0], {14, ty}), b1 = lookup(blended.maps[0], {18, ty});
+        worst_plain = std::max(worst_plain, std::abs(a0 - b0) / b0);
+        worst_blended = std::max(worst_blended, std::abs(a1 - b1) / b1);
+    }
+    EXPECT_GT(worst_plain, 0.04f);
+    EXPECT_LT(worst_blended, 0.01f);
+}
+
+TEST(Bake, DeterministicForASeedAcrossThreadCounts) {
+    const int size = 16;
+    auto run = [&](int threads, uint64_t seed) {
+        Builder b(glm::vec3(0.5f), glm::vec3(0.7f), size);
+        b.quad(0, {-2, 0, -2}, {0, 0, 4}, {4, 0, 0}, true);
+        b.quad(1, {-0.5f, 0.8f, -0.5f}, {0, 0, 1}, {1, 0, 0}, false);
+        b.point_light({0.3f, 2, 0}, 5.0f);
+        BakeOptions o;
+        o.samples = 8;
+        o.threads = threads;
+        o.seed = seed;
+        o.sky_radiance = glm::vec3(0.1f);
+        Result<BakeReport> r = bake_scene(b.s, o);
+        EXPECT_TRUE(r.ok());
+        return r->maps[0].final_e;
+    };
+    const std::vector<glm::vec3> a = run(1, 42), b2 = run(2, 42), c = run(2, 43);
+    EXPECT_EQ(a, b2);
+    EXPECT_NE(a, c);
+}
+
+TEST(Bake, NoLightIsAClearError) {
+    Builder b(glm::vec3(0.5f), glm::vec3(0.5f), 8);
+    b.quad(0, {-2, 0, -2}, {0, 0, 4}, {4, 0, 0}, true);
+    Result<BakeReport> r = bake_scene(b.s, BakeOptions{});
+    ASSERT_FALSE(r.ok());
+    EXPECT_NE(r.error().message.find("no KHR_lights_punctual light"), std::string::npos);
+}
+
+TEST(Bake, NonFinitePositionNamesTheMesh) {
+    Builder b(glm::vec3(0.5f), glm::vec3(0.5f), 8);
+    b.quad(0, {-2, 0, -2}, {0, 0, 4}, {4, 0, 0}, true);
+    b.quad(1, {0, 1, 0}, {1, 0, 0}, {0, 0, 1}, false);
+    b.s.meshes[1].primitives[0].positions[1].y = INFINITY;
+    BakeOptions o;
+    o.sky_radiance = glm::vec3(1.0f);
+    Result<BakeReport> r = bake_scene(b.s, o);
+    ASSERT_FALSE(r.ok());
+    EXPECT_NE(r.error().message.find("'other'"), std::string::npos) << r.error().message;
+    EXPECT_NE(r.error().message.find("vertex 1"), std::string::npos) << r.error().message;
+}
+
+TEST(Bake, VertexColoursAreIrradianceOverPi) {
+    Builder b(glm::vec3(0.5f), glm::vec3(0.5f), 8);
+    b.quad(1, {-1, 0, -1}, {0, 0, 2}, {2, 0, 0}, false);  // unlightmapped plane, normal +y
+    BakeOptions o;
+    o.samples = 8;
+    o.sky_radiance = glm::vec3(0.3f, 0.6f, 0.9f);
+    Result<BakeReport> r = bake_scene(b.s, o);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_EQ(r->vertices, 4u);
+    for (const glm::vec4& c : b.s.meshes[1].primitives[0].colors)
+        for (int k = 0; k < 3; ++k) EXPECT_NEAR(c[k], o.sky_radiance[k], 0.02f * o.sky_radiance[k]);
+}
+
+}  // namespace
+}  // namespace hmdnode

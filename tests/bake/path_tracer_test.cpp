@@ -1,0 +1,214 @@
+// The Embree path tracer against closed-form answers: the furnace (closed box, albedo rho,
+// emission Le: radiance Le / (1 - rho) everywhere), a plane under a uniform sky (E = pi Ls), a
+// point light (E = I cos / r^2), and the Monte Carlo error falling as 1 / sqrt(N).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <vector>
+
+#include "hmdnode/bake/path_tracer.hpp"
+
+namespace hmdnode {
+namespace {
+
+constexpr float kPi = std::numbers::pi_v<float>;
+
+// Adds the quad o, o+u, o+u+v, o+v (front side = u x v) to primitive 0 of mesh 0.
+void add_quad(Scene& s, glm::vec3 o, glm::vec3 u, glm::vec3 v) {
+    Primitive& p = s.meshes[0].primitives[0];
+    const uint32_t b = uint32_t(p.positions.size());
+    p.positions.insert(p.positions.end(), {o, o + u, o + u + v, o + v});
+    const glm::vec3 n = glm::normalize(glm::cross(u, v));
+    p.normals.insert(p.normals.end(), 4, n);
+    p.indices.insert(p.indices.end(), {b, b + 1, b + 2, b, b + 2, b + 3});
+}
+
+Scene one_mesh_scene(const Material& m) {
+    Scene s;
+    s.materials.push_back(m);
+    Mesh mesh;
+    mesh.name = "test";
+    mesh.primitives.emplace_back();
+    mesh.primitives[0].material = 0;
+    s.meshes.push_back(mesh);
+    Node n;
+    n.mesh = 0;
+    s.nodes.push_back(n);
+    s.roots.push_back(0);
+    return s;
+}
+
+// Inward-facing unit-size cube [-h, h]^3.
+void add_inward_box(Scene& s, float h) {
+    const float e = 2 * h;
+    add_quad(s, {-h, -h, -h}, {0, 0, e}, {e, 0, 0});  // floor, normal +y
+    add_quad(s, {-h, h, -h}, {e, 0, 0}, {0, 0, e});   // ceiling, normal -y
+    add_quad(s, {-h, -h, -h}, {0, e, 0}, {0, 0, e});  // x = -h, normal +x
+    add_quad(s, {h, -h, -h}, {0, 0, e}, {0, e, 0});   // x = +h, normal -x
+    add_quad(s, {-h, -h, -h}, {e, 0, 0}, {0, e, 0});  // z = -h, normal +z
+    add_quad(s, {-h, -h, h}, {0, e, 0}, {e, 0, 0});   // z = +h, normal -z
+}
+
+Scene furnace(float rho, float le) {
+    Material m;
+    m.name = "furnace";
+    m.base_color_factor = glm::vec4(rho, rho, rho, 1.0f);
+    m.emissive_factor = glm::vec3(le);
+    Scene s = one_mesh_scene(m);
+    add_inward_box(s, 0.5f);
+    return s;
+}
+
+TEST(PathTracer, InwardBoxNormalsPointInside) {
+    Scene s = furnace(0.5f, 1.0f);
+    const Primitive& p = s.meshes[0].primitives[0];
+    for (size_t i = 0; i < p.positions.size(); ++i)
+        EXPECT_LT(glm::dot(p.normals[i], p.positions[i]), 0.0f) << i;
+}
+
+TEST(PathTracer, FurnaceRadianceIsLeOverOneMinusRho) {
+    const float rho = 0.5f, le = 1.0f;
+    Scene s = furnace(rho, le);
+    PathTracerOptions o;
+    o.bounces = 200;  // truncation rho^200: nothing; Russian roulette keeps it unbiased
+    Result<PathTracer> t = PathTracer::build(s, o);
+    ASSERT_TRUE(t.ok()) << t.error().message;
+    EXPECT_EQ(t->triangle_count(), 12u);
+    EXPECT_EQ(t->emissive_triangle_count(), 12u);
+    const double expected = le / (1.0 - rho);
+    // Camera rays from several points in several directions.
+    const glm::vec3 origins[] = {{0, 0, 0}, {0.3f, -0.2f, 0.1f}, {-0.45f, 0.45f, 0.4f}};
+    for (int oi = 0; oi < 3; ++oi) {
+        Pcg32 rng(7, oi);
+        double sum = 0.0;
+        const int n = 4000;
+        for (int i = 0; i < n; ++i) {
+            float z = 1 - 2 * rng.uniform(), phi = 2 * kPi * rng.uniform();
+            float r = std::sqrt(1 - z * z);
+            glm::vec3 d(r * std::cos(phi), r * std::sin(phi), z);
+            sum += t->radiance(origins[oi], d, rng).g;
+        }
+        EXPECT_NEAR(sum / n, expected, 0.02 * expected) << "origin " << oi;
+    }
+    // Irradiance at wall points: E = pi L.
+    Pcg32 rng(9, 1);
+    const glm::vec3 pts[] = {{0, -0.5f, 0}, {0.49f, -0.5f, 0.49f}, {0.5f, 0.2f, -0.3f}};
+    const glm::vec3 ns[] = {{0, 1, 0}, {0, 1, 0}, {-1, 0, 0}};
+    for (int k = 0; k < 3; ++k) {
+        double sum = 0.0;
+        const int n = 4000;
+        for (int i = 0; i < n; ++i) sum += t->irradiance(pts[k], ns[k], rng).r;
+        EXPECT_NEAR(sum / n, kPi * expected, 0.02 * kPi * expected) << "point " << k;
+    }
+}
+
+TEST(PathTracer, PlaneUnderUniformSkyGetsPiLs) {
+    Material m;
+    m.base_color_factor = glm::vec4(0.7f, 0.7f, 0.7f, 1.0f);
+    Scene s = one_mesh_scene(m);
+    add_quad(s, {-1, 0, -1}, {0, 0, 2}, {2, 0, 0});  // normal +y
+    PathTracerOptions o;
+    o.sky_radiance = glm::vec3(0.5f, 1.0f, 2.0f);
+    o.bounces = 4;
+    Result<PathTracer> t = PathTracer::build(s, o);
+    ASSERT_TRUE(t.ok()) << t.error().message;
+    Pcg32 rng(1, 2);
+    glm::dvec3 sum(0.0);
+    const int n = 256;
+    for (int i = 0; i < n; ++i) sum += glm::dvec3(t->irradiance({0.3f, 0, -0.2f}, {0, 1, 0}, rng));
+    const glm::dvec3 e = sum / double(n);
+    for (int c = 0; c < 3; ++c)
+        EXPECT_NEAR(e[c], kPi * o.sky_radiance[c], 0.02 * kPi * o.sky_radiance[c]);
+}
+
+TEST(PathTracer, PointLightOverPlaneAndItsShadow) {
+    Material m;
+    m.base_color_factor = glm::vec4(0.0f, 0.0f, 0.0f, 1.0f);  // black: no indirect light
+    Scene s = one_mesh_scene(m);
+    add_quad(s, {-2, 0, -2}, {0, 0, 4}, {4, 0, 0});                 // floor
+    add_quad(s, {-0.2f, 0.5f, -0.2f}, {0, 0, 0.4f}, {0.4f, 0, 0});  // occluder at y = 0.5
+    Node ln;
+    ln.translation = glm::dvec3(0.0, 1.0, 0.0);
+    s.nodes.push_back(ln);
+    Light l;
+    l.intensity = 10.0f;
+    l.node = 1;
+    s.lights.push_back(l);
+    Result<PathTracer> t = PathTracer::build(s, PathTracerOptions{});
+    ASSERT_TRUE(t.ok()) << t.error().message;
+    Pcg32 rng(3, 3);
+    for (float x : {0.5f, 0.8f, 1.5f}) {
+        const glm::vec3 p(x, 0, 0.1f);
+        const glm::vec3 d = glm::vec3(0, 1, 0) - p;
+        const float r = glm::length(d);
+        const float expected = 10.0f * (d.y / r) / (r * r);
+        EXPECT_NEAR(t->irradiance(p, {0, 1, 0}, rng).r, expected, 0.02f * expected) << x;
+    }
+    // Umbra: the occluder's shadow spans [-0.4, 0.4]^2 on the floor.
+    for (float x : {0.0f, 0.3f, -0.35f})
+        EXPECT_EQ(t->irradiance({x, 0, 0.1f}, {0, 1, 0}, rng).r, 0.0f);
+}
+
+TEST(PathTracer, ErrorFallsAsInverseSqrtOfSamples) {
+    const float rho = 0.5f, le = 1.0f;
+    Scene s = furnace(rho, le);
+    PathTracerOptions o;
+    o.bounces = 200;
+    Result<PathTracer> t = PathTracer::build(s, o);
+    ASSERT_TRUE(t.ok());
+    const double truth = kPi * le / (1.0 - rho);
+    const int counts[] = {4, 16, 64, 256};
+    const int runs = 48;
+    std::vector<double> lx, ly;
+    for (int ci = 0; ci < 4; ++ci) {
+        double se = 0.0;
+        for (int run = 0; run < runs; ++run) {
+            Pcg32 rng(11, uint64_t(ci) * 1000 + run);
+            double sum = 0.0;
+            for (int i = 0; i < counts[ci]; ++i)
+                sum += t->irradiance({0.45f, -0.5f, 0.45f}, {0, 1, 0}, rng).r;
+            const double err = sum / counts[ci] - truth;
+            se += err * err;
+        }
+        lx.push_back(std::log(double(counts[ci])));
+        ly.push_back(std::log(std::sqrt(se / runs)));
+    }
+    double mx = 0, my = 0;
+    for (int i = 0; i < 4; ++i) {
+        mx += lx[i] / 4;
+        my += ly[i] / 4;
+    }
+    double sxy = 0, sxx = 0;
+    for (int i = 0; i < 4; ++i) {
+        sxy += (lx[i] - mx) * (ly[i] - my);
+        sxx += (lx[i] - mx) * (lx[i] - mx);
+    }
+    const double slope = sxy / sxx;
+    EXPECT_NEAR(slope, -0.5, 0.15)
+        << "RMS errors " << std::exp(ly[0]) << " ... " << std::exp(ly[3]);
+}
+
+TEST(PathTracer, NonFinitePositionIsAnErrorNamingTheMesh) {
+    Material m;
+    Scene s = one_mesh_scene(m);
+    add_quad(s, {0, 0, 0}, {1, 0, 0}, {0, 0, 1});
+    s.meshes[0].primitives[0].positions[2].x = NAN;
+    Result<PathTracer> t = PathTracer::build(s, PathTracerOptions{});
+    ASSERT_FALSE(t.ok());
+    EXPECT_NE(t.error().message.find("'test'"), std::string::npos) << t.error().message;
+    EXPECT_NE(t.error().message.find("vertex 2"), std::string::npos) << t.error().message;
+}
+
+TEST(PathTracer, SameSeedSameResult) {
+    Scene s = furnace(0.5f, 1.0f);
+    Result<PathTracer> t = PathTracer::build(s, PathTracerOptions{});
+    ASSERT_TRUE(t.ok());
+    Pcg32 a(5, 17), b(5, 17);
+    for (int i = 0; i < 100; ++i)
+        EXPECT_EQ(t->irradiance({0, -0.5f, 0}, {0, 1, 0}, a),
+                  t->irradiance({0, -0.5f, 0}, {0, 1, 0}, b));
+}
+
+}  // namespace
+}  // namespace hmdnode

@@ -1,0 +1,150 @@
+// Vive / Index IMU codec: golden bytes, range report, de-duplication of the rotating slots, gaps,
+// tick unwrap, malformed and unknown reports.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "hmdnode/hal/vive_imu.hpp"
+
+namespace hmdnode::vive {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+RawSlot slot(uint8_t seq, uint32_t ticks, int16_t ax = 0, int16_t ay = 0, int16_t az = 0,
+             int16_t gx = 0, int16_t gy = 0, int16_t gz = 0) {
+    RawSlot s;
+    s.accel = {ax, ay, az};
+    s.gyro = {gx, gy, gz};
+    s.ticks = ticks;
+    s.sequence = seq;
+    return s;
+}
+
+TEST(ViveImu, GoldenBytesDecodeToTheWireFields) {
+    // Slot 0: accel (100, -200, 16384), gyro (1, -1, 32767), ticks 0x01020304, seq 5.
+    std::vector<uint8_t> b = {0x20,                                // report id
+                              0x64, 0x00, 0x38, 0xff, 0x00, 0x40,  // accel
+                              0x01, 0x00, 0xff, 0xff, 0xff, 0x7f,  // gyro
+                              0x04, 0x03, 0x02, 0x01,              // ticks
+                              0x05};                               // seq
+    b.resize(52, 0);
+    auto slots = parse_imu_report(b);
+    ASSERT_TRUE(slots.ok()) << slots.error().message;
+    EXPECT_EQ((*slots)[0].accel, (std::array<int16_t, 3>{100, -200, 16384}));
+    EXPECT_EQ((*slots)[0].gyro, (std::array<int16_t, 3>{1, -1, 32767}));
+    EXPECT_EQ((*slots)[0].ticks, 0x01020304u);
+    EXPECT_EQ((*slots)[0].sequence, 5);
+    const auto again = encode_imu_report(*slots);
+    EXPECT_TRUE(std::equal(again.begin(), again.end(), b.begin()));
+}
+
+TEST(ViveImu, ScalesWithDefaultRangesIntoTheHeadFrame) {
+    ImuDecoder dec(Variant::Vive);
+    std::array<ImuSample, 3> out;
+    auto r = encode_imu_report(
+        {slot(10, 1000, 8192, -8192, 4096, 16384, 0, -16384), slot(8, 900), slot(9, 950)});
+    ASSERT_EQ(dec.decode(r, out), 1u);  // a first report gives its newest slot only
+    const double g4 = 4 * 9.80665, w500 = 500 * kPi / 180;
+    // Vive: x kept, y and z flipped.
+    EXPECT_NEAR(out[0].accel.x, g4 / 4, 1e-12);
+    EXPECT_NEAR(out[0].accel.y, g4 / 4, 1e-12);
+    EXPECT_NEAR(out[0].accel.z, -g4 / 8, 1e-12);
+    EXPECT_NEAR(out[0].gyro.x, w500 / 2, 1e-12);
+    EXPECT_NEAR(out[0].gyro.z, w500 / 2, 1e-12);
+    EXPECT_EQ(out[0].ticks, 1000u);
+    EXPECT_EQ(out[0].device_time_ns, 20833);  // 1000 ticks at 48 MHz
+
+    ImuDecoder index(Variant::Index);
+    ASSERT_EQ(index.decode(r, out), 1u);
+    // Index: x' = -y, y' = -x, z' = -z.
+    EXPECT_NEAR(out[0].accel.x, g4 / 4, 1e-12);
+    EXPECT_NEAR(out[0].accel.y, -g4 / 4, 1e-12);
+    EXPECT_NEAR(out[0].accel.z, -g4 / 8, 1e-12);
+}
+
+TEST(ViveImu, RangeReportSetsTheScale) {
+    const std::vector<uint8_t> feature = {0x01, 2, 3, 0, 0};  // 1000 deg/s, 16 g
+    auto ranges = parse_range_report(feature);
+    ASSERT_TRUE(ranges.ok());
+    EXPECT_NEAR(ranges->gyro_rad_s, 1000 * kPi / 180, 1e-12);
+    EXPECT_NEAR(ranges->accel_m_s2, 16 * 9.80665, 1e-12);
+    EXPECT_FALSE(parse_range_report(std::vector<uint8_t>{0x01, 5, 0}).ok());
+    EXPECT_FALSE(parse_range_report(std::vector<uint8_t>{0x02, 0, 0}).ok());
+    EXPECT_FALSE(parse_range_report(std::vector<uint8_t>{0x01, 0}).ok());
+
+    ImuDecoder dec(Variant::Vive, *ranges);
+    std::array<ImuSample, 3> out;
+    ASSERT_EQ(dec.decode(encode_imu_report({slot(1, 0, 32767), slot(0, 0), slot(0, 0)}), out), 1u);
+    EXPECT_NEAR(out[0].accel.x, 16 * 9.80665 * 32767 / 32768, 1e-9);
+}
+
+TEST(ViveImu, DeduplicatesRotatingSlotsAndCountsGaps) {
+    ImuDecoder dec;
+    std::array<ImuSample, 3> out;
+    // Rotation as the device sends it: each report refreshes one slot.
+    ASSERT_EQ(dec.decode(encode_imu_report({slot(3, 3000), slot(1, 1000), slot(2, 2000)}), out),
+              1u);
+    EXPECT_EQ(out[0].sequence, 3u);
+    ASSERT_EQ(dec.decode(encode_imu_report({slot(3, 3000), slot(4, 4000), slot(2, 2000)}), out),
+              1u);
+    EXPECT_EQ(out[0].sequence, 4u);
+    // Same report again: nothing new.
+    EXPECT_EQ(dec.decode(encode_imu_report({slot(3, 3000), slot(4, 4000), slot(2, 2000)}), out),
+              0u);
+    // Two new slots at once, out of slot order: emitted oldest first.
+    ASSERT_EQ(dec.decode(encode_imu_report({slot(6, 6000), slot(4, 4000), slot(5, 5000)}), out),
+              2u);
+    EXPECT_EQ(out[0].sequence, 5u);
+    EXPECT_EQ(out[1].sequence, 6u);
+    EXPECT_EQ(dec.counters().sequence_gaps, 0u);
+    // A gap: 7 and 8 never seen.
+    ASSERT_EQ(dec.decode(encode_imu_report({slot(6, 6000), slot(9, 9000), slot(6, 6000)}), out),
+              1u);
+    EXPECT_EQ(out[0].sequence, 9u);
+    EXPECT_EQ(dec.counters().sequence_gaps, 1u);
+    EXPECT_EQ(dec.counters().missing_samples, 2u);
+    EXPECT_EQ(dec.counters().samples, 5u);
+}
+
+TEST(ViveImu, UnwrapsSequenceAndTicks) {
+    ImuDecoder dec;
+    std::array<ImuSample, 3> out;
+    uint32_t ticks = 0xffffffffu - 48000 * 2;  // wraps after two samples
+    uint64_t expected_ticks = ticks;
+    uint8_t seq = 254;
+    ASSERT_EQ(dec.decode(encode_imu_report({slot(seq, ticks), slot(253, ticks - 48000),
+                                            slot(252, ticks - 96000)}),
+                         out),
+              1u);
+    for (int i = 1; i <= 600; ++i) {
+        ticks += 48000;  // 1 ms
+        expected_ticks += 48000;
+        ++seq;
+        ASSERT_EQ(
+            dec.decode(encode_imu_report({slot(seq, ticks), slot(uint8_t(seq - 1), ticks - 48000),
+                                          slot(uint8_t(seq - 2), ticks - 96000)}),
+                       out),
+            1u);
+        EXPECT_EQ(out[0].sequence, 254u + uint64_t(i));
+        EXPECT_EQ(out[0].ticks, expected_ticks);
+    }
+    EXPECT_EQ(dec.counters().sequence_gaps, 0u);
+}
+
+TEST(ViveImu, CountsMalformedAndUnknownReports) {
+    ImuDecoder dec;
+    std::array<ImuSample, 3> out;
+    std::vector<uint8_t> shortr(30, 0);
+    shortr[0] = 0x20;
+    EXPECT_EQ(dec.decode(shortr, out), 0u);
+    EXPECT_EQ(dec.decode(std::vector<uint8_t>{0x23, 1, 2}, out), 0u);
+    EXPECT_EQ(dec.decode(std::vector<uint8_t>{}, out), 0u);
+    EXPECT_EQ(dec.counters().malformed, 1u);
+    EXPECT_EQ(dec.counters().unknown, 2u);
+    EXPECT_EQ(dec.counters().samples, 0u);
+}
+
+}  // namespace
+}  // namespace hmdnode::vive

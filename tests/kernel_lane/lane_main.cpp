@@ -1,0 +1,457 @@
+// The real-kernel lane's guest program (docs/hardware.md, ../shared/docs/KERNEL_LANE.md). Run as
+// root inside a qemu guest with uhid, hid-generic and vivid loaded, it proves against the kernel's
+// own drivers:
+//   1. the simulated reference tracker's firmware (SimReferenceFirmware) becomes a HID device
+//      through /dev/uhid (UHID_CREATE2 with the protocol's report descriptor, UHID_INPUT2 per
+//      report, UHID_GET_REPORT / UHID_SET_REPORT answered by the firmware);
+//   2. our hidapi backend finds it by VID:PID, reads its input reports through hidraw and the
+//      protocol decoder with contiguous sequence numbers, and does the device-info and time-sync
+//      feature exchanges through hidraw;
+//   3. the device is destroyed and re-created mid-stream: the open transport fails, the hidraw
+//      hotplug monitor (kernel uevents: no udevd in the guest) sees it come back, and the backend
+//      reads again within a second of the re-creation;
+//   4. our V4L2 backend streams a few frames from vivid's /dev/video0.
+// Prints one line per check and a final "HMDNODE_KERNEL_LANE: PASS" or "...: FAIL"; exits 0 / 1.
+#include <fcntl.h>
+#include <linux/uhid.h>
+#include <poll.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cinttypes>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "hmdnode/hal/camera.hpp"
+#include "hmdnode/hal/reference_protocol.hpp"
+#include "hmdnode/hal/sim_reference_device.hpp"
+#include "hmdnode/hal/transport.hpp"
+
+namespace hmdnode {
+namespace {
+
+int64_t now_ns() {
+    timespec ts{};
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return static_cast<int64_t>(ts.tv_sec) * kNsPerSecond + ts.tv_nsec;
+}
+
+int g_failures = 0;
+int64_t g_t0 = 0;
+
+void check(bool ok, const char* what, const std::string& detail = "") {
+    std::printf("[%7.3f s] %s %s%s%s\n", ns_to_s(now_ns() - g_t0), ok ? "ok  " : "FAIL", what,
+                detail.empty() ? "" : ": ", detail.c_str());
+    std::fflush(stdout);
+    if (!ok) ++g_failures;
+}
+
+std::string fmt(const char* f, double v) {
+    char b[96];
+    std::snprintf(b, sizeof b, f, v);
+    return b;
+}
+
+constexpr const char* kSerial = "LANE-0001";
+constexpr int64_t kDeviceClockOffsetUs = 4'000'000'000;  // device clock far from the host's
+
+// The tracker firmware behind /dev/uhid, on its own thread (as a device is on its own MCU).
+class UhidTracker {
+  public:
+    UhidTracker() : firmware_(make_config(), sinusoidal_motion(30.0, 0.5)) {}
+    ~UhidTracker() {
+        quit_ = true;
+        if (thread_.joinable()) thread_.join();
+        if (fd_ >= 0) close(fd_);
+    }
+
+    bool start(std::string* error) {
+        fd_ = open("/dev/uhid", O_RDWR | O_CLOEXEC);
+        if (fd_ < 0) {
+            *error = std::string("/dev/uhid: ") + std::strerror(errno);
+            return false;
+        }
+        if (!create(error)) return false;
+        thread_ = std::thread([this] { loop(); });
+        return true;
+    }
+
+    // Destroys the device, waits gap_ms, creates it again (rebooted firmware).
+    void request_recreate(int gap_ms) {
+        gap_ms_ = gap_ms;
+        recreate_ = true;
+    }
+    int64_t created_ns() const { return created_ns_.load(); }
+    int64_t boot_ns() const { return boot_ns_.load(); }
+    uint64_t get_reports() const { return get_reports_.load(); }
+    uint64_t set_reports() const { return set_reports_.load(); }
+
+  private:
+    static SimReferenceDeviceConfig make_config() {
+        SimReferenceDeviceConfig c;
+        c.serial = kSerial;
+        c.latency_ns = 0;  // the real kernel adds its own
+        c.device_clock_offset_us = kDeviceClockOffsetUs;
+        return c;
+    }
+
+    bool write_event(const uhid_event& ev) {
+        const ssize_t n = write(fd_, &ev, sizeof ev);
+        return n == static_cast<ssize_t>(sizeof ev);
+    }
+
+    bool create(std::string* error) {
+        uhid_event ev{};
+        ev.type = UHID_CREATE2;
+        std::snprintf(reinterpret_cast<char*>(ev.u.create2.name), sizeof ev.u.create2.name,
+                      "hmdnode reference tracker (lane)");
+        std::snprintf(reinterpret_cast<char*>(ev.u.create2.uniq), sizeof ev.u.create2.uniq, "%s",
+                      kSerial);
+        const std::span<const uint8_t> rd = refproto::report_descriptor();
+        ev.u.create2.rd_size = static_cast<uint16_t>(rd.size());
+        std::memcpy(ev.u.create2.rd_data, rd.data(), rd.size());
+        ev.u.create2.bus = 0x03;  // BUS_USB
+        ev.u.create2.vendor = refproto::kDevVendorId;
+        ev.u.create2.product = refproto::kDevProductId;
+        ev.u.create2.version = 0x0100;
+        if (!write_event(ev)) {
+            if (error) *error = std::string("UHID_CREATE2: ") + std::strerror(errno);
+            return false;
+        }
+        const int64_t t = now_ns();
+        {
+            std::lock_guard lock(mutex_);
+            firmware_.boot(t);
+        }
+        boot_ns_ = t;
+        created_ns_ = t;
+        created_ = true;
+        return true;
+    }
+
+    void destroy() {
+        uhid_event ev{};
+        ev.type = UHID_DESTROY;
+        write_event(ev);
+        created_ = false;
+    }
+
+    void handle(const uhid_event& ev) {
+        const int64_t t = now_ns();
+        if (ev.type == UHID_GET_REPORT) {
+            ++get_reports_;
+            uhid_event reply{};
+            reply.type = UHID_GET_REPORT_REPLY;
+            reply.u.get_report_reply.id = ev.u.get_report.id;
+            Result<std::vector<uint8_t>> r = firmware_.get_feature(ev.u.get_report.rnum, t);
+            if (r.ok()) {
+                reply.u.get_report_reply.err = 0;
+                reply.u.get_report_reply.size = static_cast<uint16_t>(r->size());
+                std::memcpy(reply.u.get_report_reply.data, r->data(), r->size());
+            } else {
+                reply.u.get_report_reply.err = EIO;
+            }
+            write_event(reply);
+        } else if (ev.type == UHID_SET_REPORT) {
+            ++set_reports_;
+            uhid_event reply{};
+            reply.type = UHID_SET_REPORT_REPLY;
+            reply.u.set_report_reply.id = ev.u.set_report.id;
+            Status s = firmware_.set_feature(
+                std::span<const uint8_t>(ev.u.set_report.data, ev.u.set_report.size), t);
+            reply.u.set_report_reply.err = s.ok() ? 0 : EIO;
+            write_event(reply);
+        }
+    }
+
+    void loop() {
+        std::vector<InputReport> reports;
+        while (!quit_) {
+            if (recreate_) {
+                destroy();
+                const int64_t until = now_ns() + int64_t{gap_ms_} * kNsPerMs;
+                while (now_ns() < until) drain(until);
+                create(nullptr);
+                recreate_ = false;
+            }
+            int64_t next;
+            {
+                std::lock_guard lock(mutex_);
+                next = firmware_.next_arrival_ns();
+            }
+            drain(std::min(next, now_ns() + 5 * kNsPerMs));
+            if (!created_) continue;
+            reports.clear();
+            {
+                std::lock_guard lock(mutex_);
+                firmware_.produce(now_ns(), reports);
+            }
+            for (const InputReport& r : reports) {
+                uhid_event ev{};
+                ev.type = UHID_INPUT2;
+                ev.u.input2.size = static_cast<uint16_t>(r.bytes.size());
+                std::memcpy(ev.u.input2.data, r.bytes.data(), r.bytes.size());
+                write_event(ev);
+            }
+        }
+        if (created_) destroy();
+    }
+
+    // Answers the kernel's events until host time `until`.
+    void drain(int64_t until) {
+        for (;;) {
+            const int64_t left = until - now_ns();
+            timespec ts{0, left > 0 ? static_cast<long>(left) : 0};
+            pollfd p{fd_, POLLIN, 0};
+            const int rc = ppoll(&p, 1, &ts, nullptr);
+            if (rc <= 0) return;
+            uhid_event ev{};
+            if (read(fd_, &ev, sizeof ev) <= 0) return;
+            std::lock_guard lock(mutex_);
+            handle(ev);
+        }
+    }
+
+    int fd_ = -1;
+    std::mutex mutex_;
+    SimReferenceFirmware firmware_;
+    std::thread thread_;
+    std::atomic<bool> quit_{false}, recreate_{false}, created_{false};
+    std::atomic<int> gap_ms_{0};
+    std::atomic<int64_t> created_ns_{0}, boot_ns_{0};
+    std::atomic<uint64_t> get_reports_{0}, set_reports_{0};
+};
+
+std::unique_ptr<Transport> find_and_open(TransportBackend& backend, int64_t deadline_ns,
+                                         std::string* error) {
+    const DeviceFilter filter{refproto::kDevVendorId, refproto::kDevProductId, kSerial};
+    while (now_ns() < deadline_ns) {
+        auto list = backend.enumerate(filter);
+        if (!list.ok()) {
+            *error = list.error().message;
+            return nullptr;
+        }
+        if (!list->empty()) {
+            auto t = backend.open(list->front());
+            if (t.ok()) return std::move(*t);
+            *error = t.error().message;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    if (error->empty()) *error = "no 1209:0001 with serial LANE-0001 appeared";
+    return nullptr;
+}
+
+void hid_lane() {
+    UhidTracker tracker;
+    std::string error;
+    check(tracker.start(&error), "uhid device created (UHID_CREATE2)", error);
+    if (!error.empty()) return;
+
+    TransportBackendOptions options;
+    options.udev_event_source = "kernel";  // no udevd in the guest
+    auto backend = create_hidapi_backend(options);
+    check(backend.ok(), "hidapi backend", backend.ok() ? "" : backend.error().message);
+    if (!backend.ok()) return;
+
+    std::unique_ptr<Transport> t = find_and_open(**backend, now_ns() + 5 * kNsPerSecond, &error);
+    check(t != nullptr, "hidapi found and opened the tracker",
+          t ? t->id().path + " " + format_vid_pid(t->id().vendor_id, t->id().product_id) +
+                  " serial \"" + t->id().serial + "\""
+            : error);
+    if (!t) return;
+
+    // Input reports through hidraw and the decoder.
+    const int kReports = 500;
+    int decoded = 0, gaps = 0, malformed = 0;
+    uint32_t last = 0;
+    const int64_t read_start = now_ns();
+    for (int i = 0; i < kReports; ++i) {
+        auto r = t->read_input(1000);
+        if (!r.ok() || !r->has_value()) {
+            error = r.ok() ? "timeout" : r.error().message;
+            break;
+        }
+        auto p = refproto::decode_pose((*r)->bytes);
+        if (!p.ok()) {
+            ++malformed;
+            continue;
+        }
+        if (decoded > 0 && p->sequence != last + 1) ++gaps;
+        last = p->sequence;
+        ++decoded;
+    }
+    const double rate = decoded / ns_to_s(now_ns() - read_start);
+    check(decoded == kReports && gaps == 0 && malformed == 0,
+          "input reports via hidraw, contiguous sequence",
+          std::to_string(decoded) + " decoded, " + std::to_string(gaps) + " gaps, " +
+              std::to_string(malformed) + " malformed, " + fmt("%.0f reports/s", rate) +
+              (error.empty() ? "" : ", " + error));
+
+    // Feature reports through hidraw: device info, then the time-sync exchange.
+    auto info_bytes = t->get_feature(refproto::kDeviceInfoReport, refproto::kDeviceInfoReportSize);
+    bool info_ok = false;
+    std::string info_detail = info_bytes.ok() ? "" : info_bytes.error().message;
+    if (info_bytes.ok()) {
+        auto info = refproto::decode_device_info(*info_bytes);
+        info_ok = info.ok() && info->serial == kSerial && info->pose_rate_hz == 1000;
+        info_detail = info.ok() ? "serial " + info->serial + ", product \"" + info->product +
+                                      "\", " + std::to_string(info->pose_rate_hz) + " Hz"
+                                : info.error().message;
+    }
+    check(info_ok, "feature report 0x10 (device info) via hidraw", info_detail);
+
+    refproto::TimeSyncReport ask;
+    ask.nonce = 0xC0FFEE;
+    ask.host_send_ns = now_ns();
+    Status sent = t->set_feature(refproto::encode(ask));
+    auto answer_bytes = t->get_feature(refproto::kTimeSyncReport, refproto::kTimeSyncReportSize);
+    const int64_t received = now_ns();
+    bool sync_ok = false;
+    std::string sync_detail = !sent.ok()           ? sent.error().message
+                              : !answer_bytes.ok() ? answer_bytes.error().message
+                                                   : "";
+    if (sent.ok() && answer_bytes.ok()) {
+        auto answer = refproto::decode_time_sync(*answer_bytes);
+        if (answer.ok()) {
+            const refproto::TimeSyncEstimate e = refproto::time_sync_estimate(*answer, received);
+            const int64_t truth = tracker.boot_ns() - kDeviceClockOffsetUs * 1000;
+            const int64_t err = e.offset_ns - truth;
+            sync_ok = answer->nonce == ask.nonce && std::llabs(err) <= e.round_trip_ns / 2 + 1000;
+            sync_detail = fmt("offset error %.3f ms", ns_to_ms(err)) +
+                          fmt(", round trip %.3f ms", ns_to_ms(e.round_trip_ns));
+        } else {
+            sync_detail = answer.error().message;
+        }
+    }
+    check(sync_ok, "feature report 0x13 (time sync) set + get via hidraw", sync_detail);
+
+    // Removal and re-creation mid-stream.
+    auto monitor =
+        (*backend)->watch(DeviceFilter{refproto::kDevVendorId, refproto::kDevProductId, ""});
+    check(monitor.ok(), "hidraw hotplug monitor (kernel uevents)",
+          monitor.ok() ? "" : monitor.error().message);
+    tracker.request_recreate(300);
+    const int64_t gone_deadline = now_ns() + 3 * kNsPerSecond;
+    std::string gone_error;
+    while (now_ns() < gone_deadline) {
+        auto r = t->read_input(100);
+        if (!r.ok()) {
+            gone_error = r.error().message;
+            break;
+        }
+    }
+    check(!gone_error.empty(), "open transport fails when the device is destroyed", gone_error);
+    t.reset();
+    if (monitor.ok()) {
+        bool left = false, arrived = false;
+        std::string path;
+        const int64_t deadline = now_ns() + 3 * kNsPerSecond;
+        while (!arrived && now_ns() < deadline) {
+            auto ev = (*monitor)->wait(200);
+            if (!ev.ok()) break;
+            if (!ev->has_value()) continue;
+            if ((*ev)->kind == HotplugEvent::Kind::left) left = true;
+            if ((*ev)->kind == HotplugEvent::Kind::arrived) {
+                arrived = true;
+                path = (*ev)->id.path + " " +
+                       format_vid_pid((*ev)->id.vendor_id, (*ev)->id.product_id);
+            }
+        }
+        check(arrived, "hotplug monitor saw the device come back",
+              std::string(left ? "left + " : "") + (arrived ? "arrived " + path : "no arrival"));
+    }
+    error.clear();
+    t = find_and_open(**backend, now_ns() + 3 * kNsPerSecond, &error);
+    bool resumed = false;
+    std::string resume_detail = error;
+    if (t) {
+        auto r = t->read_input(1000);
+        if (r.ok() && r->has_value()) {
+            auto p = refproto::decode_pose((*r)->bytes);
+            const double after_ms = ns_to_ms((*r)->host_time_ns - tracker.created_ns());
+            // note: the rebooted firmware restarts its sequence at 0; reports sent before
+            // hidraw was reopened went nowhere, so the first one seen is a small number.
+            resumed = p.ok() && p->sequence < 1000 && after_ms < 1000.0;
+            resume_detail = fmt("first report %.1f ms after re-creation", after_ms) +
+                            (p.ok() ? ", sequence " + std::to_string(p->sequence) : "");
+        } else {
+            resume_detail = r.ok() ? "timeout" : r.error().message;
+        }
+    }
+    check(resumed, "tracking resumed after re-creation within a second", resume_detail);
+    std::printf("uhid: %" PRIu64 " GET_REPORT and %" PRIu64 " SET_REPORT answered\n",
+                tracker.get_reports(), tracker.set_reports());
+}
+
+void camera_lane() {
+    V4l2CameraConfig cfg;
+    cfg.device = "/dev/video0";
+    cfg.width = 640;
+    cfg.height = 480;
+    cfg.fourcc = kFourccYuyv;
+    auto cam = open_v4l2_camera(cfg);
+    check(cam.ok(), "V4L2 open + QUERYCAP + S_FMT + REQBUFS (vivid)",
+          cam.ok() ? std::to_string((*cam)->width()) + "x" + std::to_string((*cam)->height()) +
+                         " " + fourcc_to_string((*cam)->fourcc())
+                   : cam.error().message);
+    if (!cam.ok()) return;
+    Status s = (*cam)->start();
+    check(s.ok(), "V4L2 STREAMON", s.ok() ? "" : s.error().message);
+    if (!s.ok()) return;
+    int frames = 0;
+    bool ordered = true, sized = true, timed = true;
+    uint64_t last_seq = 0;
+    int64_t last_t = 0;
+    std::string detail;
+    for (int i = 0; i < 3; ++i) {
+        auto f = (*cam)->next_frame(5000);
+        if (!f.ok() || !f->has_value()) {
+            detail = f.ok() ? "timeout" : f.error().message;
+            break;
+        }
+        const CameraFrame& fr = **f;
+        const int64_t now = now_ns();
+        if (frames && (fr.sequence <= last_seq || fr.host_time_ns <= last_t)) ordered = false;
+        if (fr.bytes.size() < size_t{fr.bytes_per_line} * fr.height) sized = false;
+        // note: vivid stamps frames from its own frame schedule (start + sequence x period),
+        // which under TCG runs up to a few hundred ms ahead of or behind the moment the frame
+        // is dequeued; what is checked is the clock domain: CLOCK_MONOTONIC, within a second.
+        if (std::llabs(fr.host_time_ns - now) > kNsPerSecond) timed = false;
+        detail = "frame " + std::to_string(fr.sequence) + " " + std::to_string(fr.bytes.size()) +
+                 " bytes, " + fmt("stamped %+.1f ms from dequeue", ns_to_ms(fr.host_time_ns - now));
+        last_seq = fr.sequence;
+        last_t = fr.host_time_ns;
+        ++frames;
+    }
+    (*cam)->stop();
+    check(frames == 3 && ordered && sized && timed,
+          "3 frames from vivid, monotonic timestamps on the host clock",
+          std::to_string(frames) + " frames; last " + detail);
+
+    V4l2CameraConfig missing;
+    missing.device = "/dev/video9";
+    auto m = open_v4l2_camera(missing);
+    check(!m.ok() && m.error().message.find("ENOENT") != std::string::npos,
+          "missing /dev/video9 is a clear error", m.ok() ? "opened?" : m.error().message);
+}
+
+}  // namespace
+}  // namespace hmdnode
+
+int main() {
+    using namespace hmdnode;
+    g_t0 = now_ns();
+    std::printf("hmdnode kernel lane: uhid -> hidraw -> hidapi, and vivid -> V4L2\n");
+    hid_lane();
+    camera_lane();
+    std::printf("HMDNODE_KERNEL_LANE: %s (%d failed, %.2f s)\n", g_failures ? "FAIL" : "PASS",
+                g_failures, ns_to_s(now_ns() - g_t0));
+    std::fflush(stdout);
+    return g_failures ? 1 : 0;
+}

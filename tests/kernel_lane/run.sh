@@ -1,0 +1,83 @@
+#!/bin/sh
+# Runs the real-kernel lane: boots Debian's own kernel in qemu (TCG, no KVM: a nested guest hangs)
+# with the lane's initramfs and turns the guest's result marker into the exit status.
+# 0 = pass, 1 = fail, 77 = skipped (no qemu, kernel image, busybox-static, cpio or modprobe: the
+# reason is printed). docs/hardware.md; ../shared/docs/KERNEL_LANE.md.
+#
+# usage: run.sh LANE_BINARY [WORK_DIR]
+set -u
+here=$(cd "$(dirname "$0")" && pwd)
+lane=${1:?usage: run.sh LANE_BINARY [WORK_DIR]}
+work=${2:-${TMPDIR:-/tmp}/hmdnode-kernel-lane}
+mkdir -p "$work"
+
+skip() {
+    echo "kernel lane SKIPPED: $*"
+    exit 77
+}
+
+command -v qemu-system-x86_64 >/dev/null 2>&1 || skip "qemu-system-x86_64 not installed (apt-get install qemu-system-x86)"
+command -v busybox >/dev/null 2>&1 || skip "busybox not installed (apt-get install busybox-static)"
+command -v cpio >/dev/null 2>&1 || skip "cpio not installed"
+command -v modprobe >/dev/null 2>&1 || skip "modprobe not installed (apt-get install kmod)"
+vmlinuz=$(ls -1 /boot/vmlinuz-* 2>/dev/null | sort -V | tail -n 1)
+[ -n "$vmlinuz" ] && [ -r "$vmlinuz" ] || skip "no readable /boot/vmlinuz-* (apt-get install linux-image-amd64)"
+kver=${vmlinuz#/boot/vmlinuz-}
+[ -d "/lib/modules/$kver" ] || skip "no /lib/modules/$kver for $vmlinuz"
+[ -x "$lane" ] || { echo "kernel lane: $lane is not an executable"; exit 1; }
+
+start=$(date +%s.%N)
+
+# The ELF vmlinux inside the bzImage boots directly (PVH entry) with qboot: about twice as fast
+# as the bzImage through SeaBIOS. Found as the kernel's extract-vmlinux does: try every offset of
+# a compression magic and keep the first that decompresses to an ELF file. Cached per kernel.
+vmlinux="$work/vmlinux-$kver"
+is_elf() { [ "$(head -c 4 "$1" 2>/dev/null | od -An -c | tr -d ' \n')" = '177ELF' ]; }
+if ! is_elf "$vmlinux"; then
+    try() {  # try MAGIC_GREP_PATTERN DECOMPRESSOR...
+        magic=$1
+        shift
+        for off in $(LC_ALL=C grep -obUaP "$magic" "$vmlinuz" | cut -d: -f1); do
+            tail -c +"$((off + 1))" "$vmlinuz" | "$@" >"$vmlinux.tmp" 2>/dev/null
+            if is_elf "$vmlinux.tmp"; then mv "$vmlinux.tmp" "$vmlinux"; return 0; fi
+        done
+        return 1
+    }
+    try '\xfd7zXZ\x00' xz -dc ||
+        try '\x28\xb5\x2f\xfd' zstd -dc ||
+        try '\x1f\x8b\x08' gzip -dc ||
+        try '\x02\x21\x4c\x18' lz4 -dc ||
+        true
+    rm -f "$vmlinux.tmp"
+fi
+bios=""
+if is_elf "$vmlinux" && [ -r /usr/share/qemu/qboot.rom ]; then
+    kernel=$vmlinux
+    bios="-bios /usr/share/qemu/qboot.rom"
+else
+    echo "kernel lane: could not extract an ELF vmlinux (or no qboot.rom): booting $vmlinuz via SeaBIOS (slower)"
+    kernel=$vmlinuz
+fi
+
+initrd="$work/initramfs-$kver.cpio"
+"$here/build_initramfs.sh" "$lane" "$initrd" "$kver" || { echo "kernel lane: building the initramfs failed"; exit 1; }
+
+log="$work/serial.log"
+# shellcheck disable=SC2086
+timeout 110 qemu-system-x86_64 -accel tcg -cpu max -m 1024 -smp 2 -nodefaults -no-user-config \
+    -display none -serial stdio -no-reboot $bios -kernel "$kernel" -initrd "$initrd" \
+    -append "console=ttyS0 quiet panic=-1 mitigations=off" </dev/null >"$log" 2>&1
+qemu_status=$?
+end=$(date +%s.%N)
+tr -d '\r' <"$log" | grep -v '^$' | sed 's/^/guest| /'
+wall=$(echo "$end $start" | awk '{ printf "%.1f", $1 - $2 }')
+if [ $qemu_status -eq 124 ]; then
+    echo "kernel lane FAILED: the guest did not finish within 110 s (wall $wall s)"
+    exit 1
+fi
+if grep -q "HMDNODE_KERNEL_LANE: PASS" "$log" && grep -q "HMDNODE_KERNEL_LANE_EXIT: 0" "$log"; then
+    echo "kernel lane PASSED in $wall s wall (kernel $kver, $(basename "$kernel"))"
+    exit 0
+fi
+echo "kernel lane FAILED (wall $wall s): no PASS marker from the guest; serial log: $log"
+exit 1
