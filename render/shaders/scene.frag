@@ -2,6 +2,7 @@
 //   albedo = base_color_factor * texture(base_color, uv0) * COLOR_0
 //   lightmapped: rgb = albedo.rgb * E / pi, E = texture(lightmap, uv_n).rgb * intensity
 //   otherwise:   rgb = albedo.rgb (unlit; baked light, if any, is in COLOR_0)
+//   then:        rgb += emissiveFactor (emitted radiance, relative to white)
 // Writes linear colour with alpha 1; the sRGB attachment encodes. Cost: one or two texture
 // fetches per fragment.
 #version 450
@@ -12,6 +13,7 @@ layout(set = 1, binding = 2) uniform MaterialConstants {
     vec4 base_color_factor;
     // x = lightmap intensity, y = lightmap uv set (0 or 1), z = 1 when the material has a lightmap
     vec4 lightmap;
+    vec4 emissive;  // rgb = emissiveFactor
 } material;
 
 layout(location = 0) in vec2 in_uv0;
@@ -32,5 +34,5 @@ void main() {
         vec3 irradiance = texture(lightmap_texture, uv).rgb * material.lightmap.x;
         rgb = albedo.rgb * irradiance * kInvPi;
     }
-    out_color = vec4(rgb, 1.0);
+    out_color = vec4(rgb + material.emissive.rgb, 1.0);
 }

@@ -263,6 +263,7 @@ Status create_materials(DeviceContext& ctx, const Scene& scene, VkDescriptorSetL
         c.base_color_factor = m.base_color_factor;
         c.lightmap = glm::vec4(m.lightmap.intensity, m.lightmap.tex_coord == 1 ? 1.0f : 0.0f,
                                m.lightmap.texture >= 0 ? 1.0f : 0.0f, 0.0f);
+        c.emissive = glm::vec4(m.emissive_factor, 0.0f);
         std::memcpy(constants.data() + i * out.material_stride, &c, sizeof(c));
     }
     auto buffer = create_buffer_with_data(ctx, constants, VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,

@@ -32,6 +32,7 @@ struct FrameConstants {
 struct MaterialConstants {
     glm::vec4 base_color_factor;
     glm::vec4 lightmap;  // x intensity, y uv set (0/1), z 1 when lightmapped, w unused
+    glm::vec4 emissive;  // rgb emissiveFactor (linear radiance relative to white), w unused
 };
 
 // Push constants: world is pushed per draw (offset 0), view_base per pass (offset 64).

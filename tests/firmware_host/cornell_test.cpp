@@ -5,8 +5,9 @@
 // Tolerance and why: both images estimate the same radiance albedo x E / pi, so they differ only
 // by (a) the lightmap's resolution (1/48 m texels) and bilinear filtering, which blur E over about
 // a texel: visible only at contact shadows and geometric edges, which we exclude (pixels whose
-// 3 x 3 neighbourhood sees another quad, and the light, whose emission the renderer does not
-// draw); (b) 8-bit storage: the lightmap texel (0.5/255 of the map's maximum) and the sRGB output
+// 3 x 3 neighbourhood sees another quad, and the light, whose emitted radiance saturates the
+// 8-bit output); (b) 8-bit storage: the lightmap texel (0.5/255 of the map's maximum) and the sRGB
+// output
 // (< 0.4 % in mid-tones); (c) Monte Carlo noise: the bake's 128 paths per texel (denoised) and
 // the reference's 64 paths per pixel (about 10 % per pixel, so pixels are pooled into 4 x 4
 // blocks: about 2.5 %); (d) the A-trous denoiser's bias at shading gradients (~1 %). Hence: the

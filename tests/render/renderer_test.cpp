@@ -252,6 +252,33 @@ TEST(VulkanRenderer, unlit_quad_shows_vertex_colour_times_base_colour_factor) {
     expect_uniform(img.eye[1], 255, 255, 255, 0, "default material");
 }
 
+TEST(VulkanRenderer, emission_is_added_to_lit_and_unlit_surfaces) {
+    // emissiveFactor adds emitted radiance after shading: on an unlit quad (left half) and on a
+    // lightmapped one (right half, albedo 0.5, E = 1: albedo * E / pi).
+    Scene scene;
+    scene.textures.push_back(solid_texture(1, 1, 255, 255, 255));
+    Material unlit = flat({0.2f, 0.1f, 0.0f, 1.0f});
+    unlit.emissive_factor = {0.3f, 0.2f, 0.1f};
+    Material lit = flat({0.5f, 0.5f, 0.5f, 1.0f});
+    lit.lightmap = {0, 0, 1.0f};
+    lit.emissive_factor = {0.0f, 0.25f, 0.5f};
+    scene.materials = {unlit, lit};
+    Mesh mesh;
+    mesh.primitives = {quad(-2, -2, 0, 2, -1, 0), quad(0, -2, 2, 2, -1, 1)};
+    scene.meshes.push_back(mesh);
+    auto r = make_renderer(64, 64);
+    ASSERT_TRUE(r);
+    ASSERT_TRUE(r->upload(scene).ok());
+    const DrawItem item{0, glm::mat4(1.0f)};
+    StereoImage img = render_ok(*r, straight_views(), {&item, 1});
+    const double lit_rgb = 0.5 / kPiD;
+    for (int eye = 0; eye < 2; ++eye) {
+        expect_pixel(img.eye[eye], 10, 32, srgb8(0.5), srgb8(0.3), srgb8(0.1), 2, "unlit");
+        expect_pixel(img.eye[eye], 54, 32, srgb8(lit_rgb), srgb8(lit_rgb + 0.25),
+                     srgb8(lit_rgb + 0.5), 2, "lightmapped");
+    }
+}
+
 TEST(VulkanRenderer, base_colour_checker_maps_to_the_right_quadrants) {
     // A 2x2 checker of cells, each cell 2x2 texels so linear filtering inside a cell is exact:
     // top-left red, top-right green, bottom-left blue, bottom-right grey (sRGB bytes).
