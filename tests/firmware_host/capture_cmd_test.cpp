@@ -90,6 +90,56 @@ TEST(CaptureCmd, ReplayRunsTheCaptureThroughTheNode) {
     EXPECT_LT(j["trace_samples"].get<double>(), 1500.0);
     // The headset lies still on a table: the fused pose (and so the view) does not turn.
     EXPECT_LT(j["frames"].back()["angular_speed_dps"].get<double>(), 3.0);
+    // A capture has no truth: no registration error, in the report (null) and the table (n/a).
+    EXPECT_TRUE(j["summary"]["registration_error_deg"]["p50"].is_null()) << j["summary"].dump();
+    EXPECT_TRUE(j["frames"].front()["registration_error_deg"].is_null());
+    EXPECT_TRUE(has(r.output, "registration error (deg)        n/a      n/a      n/a      n/a"))
+        << r.output;
+}
+
+TEST(CaptureCmd, ReplayStartAndDurationCountFromTheCapturesFirstSample) {
+    if (!fs::exists(kCapture)) GTEST_SKIP() << kCapture << " is absent";
+    const fs::path dir = temp_dir("start");
+    const std::string base = kTool + " replay --quiet --eye-width 32 --eye-height 32 --scene " +
+                             kScene + " --capture " + kCapture.string() + " --device 28de:2000";
+    const fs::path report = dir / "report.json";
+    CommandRun r = run(base + " --start 10 --duration 1 --report " + report.string());
+    ASSERT_EQ(r.code, 0) << r.output;
+    std::ifstream in(report);
+    const nlohmann::json j = nlohmann::json::parse(in);
+    // 1 s at 90 Hz.
+    EXPECT_GE(j["summary"]["frames"].get<int>(), 88);
+    EXPECT_LE(j["summary"]["frames"].get<int>(), 91);
+    // The reports of the first 10 s were decoded and fused (not shown): ~987 samples/s.
+    EXPECT_GT(j["trace_samples"].get<double>(), 10000.0);
+    EXPECT_LT(j["trace_samples"].get<double>(), 12000.0);
+    // From the first frame on the newest sample is the capture's at 10 s, which arrives at the
+    // replay's start (host time 0): the first frame is as fresh as in a replay from the start.
+    const nlohmann::json& f0 = j["frames"].front();
+    EXPECT_GT(f0["pose_sample_time_ns"].get<int64_t>(), -5'000'000);
+    EXPECT_LT(f0["latency_ms"].get<double>(), 40.0);
+    EXPECT_LT(j["frames"].back()["angular_speed_dps"].get<double>(), 3.0);
+
+    // The same replay twice is the same (the simulated clock).
+    CommandRun again = run(base + " --start 10 --duration 1 --report " + (dir / "b.json").string());
+    ASSERT_EQ(again.code, 0) << again.output;
+    std::ifstream in_b(dir / "b.json");
+    const nlohmann::json b = nlohmann::json::parse(in_b);
+    ASSERT_EQ(b["frames"].size(), j["frames"].size());
+    for (size_t i = 0; i < b["frames"].size(); ++i)
+        for (const char* key : {"pose_sample_time_ns", "photon_time_ns", "angular_speed_dps"})
+            EXPECT_EQ(b["frames"][i][key], j["frames"][i][key]) << i << " " << key;
+
+    // A start past the capture's end (22.4 s) is an error, and writes no report.
+    r = run(base + " --start 30 --report " + (dir / "past.json").string());
+    EXPECT_NE(r.code, 0) << r.output;
+    EXPECT_TRUE(has(r.output, "past the capture's last sample")) << r.output;
+    EXPECT_FALSE(fs::exists(dir / "past.json"));
+    // On the real clock --start is refused (the reports before it would flood the ring).
+    r = run(base + " --clock real --start 10 --report " + (dir / "real.json").string());
+    EXPECT_NE(r.code, 0) << r.output;
+    EXPECT_TRUE(has(r.output, "--start with --capture needs --clock sim")) << r.output;
+    EXPECT_FALSE(fs::exists(dir / "real.json"));
 }
 
 TEST(CaptureCmd, ReplayNamesTheDevicesWhenTheOneAskedForIsAbsent) {

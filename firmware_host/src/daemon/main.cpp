@@ -1,10 +1,13 @@
 // hmdnoded: the node daemon. Runs the frame loop from a JSON config file (docs/daemon.md) until
 // SIGINT/SIGTERM, survives failures of the world (a frame that fails to render or present is
-// logged and skipped; the end of a replayed trace restarts it when `loop` is set), and writes a
-// status JSON file periodically.
+// logged and skipped; a tracker with no sample yet -- an absent device -- renders nothing and is
+// waited for between frames, so a signal still stops the daemon; the end of a replayed trace
+// restarts it when `loop` is set), and writes a status JSON file periodically.
 #include <csignal>
 #include <cstdio>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
@@ -123,22 +126,6 @@ int main(int argc, char** argv) {
         spdlog::error("{}", st.error().message);
         return 2;
     }
-    // note: the frame loop waits for the tracker's first sample without looking at signals; a
-    // device that is not plugged in yet is waited for here instead, where SIGTERM still works.
-    if (device_tracker && !clock->is_simulated()) {
-        int64_t next_log = clock->now_ns();
-        while (!g_stop && device_tracker->status().samples == 0) {
-            if (clock->now_ns() >= next_log) {
-                const DeviceTrackerStatus ts = device_tracker->status();
-                spdlog::info(
-                    "waiting for tracker {} via {}{}{}",
-                    format_vid_pid(cfg->tracker_device.vendor_id, cfg->tracker_device.product_id),
-                    cfg->tracker_backend, ts.last_error.empty() ? "" : ": ", ts.last_error);
-                next_log = clock->now_ns() + 5 * kNsPerSecond;
-            }
-            clock->sleep_until_ns(clock->now_ns() + 50 * kNsPerMs);
-        }
-    }
     spdlog::info(
         "hmdnoded: scene {} ({} objects), tracker {} {} ({} trace samples), {}x{} per eye at {} "
         "Hz, renderer {}",
@@ -152,7 +139,10 @@ int main(int argc, char** argv) {
     // Status window: the frames since the last status write.
     std::vector<double> lat, reg;
     size_t window_frames = 0, window_on_time = 0, errors = 0;
-    uint64_t frames = 0;
+    uint64_t frames = 0, no_pose_frames = 0;
+    // Until the tracker's first sample each frame renders nothing (run_frame returns at once, so
+    // SIGTERM is seen between frames); say so every 5 s.
+    int64_t next_wait_log = clock->now_ns();
     int64_t next_status = clock->now_ns() + s_to_ns(cfg->status_every_s);
     // The status window's latencies: reserved once, so the frame loop does not allocate.
     lat.reserve(size_t(cfg->status_every_s * dc.refresh_hz * 2.0) + 16);
@@ -171,27 +161,48 @@ int main(int argc, char** argv) {
             tracker = std::move(next);
             spdlog::info("trace restarted");
         }
-        Status st = node.run_frame(&rec, nullptr);
-        if (!st.ok()) {
+        Result<FrameOutcome> fr = node.run_frame(&rec, nullptr);
+        if (!fr.ok()) {
             // A failure of the world: log it, count it, keep running.
             ++errors;
-            spdlog::warn("frame {} failed: {}", frames, st.error().message);
+            spdlog::warn("frame {} failed: {}", frames, fr.error().message);
             clock->sleep_until_ns(clock->now_ns() + (*display)->info().period_ns);
             continue;
         }
-        ++frames;
-        ++window_frames;
-        window_on_time += rec.on_time;
-        lat.push_back(rec.latency_ms);
+        if (*fr == FrameOutcome::no_pose_yet) {
+            ++no_pose_frames;
+            if (clock->now_ns() >= next_wait_log) {
+                std::string last_error;
+                if (device_tracker) last_error = device_tracker->status().last_error;
+                spdlog::info("waiting for tracker {} via {}{}{}",
+                             cfg->tracker_backend == "sim-trace"
+                                 ? cfg->trace.string()
+                                 : format_vid_pid(cfg->tracker_device.vendor_id,
+                                                  cfg->tracker_device.product_id),
+                             cfg->tracker_backend, last_error.empty() ? "" : ": ", last_error);
+                next_wait_log = clock->now_ns() + 5 * kNsPerSecond;
+            }
+        } else {
+            ++frames;
+            ++window_frames;
+            window_on_time += rec.on_time;
+            lat.push_back(rec.latency_ms);
+        }
         // Every status window: log it, write the status file when one is configured, start anew
         // (so the window never grows, with or without a status file).
         if (clock->now_ns() >= next_status) {
+            // A window without frames (no pose yet) has no rate or latencies: null.
             Percentiles p = percentiles(lat);
-            nlohmann::json s = {{"frames", frames},
-                                {"errors", errors},
-                                {"window_frames", window_frames},
-                                {"on_time_rate", double(window_on_time) / double(window_frames)},
-                                {"latency_ms", percentiles_json(p)}};
+            nlohmann::json s = {
+                {"frames", frames},
+                {"errors", errors},
+                {"has_pose", node.has_pose()},
+                {"no_pose_frames", no_pose_frames},
+                {"window_frames", window_frames},
+                {"on_time_rate",
+                 window_frames ? nlohmann::json(double(window_on_time) / double(window_frames))
+                               : nlohmann::json()},
+                {"latency_ms", percentiles_json(p)}};
             if (device_tracker) {
                 // Recovery figures: a replug shows as a disconnect and the gap it left.
                 const DeviceTrackerStatus ts = device_tracker->status();
@@ -206,14 +217,16 @@ int main(int argc, char** argv) {
                                 {"sequence_gaps", ts.codec.sequence_gaps},
                                 {"malformed_reports", ts.codec.malformed},
                                 {"last_error", ts.last_error}};
-                if (!ts.connected)
+                if (!ts.connected && node.has_pose())  // before: the waiting line says it
                     spdlog::warn("tracker disconnected ({}); holding the last pose", ts.last_error);
             }
             if (!cfg->status_path.empty())
                 if (Status ws = write_file_atomically(cfg->status_path, s.dump(1)); !ws.ok())
                     spdlog::warn("{}", ws.error().message);
-            spdlog::info("frames {} on-time {:.1f}% latency p50 {:.1f} ms p99 {:.1f} ms", frames,
-                         100.0 * double(window_on_time) / double(window_frames), p.p50, p.p99);
+            if (window_frames)
+                spdlog::info("frames {} on-time {:.1f}% latency p50 {:.1f} ms p99 {:.1f} ms",
+                             frames, 100.0 * double(window_on_time) / double(window_frames), p.p50,
+                             p.p99);
             lat.clear();
             window_frames = window_on_time = 0;
             next_status = clock->now_ns() + s_to_ns(cfg->status_every_s);

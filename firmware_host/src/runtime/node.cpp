@@ -1,6 +1,7 @@
 // The frame loop. Per frame: wake at (target vsync - estimated frame cost - margin), drain the
 // tracker into the pose history, predict the head pose at the target vsync's photon time, select
-// LOD per object, render both eyes front to back, present, and record.
+// LOD per object, render both eyes front to back, present, and record. Before the tracker's first
+// sample a frame renders nothing and reports FrameOutcome::no_pose_yet (never an unbounded wait).
 #include "hmdnode/firmware_host/node.hpp"
 
 #include <algorithm>
@@ -69,7 +70,7 @@ StereoViews NodeRuntime::views_for(const Pose& head) const {
     return v;
 }
 
-Status NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& truth) {
+Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& truth) {
     const DisplayInfo info = display_.info();
 
     // Pace: the earliest vsync we can still make, and the time to start working for it.
@@ -81,11 +82,13 @@ Status NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& truth) {
     const int64_t start_ns = clock_.now_ns();
 
     drain_tracker();
-    // Before the first sample there is nothing to show: wait for it (one period at a time).
-    while (history_.empty()) {
+    // Before the first sample there is nothing to show. Skip this vsync rather than wait for the
+    // sample here: an absent device must not hang the caller (which checks its stop flag between
+    // frames), and on a simulated clock the skipped frame advances time the same way every run.
+    if (history_.empty()) {
         if (tracker_->finished()) return make_error("tracker finished before its first sample");
-        clock_.sleep_until_ns(clock_.now_ns() + info.period_ns);
-        drain_tracker();
+        clock_.sleep_until_ns(target_vsync);
+        return FrameOutcome::no_pose_yet;
     }
 
     const int64_t predicted_photon = target_vsync + display_.photon_offset_ns();
@@ -157,7 +160,7 @@ Status NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& truth) {
     rec->triangles = triangles;
     rec->render_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
     rec->frame_cost_ms = ns_to_ms(cost);
-    return {};
+    return FrameOutcome::rendered;
 }
 
 }  // namespace hmdnode

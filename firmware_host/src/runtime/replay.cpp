@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <memory>
 #include <sstream>
 
@@ -21,7 +22,10 @@ namespace hmdnode {
 Percentiles percentiles(std::vector<double> v) {
     v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return std::isnan(x); }), v.end());
     Percentiles p;
-    if (v.empty()) return p;
+    if (v.empty()) {  // no values (a capture has no truth): NaN, written as null / "n/a"
+        p.p50 = p.p95 = p.p99 = p.max = std::numeric_limits<double>::quiet_NaN();
+        return p;
+    }
     std::sort(v.begin(), v.end());
     // Linear interpolation between closest ranks.
     auto q = [&](double f) {
@@ -37,8 +41,17 @@ Percentiles percentiles(std::vector<double> v) {
     return p;
 }
 
+namespace {
+nlohmann::json finite_or_null(double v) {
+    return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json();
+}
+}  // namespace
+
 nlohmann::json percentiles_json(const Percentiles& p) {
-    return {{"p50", p.p50}, {"p95", p.p95}, {"p99", p.p99}, {"max", p.max}};
+    return {{"p50", finite_or_null(p.p50)},
+            {"p95", finite_or_null(p.p95)},
+            {"p99", finite_or_null(p.p99)},
+            {"max", finite_or_null(p.max)}};
 }
 
 Result<ReplayResult> run_replay(const ReplayOptions& opt) {
@@ -46,6 +59,10 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     Result<Scene> scene = load_gltf(opt.scene);
     if (!scene.ok()) return scene.error();
     std::shared_ptr<const Trace> trace;  // none for a capture: no truth to compare with
+    // On the system clock the reports before a capture's start would reach the reader thread's
+    // ring all at once and overflow it (the first frames would show stale poses).
+    if (!opt.capture.empty() && opt.start_s > 0.0 && !opt.simulated_clock)
+        return make_error("--start with --capture needs --clock sim");
     if (opt.capture.empty()) {
         Result<Trace> trace_r = read_trace_csv(opt.trace);
         if (!trace_r.ok())
@@ -69,7 +86,11 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     Result<std::unique_ptr<Tracker>> tracker =
         trace ? create_sim_tracker(trace, *clock, tc) : make_error("");
     if (!trace) {  // the device's reports through the same decoder, clock sync and fusion as live
-        auto t = create_capture_tracker(opt.capture, opt.capture_device, *clock, host_start);
+        // --start: the report start_s after the capture's first one arrives at host_start; the
+        // earlier ones arrive at once, so the fused pose at the start is the one the live tracker
+        // had (they are decoded and fused, and not shown).
+        auto t = create_capture_tracker(opt.capture, opt.capture_device, *clock,
+                                        host_start - tc.start_offset_ns);
         if (!t.ok()) return t.error();
         tracker = std::unique_ptr<Tracker>(std::move(*t));
     }
@@ -106,17 +127,31 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     result.device_name = (*renderer)->device_name();
     for (const SceneObject& o : node.objects()) result.object_names.push_back(o.name);
     FrameRecord rec;
-    while (!node.tracker_finished() &&
+    // A capture's --duration: the frames whose wake-up falls within it (a trace's ends the trace).
+    const int64_t capture_end = !trace && tc.duration_ns > 0 ? host_start + tc.duration_ns
+                                                             : std::numeric_limits<int64_t>::max();
+    while (!node.tracker_finished() && clock->now_ns() < capture_end &&
            (opt.max_frames <= 0 || int64_t(result.frames.size()) < opt.max_frames)) {
-        if (Status st = node.run_frame(&rec, truth); !st.ok()) {
+        Result<FrameOutcome> fr = node.run_frame(&rec, truth);
+        if (!fr.ok()) {
             node.stop();
             return make_error("frame " + std::to_string(result.frames.size()) + ": " +
-                              st.error().message);
+                              fr.error().message);
         }
+        if (*fr == FrameOutcome::no_pose_yet) continue;  // nothing presented, nothing to record
         result.frames.push_back(rec);
         if (opt.on_frame) opt.on_frame(rec);
     }
     node.stop();
+    // A capture's --start past its last sample: every frame would show the last pose.
+    if (!trace && tc.start_offset_ns > 0 &&
+        (node.history().empty() ||
+         node.history().newest_time_ns() < host_start - kNsPerSecond / 2)) {
+        char start[32];
+        std::snprintf(start, sizeof start, "%g", opt.start_s);
+        return make_error(opt.capture.string() + ": --start " + start +
+                          " s is past the capture's last sample");
+    }
     result.trace_samples = (*tracker)->counters().samples_delivered;
 
     ReplaySummary& s = result.summary;
@@ -148,12 +183,6 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     }
     return result;
 }
-
-namespace {
-nlohmann::json finite_or_null(double v) {
-    return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json();
-}
-}  // namespace
 
 nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& r) {
     using nlohmann::json;
@@ -209,20 +238,30 @@ std::string replay_summary_table(const ReplayResult& r) {
     const ReplaySummary& s = r.summary;
     char buf[1024];
     std::ostringstream out;
+    // One row; a value that does not exist (no truth, no frames) prints as "n/a".
+    auto row = [&](const char* label, const Percentiles& p, int decimals) {
+        std::snprintf(buf, sizeof buf, "%-26s", label);
+        out << buf;
+        for (double v : {p.p50, p.p95, p.p99, p.max}) {
+            if (std::isfinite(v))
+                std::snprintf(buf, sizeof buf, " %8.*f", decimals, v);
+            else
+                std::snprintf(buf, sizeof buf, " %8s", "n/a");
+            out << buf;
+        }
+        out << '\n';
+    };
     std::snprintf(buf, sizeof buf,
                   "frames %zu over %.1f s of trace (%zu samples), wall %.1f s, renderer %s\n"
-                  "%-26s %8s %8s %8s %8s\n"
-                  "%-26s %8.2f %8.2f %8.2f %8.2f\n"
-                  "%-26s %8.3f %8.3f %8.3f %8.3f\n"
-                  "%-26s %8.2f %8.2f %8.2f %8.2f\n"
-                  "on-time rate %.1f %%, triangles per frame %.0f (mean)\n",
+                  "%-26s %8s %8s %8s %8s\n",
                   s.frames, s.replayed_s, r.trace_samples, s.wall_s, r.device_name.c_str(), "",
-                  "p50", "p95", "p99", "max", "motion-to-photon (ms)", s.latency_ms.p50,
-                  s.latency_ms.p95, s.latency_ms.p99, s.latency_ms.max, "registration error (deg)",
-                  s.registration_error_deg.p50, s.registration_error_deg.p95,
-                  s.registration_error_deg.p99, s.registration_error_deg.max,
-                  "render, measured (ms)", s.render_ms.p50, s.render_ms.p95, s.render_ms.p99,
-                  s.render_ms.max, 100.0 * s.on_time_rate, s.triangles_mean);
+                  "p50", "p95", "p99", "max");
+    out << buf;
+    row("motion-to-photon (ms)", s.latency_ms, 2);
+    row("registration error (deg)", s.registration_error_deg, 3);
+    row("render, measured (ms)", s.render_ms, 2);
+    std::snprintf(buf, sizeof buf, "on-time rate %.1f %%, triangles per frame %.0f (mean)\n",
+                  100.0 * s.on_time_rate, s.triangles_mean);
     out << buf;
     return out.str();
 }

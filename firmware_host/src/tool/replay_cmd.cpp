@@ -1,4 +1,5 @@
 // hmdnode replay: a recorded trace through the whole node on simulated devices.
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 
@@ -31,7 +32,9 @@ void add_replay_command(CLI::App& app) {
         ->check(CLI::PositiveNumber);
     c->add_option("--clock", *clock, "sim: deterministic simulated clock; real: system clock")
         ->check(CLI::IsMember({"sim", "real"}));
-    c->add_option("--start", opt->start_s, "Start this many seconds into the trace")
+    c->add_option("--start", opt->start_s,
+                  "Start this many seconds into the trace (a capture: after its first report; "
+                  "--clock sim only)")
         ->check(CLI::NonNegativeNumber);
     c->add_option("--duration", opt->duration_s, "Replay this many seconds (0: to the end)")
         ->check(CLI::NonNegativeNumber);
@@ -83,10 +86,12 @@ void add_replay_command(CLI::App& app) {
         o.tracker.jitter_ns = int64_t(*jitter_us * 1000.0);
         if (!*quiet)
             o.on_frame = [](const FrameRecord& f) {
-                if (f.index % 90 == 0)
-                    std::fprintf(stderr, "\rframe %llu  latency %.1f ms  error %.2f deg   ",
-                                 (unsigned long long)f.index, f.latency_ms,
-                                 f.registration_error_deg);
+                if (f.index % 90 != 0) return;
+                char error[32] = "n/a";  // no truth (a capture)
+                if (std::isfinite(f.registration_error_deg))
+                    std::snprintf(error, sizeof error, "%.2f deg", f.registration_error_deg);
+                std::fprintf(stderr, "\rframe %llu  latency %.1f ms  error %s   ",
+                             (unsigned long long)f.index, f.latency_ms, error);
             };
         Result<ReplayResult> r = run_replay(o);
         if (!*quiet) std::fprintf(stderr, "\r%60s\r", "");

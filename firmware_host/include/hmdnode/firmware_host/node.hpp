@@ -73,6 +73,14 @@ struct FrameRecord {
 // the truth is unknown (replay only: outside the recorded trace).
 using TruthFn = std::function<std::optional<glm::dquat>(int64_t host_time_ns)>;
 
+// What one run_frame call did.
+enum class FrameOutcome {
+    rendered,     // rendered and presented; the record is filled out
+    no_pose_yet,  // the tracker has delivered no sample yet: nothing was rendered or presented,
+                  // the frame's vsync has passed (so the next call aims at the one after), and
+                  // the record is left as it was
+};
+
 class NodeRuntime {
   public:
     // All references must outlive the runtime. The scene is flattened and uploaded by start().
@@ -84,10 +92,15 @@ class NodeRuntime {
     void stop();
 
     // Runs one frame: waits for its wake-up time, then does the frame's work and presents, and
-    // fills out_record (reused by the caller so the frame path does not allocate). When out_frame
-    // is not null it receives the rendered eyes. Returns an error when rendering or presenting
-    // fails; the caller decides to go on or stop.
-    Status run_frame(FrameRecord* out_record, const TruthFn& truth = nullptr);
+    // fills out_record (reused by the caller so the frame path does not allocate). Never waits
+    // longer than about one display period: before the tracker's first sample there is nothing
+    // to show, so the frame is skipped (FrameOutcome::no_pose_yet) and the caller can look at its
+    // stop flag and call again. Returns an error when rendering or presenting fails, or when the
+    // tracker finished without delivering a sample; the caller decides to go on or stop.
+    Result<FrameOutcome> run_frame(FrameRecord* out_record, const TruthFn& truth = nullptr);
+
+    // True once the tracker has delivered a sample (run_frame renders from then on).
+    bool has_pose() const { return !history_.empty(); }
 
     // Swaps the tracker (a replugged device, or a looping replay): stops the old one, starts the
     // new one. The pose history is kept; samples older than its newest are ignored.

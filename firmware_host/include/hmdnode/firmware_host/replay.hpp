@@ -25,7 +25,7 @@ struct ReplayOptions {
     std::string capture_device;     // ... and the "VID:PID" of its device to replay
     std::filesystem::path report;   // empty: no JSON report
     bool simulated_clock = true;
-    double start_s = 0.0;      // offset into the trace
+    double start_s = 0.0;      // offset into the trace (a capture: from its first report)
     double duration_s = 0.0;   // 0: to the end
     int64_t max_frames = 0;    // 0: no limit
     SimTrackerConfig tracker;  // host_start/start_offset/duration are filled in by replay
@@ -35,6 +35,7 @@ struct ReplayOptions {
     std::function<void(const FrameRecord&)> on_frame;  // progress (optional)
 };
 
+// NaN where there were no values (a capture's registration error: no truth).
 struct Percentiles {
     double p50 = 0, p95 = 0, p99 = 0, max = 0;
 };
@@ -59,7 +60,8 @@ struct ReplayResult {
 };
 
 Percentiles percentiles(std::vector<double> values);
-// {"p50", "p95", "p99", "max"}, as the report and the daemon's status file write them.
+// {"p50", "p95", "p99", "max"}, as the report and the daemon's status file write them (null for
+// NaN).
 nlohmann::json percentiles_json(const Percentiles& p);
 
 // Runs the whole replay and, if options.report is set, writes the JSON report atomically. Fails
@@ -68,7 +70,7 @@ Result<ReplayResult> run_replay(const ReplayOptions& options);
 
 // The JSON report (docs/report-format.md).
 nlohmann::json replay_report_json(const ReplayOptions& options, const ReplayResult& result);
-// A short table for people.
+// A short table for people ("n/a" where a percentile is NaN).
 std::string replay_summary_table(const ReplayResult& result);
 
 }  // namespace hmdnode
