@@ -45,7 +45,8 @@ struct CollapseMesh {
     std::vector<uint8_t> on_border;
     std::vector<uint8_t> position_alive;
     std::vector<uint32_t> wedge_position;
-    std::vector<uint32_t> corners;  // 3 wedges per face
+    std::vector<uint32_t> corners;          // 3 wedges per face
+    std::vector<uint32_t> corner_position;  // per corner: wedge_position[corners[c]] (cached)
     std::vector<uint8_t> face_alive;
     std::vector<uint32_t> corner_head;  // per position: first corner of its list
     std::vector<uint32_t> corner_next;  // per corner
@@ -56,9 +57,7 @@ struct CollapseMesh {
     glm::vec3 bbox_min{0.0f}, bbox_max{0.0f};
     bool lock_borders = false;
 
-    uint32_t face_position(uint32_t face, int k) const {
-        return wedge_position[corners[3 * face + k]];
-    }
+    uint32_t face_position(uint32_t face, int k) const { return corner_position[3 * face + k]; }
     // f(face, k): every live face around position p, k the corner of p in it.
     template <class F>
     void for_each_face(uint32_t p, F&& f) const {
