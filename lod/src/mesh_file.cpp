@@ -48,6 +48,12 @@ Scene single_mesh_scene(Mesh mesh) {
     return s;
 }
 
+// A vertex index read as a double: -1 (out of range for add_polygon) when it is not finite or
+// does not fit, so the conversion is never undefined.
+int64_t to_index(double v) {
+    return v >= -1e18 && v <= 1e18 ? int64_t(v) : -1;
+}
+
 // Fan-triangulates a polygon; indices checked against `vertices`.
 Status add_polygon(const std::vector<int64_t>& poly, size_t vertices, Primitive& p,
                    const std::string& where) {
@@ -288,7 +294,7 @@ Result<Scene> load_ply(const std::filesystem::path& path, const std::string& byt
             }
             have_vertices = true;
             vertex_count = e.count;
-            prim.positions.reserve(e.count);
+            prim.positions.reserve(std::min(e.count, bytes.size()));
         }
         if (is_face) {
             if (face_list < 0)
@@ -296,7 +302,8 @@ Result<Scene> load_ply(const std::filesystem::path& path, const std::string& byt
             have_faces = true;
         }
         std::vector<int64_t> poly;
-        for (size_t item = 0; item < e.count; ++item) {
+        // An element without properties has no data: nothing to read however large its count.
+        for (size_t item = 0; item < e.count && !e.properties.empty(); ++item) {
             glm::vec3 pos3(0.0f), nrm(0.0f);
             glm::vec2 uv(0.0f);
             glm::vec4 col(1.0f);
@@ -309,14 +316,14 @@ Result<Scene> load_ply(const std::filesystem::path& path, const std::string& byt
                 if (p.list) {
                     double n = 0;
                     if (!body.read(p.count_type, n)) return truncated();
-                    if (n < 0 || n > 1e6)
+                    if (!(n >= 0 && n <= 1e6))
                         return make_error(cat(file, ": element ", e.name, " ", item, " property ",
                                               p.name, ": list length ", n));
                     if (int(i) == face_list) poly.clear();
                     for (size_t k = 0; k < size_t(n); ++k) {
                         double v = 0;
                         if (!body.read(p.type, v)) return truncated();
-                        if (int(i) == face_list) poly.push_back(int64_t(v));
+                        if (int(i) == face_list) poly.push_back(to_index(v));
                     }
                     continue;
                 }
@@ -388,7 +395,7 @@ Result<Scene> load_off(const std::filesystem::path& path, const std::string& byt
     double v = 0, f = 0, e = 0;
     for (double* x : {&v, &f, &e})
         if (Status s = number(*x); !s.ok()) return s.error();
-    if (v < 0 || f < 0 || v > 1e9 || f > 1e9) return make_error(cat(file, ": bad counts"));
+    if (!(v >= 0 && f >= 0 && v <= 1e9 && f <= 1e9)) return make_error(cat(file, ": bad counts"));
     Mesh mesh;
     mesh.name = path.stem().string();
     Primitive prim;
@@ -403,11 +410,13 @@ Result<Scene> load_off(const std::filesystem::path& path, const std::string& byt
         double n = 0;
         if (Status s = number(n); !s.ok()) return s.error();
         const int line_of_face = tokens[k - 1].second;
+        if (!(n >= 0 && n <= 1e6))
+            return make_error(cat(file, ": line ", line_of_face, ": bad corner count ", n));
         poly.clear();
-        for (size_t c = 0; c < size_t(std::max(0.0, n)); ++c) {
+        for (size_t c = 0; c < size_t(n); ++c) {
             double idx = 0;
             if (Status s = number(idx); !s.ok()) return s.error();
-            poly.push_back(int64_t(idx));
+            poly.push_back(to_index(idx));
         }
         // Skip optional colour values up to the end of the face's line.
         while (k < tokens.size() && tokens[k].second == line_of_face) ++k;

@@ -1,5 +1,6 @@
 // `hmdnode lod` as a user runs it: each input format and target kind, the report, and bad input
-// (non-zero exit, a message naming the problem, no output file).
+// (non-zero exit, a message naming the problem, no output file); `--progressive` and `hmdnode pm`
+// (refine equals the chain's levels, truncated files rejected).
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
@@ -12,6 +13,7 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -283,6 +285,23 @@ TEST(LodCommand, RejectsBadInputWithoutWriting) {
     expect_fails(d / "missing.obj", "--ratios 0.5", {"missing.obj"});
 }
 
+// Inputs the mesh-file fuzz harness found (tests/fuzz/mesh_file_fuzz.cpp): indices and counts that
+// do not fit an integer, and an element of no properties with a huge count.
+TEST(LodCommand, RejectsUnrepresentableNumbersAndEmptyElements) {
+    const fs::path d = temp_dir("fuzzed");
+    write(d / "big.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 4.4e55\n");
+    expect_fails(d / "big.off", "--ratios 0.5", {"big.off", "out of range"});
+    write(d / "nan.off", "OFF\nnan 1 0\n0 0 0\n");
+    expect_fails(d / "nan.off", "--ratios 0.5", {"nan.off", "bad counts"});
+    write(d / "corners.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n1e300 0 1 2\n");
+    expect_fails(d / "corners.off", "--ratios 0.5", {"corners.off", "corner count"});
+    write(d / "big.ply",
+          "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+          "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+          "element nothing 999999999999999\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 1e30\n");
+    expect_fails(d / "big.ply", "--ratios 0.5", {"big.ply", "out of range"});
+}
+
 TEST(LodCommand, StepNeedsAnEdgeCollapseAlgorithm) {
     CommandRun list = run(kTool + " lod --list-algorithms");
     std::string other;
@@ -297,6 +316,219 @@ TEST(LodCommand, StepNeedsAnEdgeCollapseAlgorithm) {
     const fs::path d = temp_dir("stepbad");
     write(d / "ball.obj", obj_text(icosphere(1)));
     expect_fails(d / "ball.obj", "--step 10 --algorithm " + other, {"edge-collapse"});
+}
+
+// ---- progressive meshes: `lod --progressive`, `pm info`, `pm refine` ----
+
+using PositionSet = std::set<std::array<float, 3>>;
+
+struct MeshSummary {
+    size_t triangles = 0;
+    PositionSet positions;
+};
+
+MeshSummary summary_of(const hmdnode::Mesh& m) {
+    MeshSummary s;
+    for (const hmdnode::Primitive& p : m.primitives) {
+        s.triangles += p.triangle_count();
+        for (const glm::vec3& v : p.positions) s.positions.insert({v.x, v.y, v.z});
+    }
+    return s;
+}
+
+// The mesh called `name` in a .glb.
+MeshSummary glb_mesh(const fs::path& glb, const std::string& name) {
+    hmdnode::Result<hmdnode::Scene> s = hmdnode::load_gltf(glb);
+    EXPECT_TRUE(s.ok()) << (s.ok() ? "" : s.error().message);
+    if (!s.ok()) return {};
+    for (const hmdnode::Mesh& m : s->meshes)
+        if (m.name == name) return summary_of(m);
+    ADD_FAILURE() << "no mesh " << name << " in " << glb;
+    return {};
+}
+
+// Triangles and positions of an OBJ that `pm refine` wrote.
+MeshSummary obj_mesh(const fs::path& obj) {
+    MeshSummary s;
+    std::ifstream f(obj);
+    for (std::string line; std::getline(f, line);) {
+        std::istringstream w(line);
+        std::string key;
+        w >> key;
+        if (key == "v") {
+            std::array<float, 3> v{};
+            w >> v[0] >> v[1] >> v[2];
+            s.positions.insert(v);
+        } else if (key == "f") {
+            ++s.triangles;
+        }
+    }
+    return s;
+}
+
+std::string pm_refine(const fs::path& in, size_t triangles, const fs::path& out) {
+    return kTool + " pm refine --in " + in.string() + " --triangles " + std::to_string(triangles) +
+           " --out " + out.string();
+}
+
+// `--progressive` then `pm refine` at each level's count gives that level of the chain (same
+// triangles, same positions), as .glb and as .obj; for melax (greedy order) also at counts that
+// are not levels, equal to what `lod --triangles N` makes on its own.
+void check_progressive(const std::string& algorithm) {
+    const fs::path d = temp_dir("progressive_" + algorithm);
+    write(d / "ball.obj", obj_text(icosphere(3)));
+    CommandRun r =
+        run(lod(d / "ball.obj", d / "out.glb",
+                "--algorithm " + algorithm + " --triangles 600,300,100 --progressive " +
+                    (d / "ball.hmpm").string() + " --report " + (d / "r.json").string()));
+    ASSERT_EQ(r.code, 0) << r.output;
+    ASSERT_TRUE(fs::exists(d / "ball.hmpm")) << r.output;
+    std::ifstream rf(d / "r.json");
+    const nlohmann::json j = nlohmann::json::parse(rf);
+    ASSERT_EQ(j["progressive"].size(), 1u);
+    EXPECT_EQ(j["progressive"][0]["full_triangles"].get<size_t>(), 1280u);
+    const size_t base = j["progressive"][0]["base_triangles"].get<size_t>();
+    EXPECT_LE(base, 100u);
+    EXPECT_EQ(base, j["levels"][3]["triangles"].get<size_t>());
+
+    CommandRun info = run(kTool + " pm info " + (d / "ball.hmpm").string());
+    ASSERT_EQ(info.code, 0) << info.output;
+    EXPECT_NE(info.output.find("full triangles   1280"), std::string::npos) << info.output;
+    EXPECT_NE(info.output.find("base triangles   " + std::to_string(base)), std::string::npos)
+        << info.output;
+    EXPECT_NE(info.output.find("vertex splits"), std::string::npos) << info.output;
+    EXPECT_NE(info.output.find("normal"), std::string::npos) << info.output;
+
+    const std::vector<size_t> targets = {600, 300, 100};
+    for (size_t k = 0; k < targets.size(); ++k) {
+        const MeshSummary level = glb_mesh(d / "out.glb", "ball_lod" + std::to_string(k + 1));
+        ASSERT_GT(level.triangles, 0u);
+        const fs::path glb = d / ("r" + std::to_string(targets[k]) + ".glb");
+        CommandRun rr = run(pm_refine(d / "ball.hmpm", targets[k], glb));
+        ASSERT_EQ(rr.code, 0) << rr.output;
+        EXPECT_NE(rr.output.find("written " + std::to_string(level.triangles) + " triangles"),
+                  std::string::npos)
+            << rr.output;
+        const MeshSummary from_glb = glb_mesh(glb, glb.stem().string());
+        EXPECT_EQ(from_glb.triangles, level.triangles) << targets[k];
+        EXPECT_EQ(from_glb.positions, level.positions) << targets[k];
+        const fs::path obj = d / ("r" + std::to_string(targets[k]) + ".obj");
+        ASSERT_EQ(run(pm_refine(d / "ball.hmpm", targets[k], obj)).code, 0);
+        const MeshSummary from_obj = obj_mesh(obj);
+        EXPECT_EQ(from_obj.triangles, level.triangles) << targets[k];
+        EXPECT_EQ(from_obj.positions, level.positions) << targets[k];
+    }
+    for (size_t n : {size_t(450), size_t(150)}) {
+        const fs::path glb = d / ("n" + std::to_string(n) + ".glb");
+        ASSERT_EQ(run(pm_refine(d / "ball.hmpm", n, glb)).code, 0);
+        const MeshSummary refined = glb_mesh(glb, glb.stem().string());
+        EXPECT_LE(refined.triangles, n);
+        EXPECT_GE(refined.triangles, n - 2);  // a collapse removes at most two triangles here
+        if (algorithm != "melax") continue;
+        const fs::path one = d / ("one" + std::to_string(n) + ".glb");
+        ASSERT_EQ(
+            run(lod(d / "ball.obj", one, "--algorithm melax --triangles " + std::to_string(n)))
+                .code,
+            0);
+        const MeshSummary level = glb_mesh(one, "ball_lod1");
+        EXPECT_EQ(refined.triangles, level.triangles) << n;
+        EXPECT_EQ(refined.positions, level.positions) << n;
+    }
+    // Below the base: the base; above the full count: the full mesh.
+    ASSERT_EQ(run(pm_refine(d / "ball.hmpm", 1, d / "low.glb")).code, 0);
+    EXPECT_EQ(glb_mesh(d / "low.glb", "low").triangles, base);
+    ASSERT_EQ(run(pm_refine(d / "ball.hmpm", 100000, d / "high.glb")).code, 0);
+    EXPECT_EQ(glb_mesh(d / "high.glb", "high").triangles, 1280u);
+}
+
+TEST(LodCommand, ProgressiveRefinesToTheChainLevels) {
+    check_progressive("qem");
+}
+
+TEST(LodCommand, ProgressiveRefinesToAnyCountForAGreedyAlgorithm) {
+    check_progressive("melax");
+}
+
+TEST(LodCommand, ProgressiveRejectsBadFilesWithoutWriting) {
+    const fs::path d = temp_dir("progressive_bad");
+    write(d / "ball.obj", obj_text(icosphere(2)));
+    ASSERT_EQ(run(lod(d / "ball.obj", d / "out.glb",
+                      "--ratios 0.2 --progressive " + (d / "ball.hmpm").string()))
+                  .code,
+              0);
+    std::ifstream f(d / "ball.hmpm", std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    ASSERT_GT(bytes.size(), 100u);
+    // Cut in the header, in the base mesh, in the splits and by one byte; then a bad magic.
+    std::vector<std::string> bad;
+    for (size_t cut : {size_t(10), size_t(60), bytes.size() / 2, bytes.size() - 1})
+        bad.push_back(bytes.substr(0, cut));
+    bad.push_back("XMPM" + bytes.substr(4));
+    for (size_t i = 0; i < bad.size(); ++i) {
+        const fs::path in = d / ("bad" + std::to_string(i) + ".hmpm");
+        write(in, bad[i]);
+        for (const char* ext : {".glb", ".obj"}) {
+            const fs::path out = d / (std::string("refined") + ext);
+            CommandRun r = run(pm_refine(in, 100, out));
+            EXPECT_NE(r.code, 0) << i << r.output;
+            EXPECT_NE(r.output.find("byte "), std::string::npos) << i << r.output;
+            EXPECT_NE(r.output.find(in.filename().string()), std::string::npos) << r.output;
+            EXPECT_FALSE(fs::exists(out)) << i << r.output;
+        }
+        CommandRun info = run(kTool + " pm info " + in.string());
+        EXPECT_NE(info.code, 0) << info.output;
+        EXPECT_NE(info.output.find("byte "), std::string::npos) << info.output;
+    }
+    CommandRun ext = run(pm_refine(d / "ball.hmpm", 100, d / "refined.ply"));
+    EXPECT_NE(ext.code, 0) << ext.output;
+    EXPECT_FALSE(fs::exists(d / "refined.ply"));
+}
+
+TEST(LodCommand, ProgressiveNeedsAnEdgeCollapseAlgorithm) {
+    const fs::path d = temp_dir("progressive_algo");
+    write(d / "ball.obj", obj_text(icosphere(1)));
+    expect_fails(d / "ball.obj",
+                 "--ratios 0.5 --algorithm grid --progressive " + (d / "ball.hmpm").string(),
+                 {"--progressive", "edge-collapse"});
+    EXPECT_FALSE(fs::exists(d / "ball.hmpm"));
+}
+
+TEST(LodCommand, ProgressiveWritesOneFilePerMesh) {
+    const fs::path d = temp_dir("progressive_scene");
+    hmdnode::Scene scene;
+    for (int m = 0; m < 2; ++m) {
+        const Sphere s = icosphere(2 + m);
+        hmdnode::Primitive p;
+        for (auto& v : s.v) p.positions.emplace_back(v[0], v[1], v[2]);
+        for (auto& f : s.f) p.indices.insert(p.indices.end(), {f[0], f[1], f[2]});
+        hmdnode::Mesh mesh;
+        mesh.name = m == 0 ? "small" : "large";
+        mesh.primitives.push_back(std::move(p));
+        scene.meshes.push_back(std::move(mesh));
+        hmdnode::Node node;
+        node.name = scene.meshes.back().name;
+        node.mesh = m;
+        node.translation = glm::dvec3(3.0 * m, 0.0, 0.0);
+        scene.nodes.push_back(std::move(node));
+        scene.roots.push_back(m);
+    }
+    ASSERT_TRUE(hmdnode::save_glb(scene, d / "two.glb").ok());
+    CommandRun r = run(lod(d / "two.glb", d / "out.glb",
+                           "--ratios 0.25 --progressive " + (d / "two.hmpm").string()));
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_FALSE(fs::exists(d / "two.hmpm"));
+    for (const auto& [name, full] : {std::pair<std::string, size_t>{"small", 320},
+                                     std::pair<std::string, size_t>{"large", 1280}}) {
+        const fs::path f = d / ("two." + name + ".hmpm");
+        ASSERT_TRUE(fs::exists(f)) << r.output;
+        CommandRun info = run(kTool + " pm info " + f.string());
+        EXPECT_EQ(info.code, 0) << info.output;
+        EXPECT_NE(info.output.find("full triangles   " + std::to_string(full)), std::string::npos)
+            << info.output;
+        EXPECT_NE(info.output.find("base triangles   " + std::to_string(full / 4)),
+                  std::string::npos)
+            << info.output;
+    }
 }
 
 }  // namespace

@@ -1,13 +1,21 @@
 // `hmdnode lod`: LOD chains for every mesh of a glTF, .glb, OBJ, PLY or OFF file, written as a
 // .glb with MSFT_lod and each level's measured error (extras.geometric_error). Input is checked
-// and repaired first (lod/mesh_repair.hpp). Formats and figures: docs/lod-generation.md.
+// and repaired first (lod/mesh_repair.hpp). With --progressive, also the progressive mesh
+// (lod/progressive_mesh.hpp, Hoppe 1996) of each mesh, based at its smallest level; `hmdnode pm`
+// (pm_cmd.cpp) reads those back. Formats and figures: docs/lod-generation.md.
 #include <unistd.h>
 
+#include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
+#include <set>
+#include <span>
 #include <string>
+#include <system_error>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -18,13 +26,14 @@
 #include "hmdnode/lod/lod_chain.hpp"
 #include "hmdnode/lod/mesh_file.hpp"
 #include "hmdnode/lod/mesh_repair.hpp"
+#include "hmdnode/lod/progressive_mesh.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
 namespace {
 
 struct LodArgs {
-    std::string in, out, algorithm = "qem", error, report;
+    std::string in, out, algorithm = "qem", error, report, progressive;
     std::vector<double> ratios;
     std::vector<size_t> triangles;
     size_t step = 0;
@@ -63,6 +72,112 @@ class ProgressBar {
     bool enabled_;
     int last_ = -1;
 };
+
+// One progressive mesh to write: a primitive of a mesh the chain was made for.
+struct ProgressiveOut {
+    std::string path, mesh_name;
+    size_t primitive = 0;
+    ProgressiveMesh pm;
+};
+
+// A mesh name usable in a file name: anything but [A-Za-z0-9._-] becomes '_'.
+std::string file_safe(const std::string& name) {
+    std::string out = name;
+    for (char& c : out)
+        if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '_' && c != '-')
+            c = '_';
+    return out;
+}
+
+// The progressive meshes of every primitive of the meshes `report` made chains for (in `source`,
+// the scene as given to generate_lod_chains), based at each mesh's last (smallest) level. Each is
+// built with the same per-primitive targets as the chain (the primitive's share of every level's
+// target, as lod_chain.cpp divides them): the batched collapse order of qem and curvature-qem
+// depends on the targets, so only then does refine() give back the chain's levels exactly.
+// One file: `out` itself;
+// several: `out` less ".hmpm", then ".<mesh>" (".<mesh>.p<k>" for a mesh of several primitives)
+// and ".hmpm".
+Result<std::vector<ProgressiveOut>> build_progressive(const Scene& source,
+                                                      const LodChainReport& report,
+                                                      const LodChainOptions& options,
+                                                      const std::string& out,
+                                                      std::vector<std::string>& notes) {
+    // The chain's meshes, in the order generate_lod_chains reports them.
+    std::set<int> alternates;
+    for (const Node& n : source.nodes)
+        for (int id : n.lod_ids) alternates.insert(id);
+    std::vector<int> meshes;
+    for (size_t i = 0; i < source.nodes.size(); ++i) {
+        const Node& n = source.nodes[i];
+        if (n.mesh < 0 || size_t(n.mesh) >= source.meshes.size() || alternates.count(int(i)))
+            continue;
+        if (std::find(meshes.begin(), meshes.end(), n.mesh) == meshes.end())
+            meshes.push_back(n.mesh);
+    }
+    // Per mesh, the targets of its levels, decreasing.
+    std::vector<std::vector<size_t>> targets;
+    for (const LodLevelReport& l : report.levels) {
+        if (l.level == 0)
+            targets.emplace_back();
+        else if (!targets.empty())
+            targets.back().push_back(l.target > 0 ? l.target : l.triangles);
+    }
+    if (targets.size() != meshes.size())
+        return make_error("progressive: " + std::to_string(targets.size()) + " chains for " +
+                          std::to_string(meshes.size()) + " meshes");
+    std::vector<ProgressiveOut> result;
+    for (size_t g = 0; g < meshes.size(); ++g) {
+        const Mesh& mesh = source.meshes[size_t(meshes[g])];
+        if (targets[g].empty()) {
+            notes.push_back("mesh \"" + mesh.name + "\" has no level: no progressive mesh");
+            continue;
+        }
+        const size_t total = mesh.triangle_count();
+        for (size_t p = 0; p < mesh.primitives.size(); ++p) {
+            const Primitive& prim = mesh.primitives[p];
+            const size_t count = prim.triangle_count();
+            std::vector<size_t> list;
+            for (size_t t : targets[g]) {
+                const double share = double(t) * double(count) / double(total);
+                const size_t want = std::max<size_t>(1, size_t(std::llround(share)));
+                if (want < count && (list.empty() || want < list.back())) list.push_back(want);
+            }
+            if (list.empty()) {
+                notes.push_back("mesh \"" + mesh.name + "\" primitive " + std::to_string(p) +
+                                " is not simplified: no progressive mesh");
+                continue;
+            }
+            SimplifyOptions so = options.simplify;
+            so.progress = nullptr;
+            Result<ProgressiveMeshBuild> b =
+                build_progressive_mesh(prim, options.algorithm, std::span<const size_t>(list), so);
+            if (!b.ok())
+                return make_error("progressive mesh of mesh \"" + mesh.name + "\" primitive " +
+                                  std::to_string(p) + ": " + b.error().message);
+            ProgressiveOut o;
+            o.mesh_name = mesh.name.empty() ? "mesh" + std::to_string(meshes[g]) : mesh.name;
+            if (mesh.primitives.size() > 1) o.mesh_name += ".p" + std::to_string(p);
+            o.primitive = p;
+            o.pm = std::move(b->mesh);
+            result.push_back(std::move(o));
+        }
+    }
+    if (result.size() == 1) {
+        result[0].path = out;
+    } else {
+        std::string stem = out;
+        if (stem.size() > 5 && stem.compare(stem.size() - 5, 5, ".hmpm") == 0)
+            stem.resize(stem.size() - 5);
+        std::set<std::string> used;
+        for (size_t i = 0; i < result.size(); ++i) {
+            std::string name = file_safe(result[i].mesh_name);
+            if (!used.insert(name).second) name += "." + std::to_string(i);  // same names
+            used.insert(name);
+            result[i].path = stem + "." + name + ".hmpm";
+        }
+    }
+    return result;
+}
 
 void list_algorithms() {
     std::printf("%-18s %-13s %s\n", "algorithm", "edge collapse", "summary (source)");
@@ -107,6 +222,9 @@ void run_lod(const LodArgs& args) {
     if (args.step > 0 && !algo->edge_collapse)
         return fail("--step needs an edge-collapse algorithm; \"" + args.algorithm +
                     "\" is not one (see --list-algorithms)");
+    if (!args.progressive.empty() && !algo->edge_collapse)
+        return fail("--progressive needs an edge-collapse algorithm; \"" + args.algorithm +
+                    "\" is not one (see --list-algorithms)");
     options.simplify.lock_borders = args.lock_borders;
     options.simplify.seed = args.seed;
     options.distance.samples = args.samples;
@@ -120,16 +238,35 @@ void run_lod(const LodArgs& args) {
     for (const std::string& m : repair.messages)
         std::fprintf(stderr, "hmdnode lod: warning: %s\n", m.c_str());
 
+    Scene source;  // as repaired, before the chains: the progressive meshes' input
+    if (!args.progressive.empty()) source = *scene;
+
     ProgressBar bar(!args.no_progress);
     options.progress = [&bar](double f) { bar.update(f); };
     Result<LodChainReport> report = generate_lod_chains(*scene, options);
     bar.finish();
     if (!report.ok()) return fail(report.error().message + "; nothing written");
+    std::vector<ProgressiveOut> progressive;
+    if (!args.progressive.empty()) {
+        Result<std::vector<ProgressiveOut>> pms =
+            build_progressive(source, *report, options, args.progressive, report->notes);
+        if (!pms.ok()) return fail(pms.error().message + "; nothing written");
+        progressive = std::move(pms).value();
+    }
     for (const std::string& n : report->notes)
         std::fprintf(stderr, "hmdnode lod: note: %s\n", n.c_str());
 
     if (Status s = save_glb(*scene, args.out); !s.ok())
         return fail(s.error().message + "; nothing written");
+    // Each file is written atomically; on a failure the ones already written go again.
+    for (size_t i = 0; i < progressive.size(); ++i) {
+        if (Status s = write_progressive_mesh(progressive[i].path, progressive[i].pm); !s.ok()) {
+            std::error_code ec;
+            std::filesystem::remove(args.out, ec);
+            for (size_t k = 0; k < i; ++k) std::filesystem::remove(progressive[k].path, ec);
+            return fail(s.error().message + "; nothing written");
+        }
+    }
 
     std::printf("%-24s %5s %10s %12s %9s %9s %10s %10s\n", "mesh", "level", "triangles", "error m",
                 "error %", "mean %", "simplify ms", "measure ms");
@@ -140,6 +277,12 @@ void run_lod(const LodArgs& args) {
     const double total_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     std::printf("wrote %s: %zu meshes, %zu nodes with chains (%s, %.0f ms)\n", args.out.c_str(),
                 report->meshes, report->nodes, args.algorithm.c_str(), total_ms);
+    for (const ProgressiveOut& p : progressive)
+        std::printf(
+            "wrote %s: progressive mesh of \"%s\", base %zu, full %zu triangles, %zu "
+            "vertex splits\n",
+            p.path.c_str(), p.mesh_name.c_str(), p.pm.base_triangles(), p.pm.full_triangles(),
+            p.pm.splits.size());
 
     if (!args.report.empty()) {
         nlohmann::json j;
@@ -175,6 +318,15 @@ void run_lod(const LodArgs& args) {
                               {"measure_ms", l.measure_ms}});
         j["levels"] = std::move(levels);
         j["notes"] = report->notes;
+        nlohmann::json pms = nlohmann::json::array();
+        for (const ProgressiveOut& p : progressive)
+            pms.push_back({{"file", p.path},
+                           {"mesh_name", p.mesh_name},
+                           {"primitive", p.primitive},
+                           {"base_triangles", p.pm.base_triangles()},
+                           {"full_triangles", p.pm.full_triangles()},
+                           {"vertex_splits", p.pm.splits.size()}});
+        j["progressive"] = std::move(pms);
         j["total_ms"] = total_ms;
         if (Status s = write_file_atomically(args.report, j.dump(2) + "\n"); !s.ok())
             return fail(s.error().message);
@@ -213,6 +365,9 @@ void add_lod_command(CLI::App& app) {
         ->capture_default_str();
     lod->add_flag("--no-progress", args->no_progress,
                   "No progress bar (it is drawn only when stderr is a terminal)");
+    lod->add_option("--progressive", args->progressive,
+                    "Also write each mesh's progressive mesh (.hmpm, edge-collapse algorithms), "
+                    "based at its smallest level; several meshes: OUT.<mesh>.hmpm");
     lod->add_flag("--list-algorithms", args->list_algorithms, "List the algorithms and exit");
     lod->callback([args] { run_lod(*args); });
 }

@@ -1,0 +1,42 @@
+// libFuzzer harness: the progressive-mesh (.hmpm) reader, decode_progressive_mesh, on untrusted
+// bytes. Invariants for a file it accepts: encoding it again gives the same bytes, and refine()
+// (which trusts what the decoder checked) stays in bounds at the base, half-way and full counts,
+// with indices in range and the triangle count between base and full.
+//
+// Built from lod/src/progressive_mesh.cpp, collapse_engine.cpp and the four collapse costs;
+// check_simplify_arguments (lod/src/simplify.cpp, which pulls in every algorithm and OpenMesh and
+// Embree) is only used by build_progressive_mesh, never by the reader, so it is stubbed here.
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <span>
+#include <vector>
+
+#include "collapse_engine.hpp"
+#include "hmdnode/lod/progressive_mesh.hpp"
+
+namespace hmdnode::lod_detail {
+Status check_simplify_arguments(const Primitive&, std::string_view, std::span<const size_t>) {
+    return make_error("not in the fuzz harness");
+}
+}  // namespace hmdnode::lod_detail
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+    using namespace hmdnode;
+    Result<ProgressiveMesh> pm = decode_progressive_mesh(std::span<const uint8_t>(data, size));
+    if (!pm.ok()) {
+        if (pm.error().message.find("byte ") == std::string::npos) abort();  // names the offset
+        return 0;
+    }
+    const std::vector<uint8_t> again = encode_progressive_mesh(*pm);
+    if (again.size() != size || (size && std::memcmp(again.data(), data, size) != 0)) abort();
+    const size_t base = pm->base_triangles(), full = pm->full_triangles();
+    for (size_t n : {size_t(0), base, (base + full) / 2, full}) {
+        const Primitive p = refine(*pm, n);
+        if (p.triangle_count() < base || p.triangle_count() > full) abort();
+        if (n >= base && p.triangle_count() > n) abort();
+        for (uint32_t i : p.indices)
+            if (i >= p.positions.size()) abort();
+    }
+    return 0;
+}
