@@ -1,8 +1,17 @@
-// `hmdnode record`: read a tracker through a transport backend (hidapi, libusb, or the simulated
-// reference tracker) and write what it said: our trace CSV (docs/trace-format.md) from the
-// decoded reports, and the raw reports as a pcap with the Linux usbmon link type
-// DLT_USB_LINUX_MMAPPED (220), which Wireshark, tshark and `hmdnode replay --capture` read.
-// Formats and limits: docs/hardware.md.
+// `hmdnode record`: read a tracker through a transport backend (hidapi, libusb, the simulated
+// reference tracker, or a recorded usbmon capture) and write what it said: our trace CSV
+// (docs/trace-format.md) from the decoded reports, and the raw reports as a pcap with the Linux
+// usbmon link type DLT_USB_LINUX_MMAPPED (220), which Wireshark, tshark and `hmdnode replay
+// --capture` read. Formats and limits: docs/hardware.md.
+//
+// Two paths to the CSV. Reference-protocol devices (device-info feature report 0x10) are decoded
+// here, pose report by pose report. IMU-only devices (Vive/Index, Rift: make_codec_for) and
+// captures go through the DeviceTracker of live tracking (codec -> ClockSync -> Mahony fusion,
+// hal/include/hmdnode/hal/device_tracker.hpp); each delivered TrackerSample with an orientation
+// (fusion initialised) becomes a row. A live device's raw reports reach the pcap through a tee
+// transport wrapped around the backend's (the feature reports the codec reads become GET_REPORT
+// exchanges). A capture runs on a simulated clock advanced in 10 ms steps: deterministic, as fast
+// as it decodes.
 //
 // The pcap is written by hand (pcap file format 2.4, 64-byte usbmon headers, host byte order):
 // it opens with a synthetic GET_DESCRIPTOR(DEVICE) exchange so readers learn the VID:PID from the
@@ -15,6 +24,8 @@
 #include <cstdio>
 #include <cstring>
 #include <ctime>
+#include <filesystem>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -26,6 +37,7 @@
 #include "hmdnode/core/time.hpp"
 #include "hmdnode/core/trace.hpp"
 #include "hmdnode/hal/clock_sync.hpp"
+#include "hmdnode/hal/device_tracker.hpp"
 #include "hmdnode/hal/reference_protocol.hpp"
 #include "hmdnode/hal/sim_reference_device.hpp"
 #include "hmdnode/hal/transport.hpp"
@@ -46,7 +58,9 @@ struct RecordArgs {
     std::string capture;
     double duration_s = 10.0;
     std::string backend = "hidapi";
+    std::string from;
     bool sim_clock = false;
+    bool duration_given = false;
 };
 
 // Little-endian appends.
@@ -163,11 +177,286 @@ void fail(const std::string& message) {
     set_exit_code(1);
 }
 
+// A transport that hands everything through and writes each input report, and each feature
+// report read, into the pcap (the device tracker's reader thread calls it; the pcap is read only
+// after the tracker has stopped).
+class TeeTransport : public Transport {
+  public:
+    TeeTransport(std::unique_ptr<Transport> inner, UsbmonPcapWriter* pcap, int64_t rt_offset)
+        : inner_(std::move(inner)), pcap_(pcap), rt_offset_(rt_offset) {}
+    DeviceId id() const override { return inner_->id(); }
+    Result<std::optional<InputReport>> read_input(int timeout_ms) override {
+        auto r = inner_->read_input(timeout_ms);
+        if (r.ok() && r->has_value())
+            pcap_->interrupt_in((*r)->host_time_ns + rt_offset_, (*r)->bytes);
+        return r;
+    }
+    Result<std::vector<uint8_t>> get_feature(uint8_t report_id, size_t size) override {
+        auto r = inner_->get_feature(report_id, size);
+        if (r.ok()) {
+            timespec mono{};
+            clock_gettime(CLOCK_MONOTONIC, &mono);
+            const int64_t now = static_cast<int64_t>(mono.tv_sec) * kNsPerSecond + mono.tv_nsec;
+            const int iface = std::max(0, inner_->id().interface_number);
+            pcap_->control_in(
+                now + rt_offset_,
+                hid_get_report_setup(HidReportType::feature, report_id,
+                                     static_cast<uint16_t>(iface), static_cast<uint16_t>(size)),
+                *r);
+        }
+        return r;
+    }
+    Status set_feature(std::span<const uint8_t> data) override { return inner_->set_feature(data); }
+    Status write_output(std::span<const uint8_t> data) override {
+        return inner_->write_output(data);
+    }
+    bool finished() const override { return inner_->finished(); }
+
+  private:
+    std::unique_ptr<Transport> inner_;
+    UsbmonPcapWriter* pcap_;
+    int64_t rt_offset_;
+};
+
+class TeeBackend : public TransportBackend {
+  public:
+    TeeBackend(std::unique_ptr<TransportBackend> inner, UsbmonPcapWriter* pcap, int64_t rt_offset)
+        : inner_(std::move(inner)), pcap_(pcap), rt_offset_(rt_offset) {}
+    std::string name() const override { return inner_->name(); }
+    Result<std::vector<DeviceId>> enumerate(const DeviceFilter& filter) override {
+        return inner_->enumerate(filter);
+    }
+    Result<std::unique_ptr<Transport>> open(const DeviceId& id) override {
+        auto t = inner_->open(id);
+        if (!t.ok()) return t.error();
+        return std::unique_ptr<Transport>(
+            std::make_unique<TeeTransport>(std::move(*t), pcap_, rt_offset_));
+    }
+
+  private:
+    std::unique_ptr<TransportBackend> inner_;
+    UsbmonPcapWriter* pcap_;
+    int64_t rt_offset_;
+};
+
+// What the tracker path recorded.
+struct TrackerRecording {
+    Trace trace;
+    uint64_t delivered = 0;       // samples the tracker delivered
+    uint64_t before_fusion = 0;   // delivered before the fusion had an orientation
+    uint64_t non_increasing = 0;  // dropped: time not strictly increasing
+    std::string failure;          // the device went away
+    double seconds = 0.0;         // on the recording clock
+};
+
+// Appends one delivered sample as a trace row (times from t0; a column group in every row or
+// none: a sample lacking it repeats the previous row's value).
+void append_row(const TrackerSample& t, int64_t t0, TrackerRecording* rec) {
+    ++rec->delivered;
+    if (!t.has_orientation) {
+        ++rec->before_fusion;
+        return;
+    }
+    std::vector<TraceSample>& rows = rec->trace.samples;
+    TraceSample s;
+    s.time_ns = t.time_ns - t0;
+    if (!rows.empty() && s.time_ns <= rows.back().time_ns) {
+        ++rec->non_increasing;
+        return;
+    }
+    const TraceSample* prev = rows.empty() ? nullptr : &rows.back();
+    s.orientation = prev ? same_hemisphere(t.orientation, prev->orientation) : t.orientation;
+    auto group = [&](const std::optional<glm::dvec3>& v,
+                     std::optional<glm::dvec3> TraceSample::*member) -> std::optional<glm::dvec3> {
+        if (!prev) return v;
+        if (!(prev->*member)) return std::nullopt;
+        return v ? *v : *(prev->*member);
+    };
+    s.gyro = group(t.gyro, &TraceSample::gyro);
+    s.accel = group(t.accel, &TraceSample::accel);
+    s.position = group(t.position, &TraceSample::position);
+    rows.push_back(s);
+}
+
+// Runs a started device tracker until `end` on `clock` (or Ctrl-C, or the end of a capture).
+// Simulated clock: advanced in 10 ms steps, times from the first row. System clock: polled every
+// 5 ms, times from `start`; a disconnect ends the recording (what arrived is kept).
+TrackerRecording record_tracker(DeviceTracker& tracker, Clock& clock, int64_t start, int64_t end) {
+    TrackerRecording rec;
+    std::vector<TrackerSample> buf(1024);
+    std::optional<int64_t> t0;
+    if (!clock.is_simulated()) t0 = start;
+    auto drain = [&] {
+        size_t n;
+        do {
+            n = tracker.read(buf);
+            for (size_t i = 0; i < n; ++i) {
+                if (buf[i].arrival_ns >= end) continue;
+                if (!t0 && buf[i].has_orientation) t0 = buf[i].time_ns;
+                append_row(buf[i], t0.value_or(0), &rec);
+            }
+        } while (n == buf.size());
+    };
+    g_stop = false;
+    auto old_handler = std::signal(SIGINT, on_sigint);
+    while (!g_stop.load() && clock.now_ns() < end && !tracker.finished()) {
+        if (clock.is_simulated()) {
+            auto* sim = static_cast<SimulatedClock*>(&clock);
+            sim->advance_ns(std::min<int64_t>(10 * kNsPerMs, end - clock.now_ns()));
+        } else {
+            clock.sleep_until_ns(std::min(end, clock.now_ns() + 5 * kNsPerMs));
+        }
+        drain();
+        const DeviceTrackerStatus st = tracker.status();
+        if (st.disconnects > 0) {
+            rec.failure = st.last_error;
+            break;
+        }
+        if (!clock.is_simulated() && st.opens == 0 && st.open_failures > 0) {
+            rec.failure = "could not open the device: " + st.last_error;
+            break;
+        }
+    }
+    std::signal(SIGINT, old_handler);
+    tracker.stop();
+    drain();
+    rec.seconds = ns_to_s(std::min(clock.now_ns(), end) - start);
+    return rec;
+}
+
+// Writes the CSV (atomically) and the pcap, prints the figures of a tracker-path recording.
+void finish_tracker_recording(const RecordArgs& args, const std::string& label,
+                              const std::string& via, TrackerRecording& rec,
+                              const DeviceTrackerStatus& st, const UsbmonPcapWriter* pcap) {
+    bool ok = true;
+    if (pcap && !args.capture.empty()) {
+        Status w = write_file_atomically(args.capture, pcap->bytes());
+        if (!w.ok()) {
+            std::fprintf(stderr, "hmdnode record: %s\n", w.error().message.c_str());
+            ok = false;
+        }
+    }
+    if (!args.out.empty()) {
+        if (rec.trace.samples.size() < 2) {
+            std::fprintf(stderr,
+                         "hmdnode record: only %zu pose sample(s) in %.3f s: %s not written\n",
+                         rec.trace.samples.size(), rec.seconds, args.out.c_str());
+            ok = false;
+        } else {
+            rec.trace.comments.push_back("recorded by hmdnode record from " + label + " via " +
+                                         via +
+                                         " (codec, clock sync and IMU fusion of "
+                                         "hmdnode's device tracker)");
+            Status w = write_trace_csv(rec.trace, args.out);
+            if (!w.ok()) {
+                std::fprintf(stderr, "hmdnode record: %s\n", w.error().message.c_str());
+                ok = false;
+            }
+        }
+    }
+    const double s = rec.seconds;
+    std::printf("recorded %s via %s for %.3f s\n", label.c_str(), via.c_str(), s);
+    std::printf("  %-24s %llu (%.1f per s)\n", "input reports",
+                static_cast<unsigned long long>(st.codec.reports),
+                s > 0 ? st.codec.reports / s : 0.0);
+    std::printf("  %-24s %llu (%llu before the fusion was aligned)\n", "samples",
+                static_cast<unsigned long long>(rec.delivered),
+                static_cast<unsigned long long>(rec.before_fusion));
+    std::printf("  %-24s %zu (%.1f per s)\n", "trace rows", rec.trace.samples.size(),
+                s > 0 ? rec.trace.samples.size() / s : 0.0);
+    std::printf("  %-24s %llu (%llu samples missing)\n", "sequence gaps",
+                static_cast<unsigned long long>(st.codec.sequence_gaps),
+                static_cast<unsigned long long>(st.codec.missing_samples));
+    std::printf("  %-24s %llu (%llu of other ids skipped)\n", "malformed reports",
+                static_cast<unsigned long long>(st.codec.malformed),
+                static_cast<unsigned long long>(st.codec.unknown));
+    if (rec.non_increasing)
+        std::printf("  %-24s %llu\n", "dropped (time not increasing)",
+                    static_cast<unsigned long long>(rec.non_increasing));
+    std::printf("  %-24s %.3f ms (jitter %.3f ms, drift %.1f ppm)\n", "clock offset",
+                ns_to_ms(st.clock_offset_ns), st.clock_jitter_ns * 1e-6, st.clock_drift_ppm);
+    if (pcap && !args.capture.empty() && ok)
+        std::printf("  %-24s %s (%llu usbmon events)\n", "capture", args.capture.c_str(),
+                    static_cast<unsigned long long>(pcap->events()));
+    if (!args.out.empty() && ok) std::printf("  %-24s %s\n", "trace", args.out.c_str());
+    if (!rec.failure.empty()) {
+        // Never opened: bad input (exit 1). Gone mid-recording: exit 3.
+        const bool never_opened = st.opens == 0;
+        std::fprintf(stderr, "hmdnode record: %s -- stopped%s\n", rec.failure.c_str(),
+                     never_opened ? "" : "; what arrived before was written");
+        set_exit_code(never_opened ? 1 : 3);
+        return;
+    }
+    if (!ok) set_exit_code(1);
+}
+
+// True when hmdnode has an IMU codec for the device (Vive/Index, Rift).
+bool is_imu_device(uint16_t vid, uint16_t pid) {
+    return make_codec_for(vid, pid)->name() != make_reference_codec()->name();
+}
+
+// --backend capture --from FILE: the capture's device through the device tracker, simulated clock.
+void run_record_capture(const RecordArgs& args, const DeviceFilter& filter) {
+    if (args.from.empty()) return fail("--backend capture needs --from FILE.pcap[.gz]");
+    if (!args.capture.empty())
+        return fail("--capture with --backend capture: the input is a capture already");
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(args.from, ec))
+        return fail("--from " + args.from + ": no such file");
+    SimulatedClock clock(kNsPerSecond);
+    const int64_t start = clock.now_ns();
+    auto tracker = create_capture_tracker(args.from, args.device, clock, start);
+    if (!tracker.ok()) return fail(tracker.error().message);
+    if (Status st = (*tracker)->start(); !st.ok()) return fail(st.error().message);
+    // The whole capture unless --duration is given.
+    const int64_t end = args.duration_given && args.duration_s > 0
+                            ? start + s_to_ns(args.duration_s)
+                            : std::numeric_limits<int64_t>::max();
+    TrackerRecording rec = record_tracker(**tracker, clock, start, end);
+    rec.seconds = ns_to_s(clock.now_ns() - start);
+    const DeviceTrackerStatus st = (*tracker)->status();
+    finish_tracker_recording(args,
+                             format_vid_pid(filter.vendor_id, filter.product_id) + " (" +
+                                 make_codec_for(filter.vendor_id, filter.product_id)->name() + ")",
+                             "capture " + args.from, rec, st, nullptr);
+}
+
+// A live IMU-only device: its reports through the device tracker, raw reports teed to the pcap.
+void run_record_imu(const RecordArgs& args, DeviceFilter filter,
+                    std::unique_ptr<TransportBackend> backend, const DeviceId& id, Clock& clock) {
+    const int64_t rt_offset = realtime_minus_monotonic_ns();
+    UsbmonPcapWriter pcap;
+    pcap.control_in(clock.now_ns() + rt_offset, UsbSetupPacket{0x80, 0x06, 0x0100, 0, 18},
+                    device_descriptor(id.vendor_id, id.product_id));
+    auto codec = make_codec_for(id.vendor_id, id.product_id);
+    const std::string label = format_vid_pid(id.vendor_id, id.product_id) + " (" + codec->name() +
+                              (id.serial.empty() ? "" : ", serial " + id.serial) + ")";
+    const std::string via = backend->name() + " (" + id.path + ")";
+    DeviceTrackerConfig cfg;
+    filter.vendor_id = id.vendor_id;
+    filter.product_id = id.product_id;
+    cfg.filter = filter;
+    auto tracker =
+        create_device_tracker(std::make_unique<TeeBackend>(std::move(backend), &pcap, rt_offset),
+                              std::move(codec), clock, cfg);
+    if (!tracker.ok()) return fail(tracker.error().message);
+    const int64_t start = clock.now_ns();
+    if (Status st = (*tracker)->start(); !st.ok()) return fail(st.error().message);
+    const int64_t end = args.duration_s > 0 ? start + s_to_ns(args.duration_s)
+                                            : std::numeric_limits<int64_t>::max();
+    TrackerRecording rec = record_tracker(**tracker, clock, start, end);
+    const DeviceTrackerStatus st = (*tracker)->status();
+    finish_tracker_recording(args, label, via, rec, st, &pcap);
+}
+
 void run_record(const RecordArgs& args) {
     if (args.out.empty() && args.capture.empty())
         return fail("nothing to write: give --out FILE.csv and/or --capture FILE.pcap");
     Result<DeviceFilter> filter = parse_vid_pid(std::string_view(args.device));
     if (!filter.ok()) return fail("--device: " + filter.error().message);
+    if (!args.from.empty() && args.backend != "capture")
+        return fail("--from needs --backend capture");
+    if (args.backend == "capture") return run_record_capture(args, *filter);
     if (args.sim_clock && args.backend != "sim")
         return fail("--sim-clock needs --backend sim (a real device runs on the real clock)");
 
@@ -192,6 +481,9 @@ void run_record(const RecordArgs& args) {
     if (list->empty())
         return fail("no device " + args.device + " found by the " + backend->name() +
                     " backend (plugged in? udev rules: docs/udev.md)");
+    // IMU-only devices (Vive/Index, Rift): the live tracking path.
+    if (args.backend != "sim" && is_imu_device(list->front().vendor_id, list->front().product_id))
+        return run_record_imu(args, *filter, std::move(backend), list->front(), clock);
     auto opened = backend->open(list->front());
     if (!opened.ok()) return fail(opened.error().message);
     std::unique_ptr<Transport> transport = std::move(*opened);
@@ -222,8 +514,9 @@ void run_record(const RecordArgs& args) {
     }
     if (!reference && !args.out.empty())
         return fail(device_label +
-                    " does not speak the hmdnode reference protocol (no device-info feature "
-                    "report 0x10); record its raw reports with --capture alone");
+                    ": hmdnode has no codec for it (not a Vive/Index or Rift IMU, and no "
+                    "device-info feature report 0x10 of the reference protocol); record its raw "
+                    "reports with --capture alone");
 
     Trace trace;
     trace.comments.push_back("recorded by hmdnode record from " + device_label + " via " +
@@ -352,18 +645,27 @@ void add_record_command(CLI::App& app) {
         "record", "Record a tracker: trace CSV from its decoded reports, raw reports as a pcap");
     rec->add_option("--device", args->device, "VID:PID[:SERIAL] in hex, e.g. 1209:0001")
         ->required();
-    rec->add_option("--out", args->out, "Trace CSV to write (hmdnode reference protocol devices)");
+    rec->add_option("--out", args->out,
+                    "Trace CSV to write (reference-protocol devices; Vive/Index and Rift IMUs "
+                    "through the tracker's fusion)");
     rec->add_option("--capture", args->capture,
                     "pcap to write: raw reports, usbmon link type 220 (Wireshark, tshark)");
-    rec->add_option("--duration", args->duration_s, "Seconds to record (0: until Ctrl-C)")
-        ->capture_default_str();
+    CLI::Option* duration = rec->add_option("--duration", args->duration_s,
+                                            "Seconds to record (0: until Ctrl-C); --backend "
+                                            "capture: the whole capture unless given")
+                                ->capture_default_str();
     rec->add_option("--backend", args->backend,
-                    "hidapi, libusb or sim (simulated reference tracker)")
-        ->check(CLI::IsMember({"hidapi", "libusb", "sim"}))
+                    "hidapi, libusb, sim (simulated reference tracker) or capture (--from)")
+        ->check(CLI::IsMember({"hidapi", "libusb", "sim", "capture"}))
         ->capture_default_str();
     rec->add_flag("--sim-clock", args->sim_clock,
                   "With --backend sim: run on a simulated clock (instant, deterministic)");
-    rec->callback([args] { run_record(*args); });
+    rec->add_option("--from", args->from,
+                    "With --backend capture: the usbmon capture to decode (.pcap or .pcap.gz)");
+    rec->callback([args, duration] {
+        args->duration_given = duration->count() > 0;
+        run_record(*args);
+    });
 }
 
 const CommandRegistration reg{55, add_record_command};
