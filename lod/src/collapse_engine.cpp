@@ -10,11 +10,13 @@
 // Method: weld identical vertices into wedges and wedges into positions; thread one singly linked
 // list of corners through each position (a collapse splices the removed position's list onto the
 // kept one, O(1), no allocation; dead faces are pruned lazily, and from both endpoints' lists by
-// every collapse check); each corner caches its position (corner_position) so that walking a face
-// reads no wedge table; classify each position (kinds above), keeping the edges it gathered for
-// the first candidates; one candidate per edge (the cheaper allowed direction, or a merge at a new
-// point).
-// Two schedules:
+// every collapse check); the pass schedule below instead walks one flat array of each position's
+// corners (CSR), rebuilt from the live faces before every pass in O(F), as meshoptimizer rebuilds
+// its adjacency (the corner lists are then not kept; within a pass the kept position of a
+// collapse is not walked again), and prefetches the walks of the candidates a few steps ahead;
+// each corner caches its position (corner_position) so that walking a face reads no wedge table;
+// classify each position (kinds above), keeping the edges it gathered for the first candidates; one
+// candidate per edge (the cheaper allowed direction, or a merge at a new point). Two schedules:
 // - costs of the endpoints only (qem, curvature-qem): passes in the manner of meshoptimizer.
 //   Each pass sorts the candidates (two 11-bit radix passes on the top 22 bits of the float cost:
 //   costs within a relative 2^-13 keep their previous order) and applies them in order while
@@ -56,14 +58,17 @@
 // module and property machinery make ModQuadric take about 2.4 s on the bunny at 10 % (the
 // issue's figure for this machine); this engine does the same work with QEM on flat arrays, so
 // OpenMesh stays the baseline only (simplify_openmesh_quadric). Speed: QEM on the bunny, median of
-// 9 runs beside meshopt_simplify in the same run on this shared 2-core machine: 75 / 85 / 76 ms
-// at 50 / 10 / 1 % against meshopt's 29 / 25 / 26 ms (callgrind at 10 %: 323 M instructions
-// against 148 M); the target "no slower than meshopt_simplify" is not met (docs/simplification.md
-// has the command and where the time goes).
+// 9 runs beside meshopt_simplify in the same run on this shared 2-core machine: 42 / 60 / 65 ms
+// at 50 / 10 / 1 % against meshopt's 18 / 22 / 23 ms (time ratios 2.3 / 2.7 / 2.8; the per-pass
+// flat corner arrays and the prefetching took 5-10 % off, with the same output on the bunny;
+// callgrind at 10 %: 357 M instructions against 148 M, 34 M more than with the corner lists, the
+// gain is in cache misses); the target "no slower than meshopt_simplify" is not met
+// (docs/simplification.md has the command and where the time goes).
 //
 // Cost: O(V + F) to build; QEM schedule O(E) per pass, a handful to a few dozen passes; greedy
 // schedule O(E log E) (each collapse re-evaluates O(valence^2) edges). Memory O(V + F + E): about
-// 72 bytes per face, 72 bytes per candidate (QEM) or 20 per heap entry (greedy), plus 36 bytes
+// 72 bytes per face (84 in the pass schedule, with its flat corner arrays, O(F) more per pass
+// to rebuild them), 72 bytes per candidate (QEM) or 20 per heap entry (greedy), plus 36 bytes
 // per edge while the first candidates are made. No allocation
 // per collapse except the progressive-mesh record.
 #include "collapse_engine.hpp"
@@ -153,9 +158,29 @@ class Engine {
     void add_candidates(uint32_t p, uint32_t refresh);
     void refresh_candidates();
     void gather_edges(uint32_t p);
-    // f(face, k) for every live face around p, unlinking dead corners from p's list on the way.
+    void rebuild_adjacency();
+    // The walks of p: its flat list, then its faces (no effect on the result).
+    void prefetch_list(uint32_t p) const { __builtin_prefetch(adj_corner_.data() + adj_first_[p]); }
+    void prefetch_faces(uint32_t p) const {
+        for (uint32_t i = adj_first_[p], end = adj_first_[p + 1]; i < end; ++i) {
+            const uint32_t c = adj_corner_[i];
+            __builtin_prefetch(&m_.corners[c]);
+            __builtin_prefetch(&m_.corner_position[c]);
+            __builtin_prefetch(&m_.face_alive[c / 3]);
+        }
+    }
+    // f(face, k) for every live face around p, unlinking dead corners from p's list on the way
+    // (in the pass schedule: from p's flat list, nothing unlinked).
     template <class F>
     void walk_pruning(uint32_t p, F&& f) {
+        if (csr_) {
+            for (uint32_t i = adj_first_[p], end = adj_first_[p + 1]; i < end; ++i) {
+                const uint32_t c = adj_corner_[i];
+                const uint32_t face = c / 3;
+                if (m_.face_alive[face]) f(face, int(c - 3 * face));
+            }
+            return;
+        }
         uint32_t prev = kNone;
         for (uint32_t c = m_.corner_head[p]; c != kNone;) {
             const uint32_t next = m_.corner_next[c];
@@ -242,6 +267,10 @@ class Engine {
     std::vector<VertexSplit> records_;
     // scratch, reused by every collapse
     std::vector<uint32_t> ring_;
+    // Schedule of passes: the corners of each position as one flat array (CSR), rebuilt at the
+    // start of every pass from the live faces; the corner lists are then not kept.
+    bool csr_ = false;
+    std::vector<uint32_t> adj_first_, adj_corner_;
     std::vector<uint32_t> shared_faces_;
 };
 
@@ -347,21 +376,13 @@ void Engine::build(const Primitive& in) {
 
 // The edges of position p, grouped by the other endpoint in O(valence): groups_[i] = one edge
 // with its face count and the wedges of its first two faces. Prunes dead corners from p's list.
-void Engine::gather_edges(uint32_t p) {
+[[gnu::flatten]] void Engine::gather_edges(uint32_t p) {
     groups_.clear();
     first_wedge_at_p_ = other_wedge_at_p_ = kNone;
     more_wedges_at_p_ = false;
     const uint32_t s = ++stamp_;
-    uint32_t prev = kNone;
-    for (uint32_t c = m_.corner_head[p]; c != kNone;) {
-        const uint32_t next = m_.corner_next[c];
-        const uint32_t f = c / 3;
-        if (!m_.face_alive[f]) {
-            (prev == kNone ? m_.corner_head[p] : m_.corner_next[prev]) = next;
-            c = next;
-            continue;
-        }
-        const int k = int(c - 3 * f);
+    walk_pruning(p, [&](uint32_t f, int k) {
+        const uint32_t c = 3 * f + uint32_t(k);
         const uint32_t wp = m_.corners[c];
         if (first_wedge_at_p_ == kNone) {
             first_wedge_at_p_ = wp;
@@ -385,9 +406,23 @@ void Engine::gather_edges(uint32_t p) {
             if (g.count < 2) g.face[g.count] = f, g.wp[g.count] = wp, g.wq[g.count] = wq;
             ++g.count;
         }
-        prev = c;
-        c = next;
+    });
+}
+
+void Engine::rebuild_adjacency() {
+    const uint32_t np = uint32_t(m_.positions.size());
+    const uint32_t nc = uint32_t(m_.corners.size());
+    adj_first_.assign(np + 1, 0);
+    for (uint32_t c = 0; c < nc; ++c) {
+        if (m_.face_alive[c / 3]) ++adj_first_[m_.corner_position[c] + 1];
     }
+    for (uint32_t p = 0; p < np; ++p) adj_first_[p + 1] += adj_first_[p];
+    adj_corner_.resize(adj_first_[np]);
+    for (uint32_t c = 0; c < nc; ++c) {
+        if (m_.face_alive[c / 3]) adj_corner_[adj_first_[m_.corner_position[c]]++] = c;
+    }
+    for (uint32_t p = np; p > 0; --p) adj_first_[p] = adj_first_[p - 1];
+    adj_first_[0] = 0;
 }
 
 void Engine::classify() {
@@ -508,7 +543,7 @@ void Engine::push_all_edges() {
     }
 }
 
-bool Engine::try_collapse(const CollapseCandidate& c) {
+[[gnu::flatten]] bool Engine::try_collapse(const CollapseCandidate& c) {
     const uint32_t u = c.from, v = c.to;
     if (!m_.position_alive[u] || !m_.position_alive[v] || u == v) return false;
     const uint32_t s_nu = ++stamp_, s_common = ++stamp_, s_nv = ++stamp_;
@@ -573,7 +608,7 @@ bool Engine::try_collapse(const CollapseCandidate& c) {
     const glm::dvec3 target = c.moves ? c.position : glm::dvec3(m_.positions[v]);
     bool flips = false;
     auto check = [&](uint32_t moved, uint32_t other) {
-        m_.for_each_face(moved, [&](uint32_t f, int k) {
+        walk_pruning(moved, [&](uint32_t f, int k) {
             if (flips) return;
             const uint32_t p1 = m_.face_position(f, (k + 1) % 3);
             const uint32_t p2 = m_.face_position(f, (k + 2) % 3);
@@ -625,15 +660,13 @@ bool Engine::try_collapse(const CollapseCandidate& c) {
         }
         m_.positions[v] = glm::vec3(target);
     }
-    uint32_t last = kNone;
-    for (uint32_t cr = m_.corner_head[u]; cr != kNone; cr = m_.corner_next[cr]) {
-        last = cr;
+    auto apply_corner = [&](uint32_t cr) {
         const uint32_t f = cr / 3;
-        if (!m_.face_alive[f]) continue;
+        if (!m_.face_alive[f]) return;
         if (std::find(shared_faces_.begin(), shared_faces_.end(), f) != shared_faces_.end()) {
             m_.face_alive[f] = 0;
             --live_faces_;
-            continue;
+            return;
         }
         const uint32_t w = m_.corners[cr];
         for (int i = 0; i < u_wedge_count; ++i) {
@@ -643,6 +676,19 @@ bool Engine::try_collapse(const CollapseCandidate& c) {
                 m_.corner_position[cr] = v;
                 break;
             }
+        }
+    };
+    uint32_t last = kNone;
+    if (csr_) {
+        // note: v is touched for the rest of the pass, so its flat list is not read again
+        // before the next rebuild; the corner lists are not kept in this schedule.
+        for (uint32_t i = adj_first_[u], end = adj_first_[u + 1]; i < end; ++i) {
+            apply_corner(adj_corner_[i]);
+        }
+    } else {
+        for (uint32_t cr = m_.corner_head[u]; cr != kNone; cr = m_.corner_next[cr]) {
+            last = cr;
+            apply_corner(cr);
         }
     }
     if (last != kNone) {
@@ -817,7 +863,12 @@ void Engine::refresh_candidates() {
     candidates_.resize(kept);
     const uint32_t r = ++refresh_stamp_;
     for (uint32_t v : touched_list_) refresh_mark_[v] = r;
-    for (uint32_t v : touched_list_) {
+    const size_t nt = touched_list_.size();
+    for (size_t i = 0; i < nt; ++i) {
+        if (i + 8 < nt) __builtin_prefetch(&adj_first_[touched_list_[i + 8]]);
+        if (i + 4 < nt) prefetch_list(touched_list_[i + 4]);
+        if (i + 2 < nt) prefetch_faces(touched_list_[i + 2]);
+        const uint32_t v = touched_list_[i];
         if (m_.position_alive[v]) add_candidates(v, r);
     }
     touched_list_.clear();
@@ -837,7 +888,10 @@ void Engine::run_batched(std::span<const size_t> targets, std::vector<Simplified
     candidates_.reserve(m_.face_alive.size() * 3 / 2 + 16);
     collect_candidates();
     while (ti < targets.size()) {
-        if (pass > 0) refresh_candidates();
+        if (pass > 0) {
+            rebuild_adjacency();
+            refresh_candidates();
+        }
         const size_t n = candidates_.size();
         if (n == 0) break;
         keys_.resize(n), order_.resize(n), keys_tmp_.resize(n), order_tmp_.resize(n);
@@ -867,6 +921,27 @@ void Engine::run_batched(std::span<const size_t> targets, std::vector<Simplified
         size_t done = 0;
         double skipped = std::numeric_limits<double>::infinity();
         for (size_t i = 0; i < n && ti < targets.size(); ++i) {
+            // note: the walks below read faces scattered over the corner arrays; fetch the
+            // candidates, then their flat lists, then their faces, a few steps ahead (no effect
+            // on the result).
+            if (i + 16 < n) __builtin_prefetch(&candidates_[order_[i + 16]]);
+            if (i + 8 < n) {
+                const Candidate& a = candidates_[order_[i + 8]];
+                __builtin_prefetch(&adj_first_[a.from]);
+                __builtin_prefetch(&adj_first_[a.to]);
+                __builtin_prefetch(&touched[a.from]);
+                __builtin_prefetch(&touched[a.to]);
+            }
+            if (i + 4 < n) {
+                const Candidate& a = candidates_[order_[i + 4]];
+                prefetch_list(a.from);
+                prefetch_list(a.to);
+            }
+            if (i + 2 < n) {
+                const Candidate& a = candidates_[order_[i + 2]];
+                prefetch_faces(a.from);
+                prefetch_faces(a.to);
+            }
             const CollapseCandidate c = candidates_[order_[i]].unpack();
             if (c.cost > limit && done > 0) break;
             // note: a skipped candidate's stale cost bounds its new cost from below (quadrics only
@@ -901,6 +976,10 @@ SimplifiedLevel Engine::snapshot() const {
 Result<std::vector<SimplifiedLevel>> Engine::run(const Primitive& in,
                                                  std::span<const size_t> targets) {
     build(in);
+    if (!cost_.depends_on_ring()) {
+        csr_ = true;
+        rebuild_adjacency();
+    }
     classify();
     cost_.init(m_);
 

@@ -38,7 +38,8 @@ struct ConstraintEdge {
 
 // The mesh as the costs see it. Positions are welded (one per distinct coordinate); a face's
 // corners hold wedges (a position plus attributes). Dead faces stay in the corner lists until the
-// engine prunes them: iterate with for_each_face.
+// engine prunes them: iterate with for_each_face. The corner lists are only kept for costs that
+// depends_on_ring() (the pass schedule of the others walks a flat per-pass copy instead).
 struct CollapseMesh {
     std::vector<glm::vec3> positions;
     std::vector<VertexKind> kinds;
