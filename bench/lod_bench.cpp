@@ -315,8 +315,21 @@ int main(int argc, char** argv) {
                      {"hausdorff_pct_diag", r.hausdorff_pct},
                      {"reported_error", r.reported_error},
                      {"failure", r.failure}});
-    std::ofstream(prefix + ".json") << j.dump(2) << "\n";
-    std::ofstream(prefix + ".svg") << svg_plot(rows, meshes, algorithms);
+    std::fflush(stdout);  // the tables first, then what was written, in that order on a terminal
+    const std::filesystem::path dir = std::filesystem::path(prefix).parent_path();
+    std::error_code ec;
+    if (!dir.empty()) std::filesystem::create_directories(dir, ec);
+    for (const auto& [path, text] :
+         {std::pair{prefix + ".json", j.dump(2) + "\n"},
+          std::pair{prefix + ".svg", svg_plot(rows, meshes, algorithms)}}) {
+        std::ofstream out(path, std::ios::binary);
+        out << text;
+        out.close();
+        if (!out) {
+            std::fprintf(stderr, "bench_lod_bench: could not write %s\n", path.c_str());
+            return 1;
+        }
+    }
     std::fprintf(stderr, "wrote %s.json and %s.svg\n", prefix.c_str(), prefix.c_str());
     return 0;
 }

@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "firmware_host/command_run.hpp"
 #include "hmdnode/bake/cornell_box.hpp"
 #include "hmdnode/bake/lightmap_encode.hpp"
 #include "hmdnode/core/atomic_file.hpp"
@@ -23,28 +24,11 @@ namespace fs = std::filesystem;
 namespace hmdnode {
 namespace {
 
-struct CommandRun {
-    int code = -1;
-    std::string output;  // stdout and stderr
-};
-
-CommandRun run(const std::string& cmd) {
-    CommandRun r;
-    FILE* p = popen((cmd + " 2>&1").c_str(), "r");
-    if (!p) return r;
-    std::array<char, 4096> buf;
-    size_t n;
-    while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.output.append(buf.data(), n);
-    int st = pclose(p);
-    r.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-    return r;
-}
+using hmdnode::test::CommandRun;
+using hmdnode::test::run;
 
 fs::path temp_dir(const std::string& name) {
-    fs::path d = fs::temp_directory_path() / ("hmdnode_bake_cmd_test_" + name);
-    fs::remove_all(d);
-    fs::create_directories(d);
-    return d;
+    return hmdnode::test::fresh_temp_dir("hmdnode_bake_cmd_test_" + name);
 }
 
 const std::string kTool = HMDNODE_TOOL;

@@ -20,6 +20,7 @@
 #include <thread>
 
 #include <nlohmann/json.hpp>
+#include "firmware_host/command_run.hpp"
 
 namespace {
 
@@ -45,10 +46,7 @@ DaemonRun run_daemon(const fs::path& config, int max_frames) {
 }
 
 fs::path temp_dir(const std::string& name) {
-    fs::path d = fs::temp_directory_path() / ("hmdnode_daemon_tracker_test_" + name);
-    fs::remove_all(d);
-    fs::create_directories(d);
-    return d;
+    return hmdnode::test::fresh_temp_dir("hmdnode_daemon_tracker_test_" + name);
 }
 
 TEST(DaemonTracker, sim_device_drives_the_frame_loop_and_reports_its_status) {

@@ -18,34 +18,18 @@
 #include <string>
 #include <vector>
 
+#include "firmware_host/command_run.hpp"
 #include "hmdnode/core/gltf.hpp"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-struct CommandRun {
-    int code = -1;
-    std::string output;  // stdout and stderr
-};
-
-CommandRun run(const std::string& cmd) {
-    CommandRun r;
-    FILE* p = popen((cmd + " 2>&1").c_str(), "r");
-    if (!p) return r;
-    std::array<char, 4096> buf;
-    size_t n;
-    while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.output.append(buf.data(), n);
-    int st = pclose(p);
-    r.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-    return r;
-}
+using hmdnode::test::CommandRun;
+using hmdnode::test::run;
 
 fs::path temp_dir(const std::string& name) {
-    fs::path d = fs::temp_directory_path() / ("hmdnode_lod_cmd_test_" + name);
-    fs::remove_all(d);
-    fs::create_directories(d);
-    return d;
+    return hmdnode::test::fresh_temp_dir("hmdnode_lod_cmd_test_" + name);
 }
 
 void write(const fs::path& p, const std::string& bytes) {

@@ -18,6 +18,7 @@
 #include <iterator>
 #include <string>
 
+#include "firmware_host/command_run.hpp"
 #include "hmdnode/core/trace.hpp"
 #include "hmdnode/hal/reference_protocol.hpp"
 #include "hmdnode/hal/usbmon_capture.hpp"
@@ -45,10 +46,7 @@ ToolRun run(const std::string& args) {
 }
 
 fs::path temp_dir(const std::string& name) {
-    fs::path d = fs::temp_directory_path() / ("hmdnode_record_test_" + name);
-    fs::remove_all(d);
-    fs::create_directories(d);
-    return d;
+    return hmdnode::test::fresh_temp_dir("hmdnode_record_test_" + name);
 }
 
 TEST(RecordCmd, sim_device_trace_and_pcap_read_back) {

@@ -9,6 +9,7 @@
 #include <glm/gtc/quaternion.hpp>
 #include <nlohmann/json.hpp>
 
+#include "firmware_host/command_run.hpp"
 #include "hmdnode/core/gltf.hpp"
 #include "hmdnode/core/trace.hpp"
 #include "hmdnode/firmware_host/replay.hpp"
@@ -19,10 +20,7 @@ namespace fs = std::filesystem;
 namespace {
 
 fs::path temp_dir(const std::string& name) {
-    fs::path d = fs::temp_directory_path() / ("hmdnode_replay_test_" + name);
-    fs::remove_all(d);
-    fs::create_directories(d);
-    return d;
+    return hmdnode::test::fresh_temp_dir("hmdnode_replay_test_" + name);
 }
 
 // A turn about `axis` (default +Y) at dps, sampled at rate_hz; sign_flip alternates q and -q.
