@@ -78,9 +78,10 @@ std::vector<glm::dmat4> node_world_matrices(const Scene& scene) {
     return world;
 }
 
-DirectLighting::DirectLighting(const Scene& scene, const DirectBakeOptions& options)
-    : options_(options) {
-    std::vector<glm::dmat4> world = node_world_matrices(scene);
+std::vector<WorldLight> world_lights(const Scene& scene) {
+    const std::vector<glm::dmat4> world = node_world_matrices(scene);
+    std::vector<WorldLight> lights;
+    lights.reserve(scene.lights.size());
     for (const Light& l : scene.lights) {
         WorldLight w;
         w.type = l.type;
@@ -99,9 +100,13 @@ DirectLighting::DirectLighting(const Scene& scene, const DirectBakeOptions& opti
             w.cone_scale = 1.0f / std::max(1e-4f, cos_inner - cos_outer);
             w.cone_offset = -cos_outer * w.cone_scale;
         }
-        lights_.push_back(w);
+        lights.push_back(w);
     }
+    return lights;
+}
 
+DirectLighting::DirectLighting(const Scene& scene, const DirectBakeOptions& options)
+    : options_(options), lights_(world_lights(scene)) {
     std::vector<glm::vec3> corners;
     for (const SceneObject& obj : flatten_objects(scene)) {
         const Mesh& mesh = scene.meshes[obj.levels[0].mesh];

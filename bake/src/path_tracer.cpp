@@ -342,26 +342,7 @@ Result<PathTracer> PathTracer::build(const Scene& scene, const PathTracerOptions
     const uint32_t default_mat = uint32_t(impl->mats.size());
     impl->mats.push_back(TriMaterial{});  // glTF default material: white... use 0.8 grey
 
-    // Lights (world space), as direct_bake does.
-    const std::vector<glm::dmat4> node_world = node_world_matrices(scene);
-    for (const Light& l : scene.lights) {
-        WorldLight w;
-        w.type = l.type;
-        glm::dmat4 m = (l.node >= 0 && size_t(l.node) < node_world.size()) ? node_world[l.node]
-                                                                           : glm::dmat4(1.0);
-        w.position = glm::vec3(m[3]);
-        glm::vec3 fwd = -glm::vec3(m[2]);
-        float len = glm::length(fwd);
-        w.direction = len > 0.0f ? fwd / len : glm::vec3(0.0f, 0.0f, -1.0f);
-        w.intensity_rgb = l.color * l.intensity;
-        w.range = l.range;
-        if (l.type == Light::Type::Spot) {
-            float cos_outer = std::cos(l.outer_cone_rad), cos_inner = std::cos(l.inner_cone_rad);
-            w.cone_scale = 1.0f / std::max(1e-4f, cos_inner - cos_outer);
-            w.cone_offset = -cos_outer * w.cone_scale;
-        }
-        impl->lights.push_back(w);
-    }
+    impl->lights = world_lights(scene);
 
     bool first = true;
     for (const SceneObject& obj : flatten_objects(scene)) {

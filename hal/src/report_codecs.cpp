@@ -12,6 +12,29 @@
 namespace hmdnode {
 namespace {
 
+// The counters of one IMU decoder (Vive or Rift: same fields) added to a codec's.
+template <class DecoderCounters>
+void accumulate(CodecCounters& c, const DecoderCounters& d) {
+    c.reports += d.reports;
+    c.samples += d.samples;
+    c.malformed += d.malformed;
+    c.unknown += d.unknown;
+    c.sequence_gaps += d.sequence_gaps;
+    c.missing_samples += d.missing_samples;
+}
+
+// IMU-only samples (sequence, device time, gyro, accel) as DeviceSamples.
+template <class Samples>
+void copy_imu_samples(const Samples& in, std::span<DeviceSample> out) {
+    for (size_t i = 0; i < in.size(); ++i) {
+        out[i] = DeviceSample{};
+        out[i].sequence = in[i].sequence;
+        out[i].device_time_ns = in[i].device_time_ns;
+        out[i].gyro = in[i].gyro;
+        out[i].accel = in[i].accel;
+    }
+}
+
 class ViveCodec final : public ReportCodec {
   public:
     explicit ViveCodec(uint16_t pid) : variant_(vive::variant_for_product(pid)), dec_(variant_) {}
@@ -26,43 +49,23 @@ class ViveCodec final : public ReportCodec {
         dec_.set_ranges(ranges_);
     }
     void reset() override {
-        add(dec_.counters());
+        accumulate(base_, dec_.counters());
         dec_ = vive::ImuDecoder(variant_, ranges_);
     }
     size_t decode(std::span<const uint8_t> report,
                   std::span<DeviceSample, kMaxSamplesPerReport> out) override {
         std::array<vive::ImuSample, 3> s;
         const size_t n = dec_.decode(report, s);
-        for (size_t i = 0; i < n; ++i) {
-            out[i] = DeviceSample{};
-            out[i].sequence = s[i].sequence;
-            out[i].device_time_ns = s[i].device_time_ns;
-            out[i].gyro = s[i].gyro;
-            out[i].accel = s[i].accel;
-        }
+        copy_imu_samples(std::span(s).first(n), out);
         return n;
     }
     CodecCounters counters() const override {
         CodecCounters c = base_;
-        const auto& d = dec_.counters();
-        c.reports += d.reports;
-        c.samples += d.samples;
-        c.malformed += d.malformed;
-        c.unknown += d.unknown;
-        c.sequence_gaps += d.sequence_gaps;
-        c.missing_samples += d.missing_samples;
+        accumulate(c, dec_.counters());
         return c;
     }
 
   private:
-    void add(const vive::ImuDecoderCounters& d) {
-        base_.reports += d.reports;
-        base_.samples += d.samples;
-        base_.malformed += d.malformed;
-        base_.unknown += d.unknown;
-        base_.sequence_gaps += d.sequence_gaps;
-        base_.missing_samples += d.missing_samples;
-    }
     vive::Variant variant_;
     vive::ImuRanges ranges_;
     vive::ImuDecoder dec_;
@@ -74,43 +77,23 @@ class RiftCodec final : public ReportCodec {
     std::string name() const override { return "Oculus Rift DK2/CV1 IMU"; }
     void configure(Transport&) override {}
     void reset() override {
-        add(dec_.counters());
+        accumulate(base_, dec_.counters());
         dec_ = rift::ImuDecoder();
     }
     size_t decode(std::span<const uint8_t> report,
                   std::span<DeviceSample, kMaxSamplesPerReport> out) override {
         std::array<rift::ImuSample, 2> s;
         const size_t n = dec_.decode(report, s);
-        for (size_t i = 0; i < n; ++i) {
-            out[i] = DeviceSample{};
-            out[i].sequence = s[i].sequence;
-            out[i].device_time_ns = s[i].device_time_ns;
-            out[i].gyro = s[i].gyro;
-            out[i].accel = s[i].accel;
-        }
+        copy_imu_samples(std::span(s).first(n), out);
         return n;
     }
     CodecCounters counters() const override {
         CodecCounters c = base_;
-        const auto& d = dec_.counters();
-        c.reports += d.reports;
-        c.samples += d.samples;
-        c.malformed += d.malformed;
-        c.unknown += d.unknown;
-        c.sequence_gaps += d.sequence_gaps;
-        c.missing_samples += d.missing_samples;
+        accumulate(c, dec_.counters());
         return c;
     }
 
   private:
-    void add(const rift::ImuDecoderCounters& d) {
-        base_.reports += d.reports;
-        base_.samples += d.samples;
-        base_.malformed += d.malformed;
-        base_.unknown += d.unknown;
-        base_.sequence_gaps += d.sequence_gaps;
-        base_.missing_samples += d.missing_samples;
-    }
     rift::ImuDecoder dec_;
     CodecCounters base_;
 };

@@ -49,6 +49,11 @@ struct WorldLight {
 // World transform of every node (parents from the children lists; roots and orphans at identity).
 std::vector<glm::dmat4> node_world_matrices(const Scene& scene);
 
+// Every KHR_lights_punctual light of the scene in world space: placed by its node (at the origin
+// looking down -Z when it has none), intensity times colour, spot cone as clamp(cos * scale +
+// offset). The one conversion both bakers use.
+std::vector<WorldLight> world_lights(const Scene& scene);
+
 // The lights and the shadow-casting triangles of a scene, evaluated at world points.
 class DirectLighting {
   public:
