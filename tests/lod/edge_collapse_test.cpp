@@ -13,6 +13,7 @@
 
 #include "hmdnode/lod/progressive_mesh.hpp"
 #include "hmdnode/lod/simplify.hpp"
+#include "lod/test_meshes.hpp"
 
 namespace hmdnode {
 namespace {
@@ -81,31 +82,7 @@ Primitive cube(int n) {
 
 // Icosahedron subdivided `levels` times, on the unit sphere (20 * 4^levels triangles).
 Primitive sphere(int levels) {
-    Primitive p;
-    const float t = (1.0f + std::sqrt(5.0f)) / 2.0f;
-    p.positions = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
-                   {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
-    for (glm::vec3& v : p.positions) v = glm::normalize(v);
-    p.indices = {0, 11, 5,  0, 5,  1, 0, 1, 7, 0, 7,  10, 0, 10, 11, 1, 5, 9, 5, 11,
-                 4, 11, 10, 2, 10, 7, 6, 7, 1, 8, 3,  9,  4, 3,  4,  2, 3, 2, 6, 3,
-                 6, 8,  3,  8, 9,  4, 9, 5, 2, 4, 11, 6,  2, 10, 8,  6, 7, 9, 8, 1};
-    for (int l = 0; l < levels; ++l) {
-        std::map<std::pair<uint32_t, uint32_t>, uint32_t> mid;
-        auto midpoint = [&](uint32_t a, uint32_t b) {
-            auto key = std::minmax(a, b);
-            auto [it, added] = mid.emplace(key, uint32_t(p.positions.size()));
-            if (added) p.positions.push_back(glm::normalize(p.positions[a] + p.positions[b]));
-            return it->second;
-        };
-        std::vector<uint32_t> next;
-        for (size_t f = 0; f < p.indices.size(); f += 3) {
-            const uint32_t a = p.indices[f], b = p.indices[f + 1], c = p.indices[f + 2];
-            const uint32_t ab = midpoint(a, b), bc = midpoint(b, c), ca = midpoint(c, a);
-            next.insert(next.end(), {a, ab, ca, b, bc, ab, c, ca, bc, ab, bc, ca});
-        }
-        p.indices = std::move(next);
-    }
-    return p;
+    return test::unit_icosphere(levels);
 }
 
 Primitive simplify_one(const Primitive& in, const char* algorithm, size_t target,

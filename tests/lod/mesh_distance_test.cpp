@@ -1,4 +1,5 @@
 #include "hmdnode/lod/mesh_distance.hpp"
+#include "lod/test_meshes.hpp"
 
 #include <cmath>
 #include <map>
@@ -27,32 +28,7 @@ Primitive pyramid(float h) {
 
 // Unit-sphere icosphere: the icosahedron with each triangle split into 4, `levels` times.
 Primitive icosphere(int levels) {
-    const float t = (1.0f + std::sqrt(5.0f)) / 2.0f;
-    Primitive p;
-    p.positions = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
-                   {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
-    for (glm::vec3& v : p.positions) v = glm::normalize(v);
-    p.indices = {0, 11, 5,  0, 5,  1, 0, 1, 7, 0, 7,  10, 0, 10, 11, 1, 5, 9, 5, 11,
-                 4, 11, 10, 2, 10, 7, 6, 7, 1, 8, 3,  9,  4, 3,  4,  2, 3, 2, 6, 3,
-                 6, 8,  3,  8, 9,  4, 9, 5, 2, 4, 11, 6,  2, 10, 8,  6, 7, 9, 8, 1};
-    for (int l = 0; l < levels; ++l) {
-        std::map<std::pair<uint32_t, uint32_t>, uint32_t> mid;
-        auto midpoint = [&](uint32_t a, uint32_t b) {
-            auto key = std::minmax(a, b);
-            auto it = mid.find(key);
-            if (it != mid.end()) return it->second;
-            p.positions.push_back(glm::normalize(p.positions[a] + p.positions[b]));
-            return mid[key] = uint32_t(p.positions.size() - 1);
-        };
-        std::vector<uint32_t> next;
-        for (size_t i = 0; i < p.indices.size(); i += 3) {
-            const uint32_t a = p.indices[i], b = p.indices[i + 1], c = p.indices[i + 2];
-            const uint32_t ab = midpoint(a, b), bc = midpoint(b, c), ca = midpoint(c, a);
-            next.insert(next.end(), {a, ab, ca, b, bc, ab, c, ca, bc, ab, bc, ca});
-        }
-        p.indices = std::move(next);
-    }
-    return p;
+    return test::unit_icosphere(levels);
 }
 
 // Largest depth of a face below the unit sphere: 1 - the smallest distance from the origin to
