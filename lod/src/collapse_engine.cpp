@@ -160,24 +160,24 @@ class Engine {
     void gather_edges(uint32_t p);
     void rebuild_adjacency();
     // The walks of p: its flat list, then its faces (no effect on the result).
-    void prefetch_list(uint32_t p) const { __builtin_prefetch(adj_corner_.data() + adj_first_[p]); }
+    void prefetch_list(uint32_t p) const { __builtin_prefetch(adj_.data() + adj_first_[p]); }
     void prefetch_faces(uint32_t p) const {
         for (uint32_t i = adj_first_[p], end = adj_first_[p + 1]; i < end; ++i) {
-            const uint32_t c = adj_corner_[i];
-            __builtin_prefetch(&m_.corners[c]);
-            __builtin_prefetch(&m_.corner_position[c]);
-            __builtin_prefetch(&m_.face_alive[c / 3]);
+            const AdjEntry& e = adj_[i];
+            __builtin_prefetch(&m_.positions[e.next]);
+            __builtin_prefetch(&m_.corners[e.corner]);
+            __builtin_prefetch(&input_normals_[e.corner / 3]);
         }
     }
     // f(face, k) for every live face around p, unlinking dead corners from p's list on the way
-    // (in the pass schedule: from p's flat list, nothing unlinked).
+    // (in the pass schedule: from p's flat list at the start of a pass, where every face is live).
     template <class F>
     void walk_pruning(uint32_t p, F&& f) {
         if (csr_) {
             for (uint32_t i = adj_first_[p], end = adj_first_[p + 1]; i < end; ++i) {
-                const uint32_t c = adj_corner_[i];
+                const uint32_t c = adj_[i].corner;
                 const uint32_t face = c / 3;
-                if (m_.face_alive[face]) f(face, int(c - 3 * face));
+                f(face, int(c - 3 * face));
             }
             return;
         }
@@ -203,8 +203,10 @@ class Engine {
     void push_edge(uint32_t a, uint32_t b);
     void push_all_edges();
     bool try_collapse(const CollapseCandidate& c);
+    bool try_collapse_in_pass(const CollapseCandidate& c);
+    void flush_pass();
     void reevaluate_around(uint32_t v);
-    SimplifiedLevel snapshot() const;
+    SimplifiedLevel snapshot();
 
     const SimplifyOptions& options_;
     CollapseCost& cost_;
@@ -267,10 +269,21 @@ class Engine {
     std::vector<VertexSplit> records_;
     // scratch, reused by every collapse
     std::vector<uint32_t> ring_;
-    // Schedule of passes: the corners of each position as one flat array (CSR), rebuilt at the
-    // start of every pass from the live faces; the corner lists are then not kept.
+    // Schedule of passes: the live faces around each position as one flat array (CSR) of
+    // (next, prev, corner) entries, rebuilt at the start of every pass; the corner lists are then
+    // not kept. Within a pass a collapse u -> v only records remap_[u] = v and the map of u's
+    // wedges (wedge_remap_); readers map an entry's positions through remap_ (one step: a kept
+    // position is not removed in the same pass) and flush_pass() rewrites the corners of the live
+    // faces (live_list_) before the next pass or a snapshot.
     bool csr_ = false;
-    std::vector<uint32_t> adj_first_, adj_corner_;
+    struct AdjEntry {
+        uint32_t next, prev;  // the face is (p, next, prev), in winding order
+        uint32_t corner;      // p's corner in it
+    };
+    std::vector<uint32_t> adj_first_;
+    std::vector<AdjEntry> adj_;
+    std::vector<uint32_t> remap_, wedge_remap_, live_list_;
+    bool pending_remap_ = false;
     std::vector<uint32_t> shared_faces_;
 };
 
@@ -409,17 +422,38 @@ void Engine::build(const Primitive& in) {
     });
 }
 
+void Engine::flush_pass() {
+    if (!pending_remap_) return;
+    pending_remap_ = false;
+    for (uint32_t f : live_list_) {
+        if (!m_.face_alive[f]) continue;
+        for (uint32_t c = 3 * f; c < 3 * f + 3; ++c) {
+            m_.corners[c] = wedge_remap_[m_.corners[c]];
+            m_.corner_position[c] = remap_[m_.corner_position[c]];
+        }
+    }
+}
+
 void Engine::rebuild_adjacency() {
+    flush_pass();
+    size_t kept = 0;
+    for (uint32_t f : live_list_) {
+        if (m_.face_alive[f]) live_list_[kept++] = f;
+    }
+    live_list_.resize(kept);
     const uint32_t np = uint32_t(m_.positions.size());
-    const uint32_t nc = uint32_t(m_.corners.size());
     adj_first_.assign(np + 1, 0);
-    for (uint32_t c = 0; c < nc; ++c) {
-        if (m_.face_alive[c / 3]) ++adj_first_[m_.corner_position[c] + 1];
+    for (uint32_t f : live_list_) {
+        for (uint32_t c = 3 * f; c < 3 * f + 3; ++c) ++adj_first_[m_.corner_position[c] + 1];
     }
     for (uint32_t p = 0; p < np; ++p) adj_first_[p + 1] += adj_first_[p];
-    adj_corner_.resize(adj_first_[np]);
-    for (uint32_t c = 0; c < nc; ++c) {
-        if (m_.face_alive[c / 3]) adj_corner_[adj_first_[m_.corner_position[c]]++] = c;
+    adj_.resize(adj_first_[np]);
+    for (uint32_t f : live_list_) {
+        const uint32_t p0 = m_.corner_position[3 * f], p1 = m_.corner_position[3 * f + 1],
+                       p2 = m_.corner_position[3 * f + 2];
+        adj_[adj_first_[p0]++] = {p1, p2, 3 * f};
+        adj_[adj_first_[p1]++] = {p2, p0, 3 * f + 1};
+        adj_[adj_first_[p2]++] = {p0, p1, 3 * f + 2};
     }
     for (uint32_t p = np; p > 0; --p) adj_first_[p] = adj_first_[p - 1];
     adj_first_[0] = 0;
@@ -679,17 +713,9 @@ void Engine::push_all_edges() {
         }
     };
     uint32_t last = kNone;
-    if (csr_) {
-        // note: v is touched for the rest of the pass, so its flat list is not read again
-        // before the next rebuild; the corner lists are not kept in this schedule.
-        for (uint32_t i = adj_first_[u], end = adj_first_[u + 1]; i < end; ++i) {
-            apply_corner(adj_corner_[i]);
-        }
-    } else {
-        for (uint32_t cr = m_.corner_head[u]; cr != kNone; cr = m_.corner_next[cr]) {
-            last = cr;
-            apply_corner(cr);
-        }
+    for (uint32_t cr = m_.corner_head[u]; cr != kNone; cr = m_.corner_next[cr]) {
+        last = cr;
+        apply_corner(cr);
     }
     if (last != kNone) {
         m_.corner_next[last] = m_.corner_head[v];
@@ -701,6 +727,146 @@ void Engine::push_all_edges() {
         m_.for_each_face(
             v, [&](uint32_t f, int) { m_.face_unit_normals[f] = m_.face_unit_normal(f); });
     }
+    if (c.error < 0.0) error_unknown_ = true;
+    max_error_ = std::max(max_error_, c.error);
+    cost_.collapsed(m_, c);
+    ++version_[v];
+    return true;
+}
+
+// try_collapse() for the pass schedule: the same checks on the flat lists (entries mapped through
+// remap_), in one walk of each endpoint; u and v were not touched earlier in the pass, so their
+// lists are current and every face in them is live unless its other two positions now coincide.
+// Applying only records the remaps; flush_pass() rewrites the corners.
+[[gnu::flatten]] bool Engine::try_collapse_in_pass(const CollapseCandidate& c) {
+    const uint32_t u = c.from, v = c.to;
+    if (!m_.position_alive[u] || !m_.position_alive[v] || u == v) return false;
+    const uint32_t s_nu = ++stamp_, s_common = ++stamp_, s_nv = ++stamp_;
+    int deg_u = 0, deg_v = 0, common = 0;
+    shared_faces_.clear();
+    std::array<uint32_t, 4> u_wedges{}, map_to{};
+    int u_wedge_count = 0;
+    bool bad_map = false, flips = false;
+    const glm::dvec3 target = c.moves ? c.position : glm::dvec3(m_.positions[v]);
+    // note: exactly 90 degrees passes (000's cube diagonal); the input face's normal guards
+    // against a face turning over in several small steps.
+    auto flip = [&](const glm::dvec3& from, uint32_t p1, uint32_t p2, uint32_t f) {
+        const glm::dvec3 b = m_.positions[p1], d = m_.positions[p2];
+        const glm::dvec3 n0 = glm::cross(b - from, d - from);
+        const glm::dvec3 n1 = glm::cross(b - target, d - target);
+        const double l0 = glm::dot(n0, n0);
+        if (l0 == 0.0) return false;  // degenerate already: nothing to keep
+        const double l1 = glm::dot(n1, n1);
+        return l1 <= 1e-12 * l0 || glm::dot(n0, n1) < 0.0 ||
+               glm::dot(glm::dvec3(input_normals_[f]), n1) < 0.0;
+    };
+    const glm::dvec3 pu = m_.positions[u];
+    for (uint32_t i = adj_first_[u], end = adj_first_[u + 1]; i < end; ++i) {
+        const AdjEntry& e = adj_[i];
+        const uint32_t a = remap_[e.next], b = remap_[e.prev];
+        if (a == b) continue;  // collapsed earlier in the pass
+        const uint32_t f = e.corner / 3, k = e.corner - 3 * f;
+        const uint32_t wu = m_.corners[e.corner];
+        int slot = -1;
+        for (int j = 0; j < u_wedge_count; ++j) slot = u_wedges[j] == wu ? j : slot;
+        if (slot < 0) {
+            if (u_wedge_count == 4) {
+                bad_map = true;
+                break;
+            }
+            slot = u_wedge_count++;
+            u_wedges[slot] = wu;
+            map_to[slot] = kNone;
+        }
+        if (a == v || b == v) {
+            shared_faces_.push_back(f);
+            const uint32_t kv = a == v ? (k == 2 ? 0 : k + 1) : (k == 0 ? 2 : k - 1);
+            const uint32_t wv = m_.corners[3 * f + kv];
+            if (map_to[slot] != kNone && map_to[slot] != wv) bad_map = true;
+            map_to[slot] = wv;
+        } else if (!flips) {
+            flips = flip(pu, a, b, f);
+        }
+        if (mark_[a] != s_nu) mark_[a] = s_nu, ++deg_u;
+        if (mark_[b] != s_nu) mark_[b] = s_nu, ++deg_u;
+    }
+    if (bad_map || flips) return false;
+    const size_t shared = shared_faces_.size();
+    if (shared == 0 || shared > 2) return false;
+    for (int i = 0; i < u_wedge_count; ++i) {
+        if (map_to[i] == kNone) return false;
+    }
+    const glm::dvec3 pv = m_.positions[v];
+    for (uint32_t i = adj_first_[v], end = adj_first_[v + 1]; i < end; ++i) {
+        const AdjEntry& e = adj_[i];
+        const uint32_t a = remap_[e.next], b = remap_[e.prev];
+        if (a == b) continue;
+        for (const uint32_t x : {a, b}) {
+            if (mark_[x] == s_nu) {
+                mark_[x] = s_common;
+                ++common;
+                ++deg_v;
+            } else if (mark_[x] != s_common && mark_[x] != s_nv) {
+                mark_[x] = s_nv;
+                ++deg_v;
+            }
+        }
+        if (c.moves && !flips && a != u && b != u) flips = flip(pv, a, b, e.corner / 3);
+    }
+    const bool border_edge = shared == 1;
+    if (size_t(common) != shared) return false;  // link condition
+    if (!border_edge && m_.on_border[u] && m_.on_border[v]) return false;
+    if (border_edge ? deg_u + deg_v - 3 < 2 : deg_u + deg_v - 4 < 3) return false;
+    if (flips) return false;
+
+    // Apply.
+    if (log_) {
+        records_.emplace_back();
+        VertexSplit& rec = records_.back();
+        rec.removed = {u, m_.positions[u]};
+        rec.kept = v;
+        rec.kept_position = m_.positions[v];
+        for (uint32_t i = wedge_first_[u]; i < wedge_first_[u + 1]; ++i) {
+            rec.removed_wedges.push_back(wedges_[wedge_list_[i]]);
+        }
+        for (uint32_t f : shared_faces_) {
+            rec.faces.push_back(
+                {f,
+                 {wedge_remap_[m_.corners[3 * f]], wedge_remap_[m_.corners[3 * f + 1]],
+                  wedge_remap_[m_.corners[3 * f + 2]]}});
+        }
+        for (uint32_t i = adj_first_[u], end = adj_first_[u + 1]; i < end; ++i) {
+            const AdjEntry& e = adj_[i];
+            if (!m_.face_alive[e.corner / 3]) continue;
+            if (std::find(shared_faces_.begin(), shared_faces_.end(), e.corner / 3) !=
+                shared_faces_.end()) {
+                continue;
+            }
+            rec.corners.push_back({e.corner, m_.corners[e.corner]});
+        }
+        if (c.moves) {
+            for (int i = 0; i < u_wedge_count; ++i) rec.kept_wedges.push_back(wedges_[map_to[i]]);
+        }
+    }
+    if (c.moves) {
+        const glm::dvec3 e = pv - pu;
+        const double ee = glm::dot(e, e);
+        const float t =
+            ee > 0.0 ? float(std::clamp(glm::dot(target - pu, e) / ee, 0.0, 1.0)) : 1.0f;
+        for (int i = 0; i < u_wedge_count; ++i) {
+            PmWedge& wv = wedges_[map_to[i]];
+            wv = lerp_wedge(wedges_[u_wedges[i]], wv, t, has_normals_);
+        }
+        m_.positions[v] = glm::vec3(target);
+    }
+    for (uint32_t f : shared_faces_) {
+        m_.face_alive[f] = 0;
+        --live_faces_;
+    }
+    for (int i = 0; i < u_wedge_count; ++i) wedge_remap_[u_wedges[i]] = map_to[i];
+    remap_[u] = v;
+    pending_remap_ = true;
+    m_.position_alive[u] = 0;
     if (c.error < 0.0) error_unknown_ = true;
     max_error_ = std::max(max_error_, c.error);
     cost_.collapsed(m_, c);
@@ -952,7 +1118,7 @@ void Engine::run_batched(std::span<const size_t> targets, std::vector<Simplified
                 skipped = std::min(skipped, c.cost);
                 continue;
             }
-            if (!try_collapse(c)) {
+            if (!try_collapse_in_pass(c)) {
                 continue;
             }
             touched[c.from] = touched[c.to] = pass;
@@ -964,7 +1130,8 @@ void Engine::run_batched(std::span<const size_t> targets, std::vector<Simplified
     }
 }
 
-SimplifiedLevel Engine::snapshot() const {
+SimplifiedLevel Engine::snapshot() {
+    flush_pass();
     SimplifiedLevel level;
     level.primitive =
         compact_primitive(m_.positions, m_.wedge_position, wedges_, m_.corners, m_.face_alive,
@@ -978,6 +1145,13 @@ Result<std::vector<SimplifiedLevel>> Engine::run(const Primitive& in,
     build(in);
     if (!cost_.depends_on_ring()) {
         csr_ = true;
+        remap_.resize(m_.positions.size());
+        for (uint32_t p = 0; p < uint32_t(remap_.size()); ++p) remap_[p] = p;
+        wedge_remap_.resize(wedges_.size());
+        for (uint32_t w = 0; w < uint32_t(wedge_remap_.size()); ++w) wedge_remap_[w] = w;
+        for (uint32_t f = 0; f < uint32_t(m_.face_alive.size()); ++f) {
+            if (m_.face_alive[f]) live_list_.push_back(f);
+        }
         rebuild_adjacency();
     }
     classify();
