@@ -169,6 +169,16 @@ class Engine {
             __builtin_prefetch(&input_normals_[e.corner / 3]);
         }
     }
+    // What evaluating the edges of p reads about its neighbours.
+    void prefetch_neighbours(uint32_t p) const {
+        for (uint32_t i = adj_first_[p], end = adj_first_[p + 1]; i < end; ++i) {
+            const uint32_t q = adj_[i].next;
+            __builtin_prefetch(&m_.positions[q]);
+            __builtin_prefetch(&m_.kinds[q]);
+            __builtin_prefetch(&version_[q]);
+            cost_.prefetch(q);
+        }
+    }
     // f(face, k) for every live face around p, unlinking dead corners from p's list on the way
     // (in the pass schedule: from p's flat list at the start of a pass, where every face is live).
     template <class F>
@@ -254,11 +264,11 @@ class Engine {
     };
     std::vector<EdgeGroup> groups_;
     // Every edge (p < q) as classify() gathered it, for the first candidates; freed after.
-    struct InitialEdge {
-        uint32_t p;
-        EdgeGroup g;
-    };
-    std::vector<InitialEdge> initial_edges_;
+    // Per position (pass schedule): 1 when its faces form one consistently wound fan, each
+    // neighbour once as `next` and once as `prev` of its entries (so its edges are the `next`s);
+    // a collapse keeps it only where both endpoints had it.
+    std::vector<uint8_t> simple_fan_;
+    bool classify_simple_fan(uint32_t p);
     std::vector<uint32_t> slot_;
     uint32_t first_wedge_at_p_ = kNone, other_wedge_at_p_ = kNone;  // gather_edges: wedges at p
     bool more_wedges_at_p_ = false;
@@ -463,17 +473,20 @@ void Engine::classify() {
     const uint32_t np = uint32_t(m_.positions.size());
     m_.kinds.assign(np, VertexKind::Locked);
     m_.on_border.assign(np, 0);
-    initial_edges_.clear();
-    initial_edges_.reserve(m_.face_alive.size() * 3 / 2 + 16);
+    simple_fan_.assign(csr_ ? np : 0, 0);
     for (uint32_t p = 0; p < np; ++p) {
         if (!m_.position_alive[p]) continue;
+        if (csr_ && classify_simple_fan(p)) {
+            m_.kinds[p] = VertexKind::Free;
+            simple_fan_[p] = 1;
+            continue;
+        }
         gather_edges(p);
         // Distinct wedges at p: one, two, or more (3).
         const int wedge_count = other_wedge_at_p_ == kNone ? 1 : more_wedges_at_p_ ? 3 : 2;
         int border_edges = 0, seam_edges = 0;
         bool non_manifold = false;
         for (const EdgeGroup& g : groups_) {
-            if (g.q > p && !cost_.depends_on_ring()) initial_edges_.push_back({p, g});
             if (g.count == 1) {
                 ++border_edges;
                 if (p < g.q) m_.constraint_edges.push_back({p, g.q, g.face[0]});
@@ -502,6 +515,34 @@ void Engine::classify() {
         }
         m_.kinds[p] = kind;
     }
+}
+
+// The common case of classify(), on p's flat list: one wedge, and every neighbour q once as the
+// `next` of one face and once as the `prev` of another, with the same wedge at q in both (no seam):
+// p is free. False: classify() looks closer.
+bool Engine::classify_simple_fan(uint32_t p) {
+    const uint32_t first = adj_first_[p], n = adj_first_[p + 1] - first;
+    if (n < 3 || n > 32) return false;
+    const AdjEntry* e = &adj_[first];
+    const uint32_t w0 = m_.corners[e[0].corner];
+    for (uint32_t i = 0; i < n; ++i) {
+        const uint32_t c = e[i].corner, f = c / 3, k = c - 3 * f;
+        if (m_.corners[c] != w0) return false;
+        uint32_t match = kNone;
+        for (uint32_t j = 0; j < n; ++j) {
+            if (e[j].prev == e[i].next) {
+                if (match != kNone) return false;
+                match = j;
+            }
+            if (j != i && e[j].next == e[i].next) return false;
+        }
+        if (match == kNone) return false;
+        const uint32_t cm = e[match].corner, fm = cm / 3, km = cm - 3 * fm;
+        const uint32_t wq = m_.corners[3 * f + (k == 2 ? 0 : k + 1)];
+        const uint32_t wq_other = m_.corners[3 * fm + (km == 0 ? 2 : km - 1)];
+        if (wq != wq_other) return false;
+    }
+    return true;
 }
 
 EdgeMoves Engine::edge_moves(uint32_t a, uint32_t b) const {
@@ -727,8 +768,9 @@ void Engine::push_all_edges() {
         m_.for_each_face(
             v, [&](uint32_t f, int) { m_.face_unit_normals[f] = m_.face_unit_normal(f); });
     }
-    if (c.error < 0.0) error_unknown_ = true;
-    max_error_ = std::max(max_error_, c.error);
+    const double error = cost_.error_of(m_, c);
+    if (error < 0.0) error_unknown_ = true;
+    max_error_ = std::max(max_error_, error);
     cost_.collapsed(m_, c);
     ++version_[v];
     return true;
@@ -865,10 +907,12 @@ void Engine::push_all_edges() {
     }
     for (int i = 0; i < u_wedge_count; ++i) wedge_remap_[u_wedges[i]] = map_to[i];
     remap_[u] = v;
+    simple_fan_[v] &= simple_fan_[u];
     pending_remap_ = true;
     m_.position_alive[u] = 0;
-    if (c.error < 0.0) error_unknown_ = true;
-    max_error_ = std::max(max_error_, c.error);
+    const double error = cost_.error_of(m_, c);
+    if (error < 0.0) error_unknown_ = true;
+    max_error_ = std::max(max_error_, error);
     cost_.collapsed(m_, c);
     ++version_[v];
     return true;
@@ -980,28 +1024,33 @@ void Engine::run_greedy(std::span<const size_t> targets, std::vector<SimplifiedL
     }
 }
 
-// One candidate per live edge, from one walk over each position's faces (dead corners pruned).
+// One candidate per live edge: the edges of every position, each from its lower endpoint.
 void Engine::collect_candidates() {
     candidates_.clear();
-    // note: the edges classify() gathered, in the same order as add_candidates(p, kNone) over
-    // every p would produce them (nothing collapsed yet), without walking the faces again.
-    for (const InitialEdge& e : initial_edges_) {
-        const uint32_t p = e.p;
-        const EdgeGroup& g = e.g;
-        if (m_.kinds[p] == VertexKind::Locked && m_.kinds[g.q] == VertexKind::Locked) continue;
-        const EdgeMoves moves = moves_for(p, g.q, int(g.count), g.wp, g.wq);
-        if (!moves.a_to_b && !moves.b_to_a) continue;
-        CollapseCandidate c;
-        if (cost_.evaluate(m_, p, g.q, moves, c)) {
-            candidates_.emplace_back(c, version_[c.from], version_[c.to]);
-        }
+    const uint32_t np = uint32_t(m_.positions.size());
+    for (uint32_t p = 0; p < np; ++p) {
+        if (p + 2 < np) prefetch_neighbours(p + 2);
+        if (m_.position_alive[p]) add_candidates(p, kNone);
     }
-    initial_edges_ = {};
 }
 
 // Candidates of the edges of p; an edge whose other end q is also being refreshed (mark_[q] ==
 // refresh) is left to the lower of the two.
 void Engine::add_candidates(uint32_t p, uint32_t refresh) {
+    if (simple_fan_[p] && m_.kinds[p] == VertexKind::Free) {
+        // note: a free position's edges are interior and no seam: p may always be removed, q
+        // when it is free too (then both may merge).
+        for (uint32_t i = adj_first_[p], end = adj_first_[p + 1]; i < end; ++i) {
+            const uint32_t q = adj_[i].next;
+            if (refresh == kNone ? q < p : (refresh_mark_[q] == refresh && q < p)) continue;
+            const bool q_free = m_.kinds[q] == VertexKind::Free;
+            CollapseCandidate c;
+            if (cost_.evaluate(m_, p, q, {true, q_free, q_free}, c)) {
+                candidates_.emplace_back(c, version_[c.from], version_[c.to]);
+            }
+        }
+        return;
+    }
     gather_edges(p);
     for (const EdgeGroup& g : groups_) {
         if (refresh == kNone ? g.q < p : (refresh_mark_[g.q] == refresh && g.q < p)) continue;
@@ -1252,57 +1301,6 @@ Result<std::vector<SimplifiedLevel>> run_edge_collapse(const Primitive& in,
                                                        CollapseCost& cost, ProgressiveMesh* log) {
     Engine engine(options, cost, log);
     return engine.run(in, targets);
-}
-
-glm::dvec3 optimal_placement(const Quadric& q, const glm::dvec3& p0, const glm::dvec3& p1,
-                             double& cost) {
-    // 3x3 solve A x = -b by cofactors, accepted when the determinant is not tiny relative to the
-    // matrix scale and the point is not far off the edge.
-    const double a00 = q.a00, a01 = q.a01, a02 = q.a02, a11 = q.a11, a12 = q.a12, a22 = q.a22;
-    const double c00 = a11 * a22 - a12 * a12;
-    const double c01 = a02 * a12 - a01 * a22;
-    const double c02 = a01 * a12 - a02 * a11;
-    const double det = a00 * c00 + a01 * c01 + a02 * c02;
-    const double scale = std::abs(a00) + std::abs(a11) + std::abs(a22);
-    const glm::dvec3 e = p1 - p0;
-    const double ee = glm::dot(e, e);
-    if (scale > 0.0 && std::abs(det) > 1e-9 * scale * scale * scale) {
-        const double c11 = a00 * a22 - a02 * a02;
-        const double c12 = a01 * a02 - a00 * a12;
-        const double c22 = a00 * a11 - a01 * a01;
-        const double inv = -1.0 / det;
-        const glm::dvec3 x{(c00 * q.b0 + c01 * q.b1 + c02 * q.b2) * inv,
-                           (c01 * q.b0 + c11 * q.b1 + c12 * q.b2) * inv,
-                           (c02 * q.b0 + c12 * q.b1 + c22 * q.b2) * inv};
-        const glm::dvec3 mid = (p0 + p1) * 0.5;
-        const glm::dvec3 off = x - mid;
-        if (glm::dot(off, off) <= 4.0 * ee && std::isfinite(x.x + x.y + x.z)) {
-            cost = q.evaluate(x);
-            return x;
-        }
-    }
-    // Minimise along the segment: f(t) = Q(p0 + t e).
-    const glm::dvec3 ae{q.a00 * e.x + q.a01 * e.y + q.a02 * e.z,
-                        q.a01 * e.x + q.a11 * e.y + q.a12 * e.z,
-                        q.a02 * e.x + q.a12 * e.y + q.a22 * e.z};
-    const double eae = glm::dot(e, ae);
-    if (eae > 1e-300) {
-        const glm::dvec3 ap0{q.a00 * p0.x + q.a01 * p0.y + q.a02 * p0.z + q.b0,
-                             q.a01 * p0.x + q.a11 * p0.y + q.a12 * p0.z + q.b1,
-                             q.a02 * p0.x + q.a12 * p0.y + q.a22 * p0.z + q.b2};
-        const double t = std::clamp(-glm::dot(e, ap0) / eae, 0.0, 1.0);
-        const glm::dvec3 x = p0 + e * t;
-        cost = q.evaluate(x);
-        return x;
-    }
-    const glm::dvec3 mid = (p0 + p1) * 0.5;
-    const double c0 = q.evaluate(p0), c1 = q.evaluate(p1), cm = q.evaluate(mid);
-    if (cm < c0 && cm < c1) {
-        cost = cm;
-        return mid;
-    }
-    cost = c0 <= c1 ? c0 : c1;
-    return c0 <= c1 ? p0 : p1;
 }
 
 }  // namespace hmdnode::lod_detail

@@ -107,6 +107,14 @@ class CollapseCost {
     // The cheapest allowed collapse of edge (a, b) (at least one move is allowed); false: none.
     virtual bool evaluate(const CollapseMesh& mesh, uint32_t a, uint32_t b, EdgeMoves moves,
                           CollapseCandidate& out) = 0;
+    // The error estimate of a candidate about to be applied (its endpoints not yet merged), for
+    // costs that leave `error` to be computed only for the collapses applied.
+    virtual double error_of(const CollapseMesh& mesh, const CollapseCandidate& c) {
+        (void)mesh;
+        return c.error;
+    }
+    // A hint: evaluate() will soon read what the cost keeps for position p (no effect on results).
+    virtual void prefetch(uint32_t p) const { (void)p; }
     // After `c` was applied (positions and faces updated).
     virtual void collapsed(const CollapseMesh& mesh, const CollapseCandidate& c) {
         (void)mesh;

@@ -5,7 +5,7 @@
 // its faces; collapsing (a, b) costs v^T (Q_a + Q_b) v at the new point v, which is the minimiser
 // of that quadric (the 4x4 / 3x3 solve, in double), or when the system is ill-conditioned the
 // minimiser on the edge, else the best of the endpoints and the midpoint (optimal_placement in
-// collapse_engine.cpp). Border edges (and both sides of seam edges) add a plane through the edge
+// qem.cpp). Border edges (and both sides of seam edges) add a plane through the edge
 // perpendicular to its face with a large weight (section 6.1 of the paper), so borders and seams
 // keep their shape; flips are rejected by the engine.
 //
@@ -55,6 +55,58 @@ std::vector<Quadric> position_quadrics(const CollapseMesh& m) {
     return q;
 }
 
+glm::dvec3 optimal_placement(const Quadric& q, const glm::dvec3& p0, const glm::dvec3& p1,
+                             double& cost) {
+    // 3x3 solve A x = -b by cofactors, accepted when the determinant is not tiny relative to the
+    // matrix scale and the point is not far off the edge.
+    const double a00 = q.a00, a01 = q.a01, a02 = q.a02, a11 = q.a11, a12 = q.a12, a22 = q.a22;
+    const double c00 = a11 * a22 - a12 * a12;
+    const double c01 = a02 * a12 - a01 * a22;
+    const double c02 = a01 * a12 - a02 * a11;
+    const double det = a00 * c00 + a01 * c01 + a02 * c02;
+    const double scale = std::abs(a00) + std::abs(a11) + std::abs(a22);
+    const glm::dvec3 e = p1 - p0;
+    const double ee = glm::dot(e, e);
+    if (scale > 0.0 && std::abs(det) > 1e-9 * scale * scale * scale) {
+        const double c11 = a00 * a22 - a02 * a02;
+        const double c12 = a01 * a02 - a00 * a12;
+        const double c22 = a00 * a11 - a01 * a01;
+        const double inv = -1.0 / det;
+        const glm::dvec3 x{(c00 * q.b0 + c01 * q.b1 + c02 * q.b2) * inv,
+                           (c01 * q.b0 + c11 * q.b1 + c12 * q.b2) * inv,
+                           (c02 * q.b0 + c12 * q.b1 + c22 * q.b2) * inv};
+        const glm::dvec3 mid = (p0 + p1) * 0.5;
+        const glm::dvec3 off = x - mid;
+        if (glm::dot(off, off) <= 4.0 * ee && std::isfinite(x.x + x.y + x.z)) {
+            cost = q.evaluate(x);
+            return x;
+        }
+    }
+    // Minimise along the segment: f(t) = Q(p0 + t e).
+    const glm::dvec3 ae{q.a00 * e.x + q.a01 * e.y + q.a02 * e.z,
+                        q.a01 * e.x + q.a11 * e.y + q.a12 * e.z,
+                        q.a02 * e.x + q.a12 * e.y + q.a22 * e.z};
+    const double eae = glm::dot(e, ae);
+    if (eae > 1e-300) {
+        const glm::dvec3 ap0{q.a00 * p0.x + q.a01 * p0.y + q.a02 * p0.z + q.b0,
+                             q.a01 * p0.x + q.a11 * p0.y + q.a12 * p0.z + q.b1,
+                             q.a02 * p0.x + q.a12 * p0.y + q.a22 * p0.z + q.b2};
+        const double t = std::clamp(-glm::dot(e, ap0) / eae, 0.0, 1.0);
+        const glm::dvec3 x = p0 + e * t;
+        cost = q.evaluate(x);
+        return x;
+    }
+    const glm::dvec3 mid = (p0 + p1) * 0.5;
+    const double c0 = q.evaluate(p0), c1 = q.evaluate(p1), cm = q.evaluate(mid);
+    if (cm < c0 && cm < c1) {
+        cost = cm;
+        return mid;
+    }
+    cost = c0 <= c1 ? c0 : c1;
+    return c0 <= c1 ? p0 : p1;
+}
+
+
 namespace {
 
 class QemCost final : public CollapseCost {
@@ -63,28 +115,44 @@ class QemCost final : public CollapseCost {
 
     bool evaluate(const CollapseMesh& m, uint32_t a, uint32_t b, EdgeMoves moves,
                   CollapseCandidate& out) override {
-        const Quadric q = quadrics_[a] + quadrics_[b];
+        const Quadric& qa = quadrics_[a];
+        const Quadric& qb = quadrics_[b];
+        Quadric q;
+        q.a00 = qa.a00 + qb.a00, q.a01 = qa.a01 + qb.a01, q.a02 = qa.a02 + qb.a02;
+        q.a11 = qa.a11 + qb.a11, q.a12 = qa.a12 + qb.a12, q.a22 = qa.a22 + qb.a22;
+        q.b0 = qa.b0 + qb.b0, q.b1 = qa.b1 + qb.b1, q.b2 = qa.b2 + qb.b2, q.c = qa.c + qb.c;
         const glm::dvec3 pa = m.positions[a], pb = m.positions[b];
-        out.cost = std::numeric_limits<double>::infinity();
+        // note: the error estimate is left to error_of(), for the few candidates applied.
+        out.error = -1.0;
         if (moves.merge) {
-            double cost = 0.0;
-            const glm::dvec3 x = optimal_placement(q, pa, pb, cost);
-            out = {cost, a, b, true, x, -1.0};
+            out.from = a, out.to = b, out.moves = true;
+            out.position = optimal_placement(q, pa, pb, out.cost);
             // note: the placement already compared the endpoints, or solved for a point no
             // endpoint beats, so both half-edge moves are dominated.
-            out.error = q.weight > 0.0 ? std::sqrt(out.cost / q.weight) : 0.0;
             return true;
         }
+        out.cost = std::numeric_limits<double>::infinity();
+        out.moves = false;
         if (moves.a_to_b) {
-            const double cost = q.evaluate(pb);
-            if (cost < out.cost) out = {cost, a, b, false, pb, -1.0};
+            out.cost = q.evaluate(pb), out.from = a, out.to = b, out.position = pb;
         }
         if (moves.b_to_a) {
             const double cost = q.evaluate(pa);
-            if (cost < out.cost) out = {cost, b, a, false, pa, -1.0};
+            if (cost < out.cost) out.cost = cost, out.from = b, out.to = a, out.position = pa;
         }
-        out.error = q.weight > 0.0 ? std::sqrt(out.cost / q.weight) : 0.0;
         return true;
+    }
+
+    void prefetch(uint32_t p) const override {
+        const char* q = reinterpret_cast<const char*>(&quadrics_[p]);
+        __builtin_prefetch(q);
+        __builtin_prefetch(q + 80);
+    }
+
+    // sqrt(cost / area weight): the RMS plane distance in metres.
+    double error_of(const CollapseMesh&, const CollapseCandidate& c) override {
+        const double w = quadrics_[c.from].weight + quadrics_[c.to].weight;
+        return w > 0.0 ? std::sqrt(c.cost / w) : 0.0;
     }
 
     void collapsed(const CollapseMesh&, const CollapseCandidate& c) override {
