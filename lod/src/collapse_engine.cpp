@@ -235,18 +235,15 @@ class Engine {
     struct Candidate {
         float cost;
         uint32_t from, to;
-        uint32_t version_from, version_to;  // when evaluated
         glm::vec3 position;
         float error;
         bool moves;
 
         Candidate() = default;
-        Candidate(const CollapseCandidate& c, uint32_t vf, uint32_t vt)
+        explicit Candidate(const CollapseCandidate& c)
             : cost(float(c.cost)),
               from(c.from),
               to(c.to),
-              version_from(vf),
-              version_to(vt),
               position(c.position),
               error(float(c.error)),
               moves(c.moves) {}
@@ -255,6 +252,10 @@ class Engine {
         }
     };
     std::vector<Candidate> candidates_;
+    // Per position: the last pass in which a collapse touched it (the candidates of its edges are
+    // then evaluated again before the next pass).
+    std::vector<uint32_t> touched_;
+    uint32_t touched_pass_ = 0;
     std::vector<uint32_t> touched_list_, refresh_mark_;
     uint32_t refresh_stamp_ = 0;
     std::vector<uint32_t> keys_, order_, order_tmp_, keys_tmp_;
@@ -360,8 +361,12 @@ void Engine::build(const Primitive& in) {
     m_.corners.resize(faces * 3);
     m_.corner_position.resize(faces * 3);
     m_.face_alive.assign(faces, 0);
-    m_.corner_head.assign(position_count, kNone);
-    m_.corner_next.assign(faces * 3, kNone);
+    // note: the pass schedule keeps flat lists instead of the corner lists.
+    const bool lists = cost_.depends_on_ring();
+    if (lists) {
+        m_.corner_head.assign(position_count, kNone);
+        m_.corner_next.assign(faces * 3, kNone);
+    }
     m_.position_alive.assign(position_count, 0);
     for (size_t f = 0; f < faces; ++f) {
         for (int k = 0; k < 3; ++k) {
@@ -382,8 +387,10 @@ void Engine::build(const Primitive& in) {
     for (size_t c = faces * 3; c-- > 0;) {
         if (!m_.face_alive[c / 3]) continue;
         const uint32_t p = m_.corner_position[c];
-        m_.corner_next[c] = m_.corner_head[p];
-        m_.corner_head[p] = uint32_t(c);
+        if (lists) {
+            m_.corner_next[c] = m_.corner_head[p];
+            m_.corner_head[p] = uint32_t(c);
+        }
         m_.position_alive[p] = 1;
     }
     m_.bbox_min = m_.bbox_max = m_.positions.empty() ? glm::vec3(0.0f) : m_.positions[0];
@@ -1046,7 +1053,7 @@ void Engine::add_candidates(uint32_t p, uint32_t refresh) {
             const bool q_free = m_.kinds[q] == VertexKind::Free;
             CollapseCandidate c;
             if (cost_.evaluate(m_, p, q, {true, q_free, q_free}, c)) {
-                candidates_.emplace_back(c, version_[c.from], version_[c.to]);
+                candidates_.emplace_back(c);
             }
         }
         return;
@@ -1059,7 +1066,7 @@ void Engine::add_candidates(uint32_t p, uint32_t refresh) {
         if (!moves.a_to_b && !moves.b_to_a) continue;
         CollapseCandidate c;
         if (cost_.evaluate(m_, p, g.q, moves, c)) {
-            candidates_.emplace_back(c, version_[c.from], version_[c.to]);
+            candidates_.emplace_back(c);
         }
     }
 }
@@ -1071,7 +1078,7 @@ void Engine::refresh_candidates() {
     size_t kept = 0;
     for (const Candidate& c : candidates_) {
         if (m_.position_alive[c.from] && m_.position_alive[c.to] &&
-            version_[c.from] == c.version_from && version_[c.to] == c.version_to) {
+            touched_[c.from] != touched_pass_ && touched_[c.to] != touched_pass_) {
             candidates_[kept++] = c;
         }
     }
@@ -1082,7 +1089,7 @@ void Engine::refresh_candidates() {
     for (size_t i = 0; i < nt; ++i) {
         if (i + 8 < nt) __builtin_prefetch(&adj_first_[touched_list_[i + 8]]);
         if (i + 4 < nt) prefetch_list(touched_list_[i + 4]);
-        if (i + 2 < nt) prefetch_faces(touched_list_[i + 2]);
+        if (i + 2 < nt) prefetch_neighbours(touched_list_[i + 2]);
         const uint32_t v = touched_list_[i];
         if (m_.position_alive[v]) add_candidates(v, r);
     }
@@ -1097,7 +1104,8 @@ void Engine::refresh_candidates() {
 // O(E).
 void Engine::run_batched(std::span<const size_t> targets, std::vector<SimplifiedLevel>& levels,
                          size_t& ti) {
-    std::vector<uint32_t> touched(m_.positions.size(), 0);
+    std::vector<uint32_t>& touched = touched_;
+    touched.assign(m_.positions.size(), 0);
     uint32_t pass = 0;
     refresh_mark_.assign(m_.positions.size(), 0);
     candidates_.reserve(m_.face_alive.size() * 3 / 2 + 16);
@@ -1105,6 +1113,7 @@ void Engine::run_batched(std::span<const size_t> targets, std::vector<Simplified
     while (ti < targets.size()) {
         if (pass > 0) {
             rebuild_adjacency();
+            touched_pass_ = pass;
             refresh_candidates();
         }
         const size_t n = candidates_.size();

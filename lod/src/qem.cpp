@@ -106,7 +106,6 @@ glm::dvec3 optimal_placement(const Quadric& q, const glm::dvec3& p0, const glm::
     return c0 <= c1 ? p0 : p1;
 }
 
-
 namespace {
 
 class QemCost final : public CollapseCost {
