@@ -529,25 +529,28 @@ void Engine::classify() {
 // p is free. False: classify() looks closer.
 bool Engine::classify_simple_fan(uint32_t p) {
     const uint32_t first = adj_first_[p], n = adj_first_[p + 1] - first;
-    if (n < 3 || n > 32) return false;
+    if (n < 3) return false;
     const AdjEntry* e = &adj_[first];
     const uint32_t w0 = m_.corners[e[0].corner];
+    // note: n distinct `next`s, and every `prev` one of them, once: a bijection.
+    const uint32_t s_next = ++stamp_, s_prev = ++stamp_;
     for (uint32_t i = 0; i < n; ++i) {
-        const uint32_t c = e[i].corner, f = c / 3, k = c - 3 * f;
-        if (m_.corners[c] != w0) return false;
-        uint32_t match = kNone;
-        for (uint32_t j = 0; j < n; ++j) {
-            if (e[j].prev == e[i].next) {
-                if (match != kNone) return false;
-                match = j;
-            }
-            if (j != i && e[j].next == e[i].next) return false;
+        const uint32_t q = e[i].next;
+        if (mark_[q] == s_next || m_.corners[e[i].corner] != w0) return false;
+        mark_[q] = s_next;
+        slot_[q] = i;
+    }
+    for (uint32_t j = 0; j < n; ++j) {
+        const uint32_t q = e[j].prev;
+        if (mark_[q] != s_next) return false;  // not a next, or a prev twice
+        mark_[q] = s_prev;
+        // The wedge at q in its two faces (as next of face i, as prev of face j): no seam.
+        const uint32_t ci = e[slot_[q]].corner, fi = ci / 3, ki = ci - 3 * fi;
+        const uint32_t cj = e[j].corner, fj = cj / 3, kj = cj - 3 * fj;
+        if (m_.corners[3 * fi + (ki == 2 ? 0 : ki + 1)] !=
+            m_.corners[3 * fj + (kj == 0 ? 2 : kj - 1)]) {
+            return false;
         }
-        if (match == kNone) return false;
-        const uint32_t cm = e[match].corner, fm = cm / 3, km = cm - 3 * fm;
-        const uint32_t wq = m_.corners[3 * f + (k == 2 ? 0 : k + 1)];
-        const uint32_t wq_other = m_.corners[3 * fm + (km == 0 ? 2 : km - 1)];
-        if (wq != wq_other) return false;
     }
     return true;
 }

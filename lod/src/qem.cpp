@@ -64,24 +64,28 @@ glm::dvec3 optimal_placement(const Quadric& q, const glm::dvec3& p0, const glm::
     const double c01 = a02 * a12 - a01 * a22;
     const double c02 = a01 * a12 - a02 * a11;
     const double det = a00 * c00 + a01 * c01 + a02 * c02;
-    const double scale = std::abs(a00) + std::abs(a11) + std::abs(a22);
-    const glm::dvec3 e = p1 - p0;
-    const double ee = glm::dot(e, e);
+    // note: a sum of plane quadrics is positive semi-definite, so its diagonal is >= 0.
+    const double scale = a00 + a11 + a22;
+    const double ex = p1.x - p0.x, ey = p1.y - p0.y, ez = p1.z - p0.z;
+    const double ee = ex * ex + ey * ey + ez * ez;
     if (scale > 0.0 && std::abs(det) > 1e-9 * scale * scale * scale) {
         const double c11 = a00 * a22 - a02 * a02;
         const double c12 = a01 * a02 - a00 * a12;
         const double c22 = a00 * a11 - a01 * a01;
         const double inv = -1.0 / det;
-        const glm::dvec3 x{(c00 * q.b0 + c01 * q.b1 + c02 * q.b2) * inv,
-                           (c01 * q.b0 + c11 * q.b1 + c12 * q.b2) * inv,
-                           (c02 * q.b0 + c12 * q.b1 + c22 * q.b2) * inv};
-        const glm::dvec3 mid = (p0 + p1) * 0.5;
-        const glm::dvec3 off = x - mid;
-        if (glm::dot(off, off) <= 4.0 * ee && std::isfinite(x.x + x.y + x.z)) {
-            cost = q.evaluate(x);
-            return x;
+        const double x = (c00 * q.b0 + c01 * q.b1 + c02 * q.b2) * inv;
+        const double y = (c01 * q.b0 + c11 * q.b1 + c12 * q.b2) * inv;
+        const double z = (c02 * q.b0 + c12 * q.b1 + c22 * q.b2) * inv;
+        const double ox = x - 0.5 * (p0.x + p1.x), oy = y - 0.5 * (p0.y + p1.y),
+                     oz = z - 0.5 * (p0.z + p1.z);
+        if (ox * ox + oy * oy + oz * oz <= 4.0 * ee) {  // note: false for NaN
+            // note: at the minimiser A x = -b, so Q(x) = c + b.x.
+            const double r = q.c + q.b0 * x + q.b1 * y + q.b2 * z;
+            cost = r > 0.0 ? r : 0.0;
+            return {x, y, z};
         }
     }
+    const glm::dvec3 e{ex, ey, ez};
     // Minimise along the segment: f(t) = Q(p0 + t e).
     const glm::dvec3 ae{q.a00 * e.x + q.a01 * e.y + q.a02 * e.z,
                         q.a01 * e.x + q.a11 * e.y + q.a12 * e.z,
