@@ -813,12 +813,17 @@ void Engine::push_all_edges() {
                glm::dot(glm::dvec3(input_normals_[f]), n1) < 0.0;
     };
     const glm::dvec3 pu = m_.positions[u];
+    // note: a free position has one wedge in all its faces (what collapses onto it maps onto that
+    // wedge), so its corners need not be read one by one.
+    const bool u_free = m_.kinds[u] == VertexKind::Free;
+    uint32_t free_wedge = kNone;
     for (uint32_t i = adj_first_[u], end = adj_first_[u + 1]; i < end; ++i) {
         const AdjEntry& e = adj_[i];
         const uint32_t a = remap_[e.next], b = remap_[e.prev];
         if (a == b) continue;  // collapsed earlier in the pass
         const uint32_t f = e.corner / 3, k = e.corner - 3 * f;
-        const uint32_t wu = m_.corners[e.corner];
+        if (!u_free || free_wedge == kNone) free_wedge = m_.corners[e.corner];
+        const uint32_t wu = free_wedge;
         int slot = -1;
         for (int j = 0; j < u_wedge_count; ++j) slot = u_wedges[j] == wu ? j : slot;
         if (slot < 0) {
