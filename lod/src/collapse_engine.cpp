@@ -7,28 +7,30 @@
 // follows meshoptimizer's simplifier (A. Kapoulkine): vertices welded by position, attribute
 // seams kept as separate "wedges" on one position, vertex kinds (free, border, seam, locked).
 //
-// Method: weld identical vertices into wedges and wedges into positions; thread one singly linked
-// list of corners through each position (a collapse splices the removed position's list onto the
-// kept one, O(1), no allocation; dead faces are pruned lazily, and from both endpoints' lists by
-// every collapse check); the pass schedule below instead walks one flat array of each position's
-// corners (CSR), rebuilt from the live faces before every pass in O(F), as meshoptimizer rebuilds
-// its adjacency (the corner lists are then not kept; within a pass the kept position of a
-// collapse is not walked again), and prefetches the walks of the candidates a few steps ahead;
-// each corner caches its position (corner_position) so that walking a face reads no wedge table;
-// classify each position (kinds above), keeping the edges it gathered for the first candidates; one
-// candidate per edge (the cheaper allowed direction, or a merge at a new point). Two schedules:
-// - costs of the endpoints only (qem, curvature-qem): passes in the manner of meshoptimizer.
-//   Each pass sorts the candidates (two 11-bit radix passes on the top 22 bits of the float cost:
-//   costs within a relative 2^-13 keep their previous order) and applies them in order while
-//   neither endpoint was touched earlier in the pass, up to 1.5 times the cost of the k-th
-//   cheapest (k = collapses still needed) and, within 256 collapses of a target, up to 8 times the
-//   cost of the cheapest candidate it had to skip; the next pass re-evaluates only the edges of
-//   touched positions. Within a pass the order is greedy and every applied cost is exact (a QEM
-//   cost reads only its two quadrics);
-// - costs that read the faces around an endpoint (formula1, melax): strict greedy order on a
-//   binary min-heap with lazy deletion (each entry carries the version of both endpoints; a
-//   collapse bumps the kept position and its 1-ring and re-evaluates every edge of the ring),
-//   as the papers do.
+// Method: weld identical vertices into wedges and wedges into positions. Two schedules:
+// - costs of the endpoints only (qem, curvature-qem): passes in the manner of meshoptimizer. At the
+//   start of every pass the live faces around each position are laid out as one flat array (CSR)
+//   of (next, prev, corner) entries, in O(F), as meshoptimizer rebuilds its adjacency. Within the
+//   pass a collapse u -> v only records remap_[u] = v and the map of u's wedges; a walk maps each
+//   entry's positions through remap_ (one step: a kept position is not removed in the same pass,
+//   and a face is dead when its other two positions now coincide), and the face corners are
+//   rewritten once, before the next pass or a snapshot. A free position whose faces form one
+//   consistently wound fan (each neighbour once as `next` and once as `prev`) is classified and
+//   has its edges listed from its flat list alone. Each pass sorts the candidates (one per edge:
+//   the cheaper allowed direction, or a merge at a new point; two 11-bit radix passes on the top
+//   22 bits of the float cost: costs within a relative 2^-13 keep their previous order) and
+//   applies them in order while neither endpoint was touched earlier in the pass, up to 1.5 times
+//   the cost of the k-th cheapest (k = collapses still needed) and, within 256 collapses of a
+//   target, up to 8 times the cost of the cheapest candidate it had to skip; the next pass drops
+//   the candidates of touched positions and evaluates their edges again (prefetching what the
+//   evaluation reads a few positions ahead). Within a pass the order is greedy and every applied
+//   cost is exact (a QEM cost reads only its two quadrics); a collapse is checked in one walk of
+//   each endpoint;
+// - costs that read the faces around an endpoint (formula1, melax): one singly linked list of
+//   corners per position (a collapse splices the removed position's list onto the kept one, O(1),
+//   no allocation; dead faces are pruned lazily), and strict greedy order on a binary min-heap with
+//   lazy deletion (each entry carries the version of both endpoints; a collapse bumps the kept
+//   position and its 1-ring and re-evaluates every edge of the ring), as the papers do.
 // Before applying, a candidate is re-checked (kinds, link condition, no flip, wedge mapping). A
 // level is snapshotted when the live face count first drops to or below its target, so all
 // levels come from one pass. When nothing applicable is left before the last target, every live
@@ -58,19 +60,18 @@
 // module and property machinery make ModQuadric take about 2.4 s on the bunny at 10 % (the
 // issue's figure for this machine); this engine does the same work with QEM on flat arrays, so
 // OpenMesh stays the baseline only (simplify_openmesh_quadric). Speed: QEM on the bunny, median of
-// 9 runs beside meshopt_simplify in the same run on this shared 2-core machine: 42 / 60 / 65 ms
-// at 50 / 10 / 1 % against meshopt's 18 / 22 / 23 ms (time ratios 2.3 / 2.7 / 2.8; the per-pass
-// flat corner arrays and the prefetching took 5-10 % off, with the same output on the bunny;
-// callgrind at 10 %: 357 M instructions against 148 M, 34 M more than with the corner lists, the
-// gain is in cache misses); the target "no slower than meshopt_simplify" is not met
+// 15 runs on this 2-core machine, idle: 30 / 41 / 43 ms at 50 / 10 / 1 % against
+// meshopt_simplify's 19 / 23 / 24 ms (time ratios 1.5-1.8; 2.3-2.9 before the flat entry lists
+// with remapping, the simple-fan path and the scalar placement; callgrind at 10 %: 273 M
+// instructions against meshopt's 148 M); the target "no slower than meshopt_simplify" is not met
 // (docs/simplification.md has the command and where the time goes).
 //
 // Cost: O(V + F) to build; QEM schedule O(E) per pass, a handful to a few dozen passes; greedy
 // schedule O(E log E) (each collapse re-evaluates O(valence^2) edges). Memory O(V + F + E): about
-// 72 bytes per face (84 in the pass schedule, with its flat corner arrays, O(F) more per pass
-// to rebuild them), 72 bytes per candidate (QEM) or 20 per heap entry (greedy), plus 36 bytes
-// per edge while the first candidates are made. No allocation
-// per collapse except the progressive-mesh record.
+// 72 bytes per face in the greedy schedule (with its corner lists), about 76 in the pass schedule
+// (with its flat entry lists, rebuilt in O(F) per pass), plus 32 bytes per candidate and 16 for
+// its sort keys (QEM) or 20 per heap entry (greedy). No allocation per collapse except the
+// progressive-mesh record.
 #include "collapse_engine.hpp"
 
 #include <algorithm>
