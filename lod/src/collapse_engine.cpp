@@ -73,6 +73,7 @@
 // its sort keys (QEM) or 20 per heap entry (greedy). No allocation per collapse except the
 // progressive-mesh record.
 #include "collapse_engine.hpp"
+#include "position_set.hpp"
 
 #include <algorithm>
 #include <array>
@@ -522,6 +523,12 @@ void Engine::classify() {
             kind = VertexKind::Seam;
         }
         m_.kinds[p] = kind;
+    }
+    if (!options_.locked_positions.empty()) {
+        const PositionSet locked(options_.locked_positions);
+        for (uint32_t p = 0; p < np; ++p) {
+            if (locked.contains(m_.positions[p])) m_.kinds[p] = VertexKind::Locked;
+        }
     }
 }
 

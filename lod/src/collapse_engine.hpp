@@ -27,7 +27,8 @@ enum class VertexKind : uint8_t {
     Free,    // one wedge, interior: may collapse onto any neighbour
     Border,  // on one open border (two border edges), one wedge: only along the border
     Seam,    // two wedges, on exactly two seam edges, interior: only along the seam
-    Locked,  // seam corner or end, seam on a border, non-manifold: never removed, never moved
+    Locked,  // seam corner or end, seam on a border, non-manifold, or asked for
+             // (SimplifyOptions::locked_positions): never removed, never moved
 };
 
 // A border edge (one face) or one side of a seam edge: the costs add boundary planes for them.

@@ -105,7 +105,7 @@ GreedyHooks fad_hooks(WeldedMesh& m, const CollapseRules& rules) {
 Result<std::vector<SimplifiedLevel>> simplify_fad(const Primitive& in,
                                                   std::span<const size_t> targets,
                                                   const SimplifyOptions& options) {
-    WeldedMesh m = weld_to_openmesh(in);
+    WeldedMesh m = weld_to_openmesh(in, options.locked_positions);
     CollapseRules rules;
     rules.lock_borders = options.lock_borders;
     return run_greedy(m, targets, fad_hooks(m, rules), options);

@@ -27,7 +27,7 @@ constexpr double kAngleDeg = 30.0;  // "angle < 30 deg", fig. 13 of the paper
 Result<std::vector<SimplifiedLevel>> simplify_fass(const Primitive& in,
                                                    std::span<const size_t> targets,
                                                    const SimplifyOptions& options) {
-    const WeldedMesh base = weld_to_openmesh(in);
+    const WeldedMesh base = weld_to_openmesh(in, options.locked_positions);
     CollapseRules rules;
     rules.lock_borders = options.lock_borders;
     SimplifyOptions quiet = options;

@@ -39,7 +39,7 @@ constexpr double kTriangleFactor = 1.25;
 Result<std::vector<SimplifiedLevel>> simplify_ivdd(const Primitive& in,
                                                    std::span<const size_t> targets,
                                                    const SimplifyOptions& options) {
-    WeldedMesh m = weld_to_openmesh(in);
+    WeldedMesh m = weld_to_openmesh(in, options.locked_positions);
     CollapseRules rules;
     rules.lock_borders = options.lock_borders;
     GreedyHooks hooks;

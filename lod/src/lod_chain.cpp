@@ -10,14 +10,21 @@
 // under it. The error is not monotonic in the count, so this is the coarsest level *found*, not a
 // proven optimum.
 //
+// Material boundaries: a mesh's primitives (one material each) are simplified one by one, and
+// the positions two of them share are locked (SimplifyOptions::locked_positions): both sides keep
+// the same boundary vertices, so no crack opens between materials at any level, at the price of
+// a boundary kept at full resolution.
+//
 // Cost: per mesh, the simplify() calls (one per primitive, or one per primitive and bisection
 // step for --error) plus one distance measurement per level, O(S log T) with S samples.
 // Memory: the scene copy (the input is replaced only on success) plus the levels.
 #include "hmdnode/lod/lod_chain.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -77,6 +84,9 @@ Result<std::vector<BuiltLevel>> build_levels(const Mesh& mesh, size_t mesh_index
         levels[k].primitives.resize(mesh.primitives.size());
     }
     size_t done = 0;
+    SimplifyOptions base = options.simplify;
+    const std::vector<glm::vec3> boundary = material_boundary_positions(mesh);
+    base.locked_positions.insert(base.locked_positions.end(), boundary.begin(), boundary.end());
     for (size_t p = 0; p < mesh.primitives.size(); ++p) {
         const Primitive& prim = mesh.primitives[p];
         const size_t count = prim.triangle_count();
@@ -91,7 +101,7 @@ Result<std::vector<BuiltLevel>> build_levels(const Mesh& mesh, size_t mesh_index
         std::vector<SimplifiedLevel> made;
         double elapsed = 0.0;
         if (!list.empty()) {
-            SimplifyOptions so = options.simplify;
+            SimplifyOptions so = base;
             so.progress = [&](double f) {
                 if (progress) progress((double(done) + f * double(count)) / double(total));
             };
@@ -261,6 +271,38 @@ std::string check_lod_targets(const LodTargets& t) {
     if (!std::isfinite(t.max_error_m) || !std::isfinite(t.max_error_pct))
         return "the maximum error must be finite";
     return {};
+}
+
+// The positions (bit for bit, +0 == -0) that more than one primitive of `mesh` uses: its
+// material boundaries. Locking them keeps the boundary closed, since both sides then keep the same
+// boundary vertices (primitives are simplified one by one).
+std::vector<glm::vec3> material_boundary_positions(const Mesh& mesh) {
+    if (mesh.primitives.size() < 2) return {};
+    std::vector<std::pair<std::array<uint32_t, 3>, uint32_t>> keys;  // position, primitive
+    for (uint32_t p = 0; p < uint32_t(mesh.primitives.size()); ++p) {
+        for (const glm::vec3& v : mesh.primitives[p].positions) {
+            const float c[3] = {v.x + 0.0f, v.y + 0.0f, v.z + 0.0f};
+            std::array<uint32_t, 3> k;
+            std::memcpy(k.data(), c, sizeof c);
+            keys.emplace_back(k, p);
+        }
+    }
+    std::sort(keys.begin(), keys.end());
+    std::vector<glm::vec3> out;
+    for (size_t i = 0; i < keys.size();) {
+        size_t j = i + 1;
+        bool shared = false;
+        for (; j < keys.size() && keys[j].first == keys[i].first; ++j) {
+            shared |= keys[j].second != keys[i].second;
+        }
+        if (shared) {
+            glm::vec3 v;
+            std::memcpy(&v.x, keys[i].first.data(), sizeof(float) * 3);
+            out.push_back(v);
+        }
+        i = j;
+    }
+    return out;
 }
 
 Result<LodChainReport> generate_lod_chains(Scene& scene, const LodChainOptions& options) {

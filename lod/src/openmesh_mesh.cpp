@@ -9,6 +9,7 @@
 // O(n log n) over its queue. Memory: the OpenMesh mesh, 3 corners per face, a copy of the input
 // attributes.
 #include "openmesh_mesh.hpp"
+#include "position_set.hpp"
 
 #include <algorithm>
 #include <cassert>
@@ -52,8 +53,9 @@ glm::dvec3 face_normal(const OmMesh& mesh, FH f) {
     return glm::cross(b - a, c - a);
 }
 
-WeldedMesh weld_to_openmesh(const Primitive& in) {
+WeldedMesh weld_to_openmesh(const Primitive& in, std::span<const glm::vec3> locked_positions) {
     WeldedMesh m;
+    const PositionSet locked(locked_positions);
     const size_t n = in.positions.size();
     std::unordered_map<std::string, uint32_t> wedge_of_key;
     std::unordered_map<std::string, int> vertex_of_pos;
@@ -67,7 +69,11 @@ WeldedMesh weld_to_openmesh(const Primitive& in) {
         std::string key;
         append_bytes(key, p);
         auto [vit, vnew] = vertex_of_pos.try_emplace(key, -1);
-        if (vnew) vit->second = m.mesh.add_vertex(OmMesh::Point(p.x, p.y, p.z)).idx();
+        if (vnew) {
+            const OmMesh::VertexHandle vh = m.mesh.add_vertex(OmMesh::Point(p.x, p.y, p.z));
+            vit->second = vh.idx();
+            if (!locked.empty() && locked.contains(p)) m.mesh.status(vh).set_locked(true);
+        }
         vertex[i] = vit->second;
         if (!in.normals.empty()) append_bytes(key, in.normals[i]);
         if (!in.uv0.empty()) append_bytes(key, in.uv0[i]);
@@ -165,6 +171,7 @@ bool plan_collapse(const WeldedMesh& m, HH h, const glm::dvec3* placement,
     VH v0 = mesh.from_vertex_handle(h), v1 = mesh.to_vertex_handle(h);
     // note: is_collapse_ok is not const in this OpenMesh, but does not modify the mesh.
     if (!const_cast<OmMesh&>(mesh).is_collapse_ok(h)) return false;
+    if (mesh.status(v0).locked()) return false;  // SimplifyOptions::locked_positions
     const bool b0 = mesh.is_boundary(v0), b1 = mesh.is_boundary(v1);
     if (b0 && (rules.lock_borders || !mesh.is_boundary(mesh.edge_handle(h)))) return false;
 
@@ -195,7 +202,7 @@ bool plan_collapse(const WeldedMesh& m, HH h, const glm::dvec3* placement,
 
     const glm::dvec3 p0 = point(mesh, v0), p1 = point(mesh, v1);
     glm::dvec3 target = p1;
-    if (placement && !b0 && !b1) {
+    if (placement && !b0 && !b1 && !mesh.status(v1).locked()) {
         std::vector<uint32_t> v1_wedges;
         for (FH f : mesh.vf_range(v1)) {
             uint32_t w1 = wedge_at(m, f, v1);

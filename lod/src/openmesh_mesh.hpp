@@ -9,7 +9,8 @@
 // vertex). Faces OpenMesh refuses (complex edge or vertex, repeated corner) are counted in
 // `rejected_faces` and left out, never a crash.
 //
-// Collapse rules (plan_collapse): OpenMesh's link condition (is_collapse_ok), open borders kept
+// Collapse rules (plan_collapse): OpenMesh's link condition (is_collapse_ok), locked vertices kept
+// (SimplifyOptions::locked_positions: never removed, never moved), open borders kept
 // (a border vertex only collapses along its border and never moves; none at all with
 // lock_borders), UV / normal / colour seams kept (every wedge of the removed vertex must map onto a
 // wedge of the survivor through the two faces of the collapsed edge: a seam vertex only moves
@@ -52,8 +53,9 @@ struct WeldedMesh {
     size_t rejected_faces = 0;  // input faces OpenMesh could not add (or with a repeated corner)
 };
 
-// Welds `in` (valid indices) into a WeldedMesh.
-WeldedMesh weld_to_openmesh(const Primitive& in);
+// Welds `in` (valid indices) into a WeldedMesh. Vertices at `locked_positions` get OpenMesh's
+// locked status: plan_collapse() and the Decimater neither remove nor move them.
+WeldedMesh weld_to_openmesh(const Primitive& in, std::span<const glm::vec3> locked_positions = {});
 // The live faces as a Primitive with exactly the attribute arrays of the input, one vertex per
 // live wedge; corner order follows OpenMesh's (input) orientation.
 Primitive to_primitive(const WeldedMesh& m);

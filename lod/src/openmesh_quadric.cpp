@@ -62,7 +62,7 @@ class ModWedgeT : public OpenMesh::Decimater::ModBaseT<MeshT> {
 Result<std::vector<SimplifiedLevel>> simplify_openmesh_quadric(const Primitive& in,
                                                                std::span<const size_t> targets,
                                                                const SimplifyOptions& options) {
-    WeldedMesh m = weld_to_openmesh(in);
+    WeldedMesh m = weld_to_openmesh(in, options.locked_positions);
     CollapseRules rules;
     rules.lock_borders = options.lock_borders;
     // note: our own flip rule would also reject what ModNormalFlipping does; keep OpenMesh's.

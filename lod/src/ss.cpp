@@ -143,7 +143,7 @@ SimplifiedLevel ss_to_target(const WeldedMesh& base, size_t target, const Collap
 Result<std::vector<SimplifiedLevel>> simplify_ss(const Primitive& in,
                                                  std::span<const size_t> targets,
                                                  const SimplifyOptions& options) {
-    WeldedMesh m = weld_to_openmesh(in);
+    WeldedMesh m = weld_to_openmesh(in, options.locked_positions);
     CollapseRules rules;
     rules.lock_borders = options.lock_borders;
     std::vector<SimplifiedLevel> levels;

@@ -44,7 +44,7 @@ void corners(const OmMesh& mesh, FH f, glm::dvec3 p[3], VH v[3]) {
 Result<std::vector<SimplifiedLevel>> simplify_vt(const Primitive& in,
                                                  std::span<const size_t> targets,
                                                  const SimplifyOptions& options) {
-    WeldedMesh m = weld_to_openmesh(in);
+    WeldedMesh m = weld_to_openmesh(in, options.locked_positions);
     CollapseRules rules;
     rules.lock_borders = options.lock_borders;
     GreedyHooks hooks;

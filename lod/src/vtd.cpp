@@ -55,7 +55,7 @@ Tri load(const OmMesh& mesh, FH f) {
 Result<std::vector<SimplifiedLevel>> simplify_vtd(const Primitive& in,
                                                   std::span<const size_t> targets,
                                                   const SimplifyOptions& options) {
-    WeldedMesh m = weld_to_openmesh(in);
+    WeldedMesh m = weld_to_openmesh(in, options.locked_positions);
     CollapseRules rules;
     rules.lock_borders = options.lock_borders;
     GreedyHooks hooks;

@@ -133,6 +133,7 @@ Result<std::vector<ProgressiveOut>> build_progressive(const Scene& source,
             continue;
         }
         const size_t total = mesh.triangle_count();
+        const std::vector<glm::vec3> boundary = material_boundary_positions(mesh);
         for (size_t p = 0; p < mesh.primitives.size(); ++p) {
             const Primitive& prim = mesh.primitives[p];
             const size_t count = prim.triangle_count();
@@ -149,6 +150,7 @@ Result<std::vector<ProgressiveOut>> build_progressive(const Scene& source,
             }
             SimplifyOptions so = options.simplify;
             so.progress = nullptr;
+            so.locked_positions.insert(so.locked_positions.end(), boundary.begin(), boundary.end());
             Result<ProgressiveMeshBuild> b =
                 build_progressive_mesh(prim, options.algorithm, std::span<const size_t>(list), so);
             if (!b.ok())

@@ -78,14 +78,20 @@ struct LodChainReport {
 
 // For every node with a mesh that is not itself an MSFT_lod alternate: replaces any chain it has
 // with a new one. Each distinct mesh is simplified once (all primitives, each to its share of the
-// target); the new levels are new meshes "<name>_lod<k>" on new non-root nodes with the node's
-// transform, listed in the node's lod_ids with screen_coverage, each level's node carrying its
-// measured Hausdorff error in geometric_error_m (level 0 gets 0). A level with no fewer triangles
-// than the level before it is dropped (with a note). Old alternate nodes and meshes no node uses
-// any more are removed (node and mesh indices are renumbered). On an error the scene is unchanged.
-// Errors: unknown algorithm, bad targets, --step with a non-edge-collapse algorithm, a simplify()
-// failure (naming the mesh and primitive).
+// target, with the positions primitives share locked so that material boundaries stay closed); the
+// new levels are new meshes "<name>_lod<k>" on new non-root nodes with the node's transform, listed
+// in the node's lod_ids with screen_coverage, each level's node carrying its measured Hausdorff
+// error in geometric_error_m (level 0 gets 0). A level with no fewer triangles than the level
+// before it is dropped (with a note). Old alternate nodes and meshes no node uses any more are
+// removed (node and mesh indices are renumbered). On an error the scene is unchanged. Errors:
+// unknown algorithm, bad targets, --step with a non-edge-collapse algorithm, a simplify() failure
+// (naming the mesh and primitive).
 Result<LodChainReport> generate_lod_chains(Scene& scene, const LodChainOptions& options);
+
+// The positions (bit for bit, +0 == -0) that more than one primitive of `mesh` uses: its material
+// boundaries. generate_lod_chains locks them (SimplifyOptions::locked_positions); so does the
+// progressive-mesh output of `hmdnode lod`, so that both make the same levels.
+std::vector<glm::vec3> material_boundary_positions(const Mesh& mesh);
 
 // Checks `targets` (one kind given, ranges, strictly decreasing): empty message when fine.
 std::string check_lod_targets(const LodTargets& targets);

@@ -21,6 +21,11 @@ namespace hmdnode {
 struct SimplifyOptions {
     // Open borders (edges with one face) keep their vertices where they are.
     bool lock_borders = false;
+    // Vertices at these positions (bit for bit) are neither removed nor moved. generate_lod_chains
+    // passes the positions a primitive shares with another primitive of its mesh: the material
+    // boundaries, which then stay closed (both sides keep the same boundary vertices and edges).
+    // `grid` clustering ignores it (it keeps no borders or seams at all).
+    std::vector<glm::vec3> locked_positions;
     // Called now and then with the fraction of the work done, 0..1.
     std::function<void(double)> progress;
     // For randomised steps, so that runs are reproducible.
@@ -36,9 +41,9 @@ struct SimplifiedLevel {
 };
 
 struct AlgorithmInfo {
-    std::string name;     // as given to --algorithm: "qem", "curvature-qem", "formula1", ...
-    std::string summary;  // one line for --help
-    std::string source;   // the paper (and formula) it implements
+    std::string name;            // as given to --algorithm: "qem", "curvature-qem", "formula1", ...
+    std::string summary;         // one line for --help
+    std::string source;          // the paper (and formula) it implements
     bool edge_collapse = false;  // true: ordered edge collapses, so progressive meshes and --step
 };
 
