@@ -216,6 +216,26 @@ class Engine {
     void push_all_edges();
     bool try_collapse(const CollapseCandidate& c);
     bool try_collapse_in_pass(const CollapseCandidate& c);
+    // The wedges of a removed position and the kept position's wedge each becomes (a seam
+    // position has two; more than four is refused).
+    struct WedgeMap {
+        std::array<uint32_t, 4> from{}, to{};
+        int count = 0;
+        bool bad = false;      // two faces disagree, or a fifth wedge
+        int slot(uint32_t w);  // the slot of w, added when new; -1 when bad
+        void map(int slot, uint32_t w);
+        bool complete() const;  // every wedge maps somewhere
+    };
+    // Whether moving corner `from` of face f (other corners p1, p2) to `target` turns the face
+    // past 90 degrees from its current or its input normal, or makes it degenerate.
+    bool turns_over(const glm::dvec3& from, const glm::dvec3& target, uint32_t p1, uint32_t p2,
+                    uint32_t f) const;
+    // The link condition, no interior edge between two border positions, enough neighbours left.
+    bool topology_ok(uint32_t u, uint32_t v, size_t shared, int common, int deg_u, int deg_v) const;
+    VertexSplit* start_record(uint32_t u, uint32_t v);  // nullptr without a log
+    void move_kept(uint32_t u, uint32_t v, const glm::dvec3& target, const WedgeMap& map,
+                   VertexSplit* rec);
+    void finish_collapse(const CollapseCandidate& c);
     void flush_pass();
     void reevaluate_around(uint32_t v);
     SimplifiedLevel snapshot();
@@ -636,36 +656,109 @@ void Engine::push_all_edges() {
     }
 }
 
+// Shared by both schedules' collapse checks.
+int Engine::WedgeMap::slot(uint32_t w) {
+    for (int i = 0; i < count; ++i) {
+        if (from[i] == w) return i;
+    }
+    if (count == 4) {
+        bad = true;
+        return -1;
+    }
+    from[count] = w;
+    to[count] = kNone;
+    return count++;
+}
+
+void Engine::WedgeMap::map(int s, uint32_t w) {
+    if (to[s] != kNone && to[s] != w) bad = true;
+    to[s] = w;
+}
+
+bool Engine::WedgeMap::complete() const {
+    for (int i = 0; i < count; ++i) {
+        if (to[i] == kNone) return false;
+    }
+    return true;
+}
+
+bool Engine::turns_over(const glm::dvec3& from, const glm::dvec3& target, uint32_t p1, uint32_t p2,
+                        uint32_t f) const {
+    const glm::dvec3 b = m_.positions[p1], d = m_.positions[p2];
+    const glm::dvec3 n0 = glm::cross(b - from, d - from);
+    const glm::dvec3 n1 = glm::cross(b - target, d - target);
+    const double l0 = glm::dot(n0, n0);
+    if (l0 == 0.0) return false;  // degenerate already: nothing to keep
+    // note: exactly 90 degrees passes (000's cube diagonal); the input face's normal guards
+    // against a face turning over in several small steps.
+    const double l1 = glm::dot(n1, n1);
+    return l1 <= 1e-12 * l0 || glm::dot(n0, n1) < 0.0 ||
+           glm::dot(glm::dvec3(input_normals_[f]), n1) < 0.0;
+}
+
+bool Engine::topology_ok(uint32_t u, uint32_t v, size_t shared, int common, int deg_u,
+                         int deg_v) const {
+    const bool border_edge = shared == 1;
+    if (size_t(common) != shared) return false;  // link condition
+    if (!border_edge && m_.on_border[u] && m_.on_border[v]) return false;
+    return border_edge ? deg_u + deg_v - 3 >= 2 : deg_u + deg_v - 4 >= 3;
+}
+
+VertexSplit* Engine::start_record(uint32_t u, uint32_t v) {
+    if (!log_) return nullptr;
+    VertexSplit& rec = records_.emplace_back();
+    rec.removed = {u, m_.positions[u]};
+    rec.kept = v;
+    rec.kept_position = m_.positions[v];
+    for (uint32_t i = wedge_first_[u]; i < wedge_first_[u + 1]; ++i) {
+        rec.removed_wedges.push_back(wedges_[wedge_list_[i]]);
+    }
+    // note: in the pass schedule, corners are rewritten only at the end of the pass.
+    auto wedge = [&](uint32_t c) { return csr_ ? wedge_remap_[m_.corners[c]] : m_.corners[c]; };
+    for (uint32_t f : shared_faces_) {
+        rec.faces.push_back({f, {wedge(3 * f), wedge(3 * f + 1), wedge(3 * f + 2)}});
+    }
+    return &rec;
+}
+
+void Engine::move_kept(uint32_t u, uint32_t v, const glm::dvec3& target, const WedgeMap& map,
+                       VertexSplit* rec) {
+    const glm::dvec3 pu = m_.positions[u], pv = m_.positions[v];
+    const glm::dvec3 e = pv - pu;
+    const double ee = glm::dot(e, e);
+    const float t = ee > 0.0 ? float(std::clamp(glm::dot(target - pu, e) / ee, 0.0, 1.0)) : 1.0f;
+    for (int i = 0; i < map.count; ++i) {
+        PmWedge& wv = wedges_[map.to[i]];
+        if (rec) rec->kept_wedges.push_back(wv);
+        wv = lerp_wedge(wedges_[map.from[i]], wv, t, has_normals_);
+    }
+    m_.positions[v] = glm::vec3(target);
+}
+
+void Engine::finish_collapse(const CollapseCandidate& c) {
+    const double error = cost_.error_of(m_, c);
+    if (error < 0.0) error_unknown_ = true;
+    max_error_ = std::max(max_error_, error);
+    cost_.collapsed(m_, c);
+    ++version_[c.to];
+}
+
 [[gnu::flatten]] bool Engine::try_collapse(const CollapseCandidate& c) {
     const uint32_t u = c.from, v = c.to;
     if (!m_.position_alive[u] || !m_.position_alive[v] || u == v) return false;
     const uint32_t s_nu = ++stamp_, s_common = ++stamp_, s_nv = ++stamp_;
     int deg_u = 0, deg_v = 0, common = 0;
     shared_faces_.clear();
-    std::array<uint32_t, 4> u_wedges{}, map_to{};
-    int u_wedge_count = 0;
-    bool bad_map = false;
+    WedgeMap map;
     walk_pruning(u, [&](uint32_t f, int k) {
-        const uint32_t wu = m_.corners[3 * f + k];
-        int slot = -1;
-        for (int i = 0; i < u_wedge_count; ++i) slot = u_wedges[i] == wu ? i : slot;
-        if (slot < 0) {
-            if (u_wedge_count == 4) {
-                bad_map = true;
-                return;
-            }
-            slot = u_wedge_count++;
-            u_wedges[slot] = wu;
-            map_to[slot] = kNone;
-        }
+        const int slot = map.slot(m_.corners[3 * f + k]);
+        if (slot < 0) return;
         for (int j = 1; j < 3; ++j) {
             const int kx = (k + j) % 3;
             const uint32_t x = m_.face_position(f, kx);
             if (x == v) {
                 shared_faces_.push_back(f);
-                const uint32_t wv = m_.corners[3 * f + kx];
-                if (map_to[slot] != kNone && map_to[slot] != wv) bad_map = true;
-                map_to[slot] = wv;
+                map.map(slot, m_.corners[3 * f + kx]);
             }
             if (mark_[x] != s_nu) {
                 mark_[x] = s_nu;
@@ -673,12 +766,9 @@ void Engine::push_all_edges() {
             }
         }
     });
-    if (bad_map) return false;
+    if (map.bad) return false;
     const size_t shared = shared_faces_.size();
-    if (shared == 0 || shared > 2) return false;
-    for (int i = 0; i < u_wedge_count; ++i) {
-        if (map_to[i] == kNone) return false;
-    }
+    if (shared == 0 || shared > 2 || !map.complete()) return false;
     walk_pruning(v, [&](uint32_t f, int k) {
         for (int j = 1; j < 3; ++j) {
             const uint32_t x = m_.face_position(f, (k + j) % 3);
@@ -692,32 +782,19 @@ void Engine::push_all_edges() {
             }
         }
     });
-    const bool border_edge = shared == 1;
-    if (size_t(common) != shared) return false;  // link condition
-    if (!border_edge && m_.on_border[u] && m_.on_border[v]) return false;
-    if (border_edge ? deg_u + deg_v - 3 < 2 : deg_u + deg_v - 4 < 3) return false;
+    if (!topology_ok(u, v, shared, common, deg_u, deg_v)) return false;
 
     // No face may flip or degenerate.
     const glm::dvec3 target = c.moves ? c.position : glm::dvec3(m_.positions[v]);
     bool flips = false;
     auto check = [&](uint32_t moved, uint32_t other) {
+        const glm::dvec3 from = m_.positions[moved];
         walk_pruning(moved, [&](uint32_t f, int k) {
             if (flips) return;
             const uint32_t p1 = m_.face_position(f, (k + 1) % 3);
             const uint32_t p2 = m_.face_position(f, (k + 2) % 3);
             if (p1 == other || p2 == other) return;
-            const glm::dvec3 a = m_.positions[moved], b = m_.positions[p1], d = m_.positions[p2];
-            const glm::dvec3 n0 = glm::cross(b - a, d - a);
-            const glm::dvec3 n1 = glm::cross(b - target, d - target);
-            const double l0 = glm::dot(n0, n0);
-            if (l0 == 0.0) return;  // degenerate already: nothing to keep
-            // note: exactly 90 degrees passes (000's cube diagonal); the input face's normal
-            // guards against a face turning over in several small steps.
-            const double l1 = glm::dot(n1, n1);
-            if (l1 <= 1e-12 * l0 || glm::dot(n0, n1) < 0.0 ||
-                glm::dot(glm::dvec3(input_normals_[f]), n1) < 0.0) {
-                flips = true;
-            }
+            flips = turns_over(from, target, p1, p2, f);
         });
     };
     check(u, v);
@@ -725,34 +802,8 @@ void Engine::push_all_edges() {
     if (flips) return false;
 
     // Apply.
-    VertexSplit* rec = nullptr;
-    if (log_) {
-        records_.emplace_back();
-        rec = &records_.back();
-        rec->removed = {u, m_.positions[u]};
-        rec->kept = v;
-        rec->kept_position = m_.positions[v];
-        for (uint32_t i = wedge_first_[u]; i < wedge_first_[u + 1]; ++i) {
-            rec->removed_wedges.push_back(wedges_[wedge_list_[i]]);
-        }
-        for (uint32_t f : shared_faces_) {
-            rec->faces.push_back(
-                {f, {m_.corners[3 * f], m_.corners[3 * f + 1], m_.corners[3 * f + 2]}});
-        }
-    }
-    if (c.moves) {
-        const glm::dvec3 pu = m_.positions[u], pv = m_.positions[v];
-        const glm::dvec3 e = pv - pu;
-        const double ee = glm::dot(e, e);
-        const float t =
-            ee > 0.0 ? float(std::clamp(glm::dot(target - pu, e) / ee, 0.0, 1.0)) : 1.0f;
-        for (int i = 0; i < u_wedge_count; ++i) {
-            PmWedge& wv = wedges_[map_to[i]];
-            if (rec) rec->kept_wedges.push_back(wv);
-            wv = lerp_wedge(wedges_[u_wedges[i]], wv, t, has_normals_);
-        }
-        m_.positions[v] = glm::vec3(target);
-    }
+    VertexSplit* rec = start_record(u, v);
+    if (c.moves) move_kept(u, v, target, map, rec);
     auto apply_corner = [&](uint32_t cr) {
         const uint32_t f = cr / 3;
         if (!m_.face_alive[f]) return;
@@ -762,10 +813,10 @@ void Engine::push_all_edges() {
             return;
         }
         const uint32_t w = m_.corners[cr];
-        for (int i = 0; i < u_wedge_count; ++i) {
-            if (u_wedges[i] == w) {
+        for (int i = 0; i < map.count; ++i) {
+            if (map.from[i] == w) {
                 if (rec) rec->corners.push_back({cr, w});
-                m_.corners[cr] = map_to[i];
+                m_.corners[cr] = map.to[i];
                 m_.corner_position[cr] = v;
                 break;
             }
@@ -786,11 +837,7 @@ void Engine::push_all_edges() {
         m_.for_each_face(
             v, [&](uint32_t f, int) { m_.face_unit_normals[f] = m_.face_unit_normal(f); });
     }
-    const double error = cost_.error_of(m_, c);
-    if (error < 0.0) error_unknown_ = true;
-    max_error_ = std::max(max_error_, error);
-    cost_.collapsed(m_, c);
-    ++version_[v];
+    finish_collapse(c);
     return true;
 }
 
@@ -804,63 +851,35 @@ void Engine::push_all_edges() {
     const uint32_t s_nu = ++stamp_, s_common = ++stamp_, s_nv = ++stamp_;
     int deg_u = 0, deg_v = 0, common = 0;
     shared_faces_.clear();
-    std::array<uint32_t, 4> u_wedges{}, map_to{};
-    int u_wedge_count = 0;
-    bool bad_map = false, flips = false;
+    WedgeMap map;
+    bool flips = false;
     const glm::dvec3 target = c.moves ? c.position : glm::dvec3(m_.positions[v]);
-    // note: exactly 90 degrees passes (000's cube diagonal); the input face's normal guards
-    // against a face turning over in several small steps.
-    auto flip = [&](const glm::dvec3& from, uint32_t p1, uint32_t p2, uint32_t f) {
-        const glm::dvec3 b = m_.positions[p1], d = m_.positions[p2];
-        const glm::dvec3 n0 = glm::cross(b - from, d - from);
-        const glm::dvec3 n1 = glm::cross(b - target, d - target);
-        const double l0 = glm::dot(n0, n0);
-        if (l0 == 0.0) return false;  // degenerate already: nothing to keep
-        const double l1 = glm::dot(n1, n1);
-        return l1 <= 1e-12 * l0 || glm::dot(n0, n1) < 0.0 ||
-               glm::dot(glm::dvec3(input_normals_[f]), n1) < 0.0;
-    };
     const glm::dvec3 pu = m_.positions[u];
     // note: a free position has one wedge in all its faces (what collapses onto it maps onto that
     // wedge), so its corners need not be read one by one.
     const bool u_free = m_.kinds[u] == VertexKind::Free;
-    uint32_t free_wedge = kNone;
+    uint32_t wu = kNone;
     for (uint32_t i = adj_first_[u], end = adj_first_[u + 1]; i < end; ++i) {
         const AdjEntry& e = adj_[i];
         const uint32_t a = remap_[e.next], b = remap_[e.prev];
         if (a == b) continue;  // collapsed earlier in the pass
         const uint32_t f = e.corner / 3, k = e.corner - 3 * f;
-        if (!u_free || free_wedge == kNone) free_wedge = m_.corners[e.corner];
-        const uint32_t wu = free_wedge;
-        int slot = -1;
-        for (int j = 0; j < u_wedge_count; ++j) slot = u_wedges[j] == wu ? j : slot;
-        if (slot < 0) {
-            if (u_wedge_count == 4) {
-                bad_map = true;
-                break;
-            }
-            slot = u_wedge_count++;
-            u_wedges[slot] = wu;
-            map_to[slot] = kNone;
-        }
+        if (!u_free || wu == kNone) wu = m_.corners[e.corner];
+        const int slot = map.slot(wu);
+        if (slot < 0) break;
         if (a == v || b == v) {
             shared_faces_.push_back(f);
             const uint32_t kv = a == v ? (k == 2 ? 0 : k + 1) : (k == 0 ? 2 : k - 1);
-            const uint32_t wv = m_.corners[3 * f + kv];
-            if (map_to[slot] != kNone && map_to[slot] != wv) bad_map = true;
-            map_to[slot] = wv;
+            map.map(slot, m_.corners[3 * f + kv]);
         } else if (!flips) {
-            flips = flip(pu, a, b, f);
+            flips = turns_over(pu, target, a, b, f);
         }
         if (mark_[a] != s_nu) mark_[a] = s_nu, ++deg_u;
         if (mark_[b] != s_nu) mark_[b] = s_nu, ++deg_u;
     }
-    if (bad_map || flips) return false;
+    if (map.bad || flips) return false;
     const size_t shared = shared_faces_.size();
-    if (shared == 0 || shared > 2) return false;
-    for (int i = 0; i < u_wedge_count; ++i) {
-        if (map_to[i] == kNone) return false;
-    }
+    if (shared == 0 || shared > 2 || !map.complete()) return false;
     const glm::dvec3 pv = m_.positions[v];
     for (uint32_t i = adj_first_[v], end = adj_first_[v + 1]; i < end; ++i) {
         const AdjEntry& e = adj_[i];
@@ -876,68 +895,34 @@ void Engine::push_all_edges() {
                 ++deg_v;
             }
         }
-        if (c.moves && !flips && a != u && b != u) flips = flip(pv, a, b, e.corner / 3);
+        if (c.moves && !flips && a != u && b != u) {
+            flips = turns_over(pv, target, a, b, e.corner / 3);
+        }
     }
-    const bool border_edge = shared == 1;
-    if (size_t(common) != shared) return false;  // link condition
-    if (!border_edge && m_.on_border[u] && m_.on_border[v]) return false;
-    if (border_edge ? deg_u + deg_v - 3 < 2 : deg_u + deg_v - 4 < 3) return false;
-    if (flips) return false;
+    if (!topology_ok(u, v, shared, common, deg_u, deg_v) || flips) return false;
 
     // Apply.
-    if (log_) {
-        records_.emplace_back();
-        VertexSplit& rec = records_.back();
-        rec.removed = {u, m_.positions[u]};
-        rec.kept = v;
-        rec.kept_position = m_.positions[v];
-        for (uint32_t i = wedge_first_[u]; i < wedge_first_[u + 1]; ++i) {
-            rec.removed_wedges.push_back(wedges_[wedge_list_[i]]);
-        }
-        for (uint32_t f : shared_faces_) {
-            rec.faces.push_back(
-                {f,
-                 {wedge_remap_[m_.corners[3 * f]], wedge_remap_[m_.corners[3 * f + 1]],
-                  wedge_remap_[m_.corners[3 * f + 2]]}});
-        }
+    if (VertexSplit* rec = start_record(u, v)) {
         for (uint32_t i = adj_first_[u], end = adj_first_[u + 1]; i < end; ++i) {
-            const AdjEntry& e = adj_[i];
-            if (!m_.face_alive[e.corner / 3]) continue;
-            if (std::find(shared_faces_.begin(), shared_faces_.end(), e.corner / 3) !=
-                shared_faces_.end()) {
+            const uint32_t f = adj_[i].corner / 3;
+            if (!m_.face_alive[f]) continue;
+            if (std::find(shared_faces_.begin(), shared_faces_.end(), f) != shared_faces_.end()) {
                 continue;
             }
-            rec.corners.push_back({e.corner, m_.corners[e.corner]});
-        }
-        if (c.moves) {
-            for (int i = 0; i < u_wedge_count; ++i) rec.kept_wedges.push_back(wedges_[map_to[i]]);
+            rec->corners.push_back({adj_[i].corner, m_.corners[adj_[i].corner]});
         }
     }
-    if (c.moves) {
-        const glm::dvec3 e = pv - pu;
-        const double ee = glm::dot(e, e);
-        const float t =
-            ee > 0.0 ? float(std::clamp(glm::dot(target - pu, e) / ee, 0.0, 1.0)) : 1.0f;
-        for (int i = 0; i < u_wedge_count; ++i) {
-            PmWedge& wv = wedges_[map_to[i]];
-            wv = lerp_wedge(wedges_[u_wedges[i]], wv, t, has_normals_);
-        }
-        m_.positions[v] = glm::vec3(target);
-    }
+    if (c.moves) move_kept(u, v, target, map, log_ ? &records_.back() : nullptr);
     for (uint32_t f : shared_faces_) {
         m_.face_alive[f] = 0;
         --live_faces_;
     }
-    for (int i = 0; i < u_wedge_count; ++i) wedge_remap_[u_wedges[i]] = map_to[i];
+    for (int i = 0; i < map.count; ++i) wedge_remap_[map.from[i]] = map.to[i];
     remap_[u] = v;
     simple_fan_[v] &= simple_fan_[u];
     pending_remap_ = true;
     m_.position_alive[u] = 0;
-    const double error = cost_.error_of(m_, c);
-    if (error < 0.0) error_unknown_ = true;
-    max_error_ = std::max(max_error_, error);
-    cost_.collapsed(m_, c);
-    ++version_[v];
+    finish_collapse(c);
     return true;
 }
 
