@@ -231,7 +231,25 @@ class Engine {
     bool turns_over(const glm::dvec3& from, const glm::dvec3& target, uint32_t p1, uint32_t p2,
                     uint32_t f) const;
     // The link condition, no interior edge between two border positions, enough neighbours left.
-    bool topology_ok(uint32_t u, uint32_t v, size_t shared, int common, int deg_u, int deg_v) const;
+    // The neighbours of a collapse's endpoints u and v, counted through mark_ with three fresh
+    // stamps: their degrees and the neighbours they share, for topology_ok().
+    struct LinkCount {
+        std::vector<uint32_t>& mark;
+        uint32_t s_u, s_common, s_v;
+        int deg_u = 0, deg_v = 0, common = 0;
+        void of_u(uint32_t x) {
+            if (mark[x] != s_u) mark[x] = s_u, ++deg_u;
+        }
+        void of_v(uint32_t x) {  // after every neighbour of u
+            if (mark[x] == s_u) {
+                mark[x] = s_common, ++common, ++deg_v;
+            } else if (mark[x] != s_common && mark[x] != s_v) {
+                mark[x] = s_v, ++deg_v;
+            }
+        }
+    };
+    LinkCount link_count() { return {mark_, ++stamp_, ++stamp_, ++stamp_}; }
+    bool topology_ok(uint32_t u, uint32_t v, size_t shared, const LinkCount& n) const;
     VertexSplit* start_record(uint32_t u, uint32_t v);  // nullptr without a log
     void move_kept(uint32_t u, uint32_t v, const glm::dvec3& target, const WedgeMap& map,
                    VertexSplit* rec);
@@ -696,12 +714,11 @@ bool Engine::turns_over(const glm::dvec3& from, const glm::dvec3& target, uint32
            glm::dot(glm::dvec3(input_normals_[f]), n1) < 0.0;
 }
 
-bool Engine::topology_ok(uint32_t u, uint32_t v, size_t shared, int common, int deg_u,
-                         int deg_v) const {
+bool Engine::topology_ok(uint32_t u, uint32_t v, size_t shared, const LinkCount& n) const {
     const bool border_edge = shared == 1;
-    if (size_t(common) != shared) return false;  // link condition
+    if (size_t(n.common) != shared) return false;  // link condition
     if (!border_edge && m_.on_border[u] && m_.on_border[v]) return false;
-    return border_edge ? deg_u + deg_v - 3 >= 2 : deg_u + deg_v - 4 >= 3;
+    return border_edge ? n.deg_u + n.deg_v - 3 >= 2 : n.deg_u + n.deg_v - 4 >= 3;
 }
 
 VertexSplit* Engine::start_record(uint32_t u, uint32_t v) {
@@ -746,8 +763,7 @@ void Engine::finish_collapse(const CollapseCandidate& c) {
 [[gnu::flatten]] bool Engine::try_collapse(const CollapseCandidate& c) {
     const uint32_t u = c.from, v = c.to;
     if (!m_.position_alive[u] || !m_.position_alive[v] || u == v) return false;
-    const uint32_t s_nu = ++stamp_, s_common = ++stamp_, s_nv = ++stamp_;
-    int deg_u = 0, deg_v = 0, common = 0;
+    LinkCount link = link_count();
     shared_faces_.clear();
     WedgeMap map;
     walk_pruning(u, [&](uint32_t f, int k) {
@@ -760,29 +776,16 @@ void Engine::finish_collapse(const CollapseCandidate& c) {
                 shared_faces_.push_back(f);
                 map.map(slot, m_.corners[3 * f + kx]);
             }
-            if (mark_[x] != s_nu) {
-                mark_[x] = s_nu;
-                ++deg_u;
-            }
+            link.of_u(x);
         }
     });
     if (map.bad) return false;
     const size_t shared = shared_faces_.size();
     if (shared == 0 || shared > 2 || !map.complete()) return false;
     walk_pruning(v, [&](uint32_t f, int k) {
-        for (int j = 1; j < 3; ++j) {
-            const uint32_t x = m_.face_position(f, (k + j) % 3);
-            if (mark_[x] == s_nu) {
-                mark_[x] = s_common;
-                ++common;
-                ++deg_v;
-            } else if (mark_[x] != s_common && mark_[x] != s_nv) {
-                mark_[x] = s_nv;
-                ++deg_v;
-            }
-        }
+        for (int j = 1; j < 3; ++j) link.of_v(m_.face_position(f, (k + j) % 3));
     });
-    if (!topology_ok(u, v, shared, common, deg_u, deg_v)) return false;
+    if (!topology_ok(u, v, shared, link)) return false;
 
     // No face may flip or degenerate.
     const glm::dvec3 target = c.moves ? c.position : glm::dvec3(m_.positions[v]);
@@ -848,8 +851,7 @@ void Engine::finish_collapse(const CollapseCandidate& c) {
 [[gnu::flatten]] bool Engine::try_collapse_in_pass(const CollapseCandidate& c) {
     const uint32_t u = c.from, v = c.to;
     if (!m_.position_alive[u] || !m_.position_alive[v] || u == v) return false;
-    const uint32_t s_nu = ++stamp_, s_common = ++stamp_, s_nv = ++stamp_;
-    int deg_u = 0, deg_v = 0, common = 0;
+    LinkCount link = link_count();
     shared_faces_.clear();
     WedgeMap map;
     bool flips = false;
@@ -874,8 +876,8 @@ void Engine::finish_collapse(const CollapseCandidate& c) {
         } else if (!flips) {
             flips = turns_over(pu, target, a, b, f);
         }
-        if (mark_[a] != s_nu) mark_[a] = s_nu, ++deg_u;
-        if (mark_[b] != s_nu) mark_[b] = s_nu, ++deg_u;
+        link.of_u(a);
+        link.of_u(b);
     }
     if (map.bad || flips) return false;
     const size_t shared = shared_faces_.size();
@@ -885,21 +887,13 @@ void Engine::finish_collapse(const CollapseCandidate& c) {
         const AdjEntry& e = adj_[i];
         const uint32_t a = remap_[e.next], b = remap_[e.prev];
         if (a == b) continue;
-        for (const uint32_t x : {a, b}) {
-            if (mark_[x] == s_nu) {
-                mark_[x] = s_common;
-                ++common;
-                ++deg_v;
-            } else if (mark_[x] != s_common && mark_[x] != s_nv) {
-                mark_[x] = s_nv;
-                ++deg_v;
-            }
-        }
+        link.of_v(a);
+        link.of_v(b);
         if (c.moves && !flips && a != u && b != u) {
             flips = turns_over(pv, target, a, b, e.corner / 3);
         }
     }
-    if (!topology_ok(u, v, shared, common, deg_u, deg_v) || flips) return false;
+    if (!topology_ok(u, v, shared, link) || flips) return false;
 
     // Apply.
     if (VertexSplit* rec = start_record(u, v)) {

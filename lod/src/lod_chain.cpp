@@ -21,13 +21,14 @@
 #include "hmdnode/lod/lod_chain.hpp"
 
 #include <algorithm>
-#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstring>
 #include <optional>
 #include <set>
 #include <sstream>
+
+#include "position_set.hpp"
 
 namespace hmdnode {
 namespace {
@@ -278,13 +279,11 @@ std::string check_lod_targets(const LodTargets& t) {
 // boundary vertices (primitives are simplified one by one).
 std::vector<glm::vec3> material_boundary_positions(const Mesh& mesh) {
     if (mesh.primitives.size() < 2) return {};
-    std::vector<std::pair<std::array<uint32_t, 3>, uint32_t>> keys;  // position, primitive
+    using lod_detail::PositionSet;
+    std::vector<std::pair<PositionSet::Key, uint32_t>> keys;  // position, primitive
     for (uint32_t p = 0; p < uint32_t(mesh.primitives.size()); ++p) {
         for (const glm::vec3& v : mesh.primitives[p].positions) {
-            const float c[3] = {v.x + 0.0f, v.y + 0.0f, v.z + 0.0f};
-            std::array<uint32_t, 3> k;
-            std::memcpy(k.data(), c, sizeof c);
-            keys.emplace_back(k, p);
+            keys.emplace_back(PositionSet::key(v), p);
         }
     }
     std::sort(keys.begin(), keys.end());

@@ -27,7 +27,7 @@ class PositionSet {
         return std::binary_search(keys_.begin(), keys_.end(), key(p));
     }
 
-  private:
+    // The bits of p's coordinates, -0 as +0: equal keys, equal positions.
     using Key = std::array<uint32_t, 3>;
     static Key key(const glm::vec3& p) {
         Key k;
@@ -35,6 +35,8 @@ class PositionSet {
         std::memcpy(k.data(), v, sizeof v);
         return k;
     }
+
+  private:
     std::vector<Key> keys_;
 };
 
