@@ -265,6 +265,7 @@ class Engine {
     std::vector<PmWedge> wedges_;
     std::vector<glm::vec3> input_normals_;            // per face, unnormalised
     std::vector<uint32_t> wedge_first_, wedge_list_;  // per position: its wedges (CSR)
+    std::vector<uint32_t> sole_wedge_;  // per position: its wedge when it has one, else kNone
     bool has_normals_ = false, has_uv0_ = false, has_uv1_ = false, has_colors_ = false;
     int material_ = -1;
     std::vector<uint32_t> version_;
@@ -374,8 +375,9 @@ void Engine::build(const Primitive& in) {
     for (uint32_t p = 0; p < position_count; ++p) {
         m_.positions[p] = in.positions[wedge_source[position_source[p]]];
     }
-    wedges_.resize(wedge_count);
-    for (uint32_t w = 0; w < wedge_count; ++w) {
+    // note: without attributes or a log a wedge is only its position; wedges_ stays empty.
+    if (has_normals_ || has_uv0_ || has_uv1_ || has_colors_ || log_) wedges_.resize(wedge_count);
+    for (uint32_t w = 0; w < uint32_t(wedges_.size()); ++w) {
         const uint32_t s = wedge_source[w];
         PmWedge& x = wedges_[w];
         x.id = w;
@@ -393,6 +395,11 @@ void Engine::build(const Primitive& in) {
     {
         std::vector<uint32_t> fill(wedge_first_.begin(), wedge_first_.end() - 1);
         for (uint32_t w = 0; w < wedge_count; ++w) wedge_list_[fill[m_.wedge_position[w]]++] = w;
+    }
+    sole_wedge_.resize(position_count);
+    for (uint32_t p = 0; p < position_count; ++p) {
+        const bool one = wedge_first_[p + 1] - wedge_first_[p] == 1;
+        sole_wedge_[p] = one ? wedge_list_[wedge_first_[p]] : kNone;
     }
 
     // Faces and the corner lists; faces with a repeated position are dropped (zero area, and they
@@ -744,10 +751,13 @@ void Engine::move_kept(uint32_t u, uint32_t v, const glm::dvec3& target, const W
     const glm::dvec3 e = pv - pu;
     const double ee = glm::dot(e, e);
     const float t = ee > 0.0 ? float(std::clamp(glm::dot(target - pu, e) / ee, 0.0, 1.0)) : 1.0f;
-    for (int i = 0; i < map.count; ++i) {
+    // note: without attributes a wedge is only its position: nothing to interpolate (and without
+    // a log either, wedges_ is empty).
+    const bool attributes = has_normals_ || has_uv0_ || has_uv1_ || has_colors_;
+    for (int i = 0; i < map.count && !wedges_.empty(); ++i) {
         PmWedge& wv = wedges_[map.to[i]];
         if (rec) rec->kept_wedges.push_back(wv);
-        wv = lerp_wedge(wedges_[map.from[i]], wv, t, has_normals_);
+        if (attributes) wv = lerp_wedge(wedges_[map.from[i]], wv, t, has_normals_);
     }
     m_.positions[v] = glm::vec3(target);
 }
@@ -859,20 +869,22 @@ void Engine::finish_collapse(const CollapseCandidate& c) {
     const glm::dvec3 pu = m_.positions[u];
     // note: a free position has one wedge in all its faces (what collapses onto it maps onto that
     // wedge), so its corners need not be read one by one.
+    // A position with a single wedge (no seam through it, the common case) needs no corner read.
     const bool u_free = m_.kinds[u] == VertexKind::Free;
-    uint32_t wu = kNone;
+    const uint32_t sole_u = sole_wedge_[u], sole_v = sole_wedge_[v];
+    uint32_t wu = sole_u;
     for (uint32_t i = adj_first_[u], end = adj_first_[u + 1]; i < end; ++i) {
         const AdjEntry& e = adj_[i];
         const uint32_t a = remap_[e.next], b = remap_[e.prev];
         if (a == b) continue;  // collapsed earlier in the pass
         const uint32_t f = e.corner / 3, k = e.corner - 3 * f;
-        if (!u_free || wu == kNone) wu = m_.corners[e.corner];
+        if (sole_u == kNone && (!u_free || wu == kNone)) wu = m_.corners[e.corner];
         const int slot = map.slot(wu);
         if (slot < 0) break;
         if (a == v || b == v) {
             shared_faces_.push_back(f);
             const uint32_t kv = a == v ? (k == 2 ? 0 : k + 1) : (k == 0 ? 2 : k - 1);
-            map.map(slot, m_.corners[3 * f + kv]);
+            map.map(slot, sole_v != kNone ? sole_v : m_.corners[3 * f + kv]);
         } else if (!flips) {
             flips = turns_over(pu, target, a, b, f);
         }
@@ -1103,7 +1115,9 @@ void Engine::run_batched(std::span<const size_t> targets, std::vector<Simplified
     touched.assign(m_.positions.size(), 0);
     uint32_t pass = 0;
     refresh_mark_.assign(m_.positions.size(), 0);
-    candidates_.reserve(m_.face_alive.size() * 3 / 2 + 16);
+    // note: at most one candidate per half-edge (more than 3F/2 edges with open borders); pages
+    // never written are never touched.
+    candidates_.reserve(adj_.size() + 16);
     collect_candidates();
     while (ti < targets.size()) {
         if (pass > 0) {
@@ -1200,7 +1214,7 @@ Result<std::vector<SimplifiedLevel>> Engine::run(const Primitive& in,
         csr_ = true;
         remap_.resize(m_.positions.size());
         for (uint32_t p = 0; p < uint32_t(remap_.size()); ++p) remap_[p] = p;
-        wedge_remap_.resize(wedges_.size());
+        wedge_remap_.resize(m_.wedge_position.size());
         for (uint32_t w = 0; w < uint32_t(wedge_remap_.size()); ++w) wedge_remap_[w] = w;
         for (uint32_t f = 0; f < uint32_t(m_.face_alive.size()); ++f) {
             if (m_.face_alive[f]) live_list_.push_back(f);
@@ -1274,7 +1288,7 @@ Primitive compact_primitive(std::span<const glm::vec3> positions,
                             bool has_uv1, bool has_colors, int material) {
     Primitive out;
     out.material = material;
-    std::vector<uint32_t> remap(wedges.size(), kNone);
+    std::vector<uint32_t> remap(wedge_position.size(), kNone);
     size_t live = 0;
     for (size_t f = 0; f < face_alive.size(); ++f) {
         if (!face_alive[f]) continue;
@@ -1282,7 +1296,7 @@ Primitive compact_primitive(std::span<const glm::vec3> positions,
         for (int k = 0; k < 3; ++k) remap[corners[3 * f + k]] = 0;
     }
     uint32_t next = 0;
-    for (size_t w = 0; w < wedges.size(); ++w) {
+    for (size_t w = 0; w < wedge_position.size(); ++w) {
         if (remap[w] == kNone) continue;
         remap[w] = next++;
         out.positions.push_back(positions[wedge_position[w]]);

@@ -135,7 +135,8 @@ Result<std::vector<SimplifiedLevel>> run_edge_collapse(const Primitive& in,
                                                        ProgressiveMesh* log = nullptr);
 
 // The output primitive of a state: live faces in id order, the wedges they use in id order.
-// Shared by the engine's snapshots and refine() so that both agree bit for bit.
+// Shared by the engine's snapshots and refine() so that both agree bit for bit. `wedges` is only
+// read for the attributes the flags name (it may be empty when none is set).
 Primitive compact_primitive(std::span<const glm::vec3> positions,
                             std::span<const uint32_t> wedge_position,
                             std::span<const PmWedge> wedges, std::span<const uint32_t> corners,
