@@ -86,11 +86,11 @@ namespace {
 
 // Open-addressing hash weld of fixed-size float records: out[i] = id of the first record equal
 // (bitwise, -0 == +0) to record i; returns the number of distinct records.
-uint32_t weld_records(const std::vector<float>& data, size_t stride, size_t count,
-                      std::vector<uint32_t>& out_ids, std::vector<uint32_t>& out_first) {
+uint32_t weld_records(const Scratch<float>& data, size_t stride, size_t count,
+                      Scratch<uint32_t>& out_ids, Scratch<uint32_t>& out_first) {
     size_t cap = 1;
     while (cap < count * 2) cap <<= 1;
-    std::vector<uint32_t> table(cap, kNone);
+    Scratch<uint32_t> table(cap, kNone);
     out_ids.assign(count, kNone);
     out_first.clear();
     for (size_t i = 0; i < count; ++i) {
@@ -234,7 +234,7 @@ class Engine {
     // The neighbours of a collapse's endpoints u and v, counted through mark_ with three fresh
     // stamps: their degrees and the neighbours they share, for topology_ok().
     struct LinkCount {
-        std::vector<uint32_t>& mark;
+        Scratch<uint32_t>& mark;
         uint32_t s_u, s_common, s_v;
         int deg_u = 0, deg_v = 0, common = 0;
         void of_u(uint32_t x) {
@@ -262,16 +262,16 @@ class Engine {
     CollapseCost& cost_;
     ProgressiveMesh* log_;
     CollapseMesh m_;
-    std::vector<PmWedge> wedges_;
-    std::vector<glm::vec3> input_normals_;            // per face, unnormalised
-    std::vector<uint32_t> wedge_first_, wedge_list_;  // per position: its wedges (CSR)
-    std::vector<uint32_t> sole_wedge_;  // per position: its wedge when it has one, else kNone
+    Scratch<PmWedge> wedges_;
+    Scratch<glm::vec3> input_normals_;            // per face, unnormalised
+    Scratch<uint32_t> wedge_first_, wedge_list_;  // per position: its wedges (CSR)
+    Scratch<uint32_t> sole_wedge_;  // per position: its wedge when it has one, else kNone
     bool has_normals_ = false, has_uv0_ = false, has_uv1_ = false, has_colors_ = false;
     int material_ = -1;
-    std::vector<uint32_t> version_;
-    std::vector<uint32_t> mark_;
+    Scratch<uint32_t> version_;
+    Scratch<uint32_t> mark_;
     uint32_t stamp_ = 0;
-    std::vector<HeapEntry> heap_;
+    Scratch<HeapEntry> heap_;
     // A CollapseCandidate packed into 40 bytes (the pass loop reads them in cost order).
     struct Candidate {
         float cost;
@@ -292,26 +292,26 @@ class Engine {
             return {double(cost), from, to, moves, glm::dvec3(position), double(error)};
         }
     };
-    std::vector<Candidate> candidates_;
+    Scratch<Candidate> candidates_;
     // Per position: the last pass in which a collapse touched it (the candidates of its edges are
     // then evaluated again before the next pass).
-    std::vector<uint32_t> touched_;
+    Scratch<uint32_t> touched_;
     uint32_t touched_pass_ = 0;
-    std::vector<uint32_t> touched_list_, refresh_mark_;
+    Scratch<uint32_t> touched_list_, refresh_mark_;
     uint32_t refresh_stamp_ = 0;
-    std::vector<uint32_t> keys_, order_, order_tmp_, keys_tmp_;
+    Scratch<uint32_t> keys_, order_, order_tmp_, keys_tmp_;
     struct EdgeGroup {
         uint32_t q, count;
         uint32_t face[2], wp[2], wq[2];
     };
-    std::vector<EdgeGroup> groups_;
+    Scratch<EdgeGroup> groups_;
     // Every edge (p < q) as classify() gathered it, for the first candidates; freed after.
     // Per position (pass schedule): 1 when its faces form one consistently wound fan, each
     // neighbour once as `next` and once as `prev` of its entries (so its edges are the `next`s);
     // a collapse keeps it only where both endpoints had it.
-    std::vector<uint8_t> simple_fan_;
+    Scratch<uint8_t> simple_fan_;
     bool classify_simple_fan(uint32_t p);
-    std::vector<uint32_t> slot_;
+    Scratch<uint32_t> slot_;
     uint32_t first_wedge_at_p_ = kNone, other_wedge_at_p_ = kNone;  // gather_edges: wedges at p
     bool more_wedges_at_p_ = false;
     size_t collapses_ = 0, initial_faces_ = 0;
@@ -320,7 +320,7 @@ class Engine {
     bool error_unknown_ = false;  // some applied collapse had no error estimate
     std::vector<VertexSplit> records_;
     // scratch, reused by every collapse
-    std::vector<uint32_t> ring_;
+    Scratch<uint32_t> ring_;
     // Schedule of passes: the live faces around each position as one flat array (CSR) of
     // (next, prev, corner) entries, rebuilt at the start of every pass; the corner lists are then
     // not kept. Within a pass a collapse u -> v only records remap_[u] = v and the map of u's
@@ -332,11 +332,11 @@ class Engine {
         uint32_t next, prev;  // the face is (p, next, prev), in winding order
         uint32_t corner;      // p's corner in it
     };
-    std::vector<uint32_t> adj_first_;
-    std::vector<AdjEntry> adj_;
-    std::vector<uint32_t> remap_, wedge_remap_, live_list_;
+    Scratch<uint32_t> adj_first_;
+    Scratch<AdjEntry> adj_;
+    Scratch<uint32_t> remap_, wedge_remap_, live_list_;
     bool pending_remap_ = false;
-    std::vector<uint32_t> shared_faces_;
+    Scratch<uint32_t> shared_faces_;
 };
 
 void Engine::build(const Primitive& in) {
@@ -350,7 +350,7 @@ void Engine::build(const Primitive& in) {
     // Weld identical vertices into wedges, then wedges into positions.
     const size_t stride = 3 + (has_normals_ ? 3 : 0) + (has_uv0_ ? 2 : 0) + (has_uv1_ ? 2 : 0) +
                           (has_colors_ ? 4 : 0);
-    std::vector<float> rec(n * stride);
+    Scratch<float> rec(n * stride);
     for (size_t i = 0; i < n; ++i) {
         float* r = &rec[i * stride];
         auto put = [&r](float x) { *r++ = x + 0.0f; };  // note: + 0.0f turns -0 into +0
@@ -361,13 +361,13 @@ void Engine::build(const Primitive& in) {
         if (has_colors_)
             put(in.colors[i].x), put(in.colors[i].y), put(in.colors[i].z), put(in.colors[i].w);
     }
-    std::vector<uint32_t> vertex_wedge, wedge_source;
+    Scratch<uint32_t> vertex_wedge, wedge_source;
     const uint32_t wedge_count = weld_records(rec, stride, n, vertex_wedge, wedge_source);
-    std::vector<float> prec(size_t(wedge_count) * 3);
+    Scratch<float> prec(size_t(wedge_count) * 3);
     for (uint32_t w = 0; w < wedge_count; ++w) {
         std::memcpy(&prec[size_t(w) * 3], &rec[size_t(wedge_source[w]) * stride], 12);
     }
-    std::vector<uint32_t> position_source;
+    Scratch<uint32_t> position_source;
     const uint32_t position_count =
         weld_records(prec, 3, wedge_count, m_.wedge_position, position_source);
 
@@ -393,7 +393,7 @@ void Engine::build(const Primitive& in) {
     for (uint32_t p = 0; p < position_count; ++p) wedge_first_[p + 1] += wedge_first_[p];
     wedge_list_.resize(wedge_count);
     {
-        std::vector<uint32_t> fill(wedge_first_.begin(), wedge_first_.end() - 1);
+        Scratch<uint32_t> fill(wedge_first_.begin(), wedge_first_.end() - 1);
         for (uint32_t w = 0; w < wedge_count; ++w) wedge_list_[fill[m_.wedge_position[w]]++] = w;
     }
     sole_wedge_.resize(position_count);
@@ -1111,7 +1111,7 @@ void Engine::refresh_candidates() {
 // O(E).
 void Engine::run_batched(std::span<const size_t> targets, std::vector<SimplifiedLevel>& levels,
                          size_t& ti) {
-    std::vector<uint32_t>& touched = touched_;
+    Scratch<uint32_t>& touched = touched_;
     touched.assign(m_.positions.size(), 0);
     uint32_t pass = 0;
     refresh_mark_.assign(m_.positions.size(), 0);
@@ -1288,7 +1288,7 @@ Primitive compact_primitive(std::span<const glm::vec3> positions,
                             bool has_uv1, bool has_colors, int material) {
     Primitive out;
     out.material = material;
-    std::vector<uint32_t> remap(wedge_position.size(), kNone);
+    Scratch<uint32_t> remap(wedge_position.size(), kNone);
     size_t live = 0;
     for (size_t f = 0; f < face_alive.size(); ++f) {
         if (!face_alive[f]) continue;

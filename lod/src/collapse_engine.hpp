@@ -17,6 +17,7 @@
 #include "hmdnode/core/scene.hpp"
 #include "hmdnode/lod/progressive_mesh.hpp"
 #include "hmdnode/lod/simplify.hpp"
+#include "scratch.hpp"
 
 namespace hmdnode::lod_detail {
 
@@ -42,20 +43,20 @@ struct ConstraintEdge {
 // engine prunes them: iterate with for_each_face. The corner lists are only kept for costs that
 // depends_on_ring() (the pass schedule of the others walks a flat per-pass copy instead).
 struct CollapseMesh {
-    std::vector<glm::vec3> positions;
-    std::vector<VertexKind> kinds;
-    std::vector<uint8_t> on_border;
-    std::vector<uint8_t> position_alive;
-    std::vector<uint32_t> wedge_position;
-    std::vector<uint32_t> corners;          // 3 wedges per face
-    std::vector<uint32_t> corner_position;  // per corner: wedge_position[corners[c]] (cached)
-    std::vector<uint8_t> face_alive;
-    std::vector<uint32_t> corner_head;  // per position: first corner of its list
-    std::vector<uint32_t> corner_next;  // per corner
-    std::vector<ConstraintEdge> constraint_edges;
+    Scratch<glm::vec3> positions;
+    Scratch<VertexKind> kinds;
+    Scratch<uint8_t> on_border;
+    Scratch<uint8_t> position_alive;
+    Scratch<uint32_t> wedge_position;
+    Scratch<uint32_t> corners;          // 3 wedges per face
+    Scratch<uint32_t> corner_position;  // per corner: wedge_position[corners[c]] (cached)
+    Scratch<uint8_t> face_alive;
+    Scratch<uint32_t> corner_head;  // per position: first corner of its list
+    Scratch<uint32_t> corner_next;  // per corner
+    Scratch<ConstraintEdge> constraint_edges;
     // Unit normal of each live face (zero when degenerate), kept current by the engine for costs
     // that depend_on_ring(); empty otherwise.
-    std::vector<glm::dvec3> face_unit_normals;
+    Scratch<glm::dvec3> face_unit_normals;
     glm::vec3 bbox_min{0.0f}, bbox_max{0.0f};
     bool lock_borders = false;
 
@@ -209,6 +210,6 @@ glm::dvec3 optimal_placement(const Quadric& q, const glm::dvec3& p0, const glm::
 // position weighted by face area, plus, for every border edge and each side of every seam edge,
 // the plane through the edge perpendicular to its face, weighted by kBoundaryWeight * length^2.
 inline constexpr double kBoundaryWeight = 10.0;
-std::vector<Quadric> position_quadrics(const CollapseMesh& mesh);
+Scratch<Quadric> position_quadrics(const CollapseMesh& mesh);
 
 }  // namespace hmdnode::lod_detail

@@ -118,7 +118,7 @@ class CurvatureQemCost final : public CollapseCost {
     }
 
   private:
-    std::vector<Quadric> plain_, weighted_;
+    Scratch<Quadric> plain_, weighted_;
 };
 
 }  // namespace

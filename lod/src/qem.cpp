@@ -27,8 +27,8 @@
 
 namespace hmdnode::lod_detail {
 
-std::vector<Quadric> position_quadrics(const CollapseMesh& m) {
-    std::vector<Quadric> q(m.positions.size());
+Scratch<Quadric> position_quadrics(const CollapseMesh& m) {
+    Scratch<Quadric> q(m.positions.size());
     for (uint32_t f = 0; f < uint32_t(m.face_alive.size()); ++f) {
         if (!m.face_alive[f]) continue;
         const glm::dvec3 n = m.face_normal_unnormalized(f);
@@ -163,7 +163,7 @@ class QemCost final : public CollapseCost {
     }
 
   private:
-    std::vector<Quadric> quadrics_;
+    Scratch<Quadric> quadrics_;
 };
 
 }  // namespace
