@@ -116,8 +116,8 @@ class QemCost final : public CollapseCost {
   public:
     void init(const CollapseMesh& m) override { quadrics_ = position_quadrics(m); }
 
-    [[gnu::flatten]] bool evaluate(const CollapseMesh& m, uint32_t a, uint32_t b, EdgeMoves moves,
-                                   CollapseCandidate& out) override {
+    bool evaluate(const CollapseMesh& m, uint32_t a, uint32_t b, EdgeMoves moves,
+                  CollapseCandidate& out) override {
         const Quadric& qa = quadrics_[a];
         const Quadric& qb = quadrics_[b];
         Quadric q;
