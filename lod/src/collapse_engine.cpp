@@ -60,8 +60,8 @@
 // module and property machinery make ModQuadric take about 2.4 s on the bunny at 10 % (the
 // issue's figure for this machine); this engine does the same work with QEM on flat arrays, so
 // OpenMesh stays the baseline only (simplify_openmesh_quadric). Speed: QEM on the bunny, median of
-// 15 runs on this 2-core machine, idle: 30 / 41 / 43 ms at 50 / 10 / 1 % against
-// meshopt_simplify's 19 / 23 / 24 ms (time ratios 1.5-1.8; 2.3-2.9 before the flat entry lists
+// 5 runs in bench_lod_bench on this 2-core machine, idle: 28 / 40 / 42 ms at 50 / 10 / 1 % against
+// meshopt_simplify's 20 / 25 / 26 ms (time ratios 1.4-1.6; 2.3-2.9 before the flat entry lists
 // with remapping, the simple-fan path and the scalar placement; callgrind at 10 %: 273 M
 // instructions against meshopt's 148 M); the target "no slower than meshopt_simplify" is not met
 // (docs/simplification.md has the command and where the time goes).
@@ -70,8 +70,9 @@
 // schedule O(E log E) (each collapse re-evaluates O(valence^2) edges). Memory O(V + F + E): about
 // 72 bytes per face in the greedy schedule (with its corner lists), about 76 in the pass schedule
 // (with its flat entry lists, rebuilt in O(F) per pass), plus 32 bytes per candidate and 16 for
-// its sort keys (QEM) or 20 per heap entry (greedy). No allocation per collapse except the
-// progressive-mesh record.
+// its sort keys (QEM) or 20 per heap entry (greedy), plus 52 bytes per wedge when the mesh has
+// attributes or a log is kept. No allocation per collapse except the progressive-mesh record; the
+// arrays live on the per-thread scratch cache (scratch.hpp), so the next call reuses their pages.
 #include "collapse_engine.hpp"
 #include "position_set.hpp"
 

@@ -3,7 +3,7 @@
 // (which trusts what the decoder checked) stays in bounds at the base, half-way and full counts,
 // with indices in range and the triangle count between base and full.
 //
-// Built from lod/src/progressive_mesh.cpp, collapse_engine.cpp and the four collapse costs;
+// Built from lod/src/progressive_mesh.cpp, collapse_engine.cpp, scratch.cpp and the four costs;
 // check_simplify_arguments (lod/src/simplify.cpp, which pulls in every algorithm and OpenMesh and
 // Embree) is only used by build_progressive_mesh, never by the reader, so it is stubbed here.
 #include <cstdint>

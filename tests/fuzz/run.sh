@@ -32,6 +32,7 @@ build usbmon_capture_fuzz "$SRC/hal/src/usbmon_capture.cpp" -lpcap -lz
 build progressive_mesh_fuzz -I"$SRC/lod/include" -I"$SRC/lod/src" \
   "$SRC/lod/src/progressive_mesh.cpp" "$SRC/lod/src/collapse_engine.cpp" "$SRC/lod/src/qem.cpp" \
   "$SRC/lod/src/curvature_qem.cpp" "$SRC/lod/src/formula1.cpp" "$SRC/lod/src/melax.cpp" \
+  "$SRC/lod/src/scratch.cpp" \
   "$SRC/core/src/atomic_file.cpp"
 build mesh_file_fuzz -I"$SRC/lod/include" "$SRC/lod/src/mesh_file.cpp" "$SRC/core/src/obj.cpp" \
   "$SRC/core/src/atomic_file.cpp" "$SRC/core/src/scene.cpp"
