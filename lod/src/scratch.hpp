@@ -5,7 +5,8 @@
 //
 // Blocks of 64 KiB and more are rounded up to a power of two and, when freed, kept for the next
 // request of the same size while the thread keeps at most kScratchKeepBytes; smaller requests and
-// what does not fit go to operator new / delete as usual. The cache is freed when its thread ends.
+// what does not fit go to operator new / delete as usual. The cache is freed when its thread ends
+// (a block freed after that, during the thread's exit, goes straight back to operator delete).
 // Cost: O(cached blocks) per large allocation (a few dozen at most), nothing per element.
 #pragma once
 
