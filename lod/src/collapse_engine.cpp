@@ -255,7 +255,10 @@ class Engine {
     void move_kept(uint32_t u, uint32_t v, const glm::dvec3& target, const WedgeMap& map,
                    VertexSplit* rec);
     void finish_collapse(const CollapseCandidate& c);
+    // Rewrites the corners of the live faces through the remaps of the pass, after
+    // flush_attributes() (the attribute interpolations of the pass).
     void flush_pass();
+    void flush_attributes();
     void reevaluate_around(uint32_t v);
     SimplifiedLevel snapshot();
 
@@ -300,7 +303,8 @@ class Engine {
     uint32_t touched_pass_ = 0;
     Scratch<uint32_t> touched_list_, refresh_mark_;
     uint32_t refresh_stamp_ = 0;
-    Scratch<uint32_t> keys_, order_, order_tmp_, keys_tmp_;
+    Scratch<uint32_t> keys_;
+    Scratch<uint64_t> order_, order_tmp_;  // (cost key << 32 | candidate), in cost order
     struct EdgeGroup {
         uint32_t q, count;
         uint32_t face[2], wp[2], wq[2];
@@ -336,6 +340,13 @@ class Engine {
     Scratch<uint32_t> adj_first_;
     Scratch<AdjEntry> adj_;
     Scratch<uint32_t> remap_, wedge_remap_, live_list_;
+    // Attribute interpolations of the pass, applied by flush_attributes(): wedge `to` moves
+    // towards wedge `from` by t.
+    struct PendingLerp {
+        uint32_t from, to;
+        float t;
+    };
+    Scratch<PendingLerp> lerps_;
     bool pending_remap_ = false;
     Scratch<uint32_t> shared_faces_;
 };
@@ -487,9 +498,23 @@ void Engine::build(const Primitive& in) {
     });
 }
 
+void Engine::flush_attributes() {
+    const size_t n = lerps_.size();
+    for (size_t i = 0; i < n; ++i) {
+        if (i + 8 < n) {
+            __builtin_prefetch(&wedges_[lerps_[i + 8].from]);
+            __builtin_prefetch(&wedges_[lerps_[i + 8].to]);
+        }
+        const PendingLerp& l = lerps_[i];
+        wedges_[l.to] = lerp_wedge(wedges_[l.from], wedges_[l.to], l.t, has_normals_);
+    }
+    lerps_.clear();
+}
+
 void Engine::flush_pass() {
     if (!pending_remap_) return;
     pending_remap_ = false;
+    flush_attributes();
     for (uint32_t f : live_list_) {
         if (!m_.face_alive[f]) continue;
         for (uint32_t c = 3 * f; c < 3 * f + 3; ++c) {
@@ -500,17 +525,24 @@ void Engine::flush_pass() {
 }
 
 void Engine::rebuild_adjacency() {
-    flush_pass();
-    size_t kept = 0;
-    for (uint32_t f : live_list_) {
-        if (m_.face_alive[f]) live_list_[kept++] = f;
-    }
-    live_list_.resize(kept);
+    // note: flush_pass(), the pruning of dead faces and the count of the entries in one walk (the
+    // rewrite is the identity where nothing is pending).
+    pending_remap_ = false;
+    flush_attributes();
     const uint32_t np = uint32_t(m_.positions.size());
     adj_first_.assign(np + 1, 0);
+    size_t kept = 0;
     for (uint32_t f : live_list_) {
-        for (uint32_t c = 3 * f; c < 3 * f + 3; ++c) ++adj_first_[m_.corner_position[c] + 1];
+        if (!m_.face_alive[f]) continue;
+        live_list_[kept++] = f;
+        for (uint32_t c = 3 * f; c < 3 * f + 3; ++c) {
+            m_.corners[c] = wedge_remap_[m_.corners[c]];
+            const uint32_t p = remap_[m_.corner_position[c]];
+            m_.corner_position[c] = p;
+            ++adj_first_[p + 1];
+        }
     }
+    live_list_.resize(kept);
     for (uint32_t p = 0; p < np; ++p) adj_first_[p + 1] += adj_first_[p];
     adj_.resize(adj_first_[np]);
     for (uint32_t f : live_list_) {
@@ -756,6 +788,13 @@ void Engine::move_kept(uint32_t u, uint32_t v, const glm::dvec3& target, const W
     // a log either, wedges_ is empty).
     const bool attributes = has_normals_ || has_uv0_ || has_uv1_ || has_colors_;
     for (int i = 0; i < map.count && !wedges_.empty(); ++i) {
+        if (csr_ && !rec) {
+            // note: in the pass schedule nothing reads a wedge before flush_attributes(), and a
+            // pass touches a wedge at most once, so the interpolations wait for it, where their
+            // scattered reads overlap.
+            if (attributes) lerps_.push_back({map.from[i], map.to[i], t});
+            continue;
+        }
         PmWedge& wv = wedges_[map.to[i]];
         if (rec) rec->kept_wedges.push_back(wv);
         if (attributes) wv = lerp_wedge(wedges_[map.from[i]], wv, t, has_normals_);
@@ -1083,12 +1122,13 @@ void Engine::add_candidates(uint32_t p, uint32_t refresh) {
 // edges of the touched positions. Untouched candidates keep their cost: a QEM-type cost reads
 // only the endpoints' quadrics and positions.
 void Engine::refresh_candidates() {
+    // note: a touched position (the kept one) is alive; a dead one (removed) was touched in the
+    // pass that removed it, or earlier, when its candidates were dropped. Branch-free: kept or not
+    // is close to a coin toss.
     size_t kept = 0;
     for (const Candidate& c : candidates_) {
-        if (m_.position_alive[c.from] && m_.position_alive[c.to] &&
-            touched_[c.from] != touched_pass_ && touched_[c.to] != touched_pass_) {
-            candidates_[kept++] = c;
-        }
+        candidates_[kept] = c;
+        kept += (touched_[c.from] != touched_pass_) & (touched_[c.to] != touched_pass_);
     }
     candidates_.resize(kept);
     const uint32_t r = ++refresh_stamp_;
@@ -1128,28 +1168,33 @@ void Engine::run_batched(std::span<const size_t> targets, std::vector<Simplified
         }
         const size_t n = candidates_.size();
         if (n == 0) break;
-        keys_.resize(n), order_.resize(n), keys_tmp_.resize(n), order_tmp_.resize(n);
-        for (size_t i = 0; i < n; ++i) {
-            const float cost = candidates_[i].cost;
-            std::memcpy(&keys_[i], &cost, 4);  // note: costs are >= 0, so bits sort as floats
-            order_[i] = uint32_t(i);
-        }
         // note: two 11-bit passes on the top 22 bits (sign, exponent, 13 mantissa bits): costs
-        // within a relative 2^-13 of each other keep their candidate order (stable sort).
-        for (int shift = 10; shift < 32; shift += 11) {
-            uint32_t count[2049] = {};
-            for (size_t i = 0; i < n; ++i) ++count[((keys_[i] >> shift) & 2047) + 1];
-            for (int b = 0; b < 2048; ++b) count[b + 1] += count[b];
+        // within a relative 2^-13 of each other keep their candidate order (stable sort). Both
+        // histograms come from one read of the costs; each pass moves (key << 32 | index) as one
+        // word.
+        keys_.resize(n), order_.resize(n), order_tmp_.resize(n);
+        {
+            std::array<uint32_t, 2049> low{}, high{};
             for (size_t i = 0; i < n; ++i) {
-                const uint32_t slot = count[(keys_[i] >> shift) & 2047]++;
-                keys_tmp_[slot] = keys_[i];
-                order_tmp_[slot] = order_[i];
+                const float cost = candidates_[i].cost;
+                uint32_t key;
+                std::memcpy(&key, &cost, 4);  // note: costs are >= 0, so bits sort as floats
+                keys_[i] = key;
+                ++low[((key >> 10) & 2047) + 1];
+                ++high[(key >> 21) + 1];
             }
-            keys_.swap(keys_tmp_);
-            order_.swap(order_tmp_);
+            for (int b = 0; b < 2048; ++b) low[b + 1] += low[b], high[b + 1] += high[b];
+            for (size_t i = 0; i < n; ++i) {
+                const uint32_t key = keys_[i];
+                order_tmp_[low[(key >> 10) & 2047]++] = uint64_t(key) << 32 | i;
+            }
+            for (size_t i = 0; i < n; ++i) {
+                const uint64_t item = order_tmp_[i];
+                order_[high[item >> 53]++] = item;
+            }
         }
         const size_t goal = (live_faces_ - targets[ti] + 1) / 2;
-        const double limit = goal < n ? 1.5 * double(candidates_[order_[goal]].cost)
+        const double limit = goal < n ? 1.5 * double(candidates_[uint32_t(order_[goal])].cost)
                                       : std::numeric_limits<double>::infinity();
         ++pass;
         size_t done = 0;
@@ -1158,25 +1203,25 @@ void Engine::run_batched(std::span<const size_t> targets, std::vector<Simplified
             // note: the walks below read faces scattered over the corner arrays; fetch the
             // candidates, then their flat lists, then their faces, a few steps ahead (no effect
             // on the result).
-            if (i + 16 < n) __builtin_prefetch(&candidates_[order_[i + 16]]);
+            if (i + 16 < n) __builtin_prefetch(&candidates_[uint32_t(order_[i + 16])]);
             if (i + 8 < n) {
-                const Candidate& a = candidates_[order_[i + 8]];
+                const Candidate& a = candidates_[uint32_t(order_[i + 8])];
                 __builtin_prefetch(&adj_first_[a.from]);
                 __builtin_prefetch(&adj_first_[a.to]);
                 __builtin_prefetch(&touched[a.from]);
                 __builtin_prefetch(&touched[a.to]);
             }
             if (i + 4 < n) {
-                const Candidate& a = candidates_[order_[i + 4]];
+                const Candidate& a = candidates_[uint32_t(order_[i + 4])];
                 prefetch_list(a.from);
                 prefetch_list(a.to);
             }
             if (i + 2 < n) {
-                const Candidate& a = candidates_[order_[i + 2]];
+                const Candidate& a = candidates_[uint32_t(order_[i + 2])];
                 prefetch_faces(a.from);
                 prefetch_faces(a.to);
             }
-            const CollapseCandidate c = candidates_[order_[i]].unpack();
+            const CollapseCandidate c = candidates_[uint32_t(order_[i])].unpack();
             if (c.cost > limit && done > 0) break;
             // note: a skipped candidate's stale cost bounds its new cost from below (quadrics only
             // grow); close to a target (few collapses left), going past 8 times that would run
