@@ -43,7 +43,8 @@
 //   and the lightmap's TEXCOORD_1) stay consistent on every level; seam ends and corners (one or
 //   three or more seam edges) are locked;
 // - attributes (normals, uv0, uv1, colours) are interpolated per wedge at the parameter of the new
-//   point projected on the edge; normals renormalised;
+//   point projected on the edge; normals renormalised (in the pass schedule at the end of the
+//   pass, in order: nothing reads a wedge before then);
 // - material boundaries: one primitive has one material, so there is no boundary inside it;
 // - borders: border positions only collapse along border edges, onto the neighbouring border
 //   position (half-edge: the border keeps its vertices and corners exactly; QEM adds
@@ -60,9 +61,9 @@
 // module and property machinery make ModQuadric take about 2.4 s on the bunny at 10 % (the
 // issue's figure for this machine); this engine does the same work with QEM on flat arrays, so
 // OpenMesh stays the baseline only (simplify_openmesh_quadric). Speed: QEM on the bunny, median of
-// 5 runs in bench_lod_bench on this 2-core machine, idle: 28 / 40 / 42 ms at 50 / 10 / 1 % against
-// meshopt_simplify's 20 / 25 / 26 ms (time ratios 1.4-1.6; 2.3-2.9 before the flat entry lists
-// with remapping, the simple-fan path and the scalar placement; callgrind at 10 %: 273 M
+// 5 runs in bench_lod_bench on this 2-core machine, idle: 26 / 36 / 38 ms at 50 / 10 / 1 % against
+// meshopt_simplify's 20.5 / 25 / 26 ms (time ratios 1.25-1.46; 2.3-2.9 before the flat entry lists
+// with remapping, the simple-fan path and the scalar placement; callgrind at 10 %: 269 M
 // instructions against meshopt's 148 M); the target "no slower than meshopt_simplify" is not met
 // (docs/simplification.md has the command and where the time goes).
 //
