@@ -260,6 +260,13 @@ class Engine {
     // flush_attributes() (the attribute interpolations of the pass).
     void flush_pass();
     void flush_attributes();
+    // Face f's corners through the remaps of the pass.
+    void remap_corners(uint32_t f) {
+        for (uint32_t c = 3 * f; c < 3 * f + 3; ++c) {
+            m_.corners[c] = wedge_remap_[m_.corners[c]];
+            m_.corner_position[c] = remap_[m_.corner_position[c]];
+        }
+    }
     void reevaluate_around(uint32_t v);
     SimplifiedLevel snapshot();
 
@@ -517,11 +524,7 @@ void Engine::flush_pass() {
     pending_remap_ = false;
     flush_attributes();
     for (uint32_t f : live_list_) {
-        if (!m_.face_alive[f]) continue;
-        for (uint32_t c = 3 * f; c < 3 * f + 3; ++c) {
-            m_.corners[c] = wedge_remap_[m_.corners[c]];
-            m_.corner_position[c] = remap_[m_.corner_position[c]];
-        }
+        if (m_.face_alive[f]) remap_corners(f);
     }
 }
 
@@ -536,12 +539,8 @@ void Engine::rebuild_adjacency() {
     for (uint32_t f : live_list_) {
         if (!m_.face_alive[f]) continue;
         live_list_[kept++] = f;
-        for (uint32_t c = 3 * f; c < 3 * f + 3; ++c) {
-            m_.corners[c] = wedge_remap_[m_.corners[c]];
-            const uint32_t p = remap_[m_.corner_position[c]];
-            m_.corner_position[c] = p;
-            ++adj_first_[p + 1];
-        }
+        remap_corners(f);
+        for (uint32_t c = 3 * f; c < 3 * f + 3; ++c) ++adj_first_[m_.corner_position[c] + 1];
     }
     live_list_.resize(kept);
     for (uint32_t p = 0; p < np; ++p) adj_first_[p + 1] += adj_first_[p];

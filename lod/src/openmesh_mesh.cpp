@@ -43,6 +43,14 @@ glm::dvec3 point(const OmMesh& mesh, VH v) {
     return {p[0], p[1], p[2]};
 }
 
+void face_corners(const OmMesh& mesh, FH f, VH v[3], glm::dvec3 p[3]) {
+    int k = 0;
+    for (VH u : mesh.fv_range(f)) {
+        v[k] = u;
+        p[k++] = point(mesh, u);
+    }
+}
+
 glm::dvec3 face_normal(const OmMesh& mesh, FH f) {
     auto it = mesh.cfv_iter(f);
     glm::dvec3 a = point(mesh, *it);

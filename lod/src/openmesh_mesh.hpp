@@ -62,6 +62,9 @@ Primitive to_primitive(const WeldedMesh& m);
 
 uint32_t wedge_at(const WeldedMesh& m, OmMesh::FaceHandle f, OmMesh::VertexHandle v);
 glm::dvec3 point(const OmMesh& mesh, OmMesh::VertexHandle v);
+// The three corners of face f in winding order: their vertices and points.
+void face_corners(const OmMesh& mesh, OmMesh::FaceHandle f, OmMesh::VertexHandle v[3],
+                  glm::dvec3 p[3]);
 // Unnormalised normal (twice the area) of face f.
 glm::dvec3 face_normal(const OmMesh& mesh, OmMesh::FaceHandle f);
 

@@ -31,14 +31,6 @@ namespace {
 using VH = OmMesh::VertexHandle;
 using FH = OmMesh::FaceHandle;
 
-void corners(const OmMesh& mesh, FH f, glm::dvec3 p[3], VH v[3]) {
-    int k = 0;
-    for (VH u : mesh.fv_range(f)) {
-        v[k] = u;
-        p[k++] = point(mesh, u);
-    }
-}
-
 }  // namespace
 
 Result<std::vector<SimplifiedLevel>> simplify_vt(const Primitive& in,
@@ -52,14 +44,14 @@ Result<std::vector<SimplifiedLevel>> simplify_vt(const Primitive& in,
     hooks.cost = [&m](int i) {
         glm::dvec3 p[3];
         VH v[3];
-        corners(m.mesh, FH(i), p, v);
+        face_corners(m.mesh, FH(i), v, p);
         glm::dvec3 c = clamped_circumcenter(p[0], p[1], p[2]);
         return std::max({glm::distance(c, p[0]), glm::distance(c, p[1]), glm::distance(c, p[2])});
     };
     hooks.apply = [&m, rules](int i, VH* out_survivor) {
         glm::dvec3 p[3];
         VH v[3];
-        corners(m.mesh, FH(i), p, v);
+        face_corners(m.mesh, FH(i), v, p);
         return collapse_triangle(m, FH(i), clamped_circumcenter(p[0], p[1], p[2]), rules,
                                  out_survivor);
     };

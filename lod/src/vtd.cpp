@@ -41,11 +41,7 @@ struct Tri {
 
 Tri load(const OmMesh& mesh, FH f) {
     Tri t;
-    int k = 0;
-    for (VH u : mesh.fv_range(f)) {
-        t.v[k] = u;
-        t.p[k++] = point(mesh, u);
-    }
+    face_corners(mesh, f, t.v, t.p);
     for (int c = 0; c < 3; ++c) t.d[c] = glm::distance(t.p[(c + 1) % 3], t.p[(c + 2) % 3]);
     return t;
 }
