@@ -37,6 +37,8 @@ void compute_normals(Primitive& p) {
     }
 }
 
+}  // namespace
+
 Scene single_mesh_scene(Mesh mesh) {
     Scene s;
     Node n;
@@ -47,6 +49,8 @@ Scene single_mesh_scene(Mesh mesh) {
     s.roots.push_back(0);
     return s;
 }
+
+namespace {
 
 // A vertex index read as a double: -1 (out of range for add_polygon) when it is not finite or
 // does not fit, so the conversion is never undefined.

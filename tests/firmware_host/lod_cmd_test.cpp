@@ -20,6 +20,7 @@
 
 #include "firmware_host/command_run.hpp"
 #include "hmdnode/core/gltf.hpp"
+#include "hmdnode/core/obj.hpp"
 
 namespace fs = std::filesystem;
 
@@ -431,6 +432,56 @@ TEST(LodCommand, ProgressiveRefinesToTheChainLevels) {
 
 TEST(LodCommand, ProgressiveRefinesToAnyCountForAGreedyAlgorithm) {
     check_progressive("melax");
+}
+
+// The OBJ that `pm refine` writes carries the same texture coordinates as its .glb: OBJ's v runs
+// up the image, glTF's down, and hmdnode's own OBJ reader turns it back.
+TEST(LodCommand, ProgressiveObjKeepsTheTextureCoordinates) {
+    const fs::path d = temp_dir("progressive_uv");
+    std::ostringstream o;
+    const int n = 6;  // a flat n x n grid with u = x / n, v = y / n
+    for (int y = 0; y <= n; ++y)
+        for (int x = 0; x <= n; ++x) o << "v " << x << ' ' << y << " 0\n";
+    for (int y = 0; y <= n; ++y)
+        for (int x = 0; x <= n; ++x) o << "vt " << double(x) / n << ' ' << double(y) / n << '\n';
+    auto id = [](int x, int y) { return y * (n + 1) + x + 1; };
+    for (int y = 0; y < n; ++y) {
+        for (int x = 0; x < n; ++x) {
+            const int a = id(x, y), b = id(x + 1, y), c = id(x + 1, y + 1), e = id(x, y + 1);
+            o << "f " << a << '/' << a << ' ' << b << '/' << b << ' ' << c << '/' << c << '\n';
+            o << "f " << a << '/' << a << ' ' << c << '/' << c << ' ' << e << '/' << e << '\n';
+        }
+    }
+    write(d / "grid.obj", o.str());
+    CommandRun r = run(lod(d / "grid.obj", d / "out.glb",
+                           "--triangles 20 --progressive " + (d / "grid.hmpm").string()));
+    ASSERT_EQ(r.code, 0) << r.output;
+    ASSERT_EQ(run(pm_refine(d / "grid.hmpm", 40, d / "r.glb")).code, 0);
+    ASSERT_EQ(run(pm_refine(d / "grid.hmpm", 40, d / "r.obj")).code, 0);
+    hmdnode::Result<hmdnode::Scene> glb = hmdnode::load_gltf(d / "r.glb");
+    hmdnode::Result<hmdnode::Mesh> obj = hmdnode::load_obj(d / "r.obj");
+    ASSERT_TRUE(glb.ok()) << glb.error().message;
+    ASSERT_TRUE(obj.ok()) << obj.error().message;
+    // position -> uv0 of every corner, from each file
+    auto uvs = [](const hmdnode::Primitive& p) {
+        std::map<std::array<float, 3>, std::array<float, 2>> m;
+        for (size_t i = 0; i < p.positions.size(); ++i) {
+            const glm::vec3 v = p.positions[i];
+            m[{v.x, v.y, v.z}] = {p.uv0[i].x, p.uv0[i].y};
+        }
+        return m;
+    };
+    const auto from_glb = uvs(glb->meshes.at(0).primitives.at(0));
+    const auto from_obj = uvs(obj->primitives.at(0));
+    ASSERT_EQ(from_glb.size(), from_obj.size());
+    for (const auto& [pos, uv] : from_glb) {
+        ASSERT_TRUE(from_obj.count(pos)) << pos[0] << ' ' << pos[1];
+        EXPECT_NEAR(from_obj.at(pos)[0], uv[0], 1e-6f);
+        EXPECT_NEAR(from_obj.at(pos)[1], uv[1], 1e-6f);
+        // and both are the input's: u = x / n, v (glTF, down the image) = 1 - y / n
+        EXPECT_NEAR(uv[0], pos[0] / n, 1e-6f);
+        EXPECT_NEAR(uv[1], 1.0f - pos[1] / n, 1e-6f);
+    }
 }
 
 TEST(LodCommand, ProgressiveRejectsBadFilesWithoutWriting) {

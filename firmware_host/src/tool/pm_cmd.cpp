@@ -16,6 +16,7 @@
 
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/gltf.hpp"
+#include "hmdnode/lod/mesh_file.hpp"
 #include "hmdnode/lod/progressive_mesh.hpp"
 #include "tool/commands.hpp"
 
@@ -63,7 +64,8 @@ std::string obj_text(const Primitive& p, const std::string& source) {
     o << "# hmdnode pm refine of " << source << ": " << p.triangle_count() << " triangles\n";
     for (const glm::vec3& v : p.positions) o << "v " << v.x << ' ' << v.y << ' ' << v.z << '\n';
     const bool uv = !p.uv0.empty(), nrm = !p.normals.empty();
-    for (const glm::vec2& t : p.uv0) o << "vt " << t.x << ' ' << t.y << '\n';
+    // note: glTF's v runs down the image, OBJ's up (load_obj flips it back).
+    for (const glm::vec2& t : p.uv0) o << "vt " << t.x << ' ' << 1.0f - t.y << '\n';
     for (const glm::vec3& n : p.normals) o << "vn " << n.x << ' ' << n.y << ' ' << n.z << '\n';
     for (size_t i = 0; i + 2 < p.indices.size(); i += 3) {
         o << 'f';
@@ -95,17 +97,10 @@ void run_refine(const PmArgs& args) {
     if (ext == ".obj") {
         written = write_file_atomically(args.out, obj_text(prim, args.in));
     } else {
-        Scene scene;
         Mesh mesh;
         mesh.name = name;
         mesh.primitives.push_back(prim);
-        scene.meshes.push_back(std::move(mesh));
-        Node node;
-        node.name = name;
-        node.mesh = 0;
-        scene.nodes.push_back(std::move(node));
-        scene.roots.push_back(0);
-        written = save_glb(scene, args.out);
+        written = save_glb(single_mesh_scene(std::move(mesh)), args.out);
     }
     if (!written.ok()) return fail(written.error().message + "; nothing written");
     if (args.triangles < pm->base_triangles())

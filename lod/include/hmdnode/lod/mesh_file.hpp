@@ -26,4 +26,7 @@ namespace hmdnode {
 // out of range, unknown format or type); positions are not checked here (mesh_repair.hpp does).
 Result<Scene> load_mesh_file(const std::filesystem::path& path);
 
+// A scene of one mesh on one root node named after it.
+Scene single_mesh_scene(Mesh mesh);
+
 }  // namespace hmdnode
