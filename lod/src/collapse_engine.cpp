@@ -76,12 +76,15 @@
 // arrays live on the per-thread scratch cache (scratch.hpp), so the next call reuses their pages.
 #include "collapse_engine.hpp"
 #include "position_set.hpp"
+#include "two_way.hpp"
 
 #include <algorithm>
 #include <array>
 #include <cassert>
 #include <cmath>
 #include <cstring>
+#include <optional>
+#include <thread>
 
 namespace hmdnode::lod_detail {
 namespace {
@@ -145,6 +148,11 @@ PmWedge lerp_wedge(const PmWedge& from, const PmWedge& to, float t, bool has_nor
     return w;
 }
 
+// The pass schedule starts a helper thread from this many input faces on, and splits a pass in two
+// regions while at least kSplitGoal collapses are left to the next target.
+constexpr size_t kHelperFaces = 16384;
+constexpr size_t kSplitGoal = 2048;
+
 class Engine {
   public:
     Engine(const SimplifyOptions& options, CollapseCost& cost, ProgressiveMesh* log)
@@ -153,15 +161,70 @@ class Engine {
     Result<std::vector<SimplifiedLevel>> run(const Primitive& in, std::span<const size_t> targets);
 
   private:
+    struct EdgeGroup {
+        uint32_t q, count;
+        uint32_t face[2], wp[2], wq[2];
+    };
+    // A CollapseCandidate packed into 40 bytes (the pass loop reads them in cost order).
+    struct Candidate {
+        float cost;
+        uint32_t from, to;
+        glm::vec3 position;
+        float error;
+        bool moves;
+
+        Candidate() = default;
+        explicit Candidate(const CollapseCandidate& c)
+            : cost(float(c.cost)),
+              from(c.from),
+              to(c.to),
+              position(c.position),
+              error(float(c.error)),
+              moves(c.moves) {}
+        CollapseCandidate unpack() const {
+            return {double(cost), from, to, moves, glm::dvec3(position), double(error)};
+        }
+    };
+    // Attribute interpolations of a pass, applied by flush_attributes(): wedge `to` moves towards
+    // wedge `from` by t.
+    struct PendingLerp {
+        uint32_t from, to;
+        float t;
+    };
+    // What one half of a two-way split works with (the pass schedule evaluates candidates, and far
+    // from a target collapses two regions, on two threads); the rest of the engine uses
+    // workers_[0]. note: aligned apart, so that one thread's writes do not evict the lines the
+    // other reads.
+    struct alignas(128) Worker {
+        Scratch<uint32_t> mark, slot;  // per position: stamps and slots of the walks below
+        uint32_t stamp = 0;
+        // gather_edges(): the edges of a position and the wedges at it.
+        Scratch<EdgeGroup> groups;
+        uint32_t first_wedge_at_p = kNone, other_wedge_at_p = kNone;
+        bool more_wedges_at_p = false;
+        Scratch<uint32_t> shared_faces;  // of the collapse being checked
+        Scratch<PendingLerp> lerps;
+        std::vector<VertexSplit> records;  // worker 1's collapses in a split, with a log
+        Scratch<Candidate> candidates;     // the second half's new candidates
+        // A region's share of a pass: its candidates in cost order, the positions its collapses
+        // kept, the faces they removed.
+        Scratch<uint64_t> order;
+        Scratch<uint32_t> touched;
+        size_t collapses = 0, removed_faces = 0;
+        double max_error = 0.0;
+        bool error_unknown = false;  // some applied collapse had no error estimate
+    };
+
     void build(const Primitive& in);
     void classify();
     EdgeMoves edge_moves(uint32_t a, uint32_t b) const;
     EdgeMoves moves_for(uint32_t a, uint32_t b, int shared, const uint32_t wa[2],
                         const uint32_t wb[2]) const;
     void collect_candidates();
-    void add_candidates(uint32_t p, uint32_t refresh);
+    void add_candidates(Worker& w, uint32_t p, uint32_t refresh, Scratch<Candidate>& out);
+    void drop_touched_candidates();
     void refresh_candidates();
-    void gather_edges(uint32_t p);
+    void gather_edges(Worker& w, uint32_t p);
     void rebuild_adjacency();
     // The walks of p: its flat list, then its faces (no effect on the result).
     void prefetch_list(uint32_t p) const { __builtin_prefetch(adj_.data() + adj_first_[p]); }
@@ -212,12 +275,20 @@ class Engine {
                     size_t& ti);
     void run_batched(std::span<const size_t> targets, std::vector<SimplifiedLevel>& levels,
                      size_t& ti);
+    size_t split_pass(uint32_t pass, double limit, size_t target);
+    size_t boundary_pass(uint32_t pass, std::span<const size_t> targets,
+                         std::vector<SimplifiedLevel>& levels, size_t& ti);
+    void prefetch_ahead(const uint64_t* order, size_t i, size_t n) const;
+    const Candidate& candidate_at(size_t rank) const {
+        return candidates_[uint32_t(order_[rank]) & kCandidateIndex];
+    }
     void after_collapse(std::span<const size_t> targets, std::vector<SimplifiedLevel>& levels,
                         size_t& ti);
     void push_edge(uint32_t a, uint32_t b);
     void push_all_edges();
     bool try_collapse(const CollapseCandidate& c);
-    bool try_collapse_in_pass(const CollapseCandidate& c);
+    // The faces the collapse removed (1 or 2), 0 when refused.
+    size_t try_collapse_in_pass(Worker& w, const CollapseCandidate& c);
     // The wedges of a removed position and the kept position's wedge each becomes (a seam
     // position has two; more than four is refused).
     struct WedgeMap {
@@ -233,8 +304,8 @@ class Engine {
     bool turns_over(const glm::dvec3& from, const glm::dvec3& target, uint32_t p1, uint32_t p2,
                     uint32_t f) const;
     // The link condition, no interior edge between two border positions, enough neighbours left.
-    // The neighbours of a collapse's endpoints u and v, counted through mark_ with three fresh
-    // stamps: their degrees and the neighbours they share, for topology_ok().
+    // The neighbours of a collapse's endpoints u and v, counted through a mark array with three
+    // fresh stamps: their degrees and the neighbours they share, for topology_ok().
     struct LinkCount {
         Scratch<uint32_t>& mark;
         uint32_t s_u, s_common, s_v;
@@ -250,16 +321,24 @@ class Engine {
             }
         }
     };
-    LinkCount link_count() { return {mark_, ++stamp_, ++stamp_, ++stamp_}; }
+    static LinkCount link_count(Worker& w) {
+        const uint32_t s = w.stamp;
+        w.stamp += 3;
+        return {w.mark, s + 1, s + 2, s + 3};
+    }
     bool topology_ok(uint32_t u, uint32_t v, size_t shared, const LinkCount& n) const;
-    VertexSplit* start_record(uint32_t u, uint32_t v);  // nullptr without a log
-    void move_kept(uint32_t u, uint32_t v, const glm::dvec3& target, const WedgeMap& map,
+    // nullptr without a log
+    // Worker 0 records into records_, worker 1 into its own list (appended after a split's
+    // regions).
+    VertexSplit* start_record(Worker& w, uint32_t u, uint32_t v,
+                              const Scratch<uint32_t>& shared_faces);
+    void move_kept(Worker& w, uint32_t u, uint32_t v, const glm::dvec3& target, const WedgeMap& map,
                    VertexSplit* rec);
-    void finish_collapse(const CollapseCandidate& c);
+    void finish_collapse(Worker& w, const CollapseCandidate& c);
     // Rewrites the corners of the live faces through the remaps of the pass, after
     // flush_attributes() (the attribute interpolations of the pass).
     void flush_pass();
-    void flush_attributes();
+    void flush_attributes(Worker& w);
     // Face f's corners through the remaps of the pass.
     void remap_corners(uint32_t f) {
         for (uint32_t c = 3 * f; c < 3 * f + 3; ++c) {
@@ -281,29 +360,10 @@ class Engine {
     bool has_normals_ = false, has_uv0_ = false, has_uv1_ = false, has_colors_ = false;
     int material_ = -1;
     Scratch<uint32_t> version_;
-    Scratch<uint32_t> mark_;
-    uint32_t stamp_ = 0;
+    std::array<Worker, 2> workers_;
+    // Runs the two halves of a split (on two threads where the pass schedule has a helper).
+    std::optional<TwoWay> two_way_;
     Scratch<HeapEntry> heap_;
-    // A CollapseCandidate packed into 40 bytes (the pass loop reads them in cost order).
-    struct Candidate {
-        float cost;
-        uint32_t from, to;
-        glm::vec3 position;
-        float error;
-        bool moves;
-
-        Candidate() = default;
-        explicit Candidate(const CollapseCandidate& c)
-            : cost(float(c.cost)),
-              from(c.from),
-              to(c.to),
-              position(c.position),
-              error(float(c.error)),
-              moves(c.moves) {}
-        CollapseCandidate unpack() const {
-            return {double(cost), from, to, moves, glm::dvec3(position), double(error)};
-        }
-    };
     Scratch<Candidate> candidates_;
     // Per position: the last pass in which a collapse touched it (the candidates of its edges are
     // then evaluated again before the next pass).
@@ -312,25 +372,23 @@ class Engine {
     Scratch<uint32_t> touched_list_, refresh_mark_;
     uint32_t refresh_stamp_ = 0;
     Scratch<uint32_t> keys_;
-    Scratch<uint64_t> order_, order_tmp_;  // (cost key << 32 | candidate), in cost order
-    struct EdgeGroup {
-        uint32_t q, count;
-        uint32_t face[2], wp[2], wq[2];
-    };
-    Scratch<EdgeGroup> groups_;
+    // (cost key << 32 | region class << 30 | candidate), in cost order
+    Scratch<uint64_t> order_, order_tmp_;
+    static constexpr uint32_t kCandidateIndex = (uint32_t(1) << 30) - 1;
+    // The split of a pass (split_pass()): positions from region_start_ on are region 1 (none
+    // without a cut), and per pass the class of each: 1 or 2 when all its faces lie in region 0
+    // or 1, 3 otherwise.
+    uint32_t region_start_ = 0;
+    Scratch<uint8_t> region_class_;
+    Scratch<uint64_t> boundary_;  // the candidates across the cut, in cost order
     // Every edge (p < q) as classify() gathered it, for the first candidates; freed after.
     // Per position (pass schedule): 1 when its faces form one consistently wound fan, each
     // neighbour once as `next` and once as `prev` of its entries (so its edges are the `next`s);
     // a collapse keeps it only where both endpoints had it.
     Scratch<uint8_t> simple_fan_;
     bool classify_simple_fan(uint32_t p);
-    Scratch<uint32_t> slot_;
-    uint32_t first_wedge_at_p_ = kNone, other_wedge_at_p_ = kNone;  // gather_edges: wedges at p
-    bool more_wedges_at_p_ = false;
     size_t collapses_ = 0, initial_faces_ = 0;
     size_t live_faces_ = 0;
-    double max_error_ = 0.0;
-    bool error_unknown_ = false;  // some applied collapse had no error estimate
     std::vector<VertexSplit> records_;
     // scratch, reused by every collapse
     Scratch<uint32_t> ring_;
@@ -348,15 +406,7 @@ class Engine {
     Scratch<uint32_t> adj_first_;
     Scratch<AdjEntry> adj_;
     Scratch<uint32_t> remap_, wedge_remap_, live_list_;
-    // Attribute interpolations of the pass, applied by flush_attributes(): wedge `to` moves
-    // towards wedge `from` by t.
-    struct PendingLerp {
-        uint32_t from, to;
-        float t;
-    };
-    Scratch<PendingLerp> lerps_;
     bool pending_remap_ = false;
-    Scratch<uint32_t> shared_faces_;
 };
 
 void Engine::build(const Primitive& in) {
@@ -387,13 +437,48 @@ void Engine::build(const Primitive& in) {
     for (uint32_t w = 0; w < wedge_count; ++w) {
         std::memcpy(&prec[size_t(w) * 3], &rec[size_t(wedge_source[w]) * stride], 12);
     }
-    Scratch<uint32_t> position_source;
+    Scratch<uint32_t> position_source, wedge_position;
     const uint32_t position_count =
-        weld_records(prec, 3, wedge_count, m_.wedge_position, position_source);
-
-    m_.positions.resize(position_count);
+        weld_records(prec, 3, wedge_count, wedge_position, position_source);
+    Scratch<glm::vec3> welded(position_count);
     for (uint32_t p = 0; p < position_count; ++p) {
-        m_.positions[p] = in.positions[wedge_source[position_source[p]]];
+        welded[p] = in.positions[wedge_source[position_source[p]]];
+    }
+
+    // The pass schedule cuts the positions in two regions (split_pass()) at the median of the
+    // bounding box's longest axis and numbers each region's positions together (a stable
+    // partition of the weld's order), so that the two threads of a split pass write to different
+    // cache lines. Wedges and faces keep the input's order, and with them the output.
+    Scratch<uint32_t> new_position(position_count);
+    {
+        Scratch<uint8_t> region(position_count, 0);
+        if (!cost_.depends_on_ring() && position_count > 1) {
+            glm::vec3 lo = welded[0], hi = welded[0];
+            for (const glm::vec3& x : welded) lo = glm::min(lo, x), hi = glm::max(hi, x);
+            const glm::vec3 e = hi - lo;
+            const int axis = e.x >= e.y && e.x >= e.z ? 0 : e.y >= e.z ? 1 : 2;
+            Scratch<float> coordinate(position_count);
+            for (uint32_t p = 0; p < position_count; ++p) coordinate[p] = welded[p][axis];
+            std::nth_element(coordinate.begin(), coordinate.begin() + position_count / 2,
+                             coordinate.end());
+            const float median = coordinate[position_count / 2];
+            for (uint32_t p = 0; p < position_count; ++p) region[p] = welded[p][axis] >= median;
+        }
+        auto partition = [](size_t count, auto&& region_of, Scratch<uint32_t>& out) {
+            size_t first = 0;
+            for (size_t i = 0; i < count; ++i) first += region_of(i) == 0;
+            size_t next[2] = {0, first};
+            for (size_t i = 0; i < count; ++i) out[i] = uint32_t(next[region_of(i)]++);
+            return first;
+        };
+        region_start_ = uint32_t(partition(
+            position_count, [&](size_t p) { return region[p]; }, new_position));
+    }
+    m_.positions.resize(position_count);
+    for (uint32_t p = 0; p < position_count; ++p) m_.positions[new_position[p]] = welded[p];
+    m_.wedge_position.resize(wedge_count);
+    for (uint32_t w = 0; w < wedge_count; ++w) {
+        m_.wedge_position[w] = new_position[wedge_position[w]];
     }
     // note: without attributes or a log a wedge is only its position; wedges_ stays empty.
     if (has_normals_ || has_uv0_ || has_uv1_ || has_colors_ || log_) wedges_.resize(wedge_count);
@@ -467,72 +552,73 @@ void Engine::build(const Primitive& in) {
     }
     m_.lock_borders = options_.lock_borders;
     version_.assign(position_count, 0);
-    mark_.assign(position_count, 0);
-    slot_.assign(position_count, 0);
+    for (Worker& w : workers_) {
+        w.mark.assign(position_count, 0);
+        w.slot.assign(position_count, 0);
+    }
 }
 
-// The edges of position p, grouped by the other endpoint in O(valence): groups_[i] = one edge
+// The edges of position p, grouped by the other endpoint in O(valence): w.groups[i] = one edge
 // with its face count and the wedges of its first two faces. Prunes dead corners from p's list.
-[[gnu::flatten]] void Engine::gather_edges(uint32_t p) {
-    groups_.clear();
-    first_wedge_at_p_ = other_wedge_at_p_ = kNone;
-    more_wedges_at_p_ = false;
-    const uint32_t s = ++stamp_;
+[[gnu::flatten]] void Engine::gather_edges(Worker& w, uint32_t p) {
+    w.groups.clear();
+    w.first_wedge_at_p = w.other_wedge_at_p = kNone;
+    w.more_wedges_at_p = false;
+    const uint32_t s = ++w.stamp;
     walk_pruning(p, [&](uint32_t f, int k) {
         const uint32_t c = 3 * f + uint32_t(k);
         const uint32_t wp = m_.corners[c];
-        if (first_wedge_at_p_ == kNone) {
-            first_wedge_at_p_ = wp;
-        } else if (wp != first_wedge_at_p_) {
-            if (other_wedge_at_p_ == kNone) {
-                other_wedge_at_p_ = wp;
-            } else if (wp != other_wedge_at_p_) {
-                more_wedges_at_p_ = true;
+        if (w.first_wedge_at_p == kNone) {
+            w.first_wedge_at_p = wp;
+        } else if (wp != w.first_wedge_at_p) {
+            if (w.other_wedge_at_p == kNone) {
+                w.other_wedge_at_p = wp;
+            } else if (wp != w.other_wedge_at_p) {
+                w.more_wedges_at_p = true;
             }
         }
         for (int j = 1; j < 3; ++j) {
             const int kq = k + j < 3 ? k + j : k + j - 3;
             const uint32_t wq = m_.corners[3 * f + kq];
             const uint32_t q = m_.corner_position[3 * f + kq];
-            if (mark_[q] != s) {
-                mark_[q] = s;
-                slot_[q] = uint32_t(groups_.size());
-                groups_.push_back({q, 0, {f, f}, {wp, wp}, {wq, wq}});
+            if (w.mark[q] != s) {
+                w.mark[q] = s;
+                w.slot[q] = uint32_t(w.groups.size());
+                w.groups.push_back({q, 0, {f, f}, {wp, wp}, {wq, wq}});
             }
-            EdgeGroup& g = groups_[slot_[q]];
+            EdgeGroup& g = w.groups[w.slot[q]];
             if (g.count < 2) g.face[g.count] = f, g.wp[g.count] = wp, g.wq[g.count] = wq;
             ++g.count;
         }
     });
 }
 
-void Engine::flush_attributes() {
-    const size_t n = lerps_.size();
+void Engine::flush_attributes(Worker& w) {
+    const size_t n = w.lerps.size();
     for (size_t i = 0; i < n; ++i) {
         if (i + 8 < n) {
-            __builtin_prefetch(&wedges_[lerps_[i + 8].from]);
-            __builtin_prefetch(&wedges_[lerps_[i + 8].to]);
+            __builtin_prefetch(&wedges_[w.lerps[i + 8].from]);
+            __builtin_prefetch(&wedges_[w.lerps[i + 8].to]);
         }
-        const PendingLerp& l = lerps_[i];
+        const PendingLerp& l = w.lerps[i];
         wedges_[l.to] = lerp_wedge(wedges_[l.from], wedges_[l.to], l.t, has_normals_);
     }
-    lerps_.clear();
+    w.lerps.clear();
 }
 
 void Engine::flush_pass() {
     if (!pending_remap_) return;
     pending_remap_ = false;
-    flush_attributes();
+    for (Worker& w : workers_) flush_attributes(w);
     for (uint32_t f : live_list_) {
         if (m_.face_alive[f]) remap_corners(f);
     }
 }
 
 void Engine::rebuild_adjacency() {
-    // note: flush_pass(), the pruning of dead faces and the count of the entries in one walk (the
-    // rewrite is the identity where nothing is pending).
+    // note: flush_pass() less flush_attributes() (the caller's), the pruning of dead faces and
+    // the count of the entries in one walk (the rewrite is the identity where nothing is pending).
     pending_remap_ = false;
-    flush_attributes();
     const uint32_t np = uint32_t(m_.positions.size());
     adj_first_.assign(np + 1, 0);
     size_t kept = 0;
@@ -545,12 +631,18 @@ void Engine::rebuild_adjacency() {
     live_list_.resize(kept);
     for (uint32_t p = 0; p < np; ++p) adj_first_[p + 1] += adj_first_[p];
     adj_.resize(adj_first_[np]);
+    const uint32_t cut = region_start_;
+    region_class_.resize(np);
+    for (uint32_t p = 0; p < np; ++p) region_class_[p] = p < cut ? 1 : 2;
     for (uint32_t f : live_list_) {
         const uint32_t p0 = m_.corner_position[3 * f], p1 = m_.corner_position[3 * f + 1],
                        p2 = m_.corner_position[3 * f + 2];
         adj_[adj_first_[p0]++] = {p1, p2, 3 * f};
         adj_[adj_first_[p1]++] = {p2, p0, 3 * f + 1};
         adj_[adj_first_[p2]++] = {p0, p1, 3 * f + 2};
+        if ((p0 < cut) != (p1 < cut) || (p1 < cut) != (p2 < cut)) {
+            region_class_[p0] = region_class_[p1] = region_class_[p2] = 3;
+        }
     }
     for (uint32_t p = np; p > 0; --p) adj_first_[p] = adj_first_[p - 1];
     adj_first_[0] = 0;
@@ -568,12 +660,13 @@ void Engine::classify() {
             simple_fan_[p] = 1;
             continue;
         }
-        gather_edges(p);
+        Worker& w = workers_[0];
+        gather_edges(w, p);
         // Distinct wedges at p: one, two, or more (3).
-        const int wedge_count = other_wedge_at_p_ == kNone ? 1 : more_wedges_at_p_ ? 3 : 2;
+        const int wedge_count = w.other_wedge_at_p == kNone ? 1 : w.more_wedges_at_p ? 3 : 2;
         int border_edges = 0, seam_edges = 0;
         bool non_manifold = false;
-        for (const EdgeGroup& g : groups_) {
+        for (const EdgeGroup& g : w.groups) {
             if (g.count == 1) {
                 ++border_edges;
                 if (p < g.q) m_.constraint_edges.push_back({p, g.q, g.face[0]});
@@ -619,19 +712,20 @@ bool Engine::classify_simple_fan(uint32_t p) {
     const AdjEntry* e = &adj_[first];
     const uint32_t w0 = m_.corners[e[0].corner];
     // note: n distinct `next`s, and every `prev` one of them, once: a bijection.
-    const uint32_t s_next = ++stamp_, s_prev = ++stamp_;
+    Worker& w = workers_[0];
+    const uint32_t s_next = ++w.stamp, s_prev = ++w.stamp;
     for (uint32_t i = 0; i < n; ++i) {
         const uint32_t q = e[i].next;
-        if (mark_[q] == s_next || m_.corners[e[i].corner] != w0) return false;
-        mark_[q] = s_next;
-        slot_[q] = i;
+        if (w.mark[q] == s_next || m_.corners[e[i].corner] != w0) return false;
+        w.mark[q] = s_next;
+        w.slot[q] = i;
     }
     for (uint32_t j = 0; j < n; ++j) {
         const uint32_t q = e[j].prev;
-        if (mark_[q] != s_next) return false;  // not a next, or a prev twice
-        mark_[q] = s_prev;
+        if (w.mark[q] != s_next) return false;  // not a next, or a prev twice
+        w.mark[q] = s_prev;
         // The wedge at q in its two faces (as next of face i, as prev of face j): no seam.
-        const uint32_t ci = e[slot_[q]].corner, fi = ci / 3, ki = ci - 3 * fi;
+        const uint32_t ci = e[w.slot[q]].corner, fi = ci / 3, ki = ci - 3 * fi;
         const uint32_t cj = e[j].corner, fj = cj / 3, kj = cj - 3 * fj;
         if (m_.corners[3 * fi + (ki == 2 ? 0 : ki + 1)] !=
             m_.corners[3 * fj + (kj == 0 ? 2 : kj - 1)]) {
@@ -701,12 +795,13 @@ void Engine::push_all_edges() {
     const uint32_t np = uint32_t(m_.positions.size());
     for (uint32_t p = 0; p < np; ++p) {
         if (!m_.position_alive[p]) continue;
-        const uint32_t s = ++stamp_;
+        Scratch<uint32_t>& mark = workers_[0].mark;
+        const uint32_t s = ++workers_[0].stamp;
         m_.for_each_face(p, [&](uint32_t f, int k) {
             for (int j = 1; j < 3; ++j) {
                 const uint32_t q = m_.face_position(f, (k + j) % 3);
-                if (q > p && mark_[q] != s) {
-                    mark_[q] = s;
+                if (q > p && mark[q] != s) {
+                    mark[q] = s;
                     push_edge(p, q);
                 }
             }
@@ -761,9 +856,10 @@ bool Engine::topology_ok(uint32_t u, uint32_t v, size_t shared, const LinkCount&
     return border_edge ? n.deg_u + n.deg_v - 3 >= 2 : n.deg_u + n.deg_v - 4 >= 3;
 }
 
-VertexSplit* Engine::start_record(uint32_t u, uint32_t v) {
+VertexSplit* Engine::start_record(Worker& w, uint32_t u, uint32_t v,
+                                  const Scratch<uint32_t>& shared_faces) {
     if (!log_) return nullptr;
-    VertexSplit& rec = records_.emplace_back();
+    VertexSplit& rec = (&w == &workers_[0] ? records_ : w.records).emplace_back();
     rec.removed = {u, m_.positions[u]};
     rec.kept = v;
     rec.kept_position = m_.positions[v];
@@ -772,14 +868,14 @@ VertexSplit* Engine::start_record(uint32_t u, uint32_t v) {
     }
     // note: in the pass schedule, corners are rewritten only at the end of the pass.
     auto wedge = [&](uint32_t c) { return csr_ ? wedge_remap_[m_.corners[c]] : m_.corners[c]; };
-    for (uint32_t f : shared_faces_) {
+    for (uint32_t f : shared_faces) {
         rec.faces.push_back({f, {wedge(3 * f), wedge(3 * f + 1), wedge(3 * f + 2)}});
     }
     return &rec;
 }
 
-void Engine::move_kept(uint32_t u, uint32_t v, const glm::dvec3& target, const WedgeMap& map,
-                       VertexSplit* rec) {
+void Engine::move_kept(Worker& w, uint32_t u, uint32_t v, const glm::dvec3& target,
+                       const WedgeMap& map, VertexSplit* rec) {
     const glm::dvec3 pu = m_.positions[u], pv = m_.positions[v];
     const glm::dvec3 e = pv - pu;
     const double ee = glm::dot(e, e);
@@ -792,7 +888,7 @@ void Engine::move_kept(uint32_t u, uint32_t v, const glm::dvec3& target, const W
             // note: in the pass schedule nothing reads a wedge before flush_attributes(), and a
             // pass touches a wedge at most once, so the interpolations wait for it, where their
             // scattered reads overlap.
-            if (attributes) lerps_.push_back({map.from[i], map.to[i], t});
+            if (attributes) w.lerps.push_back({map.from[i], map.to[i], t});
             continue;
         }
         PmWedge& wv = wedges_[map.to[i]];
@@ -802,10 +898,10 @@ void Engine::move_kept(uint32_t u, uint32_t v, const glm::dvec3& target, const W
     m_.positions[v] = glm::vec3(target);
 }
 
-void Engine::finish_collapse(const CollapseCandidate& c) {
+void Engine::finish_collapse(Worker& w, const CollapseCandidate& c) {
     const double error = cost_.error_of(m_, c);
-    if (error < 0.0) error_unknown_ = true;
-    max_error_ = std::max(max_error_, error);
+    if (error < 0.0) w.error_unknown = true;
+    w.max_error = std::max(w.max_error, error);
     cost_.collapsed(m_, c);
     ++version_[c.to];
 }
@@ -813,8 +909,10 @@ void Engine::finish_collapse(const CollapseCandidate& c) {
 [[gnu::flatten]] bool Engine::try_collapse(const CollapseCandidate& c) {
     const uint32_t u = c.from, v = c.to;
     if (!m_.position_alive[u] || !m_.position_alive[v] || u == v) return false;
-    LinkCount link = link_count();
-    shared_faces_.clear();
+    Worker& w = workers_[0];
+    Scratch<uint32_t>& shared_faces = w.shared_faces;
+    LinkCount link = link_count(w);
+    shared_faces.clear();
     WedgeMap map;
     walk_pruning(u, [&](uint32_t f, int k) {
         const int slot = map.slot(m_.corners[3 * f + k]);
@@ -823,14 +921,14 @@ void Engine::finish_collapse(const CollapseCandidate& c) {
             const int kx = (k + j) % 3;
             const uint32_t x = m_.face_position(f, kx);
             if (x == v) {
-                shared_faces_.push_back(f);
+                shared_faces.push_back(f);
                 map.map(slot, m_.corners[3 * f + kx]);
             }
             link.of_u(x);
         }
     });
     if (map.bad) return false;
-    const size_t shared = shared_faces_.size();
+    const size_t shared = shared_faces.size();
     if (shared == 0 || shared > 2 || !map.complete()) return false;
     walk_pruning(v, [&](uint32_t f, int k) {
         for (int j = 1; j < 3; ++j) link.of_v(m_.face_position(f, (k + j) % 3));
@@ -855,12 +953,12 @@ void Engine::finish_collapse(const CollapseCandidate& c) {
     if (flips) return false;
 
     // Apply.
-    VertexSplit* rec = start_record(u, v);
-    if (c.moves) move_kept(u, v, target, map, rec);
+    VertexSplit* rec = start_record(w, u, v, shared_faces);
+    if (c.moves) move_kept(w, u, v, target, map, rec);
     auto apply_corner = [&](uint32_t cr) {
         const uint32_t f = cr / 3;
         if (!m_.face_alive[f]) return;
-        if (std::find(shared_faces_.begin(), shared_faces_.end(), f) != shared_faces_.end()) {
+        if (std::find(shared_faces.begin(), shared_faces.end(), f) != shared_faces.end()) {
             m_.face_alive[f] = 0;
             --live_faces_;
             return;
@@ -890,19 +988,21 @@ void Engine::finish_collapse(const CollapseCandidate& c) {
         m_.for_each_face(
             v, [&](uint32_t f, int) { m_.face_unit_normals[f] = m_.face_unit_normal(f); });
     }
-    finish_collapse(c);
+    finish_collapse(w, c);
     return true;
 }
 
 // try_collapse() for the pass schedule: the same checks on the flat lists (entries mapped through
 // remap_), in one walk of each endpoint; u and v were not touched earlier in the pass, so their
 // lists are current and every face in them is live unless its other two positions now coincide.
-// Applying only records the remaps; flush_pass() rewrites the corners.
-[[gnu::flatten]] bool Engine::try_collapse_in_pass(const CollapseCandidate& c) {
+// Applying only records the remaps; flush_pass() rewrites the corners. The caller counts the faces
+// removed and marks the remaps pending.
+[[gnu::flatten]] size_t Engine::try_collapse_in_pass(Worker& w, const CollapseCandidate& c) {
     const uint32_t u = c.from, v = c.to;
-    if (!m_.position_alive[u] || !m_.position_alive[v] || u == v) return false;
-    LinkCount link = link_count();
-    shared_faces_.clear();
+    if (!m_.position_alive[u] || !m_.position_alive[v] || u == v) return 0;
+    Scratch<uint32_t>& shared_faces = w.shared_faces;
+    LinkCount link = link_count(w);
+    shared_faces.clear();
     WedgeMap map;
     bool flips = false;
     const glm::dvec3 target = c.moves ? c.position : glm::dvec3(m_.positions[v]);
@@ -922,7 +1022,7 @@ void Engine::finish_collapse(const CollapseCandidate& c) {
         const int slot = map.slot(wu);
         if (slot < 0) break;
         if (a == v || b == v) {
-            shared_faces_.push_back(f);
+            shared_faces.push_back(f);
             const uint32_t kv = a == v ? (k == 2 ? 0 : k + 1) : (k == 0 ? 2 : k - 1);
             map.map(slot, sole_v != kNone ? sole_v : m_.corners[3 * f + kv]);
         } else if (!flips) {
@@ -931,9 +1031,9 @@ void Engine::finish_collapse(const CollapseCandidate& c) {
         link.of_u(a);
         link.of_u(b);
     }
-    if (map.bad || flips) return false;
-    const size_t shared = shared_faces_.size();
-    if (shared == 0 || shared > 2 || !map.complete()) return false;
+    if (map.bad || flips) return 0;
+    const size_t shared = shared_faces.size();
+    if (shared == 0 || shared > 2 || !map.complete()) return 0;
     const glm::dvec3 pv = m_.positions[v];
     for (uint32_t i = adj_first_[v], end = adj_first_[v + 1]; i < end; ++i) {
         const AdjEntry& e = adj_[i];
@@ -945,38 +1045,36 @@ void Engine::finish_collapse(const CollapseCandidate& c) {
             flips = turns_over(pv, target, a, b, e.corner / 3);
         }
     }
-    if (!topology_ok(u, v, shared, link) || flips) return false;
+    if (!topology_ok(u, v, shared, link) || flips) return 0;
 
     // Apply.
-    if (VertexSplit* rec = start_record(u, v)) {
+    VertexSplit* rec = start_record(w, u, v, shared_faces);
+    if (rec) {
         for (uint32_t i = adj_first_[u], end = adj_first_[u + 1]; i < end; ++i) {
             const uint32_t f = adj_[i].corner / 3;
             if (!m_.face_alive[f]) continue;
-            if (std::find(shared_faces_.begin(), shared_faces_.end(), f) != shared_faces_.end()) {
+            if (std::find(shared_faces.begin(), shared_faces.end(), f) != shared_faces.end()) {
                 continue;
             }
             rec->corners.push_back({adj_[i].corner, m_.corners[adj_[i].corner]});
         }
     }
-    if (c.moves) move_kept(u, v, target, map, log_ ? &records_.back() : nullptr);
-    for (uint32_t f : shared_faces_) {
-        m_.face_alive[f] = 0;
-        --live_faces_;
-    }
+    if (c.moves) move_kept(w, u, v, target, map, rec);
+    for (uint32_t f : shared_faces) m_.face_alive[f] = 0;
     for (int i = 0; i < map.count; ++i) wedge_remap_[map.from[i]] = map.to[i];
     remap_[u] = v;
     simple_fan_[v] &= simple_fan_[u];
-    pending_remap_ = true;
     m_.position_alive[u] = 0;
-    finish_collapse(c);
-    return true;
+    finish_collapse(w, c);
+    return shared;
 }
 
 void Engine::reevaluate_around(uint32_t v) {
     // Ring of v, pruning dead corners from its list on the way.
     ring_.clear();
-    const uint32_t s = ++stamp_;
-    mark_[v] = s;
+    Scratch<uint32_t>& mark = workers_[0].mark;
+    const uint32_t s = ++workers_[0].stamp;
+    mark[v] = s;
     uint32_t prev = kNone;
     for (uint32_t c = m_.corner_head[v]; c != kNone;) {
         const uint32_t next = m_.corner_next[c];
@@ -993,8 +1091,8 @@ void Engine::reevaluate_around(uint32_t v) {
         const int k = int(c % 3);
         for (int j = 1; j < 3; ++j) {
             const uint32_t x = m_.face_position(f, (k + j) % 3);
-            if (mark_[x] != s) {
-                mark_[x] = s;
+            if (mark[x] != s) {
+                mark[x] = s;
                 ring_.push_back(x);
             }
         }
@@ -1015,7 +1113,7 @@ void Engine::reevaluate_around(uint32_t v) {
             for (int j = 1; j < 3; ++j) {
                 const uint32_t y = m_.face_position(f, (k + j) % 3);
                 if (y == v) continue;
-                if (mark_[y] == s && y < x) continue;
+                if (mark[y] == s && y < x) continue;
                 bool seen = false;
                 for (size_t r = ring_size; r < ring_.size(); ++r) seen |= ring_[r] == y;
                 if (seen) continue;
@@ -1078,19 +1176,37 @@ void Engine::run_greedy(std::span<const size_t> targets, std::vector<SimplifiedL
     }
 }
 
-// One candidate per live edge: the edges of every position, each from its lower endpoint.
+// One candidate per live edge: the edges of every position, each from its lower endpoint. The
+// positions split in two halves by id; the second half's candidates follow the first's, as they
+// would in one loop.
 void Engine::collect_candidates() {
     candidates_.clear();
     const uint32_t np = uint32_t(m_.positions.size());
-    for (uint32_t p = 0; p < np; ++p) {
-        if (p + 2 < np) prefetch_neighbours(p + 2);
-        if (m_.position_alive[p]) add_candidates(p, kNone);
-    }
+    auto half = [&](int h) {
+        Worker& w = workers_[h];
+        // note: appended through a vector on this thread's stack: the other thread reads lines
+        // of this object, and writing the vector's end here would keep evicting them.
+        Scratch<Candidate> out;
+        out.swap(h == 0 ? candidates_ : w.candidates);
+        const uint32_t begin = h == 0 ? 0 : np / 2, end = h == 0 ? np / 2 : np;
+        for (uint32_t p = begin; p < end; ++p) {
+            if (p + 2 < end) prefetch_neighbours(p + 2);
+            if (m_.position_alive[p]) add_candidates(w, p, kNone, out);
+        }
+        out.swap(h == 0 ? candidates_ : w.candidates);
+    };
+    // note: reserved here, from this thread's scratch cache (pages mapped by earlier runs); an
+    // upper bound: one candidate per half-edge.
+    workers_[1].candidates.clear();
+    workers_[1].candidates.reserve(adj_first_[np] - adj_first_[np / 2] + 16);
+    two_way_->run(half);
+    candidates_.insert(candidates_.end(), workers_[1].candidates.begin(),
+                       workers_[1].candidates.end());
 }
 
-// Candidates of the edges of p; an edge whose other end q is also being refreshed (mark_[q] ==
-// refresh) is left to the lower of the two.
-void Engine::add_candidates(uint32_t p, uint32_t refresh) {
+// Candidates of the edges of p, appended to `out`; an edge whose other end q is also being
+// refreshed (refresh_mark_[q] == refresh) is left to the lower of the two.
+void Engine::add_candidates(Worker& w, uint32_t p, uint32_t refresh, Scratch<Candidate>& out) {
     if (simple_fan_[p] && m_.kinds[p] == VertexKind::Free) {
         // note: a free position's edges are interior and no seam: p may always be removed, q
         // when it is free too (then both may merge).
@@ -1099,29 +1215,24 @@ void Engine::add_candidates(uint32_t p, uint32_t refresh) {
             if (refresh == kNone ? q < p : (refresh_mark_[q] == refresh && q < p)) continue;
             const bool q_free = m_.kinds[q] == VertexKind::Free;
             CollapseCandidate c;
-            if (cost_.evaluate(m_, p, q, {true, q_free, q_free}, c)) {
-                candidates_.emplace_back(c);
-            }
+            if (cost_.evaluate(m_, p, q, {true, q_free, q_free}, c)) out.emplace_back(c);
         }
         return;
     }
-    gather_edges(p);
-    for (const EdgeGroup& g : groups_) {
+    gather_edges(w, p);
+    for (const EdgeGroup& g : w.groups) {
         if (refresh == kNone ? g.q < p : (refresh_mark_[g.q] == refresh && g.q < p)) continue;
         if (m_.kinds[p] == VertexKind::Locked && m_.kinds[g.q] == VertexKind::Locked) continue;
         const EdgeMoves moves = moves_for(p, g.q, int(g.count), g.wp, g.wq);
         if (!moves.a_to_b && !moves.b_to_a) continue;
         CollapseCandidate c;
-        if (cost_.evaluate(m_, p, g.q, moves, c)) {
-            candidates_.emplace_back(c);
-        }
+        if (cost_.evaluate(m_, p, g.q, moves, c)) out.emplace_back(c);
     }
 }
 
-// After a pass: drop the candidates whose endpoints a collapse touched, add fresh ones for the
-// edges of the touched positions. Untouched candidates keep their cost: a QEM-type cost reads
-// only the endpoints' quadrics and positions.
-void Engine::refresh_candidates() {
+// After a pass: drops the candidates whose endpoints a collapse touched. Untouched candidates keep
+// their cost: a QEM-type cost reads only the endpoints' quadrics and positions.
+void Engine::drop_touched_candidates() {
     // note: a touched position (the kept one) is alive; a dead one (removed) was touched in the
     // pass that removed it, or earlier, when its candidates were dropped. Branch-free: kept or not
     // is close to a coin toss.
@@ -1131,16 +1242,32 @@ void Engine::refresh_candidates() {
         kept += (touched_[c.from] != touched_pass_) & (touched_[c.to] != touched_pass_);
     }
     candidates_.resize(kept);
+}
+
+// After drop_touched_candidates(): fresh candidates for the edges of the touched positions (the
+// touched list split in two halves, the second half's candidates after the first's).
+void Engine::refresh_candidates() {
     const uint32_t r = ++refresh_stamp_;
     for (uint32_t v : touched_list_) refresh_mark_[v] = r;
     const size_t nt = touched_list_.size();
-    for (size_t i = 0; i < nt; ++i) {
-        if (i + 8 < nt) __builtin_prefetch(&adj_first_[touched_list_[i + 8]]);
-        if (i + 4 < nt) prefetch_list(touched_list_[i + 4]);
-        if (i + 2 < nt) prefetch_neighbours(touched_list_[i + 2]);
-        const uint32_t v = touched_list_[i];
-        if (m_.position_alive[v]) add_candidates(v, r);
-    }
+    auto half = [&](int h) {
+        Worker& w = workers_[h];
+        Scratch<Candidate> out;  // note: see collect_candidates()
+        out.swap(h == 0 ? candidates_ : w.candidates);
+        const size_t begin = h == 0 ? 0 : nt / 2, end = h == 0 ? nt / 2 : nt;
+        for (size_t i = begin; i < end; ++i) {
+            if (i + 8 < end) __builtin_prefetch(&adj_first_[touched_list_[i + 8]]);
+            if (i + 4 < end) prefetch_list(touched_list_[i + 4]);
+            if (i + 2 < end) prefetch_neighbours(touched_list_[i + 2]);
+            const uint32_t v = touched_list_[i];
+            if (m_.position_alive[v]) add_candidates(w, v, r, out);
+        }
+        out.swap(h == 0 ? candidates_ : w.candidates);
+    };
+    workers_[1].candidates.clear();
+    two_way_->run(half);
+    candidates_.insert(candidates_.end(), workers_[1].candidates.begin(),
+                       workers_[1].candidates.end());
     touched_list_.clear();
 }
 
@@ -1150,6 +1277,13 @@ void Engine::refresh_candidates() {
 // exact), up to the cost of the k-th cheapest times 1.5, k = the collapses still needed for the
 // next target (many candidates get skipped as touched). Order is greedy within a pass; a pass is
 // O(E).
+//
+// Far from a target (at least kSplitGoal collapses to go) a pass splits in two: the positions are
+// cut in two regions at the median of the longest axis, once; a candidate whose endpoints have
+// all their faces inside one region is applied by that region's worker (each in cost order, on
+// two threads where there is a helper: their collapses read and write only positions and faces of
+// their own region), at most a quarter of the faces still to remove each, so that no target is
+// passed; then the candidates across the cut follow, in cost order, on this thread.
 void Engine::run_batched(std::span<const size_t> targets, std::vector<SimplifiedLevel>& levels,
                          size_t& ti) {
     Scratch<uint32_t>& touched = touched_;
@@ -1162,23 +1296,35 @@ void Engine::run_batched(std::span<const size_t> targets, std::vector<Simplified
     collect_candidates();
     while (ti < targets.size()) {
         if (pass > 0) {
-            rebuild_adjacency();
+            // note: the attribute interpolations and the dropping of stale candidates (the helper)
+            // while this thread rebuilds the adjacency: disjoint data.
             touched_pass_ = pass;
+            auto prepare = [&](int h) {
+                if (h == 0) {
+                    rebuild_adjacency();
+                } else {
+                    for (Worker& w : workers_) flush_attributes(w);
+                    drop_touched_candidates();
+                }
+            };
+            two_way_->run(prepare);
             refresh_candidates();
         }
         const size_t n = candidates_.size();
         if (n == 0) break;
+        // note: the region classes ride in the top two bits of the candidate index.
+        const bool classes = n < (size_t(1) << 30);
         // note: two 11-bit passes on the top 22 bits (sign, exponent, 13 mantissa bits): costs
         // within a relative 2^-13 of each other keep their candidate order (stable sort). Both
-        // histograms come from one read of the costs; each pass moves (key << 32 | index) as one
-        // word.
+        // histograms come from one read of the costs; each pass moves (key << 32 | class << 30 |
+        // index) as one word.
         keys_.resize(n), order_.resize(n), order_tmp_.resize(n);
         {
             std::array<uint32_t, 2049> low{}, high{};
             for (size_t i = 0; i < n; ++i) {
-                const float cost = candidates_[i].cost;
+                const Candidate& c = candidates_[i];
                 uint32_t key;
-                std::memcpy(&key, &cost, 4);  // note: costs are >= 0, so bits sort as floats
+                std::memcpy(&key, &c.cost, 4);  // note: costs are >= 0, so bits sort as floats
                 keys_[i] = key;
                 ++low[((key >> 10) & 2047) + 1];
                 ++high[(key >> 21) + 1];
@@ -1186,7 +1332,12 @@ void Engine::run_batched(std::span<const size_t> targets, std::vector<Simplified
             for (int b = 0; b < 2048; ++b) low[b + 1] += low[b], high[b + 1] += high[b];
             for (size_t i = 0; i < n; ++i) {
                 const uint32_t key = keys_[i];
-                order_tmp_[low[(key >> 10) & 2047]++] = uint64_t(key) << 32 | i;
+                uint64_t item = uint64_t(key) << 32 | i;
+                if (classes) {
+                    const Candidate& c = candidates_[i];
+                    item |= uint64_t(region_class_[c.from] | region_class_[c.to]) << 30;
+                }
+                order_tmp_[low[(key >> 10) & 2047]++] = item;
             }
             for (size_t i = 0; i < n; ++i) {
                 const uint64_t item = order_tmp_[i];
@@ -1194,34 +1345,20 @@ void Engine::run_batched(std::span<const size_t> targets, std::vector<Simplified
             }
         }
         const size_t goal = (live_faces_ - targets[ti] + 1) / 2;
-        const double limit = goal < n ? 1.5 * double(candidates_[uint32_t(order_[goal])].cost)
+        const double limit = goal < n ? 1.5 * double(candidate_at(goal).cost)
                                       : std::numeric_limits<double>::infinity();
         ++pass;
         size_t done = 0;
+        if (classes && goal >= kSplitGoal) {
+            done = split_pass(pass, limit, targets[ti]);
+            for (size_t i = 0; i < done; ++i) after_collapse(targets, levels, ti);
+            done += boundary_pass(pass, targets, levels, ti);
+            if (done > 0) continue;
+        }
         double skipped = std::numeric_limits<double>::infinity();
         for (size_t i = 0; i < n && ti < targets.size(); ++i) {
-            // note: the walks below read faces scattered over the corner arrays; fetch the
-            // candidates, then their flat lists, then their faces, a few steps ahead (no effect
-            // on the result).
-            if (i + 16 < n) __builtin_prefetch(&candidates_[uint32_t(order_[i + 16])]);
-            if (i + 8 < n) {
-                const Candidate& a = candidates_[uint32_t(order_[i + 8])];
-                __builtin_prefetch(&adj_first_[a.from]);
-                __builtin_prefetch(&adj_first_[a.to]);
-                __builtin_prefetch(&touched[a.from]);
-                __builtin_prefetch(&touched[a.to]);
-            }
-            if (i + 4 < n) {
-                const Candidate& a = candidates_[uint32_t(order_[i + 4])];
-                prefetch_list(a.from);
-                prefetch_list(a.to);
-            }
-            if (i + 2 < n) {
-                const Candidate& a = candidates_[uint32_t(order_[i + 2])];
-                prefetch_faces(a.from);
-                prefetch_faces(a.to);
-            }
-            const CollapseCandidate c = candidates_[uint32_t(order_[i])].unpack();
+            prefetch_ahead(order_.data(), i, n);
+            const CollapseCandidate c = candidate_at(i).unpack();
             if (c.cost > limit && done > 0) break;
             // note: a skipped candidate's stale cost bounds its new cost from below (quadrics only
             // grow); close to a target (few collapses left), going past 8 times that would run
@@ -1231,9 +1368,10 @@ void Engine::run_batched(std::span<const size_t> targets, std::vector<Simplified
                 skipped = std::min(skipped, c.cost);
                 continue;
             }
-            if (!try_collapse_in_pass(c)) {
-                continue;
-            }
+            const size_t removed = try_collapse_in_pass(workers_[0], c);
+            if (removed == 0) continue;
+            live_faces_ -= removed;
+            pending_remap_ = true;
             touched[c.from] = touched[c.to] = pass;
             touched_list_.push_back(c.to);
             ++done;
@@ -1243,13 +1381,120 @@ void Engine::run_batched(std::span<const size_t> targets, std::vector<Simplified
     }
 }
 
+// The two regions' share of a pass (see run_batched()): the sorted candidates up to `limit` go to
+// their region's worker or, across the cut, to boundary_; returns the collapses applied.
+size_t Engine::split_pass(uint32_t pass, double limit, size_t target) {
+    const size_t n = order_.size();
+    boundary_.clear();
+    for (Worker& w : workers_) {
+        w.order.clear();
+        w.touched.clear();
+        w.collapses = w.removed_faces = 0;
+    }
+    for (size_t i = 0; i < n; ++i) {
+        const uint64_t item = order_[i];
+        float cost;
+        const uint32_t key = uint32_t(item >> 32);
+        std::memcpy(&cost, &key, 4);
+        if (double(cost) > limit) break;
+        const uint32_t cls = uint32_t(item >> 30) & 3;
+        (cls == 1 ? workers_[0].order : cls == 2 ? workers_[1].order : boundary_).push_back(item);
+    }
+    // note: each collapse removes at most two faces; a quarter of the way to the target each
+    // leaves the target ahead.
+    const size_t cap = (live_faces_ - target - 1) / 4;
+    for (Worker& w : workers_) {
+        // note: reserved on this thread, from its scratch cache (pages mapped by earlier runs).
+        w.touched.reserve(std::min(w.order.size(), cap));
+        w.lerps.reserve(w.lerps.size() + 2 * std::min(w.order.size(), cap));
+    }
+    auto region = [&](int h) {
+        Worker& w = workers_[h];
+        const size_t count = w.order.size();
+        for (size_t i = 0; i < count && w.collapses < cap; ++i) {
+            prefetch_ahead(w.order.data(), i, count);
+            const CollapseCandidate c =
+                candidates_[uint32_t(w.order[i]) & kCandidateIndex].unpack();
+            if (touched_[c.from] == pass || touched_[c.to] == pass) continue;
+            const size_t removed = try_collapse_in_pass(w, c);
+            if (removed == 0) continue;
+            touched_[c.from] = touched_[c.to] = pass;
+            w.touched.push_back(c.to);
+            w.removed_faces += removed;
+            ++w.collapses;
+        }
+    };
+    two_way_->run(region);
+    size_t done = 0;
+    for (Worker& w : workers_) {
+        live_faces_ -= w.removed_faces;
+        touched_list_.insert(touched_list_.end(), w.touched.begin(), w.touched.end());
+        done += w.collapses;
+    }
+    // note: region 0's collapses (already in records_), then region 1's: an order in which they
+    // could have run one by one (the regions share nothing).
+    records_.insert(records_.end(), std::make_move_iterator(workers_[1].records.begin()),
+                    std::make_move_iterator(workers_[1].records.end()));
+    workers_[1].records.clear();
+    if (done > 0) pending_remap_ = true;
+    return done;
+}
+
+// The candidates across the cut, after split_pass(), in cost order on this thread.
+size_t Engine::boundary_pass(uint32_t pass, std::span<const size_t> targets,
+                             std::vector<SimplifiedLevel>& levels, size_t& ti) {
+    size_t done = 0;
+    const size_t count = boundary_.size();
+    for (size_t i = 0; i < count && ti < targets.size(); ++i) {
+        prefetch_ahead(boundary_.data(), i, count);
+        const CollapseCandidate c = candidates_[uint32_t(boundary_[i]) & kCandidateIndex].unpack();
+        if (touched_[c.from] == pass || touched_[c.to] == pass) continue;
+        const size_t removed = try_collapse_in_pass(workers_[0], c);
+        if (removed == 0) continue;
+        live_faces_ -= removed;
+        pending_remap_ = true;
+        touched_[c.from] = touched_[c.to] = pass;
+        touched_list_.push_back(c.to);
+        ++done;
+        after_collapse(targets, levels, ti);
+    }
+    return done;
+}
+
+// note: the walks of a collapse read faces scattered over the corner arrays; fetch the candidates,
+// then their flat lists, then their faces, a few steps ahead (no effect on the result).
+void Engine::prefetch_ahead(const uint64_t* order, size_t i, size_t n) const {
+    auto at = [&](size_t k) -> const Candidate& {
+        return candidates_[uint32_t(order[k]) & kCandidateIndex];
+    };
+    if (i + 16 < n) __builtin_prefetch(&at(i + 16));
+    if (i + 8 < n) {
+        const Candidate& a = at(i + 8);
+        __builtin_prefetch(&adj_first_[a.from]);
+        __builtin_prefetch(&adj_first_[a.to]);
+        __builtin_prefetch(&touched_[a.from]);
+        __builtin_prefetch(&touched_[a.to]);
+    }
+    if (i + 4 < n) {
+        const Candidate& a = at(i + 4);
+        prefetch_list(a.from);
+        prefetch_list(a.to);
+    }
+    if (i + 2 < n) {
+        const Candidate& a = at(i + 2);
+        prefetch_faces(a.from);
+        prefetch_faces(a.to);
+    }
+}
+
 SimplifiedLevel Engine::snapshot() {
     flush_pass();
     SimplifiedLevel level;
     level.primitive =
         compact_primitive(m_.positions, m_.wedge_position, wedges_, m_.corners, m_.face_alive,
                           has_normals_, has_uv0_, has_uv1_, has_colors_, material_);
-    level.estimated_error = error_unknown_ ? -1.0 : max_error_;
+    const bool unknown = workers_[0].error_unknown || workers_[1].error_unknown;
+    level.estimated_error = unknown ? -1.0 : std::max(workers_[0].max_error, workers_[1].max_error);
     return level;
 }
 
@@ -1258,6 +1503,11 @@ Result<std::vector<SimplifiedLevel>> Engine::run(const Primitive& in,
     build(in);
     if (!cost_.depends_on_ring()) {
         csr_ = true;
+        // note: a helper thread pays off from a few thousand faces on (its start and each hand-over
+        // cost tens of microseconds); the split is the same without it.
+        const bool helper = options_.threads != 1 && in.indices.size() / 3 >= kHelperFaces &&
+                            std::thread::hardware_concurrency() > 1;
+        two_way_.emplace(helper);
         remap_.resize(m_.positions.size());
         for (uint32_t p = 0; p < uint32_t(remap_.size()); ++p) remap_[p] = p;
         wedge_remap_.resize(m_.wedge_position.size());
