@@ -25,7 +25,15 @@
 //   the candidates of touched positions and evaluates their edges again (prefetching what the
 //   evaluation reads a few positions ahead). Within a pass the order is greedy and every applied
 //   cost is exact (a QEM cost reads only its two quadrics); a collapse is checked in one walk of
-//   each endpoint;
+//   each endpoint. From 32 768 input faces on the work splits in two (two_way.hpp: on a helper
+//   thread where the machine has a second core, the same result either way): the positions are
+//   cut at the median of the bounding box's longest axis into two regions numbered apart; while
+//   at least 2 048 collapses are left to the next target, a pass applies the candidates whose
+//   endpoints have all their faces in one region by region (each region in cost order, neither
+//   reading what the other writes, at most a quarter of the faces left to the target each, so no
+//   target falls inside), then the candidates across the cut in cost order; the evaluation of
+//   the candidates splits by halves of the positions, the quadrics by region, and the attribute
+//   interpolations and the dropping of stale candidates run beside the adjacency rebuild;
 // - costs that read the faces around an endpoint (formula1, melax): one singly linked list of
 //   corners per position (a collapse splices the removed position's list onto the kept one, O(1),
 //   no allocation; dead faces are pruned lazily), and strict greedy order on a binary min-heap with
@@ -60,12 +68,12 @@
 // Departure: the issue asks for the edge-collapse algorithms on OpenMesh's Decimater. Its generic
 // module and property machinery make ModQuadric take about 2.4 s on the bunny at 10 % (the
 // issue's figure for this machine); this engine does the same work with QEM on flat arrays, so
-// OpenMesh stays the baseline only (simplify_openmesh_quadric). Speed: QEM on the bunny, median of
-// 5 runs in bench_lod_bench on this 2-core machine, idle: 26 / 36 / 38 ms at 50 / 10 / 1 % against
-// meshopt_simplify's 20.5 / 25 / 26 ms (time ratios 1.25-1.46; 2.3-2.9 before the flat entry lists
-// with remapping, the simple-fan path and the scalar placement; callgrind at 10 %: 269 M
-// instructions against meshopt's 148 M); the target "no slower than meshopt_simplify" is not met
-// (docs/simplification.md has the command and where the time goes).
+// OpenMesh stays the baseline only (simplify_openmesh_quadric). Speed: QEM on the bunny on this
+// 2-core machine: one thread 26 / 36 / 38 ms at 50 / 10 / 1 % against meshopt_simplify's 20.5 /
+// 25 / 26 ms (1.25-1.46x; 2.3-2.9x before the flat entry lists with remapping, the simple-fan path
+// and the scalar placement; callgrind at 10 %: 269 M instructions against meshopt's 148 M); split
+// over two threads 28-29 ms at 10 % (1.10-1.16x in the quieter runs); the target "no slower than
+// meshopt_simplify" is not met (docs/simplification.md has the commands and where the time goes).
 //
 // Cost: O(V + F) to build; QEM schedule O(E) per pass, a handful to a few dozen passes; greedy
 // schedule O(E log E) (each collapse re-evaluates O(valence^2) edges). Memory O(V + F + E): about
@@ -148,9 +156,11 @@ PmWedge lerp_wedge(const PmWedge& from, const PmWedge& to, float t, bool has_nor
     return w;
 }
 
-// The pass schedule starts a helper thread from this many input faces on, and splits a pass in two
-// regions while at least kSplitGoal collapses are left to the next target.
-constexpr size_t kHelperFaces = 16384;
+// From this many input faces on, the pass schedule cuts the mesh in two regions and, on a machine
+// with a second core, starts a helper thread (its start and each hand-over cost tens of
+// microseconds); it splits a pass in two while at least kSplitGoal collapses are left to the next
+// target.
+constexpr size_t kSplitFaces = 32768;
 constexpr size_t kSplitGoal = 2048;
 
 class Engine {
@@ -452,7 +462,7 @@ void Engine::build(const Primitive& in) {
     Scratch<uint32_t> new_position(position_count);
     {
         Scratch<uint8_t> region(position_count, 0);
-        if (!cost_.depends_on_ring() && position_count > 1) {
+        if (!cost_.depends_on_ring() && in.indices.size() / 3 >= kSplitFaces) {
             glm::vec3 lo = welded[0], hi = welded[0];
             for (const glm::vec3& x : welded) lo = glm::min(lo, x), hi = glm::max(hi, x);
             const glm::vec3 e = hi - lo;
@@ -632,15 +642,17 @@ void Engine::rebuild_adjacency() {
     for (uint32_t p = 0; p < np; ++p) adj_first_[p + 1] += adj_first_[p];
     adj_.resize(adj_first_[np]);
     const uint32_t cut = region_start_;
-    region_class_.resize(np);
-    for (uint32_t p = 0; p < np; ++p) region_class_[p] = p < cut ? 1 : 2;
+    if (cut > 0) {
+        region_class_.resize(np);
+        for (uint32_t p = 0; p < np; ++p) region_class_[p] = p < cut ? 1 : 2;
+    }
     for (uint32_t f : live_list_) {
         const uint32_t p0 = m_.corner_position[3 * f], p1 = m_.corner_position[3 * f + 1],
                        p2 = m_.corner_position[3 * f + 2];
         adj_[adj_first_[p0]++] = {p1, p2, 3 * f};
         adj_[adj_first_[p1]++] = {p2, p0, 3 * f + 1};
         adj_[adj_first_[p2]++] = {p0, p1, 3 * f + 2};
-        if ((p0 < cut) != (p1 < cut) || (p1 < cut) != (p2 < cut)) {
+        if (cut > 0 && ((p0 < cut) != (p1 < cut) || (p1 < cut) != (p2 < cut))) {
             region_class_[p0] = region_class_[p1] = region_class_[p2] = 3;
         }
     }
@@ -1182,13 +1194,15 @@ void Engine::run_greedy(std::span<const size_t> targets, std::vector<SimplifiedL
 void Engine::collect_candidates() {
     candidates_.clear();
     const uint32_t np = uint32_t(m_.positions.size());
+    // note: in one piece without a helper (the same order).
+    const uint32_t cut = two_way_->has_helper() ? np / 2 : np;
     auto half = [&](int h) {
         Worker& w = workers_[h];
         // note: appended through a vector on this thread's stack: the other thread reads lines
         // of this object, and writing the vector's end here would keep evicting them.
         Scratch<Candidate> out;
         out.swap(h == 0 ? candidates_ : w.candidates);
-        const uint32_t begin = h == 0 ? 0 : np / 2, end = h == 0 ? np / 2 : np;
+        const uint32_t begin = h == 0 ? 0 : cut, end = h == 0 ? cut : np;
         for (uint32_t p = begin; p < end; ++p) {
             if (p + 2 < end) prefetch_neighbours(p + 2);
             if (m_.position_alive[p]) add_candidates(w, p, kNone, out);
@@ -1198,7 +1212,7 @@ void Engine::collect_candidates() {
     // note: reserved here, from this thread's scratch cache (pages mapped by earlier runs); an
     // upper bound: one candidate per half-edge.
     workers_[1].candidates.clear();
-    workers_[1].candidates.reserve(adj_first_[np] - adj_first_[np / 2] + 16);
+    workers_[1].candidates.reserve(adj_first_[np] - adj_first_[cut] + 16);
     two_way_->run(half);
     candidates_.insert(candidates_.end(), workers_[1].candidates.begin(),
                        workers_[1].candidates.end());
@@ -1250,11 +1264,12 @@ void Engine::refresh_candidates() {
     const uint32_t r = ++refresh_stamp_;
     for (uint32_t v : touched_list_) refresh_mark_[v] = r;
     const size_t nt = touched_list_.size();
+    const size_t cut = two_way_->has_helper() ? nt / 2 : nt;  // note: see collect_candidates()
     auto half = [&](int h) {
         Worker& w = workers_[h];
         Scratch<Candidate> out;  // note: see collect_candidates()
         out.swap(h == 0 ? candidates_ : w.candidates);
-        const size_t begin = h == 0 ? 0 : nt / 2, end = h == 0 ? nt / 2 : nt;
+        const size_t begin = h == 0 ? 0 : cut, end = h == 0 ? cut : nt;
         for (size_t i = begin; i < end; ++i) {
             if (i + 8 < end) __builtin_prefetch(&adj_first_[touched_list_[i + 8]]);
             if (i + 4 < end) prefetch_list(touched_list_[i + 4]);
@@ -1313,7 +1328,7 @@ void Engine::run_batched(std::span<const size_t> targets, std::vector<Simplified
         const size_t n = candidates_.size();
         if (n == 0) break;
         // note: the region classes ride in the top two bits of the candidate index.
-        const bool classes = n < (size_t(1) << 30);
+        const bool classes = region_start_ > 0 && n < (size_t(1) << 30);
         // note: two 11-bit passes on the top 22 bits (sign, exponent, 13 mantissa bits): costs
         // within a relative 2^-13 of each other keep their candidate order (stable sort). Both
         // histograms come from one read of the costs; each pass moves (key << 32 | class << 30 |
@@ -1503,9 +1518,8 @@ Result<std::vector<SimplifiedLevel>> Engine::run(const Primitive& in,
     build(in);
     if (!cost_.depends_on_ring()) {
         csr_ = true;
-        // note: a helper thread pays off from a few thousand faces on (its start and each hand-over
-        // cost tens of microseconds); the split is the same without it.
-        const bool helper = options_.threads != 1 && in.indices.size() / 3 >= kHelperFaces &&
+        // note: the split is the same without the helper.
+        const bool helper = options_.threads != 1 && in.indices.size() / 3 >= kSplitFaces &&
                             std::thread::hardware_concurrency() > 1;
         two_way_.emplace(helper);
         remap_.resize(m_.positions.size());
@@ -1518,6 +1532,10 @@ Result<std::vector<SimplifiedLevel>> Engine::run(const Primitive& in,
         rebuild_adjacency();
     }
     classify();
+    if (two_way_ && two_way_->has_helper()) {
+        m_.region_start = region_start_;
+        m_.split = &*two_way_;
+    }
     cost_.init(m_);
 
     std::vector<SimplifiedLevel> levels;

@@ -18,6 +18,7 @@
 #include "hmdnode/lod/progressive_mesh.hpp"
 #include "hmdnode/lod/simplify.hpp"
 #include "scratch.hpp"
+#include "two_way.hpp"
 
 namespace hmdnode::lod_detail {
 
@@ -59,6 +60,11 @@ struct CollapseMesh {
     Scratch<glm::dvec3> face_unit_normals;
     glm::vec3 bbox_min{0.0f}, bbox_max{0.0f};
     bool lock_borders = false;
+    // The pass schedule's two regions: positions before region_start and from it on (0: one).
+    // A cost's init() may split work on positions by them through `split` (two threads where the
+    // engine has a helper); nullptr: do it in one piece.
+    uint32_t region_start = 0;
+    TwoWay* split = nullptr;
 
     uint32_t face_position(uint32_t face, int k) const { return corner_position[3 * face + k]; }
     // f(face, k): every live face around position p, k the corner of p in it.

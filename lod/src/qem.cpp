@@ -28,29 +28,49 @@
 namespace hmdnode::lod_detail {
 
 Scratch<Quadric> position_quadrics(const CollapseMesh& m) {
-    Scratch<Quadric> q(m.positions.size());
-    for (uint32_t f = 0; f < uint32_t(m.face_alive.size()); ++f) {
-        if (!m.face_alive[f]) continue;
-        const glm::dvec3 n = m.face_normal_unnormalized(f);
-        const double len = glm::length(n);
-        if (len == 0.0) continue;
-        const glm::dvec3 unit = n / len;
-        const glm::dvec3 p0 = m.positions[m.face_position(f, 0)];
-        const Quadric plane = Quadric::plane(unit, -glm::dot(unit, p0), 0.5 * len);
-        for (int k = 0; k < 3; ++k) q[m.face_position(f, k)] += plane;
-    }
-    for (const ConstraintEdge& e : m.constraint_edges) {
-        const glm::dvec3 pa = m.positions[e.a], pb = m.positions[e.b];
-        const glm::dvec3 n = m.face_normal_unnormalized(e.face);
-        const glm::dvec3 perp = glm::cross(pb - pa, n);
-        const double len = glm::length(perp);
-        if (len == 0.0) continue;
-        const glm::dvec3 unit = perp / len;
-        const double el2 = glm::dot(pb - pa, pb - pa);
-        Quadric plane = Quadric::plane(unit, -glm::dot(unit, pa), kBoundaryWeight * el2);
-        plane.weight = 0.0;  // note: not surface area, keep it out of the error estimate
-        q[e.a] += plane;
-        q[e.b] += plane;
+    const uint32_t np = uint32_t(m.positions.size());
+    Scratch<Quadric> q(np);
+    // note: each half sums, for its own positions, the planes in the same order as one loop
+    // would (faces in id order, then the constraint edges), so the split changes no bit.
+    auto half = [&](int h) {
+        const uint32_t lo = h == 0 ? 0 : m.region_start, hi = h == 0 ? m.region_start : np;
+        if (lo == hi) return;
+        auto mine = [lo, hi](uint32_t p) { return p >= lo && p < hi; };
+        for (uint32_t f = 0; f < uint32_t(m.face_alive.size()); ++f) {
+            if (!m.face_alive[f]) continue;
+            const uint32_t p0 = m.face_position(f, 0), p1 = m.face_position(f, 1),
+                           p2 = m.face_position(f, 2);
+            if (!mine(p0) && !mine(p1) && !mine(p2)) continue;
+            const glm::dvec3 n = m.face_normal_unnormalized(f);
+            const double len = glm::length(n);
+            if (len == 0.0) continue;
+            const glm::dvec3 unit = n / len;
+            const glm::dvec3 x0 = m.positions[p0];
+            const Quadric plane = Quadric::plane(unit, -glm::dot(unit, x0), 0.5 * len);
+            for (uint32_t p : {p0, p1, p2}) {
+                if (mine(p)) q[p] += plane;
+            }
+        }
+        for (const ConstraintEdge& e : m.constraint_edges) {
+            if (!mine(e.a) && !mine(e.b)) continue;
+            const glm::dvec3 pa = m.positions[e.a], pb = m.positions[e.b];
+            const glm::dvec3 n = m.face_normal_unnormalized(e.face);
+            const glm::dvec3 perp = glm::cross(pb - pa, n);
+            const double len = glm::length(perp);
+            if (len == 0.0) continue;
+            const glm::dvec3 unit = perp / len;
+            const double el2 = glm::dot(pb - pa, pb - pa);
+            Quadric plane = Quadric::plane(unit, -glm::dot(unit, pa), kBoundaryWeight * el2);
+            plane.weight = 0.0;  // note: not surface area, keep it out of the error estimate
+            if (mine(e.a)) q[e.a] += plane;
+            if (mine(e.b)) q[e.b] += plane;
+        }
+    };
+    if (m.split) {
+        m.split->run(half);
+    } else {
+        half(0);
+        half(1);
     }
     return q;
 }

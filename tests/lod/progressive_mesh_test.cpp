@@ -1,6 +1,7 @@
 // Progressive meshes: recording, the file round trip, refinement equal to the engine's snapshots,
 // and corrupt files.
 #include "hmdnode/lod/progressive_mesh.hpp"
+#include "hmdnode/lod/simplify.hpp"
 
 #include <array>
 #include <cmath>
@@ -84,6 +85,31 @@ TEST(ProgressiveMesh, RoundTripRefinesToEverySnapshotAndToTheFullMesh) {
         expect_same(refine(*pm, in.triangle_count()), in, std::string(algorithm) + " full");
         expect_same(refine(*pm, 1), built->levels.back().primitive,
                     std::string(algorithm) + " base");
+    }
+}
+
+// From 32 768 faces on, a pass's collapses run region by region (the second region's records are
+// appended after the first's): the progressive mesh still refines to every snapshot, which are the
+// levels simplify() makes with or without its helper thread.
+TEST(ProgressiveMesh, TwoRegionPassesRefineToEverySnapshot) {
+    const Primitive in = seamed_bumpy_grid(128);  // 32 768 triangles
+    const size_t targets[] = {12000, 3000, 300};
+    for (const char* algorithm : {"qem", "curvature-qem"}) {
+        Result<ProgressiveMeshBuild> built = build_progressive_mesh(in, algorithm, targets);
+        ASSERT_TRUE(built.ok()) << built.error().message;
+        SimplifyOptions one_thread;
+        one_thread.threads = 1;
+        Result<std::vector<SimplifiedLevel>> direct = simplify(in, algorithm, targets);
+        Result<std::vector<SimplifiedLevel>> single = simplify(in, algorithm, targets, one_thread);
+        ASSERT_TRUE(direct.ok()) << direct.error().message;
+        ASSERT_TRUE(single.ok()) << single.error().message;
+        for (size_t l = 0; l < 3; ++l) {
+            const std::string what = std::string(algorithm) + " level " + std::to_string(l);
+            expect_same(refine(built->mesh, targets[l]), built->levels[l].primitive, what);
+            expect_same((*direct)[l].primitive, built->levels[l].primitive, what + " simplify");
+            expect_same((*single)[l].primitive, built->levels[l].primitive, what + " 1 thread");
+        }
+        expect_same(refine(built->mesh, in.triangle_count()), in, std::string(algorithm) + " full");
     }
 }
 

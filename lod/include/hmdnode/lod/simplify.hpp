@@ -30,7 +30,7 @@ struct SimplifyOptions {
     std::function<void(double)> progress;
     // For randomised steps, so that runs are reproducible.
     uint32_t seed = 1;
-    // Threads qem and curvature-qem may use: 1 = the calling thread only; otherwise, from 16 384
+    // Threads qem and curvature-qem may use: 1 = the calling thread only; otherwise, from 8 192
     // input faces on and on a machine with more than one core, one helper thread besides it (they
     // split their work in two halves, so the result is the same bit for bit either way). The
     // other algorithms run on the calling thread.
