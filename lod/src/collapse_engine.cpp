@@ -288,6 +288,8 @@ class Engine {
     size_t split_pass(uint32_t pass, double limit, size_t target);
     size_t boundary_pass(uint32_t pass, std::span<const size_t> targets,
                          std::vector<SimplifiedLevel>& levels, size_t& ti);
+    bool apply_in_pass(const CollapseCandidate& c, uint32_t pass, std::span<const size_t> targets,
+                       std::vector<SimplifiedLevel>& levels, size_t& ti);
     void prefetch_ahead(const uint64_t* order, size_t i, size_t n) const;
     const Candidate& candidate_at(size_t rank) const {
         return candidates_[uint32_t(order_[rank]) & kCandidateIndex];
@@ -1383,14 +1385,7 @@ void Engine::run_batched(std::span<const size_t> targets, std::vector<Simplified
                 skipped = std::min(skipped, c.cost);
                 continue;
             }
-            const size_t removed = try_collapse_in_pass(workers_[0], c);
-            if (removed == 0) continue;
-            live_faces_ -= removed;
-            pending_remap_ = true;
-            touched[c.from] = touched[c.to] = pass;
-            touched_list_.push_back(c.to);
-            ++done;
-            after_collapse(targets, levels, ti);
+            done += apply_in_pass(c, pass, targets, levels, ti);
         }
         if (done == 0) break;
     }
@@ -1464,16 +1459,23 @@ size_t Engine::boundary_pass(uint32_t pass, std::span<const size_t> targets,
         prefetch_ahead(boundary_.data(), i, count);
         const CollapseCandidate c = candidates_[uint32_t(boundary_[i]) & kCandidateIndex].unpack();
         if (touched_[c.from] == pass || touched_[c.to] == pass) continue;
-        const size_t removed = try_collapse_in_pass(workers_[0], c);
-        if (removed == 0) continue;
-        live_faces_ -= removed;
-        pending_remap_ = true;
-        touched_[c.from] = touched_[c.to] = pass;
-        touched_list_.push_back(c.to);
-        ++done;
-        after_collapse(targets, levels, ti);
+        done += apply_in_pass(c, pass, targets, levels, ti);
     }
     return done;
+}
+
+// One collapse of a pass on this thread (outside a split's regions); false when refused.
+bool Engine::apply_in_pass(const CollapseCandidate& c, uint32_t pass,
+                           std::span<const size_t> targets, std::vector<SimplifiedLevel>& levels,
+                           size_t& ti) {
+    const size_t removed = try_collapse_in_pass(workers_[0], c);
+    if (removed == 0) return false;
+    live_faces_ -= removed;
+    pending_remap_ = true;
+    touched_[c.from] = touched_[c.to] = pass;
+    touched_list_.push_back(c.to);
+    after_collapse(targets, levels, ti);
+    return true;
 }
 
 // note: the walks of a collapse read faces scattered over the corner arrays; fetch the candidates,
