@@ -339,11 +339,10 @@ class Engine {
         return {w.mark, s + 1, s + 2, s + 3};
     }
     bool topology_ok(uint32_t u, uint32_t v, size_t shared, const LinkCount& n) const;
-    // nullptr without a log
+    // The record of the collapse w is applying (its shared_faces found), nullptr without a log.
     // Worker 0 records into records_, worker 1 into its own list (appended after a split's
     // regions).
-    VertexSplit* start_record(Worker& w, uint32_t u, uint32_t v,
-                              const Scratch<uint32_t>& shared_faces);
+    VertexSplit* start_record(Worker& w, uint32_t u, uint32_t v);
     void move_kept(Worker& w, uint32_t u, uint32_t v, const glm::dvec3& target, const WedgeMap& map,
                    VertexSplit* rec);
     void finish_collapse(Worker& w, const CollapseCandidate& c);
@@ -461,30 +460,27 @@ void Engine::build(const Primitive& in) {
     // bounding box's longest axis and numbers each region's positions together (a stable
     // partition of the weld's order), so that the two threads of a split pass write to different
     // cache lines. Wedges and faces keep the input's order, and with them the output.
+    m_.bbox_min = m_.bbox_max = welded.empty() ? glm::vec3(0.0f) : welded[0];
+    for (const glm::vec3& x : welded) {
+        m_.bbox_min = glm::min(m_.bbox_min, x);
+        m_.bbox_max = glm::max(m_.bbox_max, x);
+    }
     Scratch<uint32_t> new_position(position_count);
-    {
-        Scratch<uint8_t> region(position_count, 0);
-        if (!cost_.depends_on_ring() && in.indices.size() / 3 >= kSplitFaces) {
-            glm::vec3 lo = welded[0], hi = welded[0];
-            for (const glm::vec3& x : welded) lo = glm::min(lo, x), hi = glm::max(hi, x);
-            const glm::vec3 e = hi - lo;
-            const int axis = e.x >= e.y && e.x >= e.z ? 0 : e.y >= e.z ? 1 : 2;
-            Scratch<float> coordinate(position_count);
-            for (uint32_t p = 0; p < position_count; ++p) coordinate[p] = welded[p][axis];
-            std::nth_element(coordinate.begin(), coordinate.begin() + position_count / 2,
-                             coordinate.end());
-            const float median = coordinate[position_count / 2];
-            for (uint32_t p = 0; p < position_count; ++p) region[p] = welded[p][axis] >= median;
+    for (uint32_t p = 0; p < position_count; ++p) new_position[p] = p;
+    if (!cost_.depends_on_ring() && in.indices.size() / 3 >= kSplitFaces) {
+        const glm::vec3 e = m_.bbox_max - m_.bbox_min;
+        const int axis = e.x >= e.y && e.x >= e.z ? 0 : e.y >= e.z ? 1 : 2;
+        Scratch<float> coordinate(position_count);
+        for (uint32_t p = 0; p < position_count; ++p) coordinate[p] = welded[p][axis];
+        std::nth_element(coordinate.begin(), coordinate.begin() + position_count / 2,
+                         coordinate.end());
+        const float median = coordinate[position_count / 2];
+        uint32_t next[2] = {0, 0};
+        for (uint32_t p = 0; p < position_count; ++p) next[1] += welded[p][axis] < median;
+        region_start_ = next[1];
+        for (uint32_t p = 0; p < position_count; ++p) {
+            new_position[p] = next[welded[p][axis] >= median]++;
         }
-        auto partition = [](size_t count, auto&& region_of, Scratch<uint32_t>& out) {
-            size_t first = 0;
-            for (size_t i = 0; i < count; ++i) first += region_of(i) == 0;
-            size_t next[2] = {0, first};
-            for (size_t i = 0; i < count; ++i) out[i] = uint32_t(next[region_of(i)]++);
-            return first;
-        };
-        region_start_ = uint32_t(partition(
-            position_count, [&](size_t p) { return region[p]; }, new_position));
     }
     m_.positions.resize(position_count);
     for (uint32_t p = 0; p < position_count; ++p) m_.positions[new_position[p]] = welded[p];
@@ -556,11 +552,6 @@ void Engine::build(const Primitive& in) {
             m_.corner_head[p] = uint32_t(c);
         }
         m_.position_alive[p] = 1;
-    }
-    m_.bbox_min = m_.bbox_max = m_.positions.empty() ? glm::vec3(0.0f) : m_.positions[0];
-    for (const glm::vec3& p : m_.positions) {
-        m_.bbox_min = glm::min(m_.bbox_min, p);
-        m_.bbox_max = glm::max(m_.bbox_max, p);
     }
     m_.lock_borders = options_.lock_borders;
     version_.assign(position_count, 0);
@@ -870,8 +861,7 @@ bool Engine::topology_ok(uint32_t u, uint32_t v, size_t shared, const LinkCount&
     return border_edge ? n.deg_u + n.deg_v - 3 >= 2 : n.deg_u + n.deg_v - 4 >= 3;
 }
 
-VertexSplit* Engine::start_record(Worker& w, uint32_t u, uint32_t v,
-                                  const Scratch<uint32_t>& shared_faces) {
+VertexSplit* Engine::start_record(Worker& w, uint32_t u, uint32_t v) {
     if (!log_) return nullptr;
     VertexSplit& rec = (&w == &workers_[0] ? records_ : w.records).emplace_back();
     rec.removed = {u, m_.positions[u]};
@@ -882,7 +872,7 @@ VertexSplit* Engine::start_record(Worker& w, uint32_t u, uint32_t v,
     }
     // note: in the pass schedule, corners are rewritten only at the end of the pass.
     auto wedge = [&](uint32_t c) { return csr_ ? wedge_remap_[m_.corners[c]] : m_.corners[c]; };
-    for (uint32_t f : shared_faces) {
+    for (uint32_t f : w.shared_faces) {
         rec.faces.push_back({f, {wedge(3 * f), wedge(3 * f + 1), wedge(3 * f + 2)}});
     }
     return &rec;
@@ -967,7 +957,7 @@ void Engine::finish_collapse(Worker& w, const CollapseCandidate& c) {
     if (flips) return false;
 
     // Apply.
-    VertexSplit* rec = start_record(w, u, v, shared_faces);
+    VertexSplit* rec = start_record(w, u, v);
     if (c.moves) move_kept(w, u, v, target, map, rec);
     auto apply_corner = [&](uint32_t cr) {
         const uint32_t f = cr / 3;
@@ -1062,7 +1052,7 @@ void Engine::finish_collapse(Worker& w, const CollapseCandidate& c) {
     if (!topology_ok(u, v, shared, link) || flips) return 0;
 
     // Apply.
-    VertexSplit* rec = start_record(w, u, v, shared_faces);
+    VertexSplit* rec = start_record(w, u, v);
     if (rec) {
         for (uint32_t i = adj_first_[u], end = adj_first_[u + 1]; i < end; ++i) {
             const uint32_t f = adj_[i].corner / 3;
@@ -1303,8 +1293,7 @@ void Engine::refresh_candidates() {
 // passed; then the candidates across the cut follow, in cost order, on this thread.
 void Engine::run_batched(std::span<const size_t> targets, std::vector<SimplifiedLevel>& levels,
                          size_t& ti) {
-    Scratch<uint32_t>& touched = touched_;
-    touched.assign(m_.positions.size(), 0);
+    touched_.assign(m_.positions.size(), 0);
     uint32_t pass = 0;
     refresh_mark_.assign(m_.positions.size(), 0);
     // note: at most one candidate per half-edge (more than 3F/2 edges with open borders); pages
@@ -1381,7 +1370,7 @@ void Engine::run_batched(std::span<const size_t> targets, std::vector<Simplified
             // grow); close to a target (few collapses left), going past 8 times that would run
             // ahead of it (a cube would lose a corner); far from one, the 1.5 x limit suffices.
             if (goal < 256 && c.cost > 8.0 * skipped) break;
-            if (touched[c.from] == pass || touched[c.to] == pass) {
+            if (touched_[c.from] == pass || touched_[c.to] == pass) {
                 skipped = std::min(skipped, c.cost);
                 continue;
             }
