@@ -1188,7 +1188,7 @@ void Engine::collect_candidates() {
     const uint32_t np = uint32_t(m_.positions.size());
     // note: in one piece without a helper (the same order).
     const uint32_t cut = two_way_->has_helper() ? np / 2 : np;
-    auto half = [&](int h) {
+    auto half = [this, cut, np](int h) {  // note: by value (two_way.hpp)
         Worker& w = workers_[h];
         // note: appended through a vector on this thread's stack: the other thread reads lines
         // of this object, and writing the vector's end here would keep evicting them.
@@ -1257,7 +1257,7 @@ void Engine::refresh_candidates() {
     for (uint32_t v : touched_list_) refresh_mark_[v] = r;
     const size_t nt = touched_list_.size();
     const size_t cut = two_way_->has_helper() ? nt / 2 : nt;  // note: see collect_candidates()
-    auto half = [&](int h) {
+    auto half = [this, r, cut, nt](int h) {
         Worker& w = workers_[h];
         Scratch<Candidate> out;  // note: see collect_candidates()
         out.swap(h == 0 ? candidates_ : w.candidates);
@@ -1305,7 +1305,7 @@ void Engine::run_batched(std::span<const size_t> targets, std::vector<Simplified
             // note: the attribute interpolations and the dropping of stale candidates (the helper)
             // while this thread rebuilds the adjacency: disjoint data.
             touched_pass_ = pass;
-            auto prepare = [&](int h) {
+            auto prepare = [this](int h) {
                 if (h == 0) {
                     rebuild_adjacency();
                 } else {
@@ -1407,7 +1407,7 @@ size_t Engine::split_pass(uint32_t pass, double limit, size_t target) {
         w.touched.reserve(std::min(w.order.size(), cap));
         w.lerps.reserve(w.lerps.size() + 2 * std::min(w.order.size(), cap));
     }
-    auto region = [&](int h) {
+    auto region = [this, pass, cap](int h) {
         Worker& w = workers_[h];
         const size_t count = w.order.size();
         for (size_t i = 0; i < count && w.collapses < cap; ++i) {

@@ -29,10 +29,11 @@ namespace hmdnode::lod_detail {
 
 Scratch<Quadric> position_quadrics(const CollapseMesh& m) {
     const uint32_t np = uint32_t(m.positions.size());
-    Scratch<Quadric> q(np);
+    Scratch<Quadric> quadrics(np);
+    Quadric* const q = quadrics.data();
     // note: each half sums, for its own positions, the planes in the same order as one loop
     // would (faces in id order, then the constraint edges), so the split changes no bit.
-    auto half = [&](int h) {
+    auto half = [&m, q, np](int h) {  // note: by value (two_way.hpp)
         const uint32_t lo = h == 0 ? 0 : m.region_start, hi = h == 0 ? m.region_start : np;
         if (lo == hi) return;
         auto mine = [lo, hi](uint32_t p) { return p >= lo && p < hi; };
@@ -72,7 +73,7 @@ Scratch<Quadric> position_quadrics(const CollapseMesh& m) {
         half(0);
         half(1);
     }
-    return q;
+    return quadrics;
 }
 
 glm::dvec3 optimal_placement(const Quadric& q, const glm::dvec3& p0, const glm::dvec3& p1,

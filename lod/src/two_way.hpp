@@ -9,7 +9,9 @@
 
 #include <atomic>
 #include <cstdint>
+#include <new>
 #include <thread>
+#include <type_traits>
 
 namespace hmdnode::lod_detail {
 
@@ -30,19 +32,26 @@ class TwoWay {
 
     bool has_helper() const { return thread_.joinable(); }
 
-    // f(int half) must not throw (an exception on the helper thread ends the process).
+    // f(int half) must not throw (an exception on the helper thread ends the process). f is copied
+    // into this object first and both threads call the copy: a closure left on the caller's stack
+    // shares cache lines with the caller's locals, which the caller writes while the helper reads
+    // the closure (a collect of the bunny's candidates ran 1.6x slower than on one thread so).
+    // The same goes for what f captures by reference: capture by value what the loops read.
     template <class F>
-    void run(F& f) {
+    void run(const F& f) {
+        static_assert(std::is_trivially_copyable_v<F> && sizeof(F) <= sizeof(job_) &&
+                          alignof(F) <= alignof(Job),
+                      "TwoWay::run takes a small lambda that captures by value or reference");
         if (!thread_.joinable()) {
             f(0);
             f(1);
             return;
         }
-        job_ = &f;
-        call_ = [](void* job, int half) { (*static_cast<F*>(job))(half); };
+        const F& job = *::new (static_cast<void*>(job_.bytes)) F(f);
+        call_ = [](const void* j, int half) { (*static_cast<const F*>(j))(half); };
         const uint32_t round = go_.fetch_add(1, std::memory_order_release) + 1;
         go_.notify_one();
-        f(0);
+        job(0);
         for (uint32_t d = done_.load(std::memory_order_acquire); d != round;
              d = done_.load(std::memory_order_acquire)) {
             done_.wait(d, std::memory_order_acquire);
@@ -56,16 +65,20 @@ class TwoWay {
             go_.wait(seen, std::memory_order_acquire);
             seen = go_.load(std::memory_order_acquire);
             if (stop_.load(std::memory_order_relaxed)) return;
-            call_(job_, 1);
+            call_(job_.bytes, 1);
             done_.store(seen, std::memory_order_release);
             done_.notify_one();
         }
     }
 
+    // note: the job's copy on lines of its own, written only before the helper is woken.
+    struct alignas(64) Job {
+        unsigned char bytes[128];
+    };
     std::atomic<uint32_t> go_{0}, done_{0};
     std::atomic<bool> stop_{false};
-    void* job_ = nullptr;
-    void (*call_)(void*, int) = nullptr;
+    void (*call_)(const void*, int) = nullptr;
+    Job job_;
     std::thread thread_;  // note: last, started once the rest is set up
 };
 
