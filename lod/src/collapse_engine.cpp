@@ -221,6 +221,8 @@ class Engine {
         Scratch<uint64_t> order;
         Scratch<uint32_t> touched;
         size_t collapses = 0, removed_faces = 0;
+        // sort_candidates(): the counts and offsets of this half's radix buckets
+        Scratch<uint32_t> radix;
         double max_error = 0.0;
         bool error_unknown = false;  // some applied collapse had no error estimate
     };
@@ -291,6 +293,7 @@ class Engine {
     bool apply_in_pass(const CollapseCandidate& c, uint32_t pass, std::span<const size_t> targets,
                        std::vector<SimplifiedLevel>& levels, size_t& ti);
     void prefetch_ahead(const uint64_t* order, size_t i, size_t n) const;
+    void sort_candidates(bool classes);
     const Candidate& candidate_at(size_t rank) const {
         return candidates_[uint32_t(order_[rank]) & kCandidateIndex];
     }
@@ -386,6 +389,7 @@ class Engine {
     // (cost key << 32 | region class << 30 | candidate), in cost order
     Scratch<uint64_t> order_, order_tmp_;
     static constexpr uint32_t kCandidateIndex = (uint32_t(1) << 30) - 1;
+    static constexpr uint32_t kRadixBuckets = 2048;  // 11 bits
     // The split of a pass (split_pass()): positions from region_start_ on are region 1 (none
     // without a cut), and per pass the class of each: 1 or 2 when all its faces lie in region 0
     // or 1, 3 otherwise.
@@ -1320,36 +1324,7 @@ void Engine::run_batched(std::span<const size_t> targets, std::vector<Simplified
         if (n == 0) break;
         // note: the region classes ride in the top two bits of the candidate index.
         const bool classes = region_start_ > 0 && n < (size_t(1) << 30);
-        // note: two 11-bit passes on the top 22 bits (sign, exponent, 13 mantissa bits): costs
-        // within a relative 2^-13 of each other keep their candidate order (stable sort). Both
-        // histograms come from one read of the costs; each pass moves (key << 32 | class << 30 |
-        // index) as one word.
-        keys_.resize(n), order_.resize(n), order_tmp_.resize(n);
-        {
-            std::array<uint32_t, 2049> low{}, high{};
-            for (size_t i = 0; i < n; ++i) {
-                const Candidate& c = candidates_[i];
-                uint32_t key;
-                std::memcpy(&key, &c.cost, 4);  // note: costs are >= 0, so bits sort as floats
-                keys_[i] = key;
-                ++low[((key >> 10) & 2047) + 1];
-                ++high[(key >> 21) + 1];
-            }
-            for (int b = 0; b < 2048; ++b) low[b + 1] += low[b], high[b + 1] += high[b];
-            for (size_t i = 0; i < n; ++i) {
-                const uint32_t key = keys_[i];
-                uint64_t item = uint64_t(key) << 32 | i;
-                if (classes) {
-                    const Candidate& c = candidates_[i];
-                    item |= uint64_t(region_class_[c.from] | region_class_[c.to]) << 30;
-                }
-                order_tmp_[low[(key >> 10) & 2047]++] = item;
-            }
-            for (size_t i = 0; i < n; ++i) {
-                const uint64_t item = order_tmp_[i];
-                order_[high[item >> 53]++] = item;
-            }
-        }
+        sort_candidates(classes);
         const size_t goal = (live_faces_ - targets[ti] + 1) / 2;
         const double limit = goal < n ? 1.5 * double(candidate_at(goal).cost)
                                       : std::numeric_limits<double>::infinity();
@@ -1378,6 +1353,71 @@ void Engine::run_batched(std::span<const size_t> targets, std::vector<Simplified
         }
         if (done == 0) break;
     }
+}
+
+// The candidates in cost order, into order_ as (key << 32 | region class << 30 | candidate): an
+// LSD radix sort, two 11-bit passes on the top 22 bits of the cost (sign, exponent, 13 mantissa
+// bits), so costs within a relative 2^-13 of each other keep their candidate order. Each pass
+// splits in two halves of its input; in every bucket the first half's items go before the
+// second's, which is the order of one loop (and on one thread it is one loop). The first pass
+// counts, per half of its output, the buckets of the second.
+void Engine::sort_candidates(bool classes) {
+    const size_t n = candidates_.size();
+    keys_.resize(n), order_.resize(n), order_tmp_.resize(n);
+    const size_t cut = two_way_->has_helper() ? n / 2 : n;
+    for (Worker& w : workers_) w.radix.assign(3 * kRadixBuckets, 0);
+    auto count = [this, n, cut](int h) {
+        uint32_t* low = workers_[h].radix.data();
+        for (size_t i = h == 0 ? 0 : cut, end = h == 0 ? cut : n; i < end; ++i) {
+            uint32_t key;
+            std::memcpy(&key, &candidates_[i].cost,
+                        4);  // note: costs are >= 0: bits sort as floats
+            keys_[i] = key;
+            ++low[(key >> 10) & (kRadixBuckets - 1)];
+        }
+    };
+    two_way_->run(count);
+    uint32_t* low0 = workers_[0].radix.data();
+    uint32_t* low1 = workers_[1].radix.data();
+    for (uint32_t b = 0, at = 0; b < kRadixBuckets; ++b) {
+        const uint32_t c0 = low0[b], c1 = low1[b];
+        low0[b] = at, low1[b] = at + c0;
+        at += c0 + c1;
+    }
+    auto low_pass = [this, n, cut, classes](int h) {
+        uint32_t* offset = workers_[h].radix.data();
+        uint32_t* high = offset + kRadixBuckets;  // per half of order_tmp_
+        for (size_t i = h == 0 ? 0 : cut, end = h == 0 ? cut : n; i < end; ++i) {
+            const uint32_t key = keys_[i];
+            uint64_t item = uint64_t(key) << 32 | i;
+            if (classes) {
+                const Candidate& c = candidates_[i];
+                item |= uint64_t(region_class_[c.from] | region_class_[c.to]) << 30;
+            }
+            const uint32_t at = offset[(key >> 10) & (kRadixBuckets - 1)]++;
+            order_tmp_[at] = item;
+            ++high[(at >= cut ? kRadixBuckets : 0) + (key >> 21)];
+        }
+    };
+    two_way_->run(low_pass);
+    // note: the high offsets of order_tmp_'s first half into worker 0's first buckets, of its
+    // second half into worker 1's.
+    const uint32_t* high0 = low0 + kRadixBuckets;
+    const uint32_t* high1 = low1 + kRadixBuckets;
+    for (uint32_t b = 0, at = 0; b < kRadixBuckets; ++b) {
+        const uint32_t first = high0[b] + high1[b];
+        const uint32_t second = high0[kRadixBuckets + b] + high1[kRadixBuckets + b];
+        low0[b] = at, low1[b] = at + first;
+        at += first + second;
+    }
+    auto high_pass = [this, n, cut](int h) {
+        uint32_t* offset = workers_[h].radix.data();
+        for (size_t i = h == 0 ? 0 : cut, end = h == 0 ? cut : n; i < end; ++i) {
+            const uint64_t item = order_tmp_[i];
+            order_[offset[item >> 53]++] = item;
+        }
+    };
+    two_way_->run(high_pass);
 }
 
 // The two regions' share of a pass (see run_batched()): the sorted candidates up to `limit` go to

@@ -3,11 +3,14 @@
 // f(0) then f(1) on the calling thread. Work split this way writes disjoint data in its two halves,
 // so the result is the same bit for bit with or without the helper.
 //
-// Cost: one thread start per object; per run(), a wake-up and a wait on a futex (libstdc++'s
-// std::atomic wait spins briefly first): tens of microseconds at worst on this machine.
+// Cost: one thread start per object; per run(), a few microseconds when the other thread is still
+// spinning from the last run (up to a millisecond, see wait_change()), else a wake-up from a futex
+// (tens of microseconds on this machine). Between runs the helper spins for up to that
+// millisecond, on its own core.
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <new>
 #include <thread>
@@ -52,18 +55,35 @@ class TwoWay {
         const uint32_t round = go_.fetch_add(1, std::memory_order_release) + 1;
         go_.notify_one();
         job(0);
-        for (uint32_t d = done_.load(std::memory_order_acquire); d != round;
-             d = done_.load(std::memory_order_acquire)) {
-            done_.wait(d, std::memory_order_acquire);
-        }
+        wait_change(done_, round - 1);
     }
 
   private:
+    // Waits until a changes from old and returns the new value: spinning for up to kSpin first,
+    // then asleep on the futex. note: the next run usually comes within a millisecond, and a
+    // thread asleep on a futex took 50-60 microseconds to wake on this 2-core VM (its idle vCPU
+    // halts), several times the cost of short halves.
+    static uint32_t wait_change(const std::atomic<uint32_t>& a, uint32_t old) {
+        const auto start = std::chrono::steady_clock::now();
+        for (uint32_t i = 1;; ++i) {
+            const uint32_t v = a.load(std::memory_order_acquire);
+            if (v != old) return v;
+#if defined(__x86_64__) || defined(__i386__)
+            __builtin_ia32_pause();
+#endif
+            if (i % 64 == 0 && std::chrono::steady_clock::now() - start > kSpin) break;
+        }
+        for (;;) {
+            a.wait(old, std::memory_order_acquire);
+            const uint32_t v = a.load(std::memory_order_acquire);
+            if (v != old) return v;
+        }
+    }
+
     void serve() {
         uint32_t seen = 0;
         for (;;) {
-            go_.wait(seen, std::memory_order_acquire);
-            seen = go_.load(std::memory_order_acquire);
+            seen = wait_change(go_, seen);
             if (stop_.load(std::memory_order_relaxed)) return;
             call_(job_.bytes, 1);
             done_.store(seen, std::memory_order_release);
@@ -75,6 +95,7 @@ class TwoWay {
     struct alignas(64) Job {
         unsigned char bytes[128];
     };
+    static constexpr std::chrono::microseconds kSpin{1000};
     std::atomic<uint32_t> go_{0}, done_{0};
     std::atomic<bool> stop_{false};
     void (*call_)(const void*, int) = nullptr;
