@@ -293,7 +293,10 @@ class Engine {
     bool apply_in_pass(const CollapseCandidate& c, uint32_t pass, std::span<const size_t> targets,
                        std::vector<SimplifiedLevel>& levels, size_t& ti);
     void prefetch_ahead(const uint64_t* order, size_t i, size_t n) const;
-    void sort_candidates(bool classes);
+    double sort_candidates(bool classes, size_t goal);
+    void sort_buckets(uint32_t first, uint32_t last, uint32_t skip);
+    void sort_bucket(uint32_t b, uint32_t* counts);
+    void sort_rest();
     const Candidate& candidate_at(size_t rank) const {
         return candidates_[uint32_t(order_[rank]) & kCandidateIndex];
     }
@@ -390,6 +393,11 @@ class Engine {
     Scratch<uint64_t> order_, order_tmp_;
     static constexpr uint32_t kCandidateIndex = (uint32_t(1) << 30) - 1;
     static constexpr uint32_t kRadixBuckets = 2048;  // 11 bits
+    // sort_candidates(): where each high bucket starts in order_ (and order_tmp_), the last bucket
+    // sorted and the items sorted (order_ from sorted_ on holds the rest unsorted).
+    std::array<uint32_t, kRadixBuckets + 1> bucket_start_{};
+    uint32_t last_sorted_bucket_ = 0;
+    size_t sorted_ = 0;
     // The split of a pass (split_pass()): positions from region_start_ on are region 1 (none
     // without a cut), and per pass the class of each: 1 or 2 when all its faces lie in region 0
     // or 1, 3 otherwise.
@@ -1324,10 +1332,8 @@ void Engine::run_batched(std::span<const size_t> targets, std::vector<Simplified
         if (n == 0) break;
         // note: the region classes ride in the top two bits of the candidate index.
         const bool classes = region_start_ > 0 && n < (size_t(1) << 30);
-        sort_candidates(classes);
         const size_t goal = (live_faces_ - targets[ti] + 1) / 2;
-        const double limit = goal < n ? 1.5 * double(candidate_at(goal).cost)
-                                      : std::numeric_limits<double>::infinity();
+        const double limit = sort_candidates(classes, goal);
         ++pass;
         size_t done = 0;
         if (classes && goal >= kSplitGoal) {
@@ -1338,6 +1344,7 @@ void Engine::run_batched(std::span<const size_t> targets, std::vector<Simplified
         }
         double skipped = std::numeric_limits<double>::infinity();
         for (size_t i = 0; i < n && ti < targets.size(); ++i) {
+            if (i == sorted_) sort_rest();
             prefetch_ahead(order_.data(), i, n);
             const CollapseCandidate c = candidate_at(i).unpack();
             if (c.cost > limit && done > 0) break;
@@ -1355,38 +1362,41 @@ void Engine::run_batched(std::span<const size_t> targets, std::vector<Simplified
     }
 }
 
-// The candidates in cost order, into order_ as (key << 32 | region class << 30 | candidate): an
-// LSD radix sort, two 11-bit passes on the top 22 bits of the cost (sign, exponent, 13 mantissa
-// bits), so costs within a relative 2^-13 of each other keep their candidate order. Each pass
-// splits in two halves of its input; in every bucket the first half's items go before the
-// second's, which is the order of one loop (and on one thread it is one loop). The first pass
-// counts, per half of its output, the buckets of the second.
-void Engine::sort_candidates(bool classes) {
+// The candidates in cost order, into order_ as (key << 32 | region class << 30 | candidate), by
+// the top 22 bits of the cost (sign, exponent, 13 mantissa bits: costs within a relative 2^-13 of
+// each other keep their candidate order), as far as a pass reads them: a radix sort by the top
+// 11 bits (a few large buckets), then, bucket by bucket, by the next 11 (counting sorts), but only
+// of the buckets up to the one holding 1.5 times the cost of the goal-th candidate (the pass's
+// limit, returned; sort_rest() sorts the others if a pass reads past it). Each part splits in two
+// where there is a helper: the first by halves of the candidates (the first half's items of a
+// bucket before the second's), the buckets between the threads by their sizes. The order is that
+// of a stable sort on one thread.
+double Engine::sort_candidates(bool classes, size_t goal) {
     const size_t n = candidates_.size();
     keys_.resize(n), order_.resize(n), order_tmp_.resize(n);
     const size_t cut = two_way_->has_helper() ? n / 2 : n;
-    for (Worker& w : workers_) w.radix.assign(3 * kRadixBuckets, 0);
+    for (Worker& w : workers_) w.radix.assign(kRadixBuckets, 0);
     auto count = [this, n, cut](int h) {
-        uint32_t* low = workers_[h].radix.data();
+        uint32_t* high = workers_[h].radix.data();
         for (size_t i = h == 0 ? 0 : cut, end = h == 0 ? cut : n; i < end; ++i) {
-            uint32_t key;
-            std::memcpy(&key, &candidates_[i].cost,
-                        4);  // note: costs are >= 0: bits sort as floats
+            uint32_t key;  // note: costs are >= 0, so their bits sort as the floats do
+            std::memcpy(&key, &candidates_[i].cost, 4);
             keys_[i] = key;
-            ++low[(key >> 10) & (kRadixBuckets - 1)];
+            ++high[key >> 21];
         }
     };
     two_way_->run(count);
-    uint32_t* low0 = workers_[0].radix.data();
-    uint32_t* low1 = workers_[1].radix.data();
+    uint32_t* offset0 = workers_[0].radix.data();
+    uint32_t* offset1 = workers_[1].radix.data();
     for (uint32_t b = 0, at = 0; b < kRadixBuckets; ++b) {
-        const uint32_t c0 = low0[b], c1 = low1[b];
-        low0[b] = at, low1[b] = at + c0;
+        bucket_start_[b] = at;
+        const uint32_t c0 = offset0[b], c1 = offset1[b];
+        offset0[b] = at, offset1[b] = at + c0;
         at += c0 + c1;
     }
-    auto low_pass = [this, n, cut, classes](int h) {
+    bucket_start_[kRadixBuckets] = uint32_t(n);
+    auto high_pass = [this, n, cut, classes](int h) {
         uint32_t* offset = workers_[h].radix.data();
-        uint32_t* high = offset + kRadixBuckets;  // per half of order_tmp_
         for (size_t i = h == 0 ? 0 : cut, end = h == 0 ? cut : n; i < end; ++i) {
             const uint32_t key = keys_[i];
             uint64_t item = uint64_t(key) << 32 | i;
@@ -1394,30 +1404,76 @@ void Engine::sort_candidates(bool classes) {
                 const Candidate& c = candidates_[i];
                 item |= uint64_t(region_class_[c.from] | region_class_[c.to]) << 30;
             }
-            const uint32_t at = offset[(key >> 10) & (kRadixBuckets - 1)]++;
-            order_tmp_[at] = item;
-            ++high[(at >= cut ? kRadixBuckets : 0) + (key >> 21)];
-        }
-    };
-    two_way_->run(low_pass);
-    // note: the high offsets of order_tmp_'s first half into worker 0's first buckets, of its
-    // second half into worker 1's.
-    const uint32_t* high0 = low0 + kRadixBuckets;
-    const uint32_t* high1 = low1 + kRadixBuckets;
-    for (uint32_t b = 0, at = 0; b < kRadixBuckets; ++b) {
-        const uint32_t first = high0[b] + high1[b];
-        const uint32_t second = high0[kRadixBuckets + b] + high1[kRadixBuckets + b];
-        low0[b] = at, low1[b] = at + first;
-        at += first + second;
-    }
-    auto high_pass = [this, n, cut](int h) {
-        uint32_t* offset = workers_[h].radix.data();
-        for (size_t i = h == 0 ? 0 : cut, end = h == 0 ? cut : n; i < end; ++i) {
-            const uint64_t item = order_tmp_[i];
-            order_[offset[item >> 53]++] = item;
+            order_tmp_[offset[key >> 21]++] = item;
         }
     };
     two_way_->run(high_pass);
+    double limit = std::numeric_limits<double>::infinity();
+    uint32_t last = kRadixBuckets - 1, goal_bucket = kRadixBuckets;
+    if (goal < n) {
+        goal_bucket =
+            uint32_t(std::upper_bound(bucket_start_.begin(), bucket_start_.end(), uint32_t(goal)) -
+                     bucket_start_.begin()) -
+            1;
+        sort_bucket(goal_bucket, workers_[0].radix.data());
+        limit = 1.5 * double(candidate_at(goal).cost);
+        // note: a float cost <= limit has bits <= those of float(limit) (rounding is monotonic).
+        const float bound = float(limit);
+        uint32_t bits;
+        std::memcpy(&bits, &bound, 4);
+        last = std::max(goal_bucket, std::min(bits >> 21, kRadixBuckets - 1));
+    }
+    sort_buckets(0, last, goal_bucket);
+    last_sorted_bucket_ = last;
+    sorted_ = bucket_start_[last + 1];
+    std::copy(order_tmp_.begin() + sorted_, order_tmp_.end(), order_.begin() + sorted_);
+    return limit;
+}
+
+// Buckets first..last (all but `skip`) sorted into order_, split between the threads by size.
+void Engine::sort_buckets(uint32_t first, uint32_t last, uint32_t skip) {
+    const uint32_t items = bucket_start_[last + 1] - bucket_start_[first];
+    uint32_t mid = last + 1;  // note: in one piece without a helper
+    if (two_way_->has_helper()) {
+        mid = first;
+        while (mid <= last && bucket_start_[mid] - bucket_start_[first] < items / 2) ++mid;
+    }
+    auto buckets = [this, first, last, mid, skip](int h) {
+        uint32_t* counts = workers_[h].radix.data();
+        for (uint32_t b = h == 0 ? first : mid, end = h == 0 ? mid : last + 1; b < end; ++b) {
+            if (b != skip) sort_bucket(b, counts);
+        }
+    };
+    two_way_->run(buckets);
+}
+
+// High bucket b of order_tmp_ into order_, stably by the next 11 bits of the key.
+void Engine::sort_bucket(uint32_t b, uint32_t* counts) {
+    const uint32_t begin = bucket_start_[b], end = bucket_start_[b + 1];
+    if (end - begin <= 1) {
+        if (end > begin) order_[begin] = order_tmp_[begin];
+        return;
+    }
+    std::fill(counts, counts + kRadixBuckets, 0u);
+    for (uint32_t i = begin; i < end; ++i) ++counts[(order_tmp_[i] >> 42) & (kRadixBuckets - 1)];
+    for (uint32_t k = 0, at = begin; k < kRadixBuckets; ++k) {
+        const uint32_t c = counts[k];
+        counts[k] = at;
+        at += c;
+    }
+    for (uint32_t i = begin; i < end; ++i) {
+        const uint64_t item = order_tmp_[i];
+        order_[counts[(item >> 42) & (kRadixBuckets - 1)]++] = item;
+    }
+}
+
+// The buckets a pass did not expect to read (past the limit), when it does.
+void Engine::sort_rest() {
+    if (last_sorted_bucket_ + 1 < kRadixBuckets) {
+        sort_buckets(last_sorted_bucket_ + 1, kRadixBuckets - 1, kRadixBuckets);
+    }
+    last_sorted_bucket_ = kRadixBuckets - 1;
+    sorted_ = order_.size();
 }
 
 // The two regions' share of a pass (see run_batched()): the sorted candidates up to `limit` go to
