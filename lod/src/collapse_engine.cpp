@@ -223,6 +223,7 @@ class Engine {
         size_t collapses = 0, removed_faces = 0;
         // sort_candidates(): the counts and offsets of this half's radix buckets
         Scratch<uint32_t> radix;
+        Scratch<ConstraintEdge> constraint_edges;  // classify(): this half's
         double max_error = 0.0;
         bool error_unknown = false;  // some applied collapse had no error estimate
     };
@@ -409,7 +410,8 @@ class Engine {
     // neighbour once as `next` and once as `prev` of its entries (so its edges are the `next`s);
     // a collapse keeps it only where both endpoints had it.
     Scratch<uint8_t> simple_fan_;
-    bool classify_simple_fan(uint32_t p);
+    bool classify_simple_fan(Worker& w, uint32_t p);
+    void classify_position(Worker& w, uint32_t p, Scratch<ConstraintEdge>& edges);
     size_t collapses_ = 0, initial_faces_ = 0;
     size_t live_faces_ = 0;
     std::vector<VertexSplit> records_;
@@ -665,52 +667,34 @@ void Engine::rebuild_adjacency() {
     adj_first_[0] = 0;
 }
 
+// The kind of every position and the constraint edges (in order of their first position), by
+// halves of the positions where the pass schedule has a helper.
 void Engine::classify() {
     const uint32_t np = uint32_t(m_.positions.size());
     m_.kinds.assign(np, VertexKind::Locked);
     m_.on_border.assign(np, 0);
     simple_fan_.assign(csr_ ? np : 0, 0);
-    for (uint32_t p = 0; p < np; ++p) {
-        if (!m_.position_alive[p]) continue;
-        if (csr_ && classify_simple_fan(p)) {
-            m_.kinds[p] = VertexKind::Free;
-            simple_fan_[p] = 1;
-            continue;
+    const bool helper = two_way_ && two_way_->has_helper();
+    const uint32_t cut = helper ? np / 2 : np;
+    auto half = [this, np, cut](int h) {
+        Worker& w = workers_[h];
+        Scratch<ConstraintEdge> edges;  // note: on this thread's stack (see collect_candidates())
+        edges.swap(w.constraint_edges);
+        for (uint32_t p = h == 0 ? 0 : cut, end = h == 0 ? cut : np; p < end; ++p) {
+            if (m_.position_alive[p]) classify_position(w, p, edges);
         }
-        Worker& w = workers_[0];
-        gather_edges(w, p);
-        // Distinct wedges at p: one, two, or more (3).
-        const int wedge_count = w.other_wedge_at_p == kNone ? 1 : w.more_wedges_at_p ? 3 : 2;
-        int border_edges = 0, seam_edges = 0;
-        bool non_manifold = false;
-        for (const EdgeGroup& g : w.groups) {
-            if (g.count == 1) {
-                ++border_edges;
-                if (p < g.q) m_.constraint_edges.push_back({p, g.q, g.face[0]});
-            } else if (g.count == 2) {
-                if (g.wp[0] != g.wp[1] || g.wq[0] != g.wq[1]) {
-                    ++seam_edges;
-                    if (p < g.q) {
-                        m_.constraint_edges.push_back({p, g.q, g.face[0]});
-                        m_.constraint_edges.push_back({p, g.q, g.face[1]});
-                    }
-                }
-            } else {
-                non_manifold = true;
-            }
-        }
-        VertexKind kind = VertexKind::Locked;
-        if (border_edges > 0) m_.on_border[p] = 1;
-        if (non_manifold) {
-            kind = VertexKind::Locked;
-        } else if (border_edges > 0) {
-            if (border_edges == 2 && wedge_count == 1 && seam_edges == 0) kind = VertexKind::Border;
-        } else if (wedge_count == 1 && seam_edges == 0) {
-            kind = VertexKind::Free;
-        } else if (wedge_count == 2 && seam_edges == 2) {
-            kind = VertexKind::Seam;
-        }
-        m_.kinds[p] = kind;
+        edges.swap(w.constraint_edges);
+    };
+    if (two_way_) {
+        two_way_->run(half);
+    } else {
+        half(0);
+        half(1);
+    }
+    for (Worker& w : workers_) {
+        m_.constraint_edges.insert(m_.constraint_edges.end(), w.constraint_edges.begin(),
+                                   w.constraint_edges.end());
+        w.constraint_edges = {};
     }
     if (!options_.locked_positions.empty()) {
         const PositionSet locked(options_.locked_positions);
@@ -720,16 +704,56 @@ void Engine::classify() {
     }
 }
 
+void Engine::classify_position(Worker& w, uint32_t p, Scratch<ConstraintEdge>& edges) {
+    if (csr_ && classify_simple_fan(w, p)) {
+        m_.kinds[p] = VertexKind::Free;
+        simple_fan_[p] = 1;
+        return;
+    }
+    gather_edges(w, p);
+    // Distinct wedges at p: one, two, or more (3).
+    const int wedge_count = w.other_wedge_at_p == kNone ? 1 : w.more_wedges_at_p ? 3 : 2;
+    int border_edges = 0, seam_edges = 0;
+    bool non_manifold = false;
+    for (const EdgeGroup& g : w.groups) {
+        if (g.count == 1) {
+            ++border_edges;
+            if (p < g.q) edges.push_back({p, g.q, g.face[0]});
+        } else if (g.count == 2) {
+            if (g.wp[0] != g.wp[1] || g.wq[0] != g.wq[1]) {
+                ++seam_edges;
+                if (p < g.q) {
+                    edges.push_back({p, g.q, g.face[0]});
+                    edges.push_back({p, g.q, g.face[1]});
+                }
+            }
+        } else {
+            non_manifold = true;
+        }
+    }
+    VertexKind kind = VertexKind::Locked;
+    if (border_edges > 0) m_.on_border[p] = 1;
+    if (non_manifold) {
+        kind = VertexKind::Locked;
+    } else if (border_edges > 0) {
+        if (border_edges == 2 && wedge_count == 1 && seam_edges == 0) kind = VertexKind::Border;
+    } else if (wedge_count == 1 && seam_edges == 0) {
+        kind = VertexKind::Free;
+    } else if (wedge_count == 2 && seam_edges == 2) {
+        kind = VertexKind::Seam;
+    }
+    m_.kinds[p] = kind;
+}
+
 // The common case of classify(), on p's flat list: one wedge, and every neighbour q once as the
 // `next` of one face and once as the `prev` of another, with the same wedge at q in both (no seam):
 // p is free. False: classify() looks closer.
-bool Engine::classify_simple_fan(uint32_t p) {
+bool Engine::classify_simple_fan(Worker& w, uint32_t p) {
     const uint32_t first = adj_first_[p], n = adj_first_[p + 1] - first;
     if (n < 3) return false;
     const AdjEntry* e = &adj_[first];
     const uint32_t w0 = m_.corners[e[0].corner];
     // note: n distinct `next`s, and every `prev` one of them, once: a bijection.
-    Worker& w = workers_[0];
     const uint32_t s_next = ++w.stamp, s_prev = ++w.stamp;
     for (uint32_t i = 0; i < n; ++i) {
         const uint32_t q = e[i].next;
