@@ -221,6 +221,7 @@ class Engine {
         Scratch<uint64_t> order;
         Scratch<uint32_t> touched;
         size_t collapses = 0, removed_faces = 0;
+        size_t counted = 0;  // build(): the live faces of this half
         // sort_candidates(): the counts and offsets of this half's radix buckets
         Scratch<uint32_t> radix;
         Scratch<ConstraintEdge> constraint_edges;  // classify(): this half's
@@ -542,22 +543,35 @@ void Engine::build(const Primitive& in) {
         m_.corner_next.assign(faces * 3, kNone);
     }
     m_.position_alive.assign(position_count, 0);
-    for (size_t f = 0; f < faces; ++f) {
-        for (int k = 0; k < 3; ++k) {
-            const uint32_t w = vertex_wedge[in.indices[3 * f + k]];
-            m_.corners[3 * f + k] = w;
-            m_.corner_position[3 * f + k] = m_.wedge_position[w];
-        }
-        const uint32_t p0 = m_.face_position(uint32_t(f), 0), p1 = m_.face_position(uint32_t(f), 1),
-                       p2 = m_.face_position(uint32_t(f), 2);
-        if (p0 == p1 || p1 == p2 || p0 == p2) continue;
-        m_.face_alive[f] = 1;
-        ++live_faces_;
-    }
     input_normals_.resize(faces);
-    for (size_t f = 0; f < faces; ++f) {
-        input_normals_[f] = glm::vec3(m_.face_normal_unnormalized(uint32_t(f)));
+    // note: by halves of the faces on the pass schedule's helper.
+    const size_t face_cut = two_way_ && two_way_->has_helper() ? faces / 2 : faces;
+    auto face_half = [this, indices = in.indices.data(), wedge = vertex_wedge.data(), faces,
+                      face_cut](int h) {
+        size_t live = 0;
+        for (size_t f = h == 0 ? 0 : face_cut, end = h == 0 ? face_cut : faces; f < end; ++f) {
+            for (int k = 0; k < 3; ++k) {
+                const uint32_t w = wedge[indices[3 * f + k]];
+                m_.corners[3 * f + k] = w;
+                m_.corner_position[3 * f + k] = m_.wedge_position[w];
+            }
+            input_normals_[f] = glm::vec3(m_.face_normal_unnormalized(uint32_t(f)));
+            const uint32_t p0 = m_.face_position(uint32_t(f), 0),
+                           p1 = m_.face_position(uint32_t(f), 1),
+                           p2 = m_.face_position(uint32_t(f), 2);
+            if (p0 == p1 || p1 == p2 || p0 == p2) continue;
+            m_.face_alive[f] = 1;
+            ++live;
+        }
+        workers_[h].counted = live;
+    };
+    if (two_way_) {
+        two_way_->run(face_half);
+    } else {
+        face_half(0);
+        face_half(1);
     }
+    live_faces_ = workers_[0].counted + workers_[1].counted;
     for (size_t c = faces * 3; c-- > 0;) {
         if (!m_.face_alive[c / 3]) continue;
         const uint32_t p = m_.corner_position[c];
@@ -1626,13 +1640,15 @@ SimplifiedLevel Engine::snapshot() {
 
 Result<std::vector<SimplifiedLevel>> Engine::run(const Primitive& in,
                                                  std::span<const size_t> targets) {
-    build(in);
     if (!cost_.depends_on_ring()) {
-        csr_ = true;
         // note: the split is the same without the helper.
         const bool helper = options_.threads != 1 && in.indices.size() / 3 >= kSplitFaces &&
                             std::thread::hardware_concurrency() > 1;
         two_way_.emplace(helper);
+    }
+    build(in);
+    if (!cost_.depends_on_ring()) {
+        csr_ = true;
         remap_.resize(m_.positions.size());
         for (uint32_t p = 0; p < uint32_t(remap_.size()); ++p) remap_[p] = p;
         wedge_remap_.resize(m_.wedge_position.size());
