@@ -10,6 +10,10 @@
 #pragma once
 
 #include <atomic>
+#ifdef __linux__
+#include <pthread.h>
+#include <sched.h>
+#endif
 #include <chrono>
 #include <cstdint>
 #include <new>
@@ -21,7 +25,11 @@ namespace hmdnode::lod_detail {
 class TwoWay {
   public:
     explicit TwoWay(bool helper) {
-        if (helper) thread_ = std::thread([this] { serve(); });
+        if (helper)
+            thread_ = std::thread([this, caller = current_cpu()] {
+                keep_off(caller);
+                serve();
+            });
     }
     ~TwoWay() {
         if (!thread_.joinable()) return;
@@ -59,6 +67,31 @@ class TwoWay {
     }
 
   private:
+    static int current_cpu() {
+#ifdef __linux__
+        return sched_getcpu();
+#else
+        return -1;
+#endif
+    }
+    // note: a new thread starts on its creator's core, and for short work (a mesh of a few
+    // thousand faces) the scheduler left it there: every split then ran its halves one after the
+    // other on one core, the other idle (the fandisk 1.5x slower). The helper keeps off the
+    // caller's core of the moment (any other the process may use; nothing when it has one).
+    static void keep_off(int cpu) {
+#ifdef __linux__
+        cpu_set_t set;
+        CPU_ZERO(&set);
+        if (cpu < 0 || cpu >= CPU_SETSIZE) return;
+        if (sched_getaffinity(0, sizeof set, &set) != 0) return;
+        if (!CPU_ISSET(cpu, &set) || CPU_COUNT(&set) < 2) return;
+        CPU_CLR(cpu, &set);
+        pthread_setaffinity_np(pthread_self(), sizeof set, &set);
+#else
+        (void)cpu;
+#endif
+    }
+
     // Waits until a changes from old and returns the new value: spinning for up to kSpin first,
     // then asleep on the futex. note: the next run usually comes within a millisecond, and a
     // thread asleep on a futex took 50-60 microseconds to wake on this 2-core VM (its idle vCPU
@@ -71,7 +104,12 @@ class TwoWay {
 #if defined(__x86_64__) || defined(__i386__)
             __builtin_ia32_pause();
 #endif
-            if (i % 64 == 0 && std::chrono::steady_clock::now() - start > kSpin) break;
+            if (i % 64 == 0) {
+                if (std::chrono::steady_clock::now() - start > kSpin) break;
+                // note: a new helper often starts on its caller's core (until the scheduler moves
+                // it); spinning there without yielding would hold it off for the whole kSpin.
+                std::this_thread::yield();
+            }
         }
         for (;;) {
             a.wait(old, std::memory_order_acquire);
