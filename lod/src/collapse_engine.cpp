@@ -670,7 +670,16 @@ void Engine::rebuild_adjacency() {
         region_class_.resize(np);
         for (uint32_t p = 0; p < np; ++p) region_class_[p] = p < cut ? 1 : 2;
     }
-    for (uint32_t f : live_list_) {
+    const size_t live = live_list_.size();
+    for (size_t i = 0; i < live; ++i) {
+        if (i + 8 < live) {
+            // note: the entries are written scattered; fetch their lines a few faces ahead
+            const uint32_t g = live_list_[i + 8];
+            for (uint32_t c = 3 * g; c < 3 * g + 3; ++c) {
+                __builtin_prefetch(&adj_[adj_first_[m_.corner_position[c]]], 1);
+            }
+        }
+        const uint32_t f = live_list_[i];
         const uint32_t p0 = m_.corner_position[3 * f], p1 = m_.corner_position[3 * f + 1],
                        p2 = m_.corner_position[3 * f + 2];
         adj_[adj_first_[p0]++] = {p1, p2, 3 * f};
@@ -1625,6 +1634,9 @@ void Engine::prefetch_ahead(const uint64_t* order, size_t i, size_t n) const {
         const Candidate& a = at(i + 4);
         prefetch_list(a.from);
         prefetch_list(a.to);
+        // note: what applying it reads of the cost (a QEM-type cost: both quadrics)
+        cost_.prefetch(a.from);
+        cost_.prefetch(a.to);
     }
     if (i + 2 < n) {
         const Candidate& a = at(i + 2);
