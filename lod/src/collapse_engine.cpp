@@ -17,15 +17,16 @@
 //   rewritten once, before the next pass or a snapshot. A free position whose faces form one
 //   consistently wound fan (each neighbour once as `next` and once as `prev`) is classified and
 //   has its edges listed from its flat list alone. Each pass sorts the candidates (one per edge:
-//   the cheaper allowed direction, or a merge at a new point; two 11-bit radix passes on the top
-//   22 bits of the float cost: costs within a relative 2^-13 keep their previous order) and
-//   applies them in order while neither endpoint was touched earlier in the pass, up to 1.5 times
-//   the cost of the k-th cheapest (k = collapses still needed) and, within 256 collapses of a
-//   target, up to 8 times the cost of the cheapest candidate it had to skip; the next pass drops
+//   the cheaper allowed direction, or a merge at a new point; by the top 22 bits of the float
+//   cost, costs within a relative 2^-13 keeping their previous order: a radix pass on the top 11
+//   bits, then counting sorts of only the buckets the pass reads) and applies them in order while
+//   neither endpoint was touched earlier in the pass, up to 1.5 times the cost of the k-th
+//   cheapest (k = collapses still needed) and, within 256 collapses of a target, up to 4 times
+//   the current cost of the cheapest candidate it had to skip; the next pass drops
 //   the candidates of touched positions and evaluates their edges again (prefetching what the
 //   evaluation reads a few positions ahead). Within a pass the order is greedy and every applied
 //   cost is exact (a QEM cost reads only its two quadrics); a collapse is checked in one walk of
-//   each endpoint. From 32 768 input faces on the work splits in two (two_way.hpp: on a helper
+//   each endpoint. From 8 192 input faces on the work splits in two (two_way.hpp: on a helper
 //   thread where the machine has a second core, the same result either way): the positions are
 //   cut at the median of the bounding box's longest axis into two regions numbered apart; while
 //   at least 2 048 collapses are left to the next target, a pass applies the candidates whose
@@ -69,11 +70,12 @@
 // module and property machinery make ModQuadric take about 2.4 s on the bunny at 10 % (the
 // issue's figure for this machine); this engine does the same work with QEM on flat arrays, so
 // OpenMesh stays the baseline only (simplify_openmesh_quadric). Speed: QEM on the bunny on this
-// 2-core machine: one thread 26 / 36 / 38 ms at 50 / 10 / 1 % against meshopt_simplify's 20.5 /
-// 25 / 26 ms (1.25-1.46x; 2.3-2.9x before the flat entry lists with remapping, the simple-fan path
-// and the scalar placement; callgrind at 10 %: 269 M instructions against meshopt's 148 M); split
-// over two threads 28-29 ms at 10 % (1.10-1.16x in the quieter runs); the target "no slower than
-// meshopt_simplify" is not met (docs/simplification.md has the commands and where the time goes).
+// 2-core machine, split over two threads: 0.90-1.03 / 0.98-1.01 / 1.00-1.04x meshopt_simplify's
+// time at 50 / 10 / 1 % (about 24 ms against 25 at 10 %); on one thread about 1.5x (37-39 ms;
+// 2.3-2.9x before the flat entry lists with remapping, the simple-fan path and the scalar
+// placement). The fandisk at 10 and 1 % (1.3-1.5x) and the spot (under the split threshold,
+// 1.3-1.5x) are slower than meshopt_simplify (docs/simplification.md: commands, where the time
+// goes).
 //
 // Cost: O(V + F) to build; QEM schedule O(E) per pass, a handful to a few dozen passes; greedy
 // schedule O(E log E) (each collapse re-evaluates O(valence^2) edges). Memory O(V + F + E): about

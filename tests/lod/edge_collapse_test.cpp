@@ -382,7 +382,7 @@ TEST(EdgeCollapse, ClosedManifoldInputStaysClosedAndManifold) {
     }
 }
 
-// From 32 768 faces on, the pass schedule (qem, curvature-qem) cuts the mesh in two regions and
+// From 8 192 faces on, the pass schedule (qem, curvature-qem) cuts the mesh in two regions and
 // applies most of a pass's collapses region by region, on a helper thread where there is a second
 // core: a closed sphere of 81 920 faces still comes out closed, manifold, facing out, and bit for
 // bit the same with the helper and without (threads = 1).

@@ -88,7 +88,7 @@ TEST(ProgressiveMesh, RoundTripRefinesToEverySnapshotAndToTheFullMesh) {
     }
 }
 
-// From 32 768 faces on, a pass's collapses run region by region (the second region's records are
+// From 8 192 faces on, a pass's collapses run region by region (the second region's records are
 // appended after the first's): the progressive mesh still refines to every snapshot, which are the
 // levels simplify() makes with or without its helper thread.
 TEST(ProgressiveMesh, TwoRegionPassesRefineToEverySnapshot) {

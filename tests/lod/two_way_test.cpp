@@ -1,13 +1,18 @@
 // The simplifiers' two-way split (lod/src/two_way.hpp): run(f) calls f(1) on the helper thread and
 // f(0) on the caller and returns only when both are done; without a helper both run on the caller,
-// 0 then 1. Many rounds in a row each see their own captures (the job is copied per round).
+// 0 then 1. Many rounds in a row each see their own captures (the job is copied per round), runs
+// after the helper fell asleep still hand over, and the helper keeps off its caller's core.
 #include <array>
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
+#ifdef __linux__
+#include <sched.h>
+#endif
 
 #include "../../lod/src/two_way.hpp"
 
@@ -54,6 +59,40 @@ TEST(TwoWay, WithoutHelperBothHalvesRunOnTheCallerInOrder) {
     EXPECT_EQ(order, (std::vector<int>{0, 1, 0, 1}));
     for (const std::thread::id& id : ids) EXPECT_EQ(id, std::this_thread::get_id());
 }
+
+TEST(TwoWay, RunsAfterTheHelperFellAsleep) {
+    // note: the threads spin for about a millisecond between runs, then sleep on a futex.
+    TwoWay split(true);
+    std::array<int, 2> seen{};
+    for (int round = 1; round <= 5; ++round) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(3));
+        int* out = seen.data();
+        auto job = [out, round](int half) { out[half] = round * 10 + half; };
+        split.run(job);
+        ASSERT_EQ(seen[0], round * 10);
+        ASSERT_EQ(seen[1], round * 10 + 1);
+    }
+}
+
+#ifdef __linux__
+TEST(TwoWay, HelperKeepsOffTheCoreItsCallerWasOn) {
+    cpu_set_t allowed;
+    CPU_ZERO(&allowed);
+    ASSERT_EQ(sched_getaffinity(0, sizeof allowed, &allowed), 0);
+    if (CPU_COUNT(&allowed) < 2) GTEST_SKIP() << "one core";
+    TwoWay split(true);
+    int helper_cores = -1;
+    int* out = &helper_cores;
+    auto job = [out](int half) {
+        if (half != 1) return;
+        cpu_set_t set;
+        CPU_ZERO(&set);
+        if (sched_getaffinity(0, sizeof set, &set) == 0) *out = CPU_COUNT(&set);
+    };
+    split.run(job);
+    EXPECT_EQ(helper_cores, CPU_COUNT(&allowed) - 1);
+}
+#endif
 
 TEST(TwoWay, EndsItsHelperWhenDestroyed) {
     std::atomic<int> calls{0};
