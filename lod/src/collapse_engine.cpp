@@ -385,7 +385,8 @@ class Engine {
     int material_ = -1;
     Scratch<uint32_t> version_;
     std::array<Worker, 2> workers_;
-    // Runs the two halves of a split (on two threads where the pass schedule has a helper).
+    // Runs the two halves of a split (on two threads where the pass schedule has a helper; set
+    // once run() starts).
     std::optional<TwoWay> two_way_;
     Scratch<HeapEntry> heap_;
     Scratch<Candidate> candidates_;
@@ -550,7 +551,7 @@ void Engine::build(const Primitive& in) {
     m_.position_alive.assign(position_count, 0);
     input_normals_.resize(faces);
     // note: by halves of the faces on the pass schedule's helper.
-    const size_t face_cut = two_way_ && two_way_->has_helper() ? faces / 2 : faces;
+    const size_t face_cut = two_way_->has_helper() ? faces / 2 : faces;
     auto face_half = [this, indices = in.indices.data(), wedge = vertex_wedge.data(), faces,
                       face_cut](int h) {
         size_t live = 0;
@@ -570,12 +571,7 @@ void Engine::build(const Primitive& in) {
         }
         workers_[h].counted = live;
     };
-    if (two_way_) {
-        two_way_->run(face_half);
-    } else {
-        face_half(0);
-        face_half(1);
-    }
+    two_way_->run(face_half);
     live_faces_ = workers_[0].counted + workers_[1].counted;
     for (size_t c = faces * 3; c-- > 0;) {
         if (!m_.face_alive[c / 3]) continue;
@@ -702,8 +698,7 @@ void Engine::classify() {
     m_.kinds.assign(np, VertexKind::Locked);
     m_.on_border.assign(np, 0);
     simple_fan_.assign(csr_ ? np : 0, 0);
-    const bool helper = two_way_ && two_way_->has_helper();
-    const uint32_t cut = helper ? np / 2 : np;
+    const uint32_t cut = two_way_->has_helper() ? np / 2 : np;
     auto half = [this, np, cut](int h) {
         Worker& w = workers_[h];
         Scratch<ConstraintEdge> edges;  // note: on this thread's stack (see collect_candidates())
@@ -713,12 +708,7 @@ void Engine::classify() {
         }
         edges.swap(w.constraint_edges);
     };
-    if (two_way_) {
-        two_way_->run(half);
-    } else {
-        half(0);
-        half(1);
-    }
+    two_way_->run(half);
     for (Worker& w : workers_) {
         m_.constraint_edges.insert(m_.constraint_edges.end(), w.constraint_edges.begin(),
                                    w.constraint_edges.end());
@@ -1674,12 +1664,11 @@ SimplifiedLevel Engine::snapshot() {
 
 Result<std::vector<SimplifiedLevel>> Engine::run(const Primitive& in,
                                                  std::span<const size_t> targets) {
-    if (!cost_.depends_on_ring()) {
-        // note: the split is the same without the helper.
-        const bool helper = options_.threads != 1 && in.indices.size() / 3 >= kSplitFaces &&
-                            std::thread::hardware_concurrency() > 1;
-        two_way_.emplace(helper);
-    }
+    // note: the split is the same without the helper; the greedy schedule has none.
+    const bool helper = !cost_.depends_on_ring() && options_.threads != 1 &&
+                        in.indices.size() / 3 >= kSplitFaces &&
+                        std::thread::hardware_concurrency() > 1;
+    two_way_.emplace(helper);
     build(in);
     if (!cost_.depends_on_ring()) {
         csr_ = true;
@@ -1693,7 +1682,7 @@ Result<std::vector<SimplifiedLevel>> Engine::run(const Primitive& in,
         rebuild_adjacency();
     }
     classify();
-    if (two_way_ && two_way_->has_helper()) {
+    if (two_way_->has_helper()) {
         m_.region_start = region_start_;
         m_.split = &*two_way_;
     }

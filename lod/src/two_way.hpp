@@ -106,8 +106,9 @@ class TwoWay {
 #endif
             if (i % 64 == 0) {
                 if (std::chrono::steady_clock::now() - start > kSpin) break;
-                // note: a new helper often starts on its caller's core (until the scheduler moves
-                // it); spinning there without yielding would hold it off for the whole kSpin.
+                // note: should the two threads share a core for a while (the helper starts on
+                // its creator's before keep_off() moves it, and the caller is not pinned),
+                // spinning without yielding would hold the other off for the whole kSpin.
                 std::this_thread::yield();
             }
         }
