@@ -396,15 +396,14 @@ class Engine {
     uint32_t touched_pass_ = 0;
     Scratch<uint32_t> touched_list_, refresh_mark_;
     uint32_t refresh_stamp_ = 0;
-    Scratch<uint32_t> keys_;
+    Scratch<uint32_t> keys_;  // the candidates' cost bits, read twice by sort_candidates()
     // (cost key << 32 | region class << 30 | candidate), in cost order
     Scratch<uint64_t> order_, order_tmp_;
     static constexpr uint32_t kCandidateIndex = (uint32_t(1) << 30) - 1;
     static constexpr uint32_t kRadixBuckets = 2048;  // 11 bits
-    // sort_candidates(): where each high bucket starts in order_ (and order_tmp_), the last bucket
-    // sorted and the items sorted (order_ from sorted_ on holds the rest unsorted).
+    // sort_candidates(): where each high bucket starts in order_ (and order_tmp_), and the items
+    // sorted, up to a bucket's start (order_ from sorted_ on holds the rest unsorted).
     std::array<uint32_t, kRadixBuckets + 1> bucket_start_{};
-    uint32_t last_sorted_bucket_ = 0;
     size_t sorted_ = 0;
     // The split of a pass (split_pass()): positions from region_start_ on are region 1 (none
     // without a cut), and per pass the class of each: 1 or 2 when all its faces lie in region 0
@@ -1469,7 +1468,6 @@ double Engine::sort_candidates(bool classes, size_t goal) {
         last = std::max(goal_bucket, std::min(bits >> 21, kRadixBuckets - 1));
     }
     sort_buckets(0, last, goal_bucket);
-    last_sorted_bucket_ = last;
     sorted_ = bucket_start_[last + 1];
     std::copy(order_tmp_.begin() + sorted_, order_tmp_.end(), order_.begin() + sorted_);
     return limit;
@@ -1514,10 +1512,11 @@ void Engine::sort_bucket(uint32_t b, uint32_t* counts) {
 
 // The buckets a pass did not expect to read (past the limit), when it does.
 void Engine::sort_rest() {
-    if (last_sorted_bucket_ + 1 < kRadixBuckets) {
-        sort_buckets(last_sorted_bucket_ + 1, kRadixBuckets - 1, kRadixBuckets);
-    }
-    last_sorted_bucket_ = kRadixBuckets - 1;
+    // note: the first bucket starting at sorted_ (the empty ones before it are sorted already).
+    const uint32_t first =
+        uint32_t(std::lower_bound(bucket_start_.begin(), bucket_start_.end(), uint32_t(sorted_)) -
+                 bucket_start_.begin());
+    if (first < kRadixBuckets) sort_buckets(first, kRadixBuckets - 1, kRadixBuckets);
     sorted_ = order_.size();
 }
 
