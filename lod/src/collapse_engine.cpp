@@ -70,11 +70,11 @@
 // module and property machinery make ModQuadric take about 2.4 s on the bunny at 10 % (the
 // issue's figure for this machine); this engine does the same work with QEM on flat arrays, so
 // OpenMesh stays the baseline only (simplify_openmesh_quadric). Speed: QEM on the bunny on this
-// 2-core machine, split over two threads: 0.90-1.03 / 0.98-1.01 / 1.00-1.04x meshopt_simplify's
+// 2-core machine, split over two threads: 0.92-0.99 / 0.96-1.00 / 0.99-1.03x meshopt_simplify's
 // time at 50 / 10 / 1 % (about 24 ms against 25 at 10 %); on one thread about 1.5x (37-39 ms;
 // 2.3-2.9x before the flat entry lists with remapping, the simple-fan path and the scalar
-// placement). The fandisk at 10 and 1 % (1.3-1.5x) and the spot (under the split threshold,
-// 1.3-1.5x) are slower than meshopt_simplify (docs/simplification.md: commands, where the time
+// placement). The fandisk at 10 and 1 % (1.04-1.38x) and the spot (under the split threshold,
+// 1.17-1.50x) are slower than meshopt_simplify (docs/simplification.md: commands, where the time
 // goes).
 //
 // Cost: O(V + F) to build; QEM schedule O(E) per pass, a handful to a few dozen passes; greedy
