@@ -635,7 +635,7 @@ void Engine::build(const Primitive& in) {
 void Engine::flush_attributes(Worker& w) {
     const size_t n = w.lerps.size();
     for (size_t i = 0; i < n; ++i) {
-        if (i + 8 < n) {
+        if (prefetch_ && i + 8 < n) {
             __builtin_prefetch(&wedges_[w.lerps[i + 8].from]);
             __builtin_prefetch(&wedges_[w.lerps[i + 8].to]);
         }
@@ -677,7 +677,7 @@ void Engine::rebuild_adjacency() {
     }
     const size_t live = live_list_.size();
     for (size_t i = 0; i < live; ++i) {
-        if (i + 8 < live) {
+        if (prefetch_ && i + 8 < live) {
             // note: the entries are written scattered; fetch their lines a few faces ahead
             const uint32_t g = live_list_[i + 8];
             for (uint32_t c = 3 * g; c < 3 * g + 3; ++c) {
@@ -1324,7 +1324,7 @@ void Engine::refresh_candidates() {
         out.swap(h == 0 ? candidates_ : w.candidates);
         const size_t begin = h == 0 ? 0 : cut, end = h == 0 ? cut : nt;
         for (size_t i = begin; i < end; ++i) {
-            if (i + 8 < end) __builtin_prefetch(&adj_first_[touched_list_[i + 8]]);
+            if (prefetch_ && i + 8 < end) __builtin_prefetch(&adj_first_[touched_list_[i + 8]]);
             if (i + 4 < end) prefetch_list(touched_list_[i + 4]);
             if (i + 2 < end) prefetch_neighbours(touched_list_[i + 2]);
             const uint32_t v = touched_list_[i];
