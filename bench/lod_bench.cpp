@@ -14,7 +14,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <functional>
 #include <map>
 #include <sstream>
@@ -23,6 +22,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/obj.hpp"
 #include "hmdnode/lod/mesh_distance.hpp"
 #include "hmdnode/lod/simplify.hpp"
@@ -349,11 +349,9 @@ int main(int argc, char** argv) {
     for (const auto& [path, text] :
          {std::pair{prefix + ".json", j.dump(2) + "\n"},
           std::pair{prefix + ".svg", svg_plot(rows, meshes, algorithms)}}) {
-        std::ofstream out(path, std::ios::binary);
-        out << text;
-        out.close();
-        if (!out) {
-            std::fprintf(stderr, "bench_lod_bench: could not write %s\n", path.c_str());
+        const Status written = write_file_atomically(path, text);
+        if (!written.ok()) {
+            std::fprintf(stderr, "bench_lod_bench: %s\n", written.error().message.c_str());
             return 1;
         }
     }
