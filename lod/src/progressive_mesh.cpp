@@ -386,15 +386,4 @@ Result<ProgressiveMesh> read_progressive_mesh(const std::filesystem::path& path)
     return pm;
 }
 
-namespace lod_detail {
-
-std::unique_ptr<CollapseCost> make_collapse_cost(std::string_view algorithm) {
-    if (algorithm == "qem") return make_qem_cost();
-    if (algorithm == "curvature-qem") return make_curvature_qem_cost();
-    if (algorithm == "formula1") return make_formula1_cost();
-    if (algorithm == "melax") return make_melax_cost();
-    return nullptr;
-}
-
-}  // namespace lod_detail
 }  // namespace hmdnode

@@ -16,22 +16,28 @@ namespace {
 struct Entry {
     AlgorithmInfo info;
     lod_detail::AlgorithmFn fn;
+    // The edge-collapse costs' factories (progressive meshes); nullptr for the others.
+    std::unique_ptr<lod_detail::CollapseCost> (*make_cost)() = nullptr;
 };
 
 const std::vector<Entry>& table() {
     static const std::vector<Entry> entries = {
         {{"qem", "Garland-Heckbert quadric error metric, optimal placement",
           "Garland & Heckbert 1997, 002 eq. (1)-(5)", true},
-         lod_detail::simplify_qem},
+         lod_detail::simplify_qem,
+         lod_detail::make_qem_cost},
         {{"curvature-qem", "QEM weighted by absolute curvature |k1|+|k2| and edge length",
           "002 eq. (7)-(12)", true},
-         lod_detail::simplify_curvature_qem},
+         lod_detail::simplify_curvature_qem,
+         lod_detail::make_curvature_qem_cost},
         {{"formula1", "edge length / dot of the two face normals, half-edge collapse",
           "000 Formula 1", true},
-         lod_detail::simplify_formula1},
+         lod_detail::simplify_formula1,
+         lod_detail::make_formula1_cost},
         {{"melax", "Melax: |u-v| * max_f min_n (1 - f.n)/2, half-edge collapse",
           "000 Formula 2 (Melax 1998)", true},
-         lod_detail::simplify_melax},
+         lod_detail::simplify_melax,
+         lod_detail::make_melax_cost},
         {{"ss", "spherical scanning: vertices within a sphere merged, radius found for the target",
           "001 sec. III.IV (SS)", false},
          lod_detail::simplify_ss},
@@ -79,6 +85,13 @@ const AlgorithmInfo* find_simplification_algorithm(std::string_view name) {
 }
 
 namespace lod_detail {
+
+std::unique_ptr<CollapseCost> make_collapse_cost(std::string_view algorithm) {
+    for (const Entry& e : table()) {
+        if (e.info.name == algorithm) return e.make_cost ? e.make_cost() : nullptr;
+    }
+    return nullptr;
+}
 
 // The checks simplify() and build_progressive_mesh() share: the entry points' contract.
 Status check_simplify_arguments(const Primitive& in, std::string_view algorithm,

@@ -205,6 +205,11 @@ TEST(ProgressiveMesh, OnlyForEdgeCollapseAlgorithms) {
     EXPECT_FALSE(build_progressive_mesh(in, "no-such", targets).ok());
     const size_t bad[] = {10, 20};
     EXPECT_FALSE(build_progressive_mesh(in, "qem", bad).ok());
+    // Every algorithm the table marks as an edge collapse builds one, and no other does.
+    for (const AlgorithmInfo& info : simplification_algorithms()) {
+        EXPECT_EQ(build_progressive_mesh(in, info.name, targets).ok(), info.edge_collapse)
+            << info.name;
+    }
 }
 
 }  // namespace
