@@ -91,14 +91,8 @@ Result<std::vector<BuiltLevel>> build_levels(const Mesh& mesh, size_t mesh_index
     for (size_t p = 0; p < mesh.primitives.size(); ++p) {
         const Primitive& prim = mesh.primitives[p];
         const size_t count = prim.triangle_count();
-        std::vector<size_t> list;
-        std::vector<int> which(targets.size(), -1);  // index into list, -1: the original
-        for (size_t k = 0; k < targets.size(); ++k) {
-            const double share = double(targets[k]) * double(count) / double(total);
-            const size_t want = std::max<size_t>(1, size_t(std::llround(share)));
-            if (want < count && (list.empty() || want < list.back())) list.push_back(want);
-            which[k] = list.empty() ? -1 : int(list.size() - 1);
-        }
+        std::vector<int> which;  // index into list, -1: the original
+        const std::vector<size_t> list = primitive_targets(mesh, p, targets, &which);
         std::vector<SimplifiedLevel> made;
         double elapsed = 0.0;
         if (!list.empty()) {
@@ -277,6 +271,21 @@ std::string check_lod_targets(const LodTargets& t) {
 // The positions (bit for bit, +0 == -0) that more than one primitive of `mesh` uses: its
 // material boundaries. Locking them keeps the boundary closed, since both sides then keep the same
 // boundary vertices (primitives are simplified one by one).
+std::vector<size_t> primitive_targets(const Mesh& mesh, size_t primitive,
+                                      const std::vector<size_t>& targets, std::vector<int>* which) {
+    const size_t total = mesh.triangle_count();
+    const size_t count = mesh.primitives.at(primitive).triangle_count();
+    std::vector<size_t> list;
+    if (which) which->assign(targets.size(), -1);
+    for (size_t k = 0; k < targets.size(); ++k) {
+        const double share = double(targets[k]) * double(count) / double(total);
+        const size_t want = std::max<size_t>(1, size_t(std::llround(share)));
+        if (want < count && (list.empty() || want < list.back())) list.push_back(want);
+        if (which) (*which)[k] = list.empty() ? -1 : int(list.size() - 1);
+    }
+    return list;
+}
+
 std::vector<glm::vec3> material_boundary_positions(const Mesh& mesh) {
     if (mesh.primitives.size() < 2) return {};
     using lod_detail::PositionSet;

@@ -91,9 +91,9 @@ std::string file_safe(const std::string& name) {
 
 // The progressive meshes of every primitive of the meshes `report` made chains for (in `source`,
 // the scene as given to generate_lod_chains), based at each mesh's last (smallest) level. Each is
-// built with the same per-primitive targets as the chain (the primitive's share of every level's
-// target, as lod_chain.cpp divides them): the batched collapse order of qem and curvature-qem
-// depends on the targets, so only then does refine() give back the chain's levels exactly.
+// built with the same per-primitive targets as the chain (primitive_targets()): the batched
+// collapse order of qem and curvature-qem depends on the targets, so only then does refine() give
+// back the chain's levels exactly.
 // One file: `out` itself;
 // several: `out` less ".hmpm", then ".<mesh>" (".<mesh>.p<k>" for a mesh of several primitives)
 // and ".hmpm".
@@ -132,17 +132,10 @@ Result<std::vector<ProgressiveOut>> build_progressive(const Scene& source,
             notes.push_back("mesh \"" + mesh.name + "\" has no level: no progressive mesh");
             continue;
         }
-        const size_t total = mesh.triangle_count();
         const std::vector<glm::vec3> boundary = material_boundary_positions(mesh);
         for (size_t p = 0; p < mesh.primitives.size(); ++p) {
             const Primitive& prim = mesh.primitives[p];
-            const size_t count = prim.triangle_count();
-            std::vector<size_t> list;
-            for (size_t t : targets[g]) {
-                const double share = double(t) * double(count) / double(total);
-                const size_t want = std::max<size_t>(1, size_t(std::llround(share)));
-                if (want < count && (list.empty() || want < list.back())) list.push_back(want);
-            }
+            const std::vector<size_t> list = primitive_targets(mesh, p, targets[g]);
             if (list.empty()) {
                 notes.push_back("mesh \"" + mesh.name + "\" primitive " + std::to_string(p) +
                                 " is not simplified: no progressive mesh");

@@ -93,6 +93,16 @@ Result<LodChainReport> generate_lod_chains(Scene& scene, const LodChainOptions& 
 // progressive-mesh output of `hmdnode lod`, so that both make the same levels.
 std::vector<glm::vec3> material_boundary_positions(const Mesh& mesh);
 
+// The targets primitive `primitive` of `mesh` is simplified to for the mesh-wide `targets`
+// (strictly decreasing): its share of each, in proportion to its triangle count, at least 1, kept
+// while below its count and its previous share. which[k] (when given) is the index in the result
+// of the level that serves targets[k], or -1 where the primitive stays as it is.
+// generate_lod_chains simplifies each primitive so, and so does the progressive-mesh output of
+// `hmdnode lod` (the pass order of qem depends on the targets).
+std::vector<size_t> primitive_targets(const Mesh& mesh, size_t primitive,
+                                      const std::vector<size_t>& targets,
+                                      std::vector<int>* which = nullptr);
+
 // Checks `targets` (one kind given, ranges, strictly decreasing): empty message when fine.
 std::string check_lod_targets(const LodTargets& targets);
 
