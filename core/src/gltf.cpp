@@ -38,6 +38,7 @@
 #include <glm/gtx/matrix_decompose.hpp>
 
 #include "hmdnode/core/atomic_file.hpp"
+#include "hmdnode/core/str_cat.hpp"
 
 namespace hmdnode {
 namespace {
@@ -50,13 +51,6 @@ using Json = nlohmann::json;
 struct LoadError {
     std::string message;
 };
-
-template <class... Args>
-std::string cat(const Args&... args) {
-    std::ostringstream ss;
-    (ss << ... << args);
-    return ss.str();
-}
 
 template <class... Args>
 [[noreturn]] void fail(const Args&... args) {

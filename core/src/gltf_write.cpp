@@ -21,18 +21,12 @@
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/gltf.hpp"
 #include "hmdnode/core/image.hpp"
+#include "hmdnode/core/str_cat.hpp"
 
 // note: libstb exports this, but stb_image_write.h declares it only in its implementation part
 
 namespace hmdnode {
 namespace {
-
-template <class... Args>
-std::string cat(const Args&... args) {
-    std::ostringstream ss;
-    (ss << ... << args);
-    return ss.str();
-}
 
 bool finite3(const glm::dvec3& v) {
     return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);

@@ -26,8 +26,8 @@
 #include <cstring>
 #include <optional>
 #include <set>
-#include <sstream>
 
+#include "hmdnode/core/str_cat.hpp"
 #include "position_set.hpp"
 
 namespace hmdnode {
@@ -37,13 +37,6 @@ using Clock = std::chrono::steady_clock;
 
 double ms_since(Clock::time_point t0) {
     return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
-
-template <class... Args>
-std::string cat(Args&&... args) {
-    std::ostringstream s;
-    (s << ... << args);
-    return s.str();
 }
 
 // All primitives of a mesh as one triangle soup, for the distance measurement.

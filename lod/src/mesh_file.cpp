@@ -12,16 +12,10 @@
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/gltf.hpp"
 #include "hmdnode/core/obj.hpp"
+#include "hmdnode/core/str_cat.hpp"
 
 namespace hmdnode {
 namespace {
-
-template <class... Args>
-std::string cat(Args&&... args) {
-    std::ostringstream s;
-    (s << ... << args);
-    return s.str();
-}
 
 void compute_normals(Primitive& p) {
     p.normals.assign(p.positions.size(), glm::vec3(0.0f));

@@ -16,19 +16,13 @@
 #include <array>
 #include <cmath>
 #include <cstring>
-#include <sstream>
 #include <unordered_map>
 #include <unordered_set>
 
+#include "hmdnode/core/str_cat.hpp"
+
 namespace hmdnode {
 namespace {
-
-template <class... Args>
-std::string cat(Args&&... args) {
-    std::ostringstream s;
-    (s << ... << args);
-    return s.str();
-}
 
 struct PositionHash {
     size_t operator()(const glm::vec3& p) const {

@@ -4,11 +4,13 @@
 // with indices in range and the triangle count between base and full.
 //
 // Built from lod/src/progressive_mesh.cpp, collapse_engine.cpp, scratch.cpp and the four costs;
-// check_simplify_arguments (lod/src/simplify.cpp, which pulls in every algorithm and OpenMesh and
-// Embree) is only used by build_progressive_mesh, never by the reader, so it is stubbed here.
+// check_simplify_arguments and make_collapse_cost (lod/src/simplify.cpp, which pulls in every
+// algorithm and OpenMesh and Embree) are only used by build_progressive_mesh, never by the reader,
+// so they are stubbed here.
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -18,6 +20,9 @@
 namespace hmdnode::lod_detail {
 Status check_simplify_arguments(const Primitive&, std::string_view, std::span<const size_t>) {
     return make_error("not in the fuzz harness");
+}
+std::unique_ptr<CollapseCost> make_collapse_cost(std::string_view) {
+    return nullptr;
 }
 }  // namespace hmdnode::lod_detail
 

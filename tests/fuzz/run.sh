@@ -27,8 +27,8 @@ build vive_imu_fuzz "$SRC/hal/src/vive_imu_codec.cpp"
 build rift_imu_fuzz "$SRC/hal/src/rift_imu_codec.cpp"
 build reference_protocol_fuzz "$SRC/hal/src/reference_protocol.cpp"
 build usbmon_capture_fuzz "$SRC/hal/src/usbmon_capture.cpp" -lpcap -lz
-# The .hmpm reader needs the collapse engine and its costs (refine); the harness stubs the one
-# symbol of simplify.cpp. The mesh-file reader needs core's OBJ reader; the harness stubs glTF.
+# The .hmpm reader needs the collapse engine and its costs (refine); the harness stubs the two
+# symbols of simplify.cpp. The mesh-file reader needs core's OBJ reader; the harness stubs glTF.
 build progressive_mesh_fuzz -I"$SRC/lod/include" -I"$SRC/lod/src" \
   "$SRC/lod/src/progressive_mesh.cpp" "$SRC/lod/src/collapse_engine.cpp" "$SRC/lod/src/qem.cpp" \
   "$SRC/lod/src/curvature_qem.cpp" "$SRC/lod/src/formula1.cpp" "$SRC/lod/src/melax.cpp" \
