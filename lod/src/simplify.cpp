@@ -16,51 +16,52 @@ namespace {
 struct Entry {
     AlgorithmInfo info;
     lod_detail::AlgorithmFn fn;
-    // The edge-collapse costs' factories (progressive meshes); nullptr for the others.
+    // The edge-collapse costs' factories (progressive meshes, AlgorithmInfo::edge_collapse);
+    // nullptr for the others.
     std::unique_ptr<lod_detail::CollapseCost> (*make_cost)() = nullptr;
 };
 
 const std::vector<Entry>& table() {
     static const std::vector<Entry> entries = {
         {{"qem", "Garland-Heckbert quadric error metric, optimal placement",
-          "Garland & Heckbert 1997, 002 eq. (1)-(5)", true},
+          "Garland & Heckbert 1997, 002 eq. (1)-(5)"},
          lod_detail::simplify_qem,
          lod_detail::make_qem_cost},
         {{"curvature-qem", "QEM weighted by absolute curvature |k1|+|k2| and edge length",
-          "002 eq. (7)-(12)", true},
+          "002 eq. (7)-(12)"},
          lod_detail::simplify_curvature_qem,
          lod_detail::make_curvature_qem_cost},
         {{"formula1", "edge length / dot of the two face normals, half-edge collapse",
-          "000 Formula 1", true},
+          "000 Formula 1"},
          lod_detail::simplify_formula1,
          lod_detail::make_formula1_cost},
         {{"melax", "Melax: |u-v| * max_f min_n (1 - f.n)/2, half-edge collapse",
-          "000 Formula 2 (Melax 1998)", true},
+          "000 Formula 2 (Melax 1998)"},
          lod_detail::simplify_melax,
          lod_detail::make_melax_cost},
         {{"ss", "spherical scanning: vertices within a sphere merged, radius found for the target",
-          "001 sec. III.IV (SS)", false},
+          "001 sec. III.IV (SS)"},
          lod_detail::simplify_ss},
         {{"fad", "face angle dependency: flattest vertices removed first (half-edge collapse)",
-          "001 sec. III.II (FAD)", false},
+          "001 sec. III.II (FAD)"},
          lod_detail::simplify_fad},
         {{"vt", "vertex triplex: smallest triangles aggregated into their circumcentres",
-          "001 sec. III.I (VT)", false},
+          "001 sec. III.I (VT)"},
          lod_detail::simplify_vt},
         {{"ivdd", "intervertex distance: shortest edges to midpoints, small triangles to centres",
-          "001 sec. III.III (IVDD)", false},
+          "001 sec. III.III (IVDD)"},
          lod_detail::simplify_ivdd},
         {{"vtd", "vertex triplex distance: hybrid of VT and IVDD, by shortest triangle edge",
-          "001 sec. III.V.I (VTD)", false},
+          "001 sec. III.V.I (VTD)"},
          lod_detail::simplify_vtd},
         {{"fass", "face angle spherical scanning: FAD under 30 degrees, then SS to the target",
-          "001 sec. III.V.II (FASS)", false},
+          "001 sec. III.V.II (FASS)"},
          lod_detail::simplify_fass},
         {{"grid", "uniform-grid vertex clustering, cell size found for the target",
-          "Rossignac & Borrel 1993", false},
+          "Rossignac & Borrel 1993"},
          lod_detail::simplify_grid},
         {{"openmesh-quadric", "OpenMesh Decimater with ModQuadric + ModNormalFlipping (baseline)",
-          "Garland & Heckbert 1997 as in OpenMesh", false},
+          "Garland & Heckbert 1997 as in OpenMesh"},
          lod_detail::simplify_openmesh_quadric},
     };
     return entries;
@@ -71,7 +72,10 @@ const std::vector<Entry>& table() {
 const std::vector<AlgorithmInfo>& simplification_algorithms() {
     static const std::vector<AlgorithmInfo> infos = [] {
         std::vector<AlgorithmInfo> out;
-        for (const Entry& e : table()) out.push_back(e.info);
+        for (const Entry& e : table()) {
+            out.push_back(e.info);
+            out.back().edge_collapse = e.make_cost != nullptr;
+        }
         return out;
     }();
     return infos;
