@@ -1,7 +1,11 @@
-// A second thread for two-way splits of the simplifiers' work: run(f) calls f(1) on the helper
-// thread and f(0) on the calling thread, and returns when both are done; without a helper it calls
+// A second thread for two-way splits of the simplifiers' work: run(f) calls f(0) on the calling
+// thread and f(1) on the helper thread, and returns when both are done; without a helper it calls
 // f(0) then f(1) on the calling thread. Work split this way writes disjoint data in its two halves,
-// so the result is the same bit for bit with or without the helper.
+// so the result is the same bit for bit with or without the helper. Half 1 goes to whichever
+// thread claims it first: a caller done with f(0) before the helper has started f(1) runs it
+// itself, so a helper that waits for its core (a busy machine: another process on it) costs at
+// most its own half, not a scheduler time slice per run() (the fandisk ran 30-40x slower so, with
+// a compiler on the other core).
 //
 // Cost: one thread start per object; per run(), a few microseconds when the other thread is still
 // spinning from the last run (up to a millisecond, see wait_change()), else a wake-up from a futex
@@ -63,7 +67,14 @@ class TwoWay {
         const uint32_t round = go_.fetch_add(1, std::memory_order_release) + 1;
         go_.notify_one();
         job(0);
-        wait_change(done_, round - 1);
+        uint32_t unclaimed = round - 1;
+        if (claimed_.compare_exchange_strong(unclaimed, round, std::memory_order_acq_rel)) {
+            job(1);  // note: the helper has not started it; it will find the round claimed
+            return;
+        }
+        for (uint32_t done = done_.load(std::memory_order_acquire); done != round;) {
+            done = wait_change(done_, done);
+        }
     }
 
   private:
@@ -124,6 +135,12 @@ class TwoWay {
         for (;;) {
             seen = wait_change(go_, seen);
             if (stop_.load(std::memory_order_relaxed)) return;
+            // note: the latest round only (the caller may have run earlier ones' halves itself);
+            // while this round is unclaimed the caller waits for it, so job_ is this round's.
+            uint32_t unclaimed = seen - 1;
+            if (!claimed_.compare_exchange_strong(unclaimed, seen, std::memory_order_acq_rel)) {
+                continue;
+            }
             call_(job_.bytes, 1);
             done_.store(seen, std::memory_order_release);
             done_.notify_one();
@@ -135,7 +152,9 @@ class TwoWay {
         unsigned char bytes[128];
     };
     static constexpr std::chrono::microseconds kSpin{1000};
-    std::atomic<uint32_t> go_{0}, done_{0};
+    // go_: the rounds started; claimed_: the last round whose half 1 a thread took; done_: the
+    // last round whose half 1 the helper finished.
+    std::atomic<uint32_t> go_{0}, claimed_{0}, done_{0};
     std::atomic<bool> stop_{false};
     void (*call_)(const void*, int) = nullptr;
     Job job_;
