@@ -18,16 +18,8 @@ using AlgorithmFn = Result<std::vector<SimplifiedLevel>> (*)(const Primitive& in
                                                              std::span<const size_t> targets,
                                                              const SimplifyOptions& options);
 
-// Edge collapse on one shared engine (lod/src/collapse_engine.*), one cost per file.
-Result<std::vector<SimplifiedLevel>> simplify_qem(const Primitive&, std::span<const size_t>,
-                                                  const SimplifyOptions&);
-Result<std::vector<SimplifiedLevel>> simplify_curvature_qem(const Primitive&,
-                                                            std::span<const size_t>,
-                                                            const SimplifyOptions&);
-Result<std::vector<SimplifiedLevel>> simplify_formula1(const Primitive&, std::span<const size_t>,
-                                                       const SimplifyOptions&);
-Result<std::vector<SimplifiedLevel>> simplify_melax(const Primitive&, std::span<const size_t>,
-                                                    const SimplifyOptions&);
+// Edge collapse runs on one shared engine (lod/src/collapse_engine.*) with one cost per file; the
+// table in simplify.cpp holds their factories (collapse_engine.hpp), not functions of this kind.
 // 001: vertex clustering, vertex removal and their hybrids, on OpenMesh connectivity.
 Result<std::vector<SimplifiedLevel>> simplify_ss(const Primitive&, std::span<const size_t>,
                                                  const SimplifyOptions&);

@@ -127,11 +127,4 @@ std::unique_ptr<CollapseCost> make_curvature_qem_cost() {
     return std::make_unique<CurvatureQemCost>();
 }
 
-Result<std::vector<SimplifiedLevel>> simplify_curvature_qem(const Primitive& in,
-                                                            std::span<const size_t> targets,
-                                                            const SimplifyOptions& options) {
-    CurvatureQemCost cost;
-    return run_edge_collapse(in, targets, options, cost);
-}
-
 }  // namespace hmdnode::lod_detail

@@ -64,11 +64,4 @@ std::unique_ptr<CollapseCost> make_formula1_cost() {
     return std::make_unique<Formula1Cost>();
 }
 
-Result<std::vector<SimplifiedLevel>> simplify_formula1(const Primitive& in,
-                                                       std::span<const size_t> targets,
-                                                       const SimplifyOptions& options) {
-    Formula1Cost cost;
-    return run_edge_collapse(in, targets, options, cost);
-}
-
 }  // namespace hmdnode::lod_detail

@@ -76,11 +76,4 @@ std::unique_ptr<CollapseCost> make_melax_cost() {
     return std::make_unique<MelaxCost>();
 }
 
-Result<std::vector<SimplifiedLevel>> simplify_melax(const Primitive& in,
-                                                    std::span<const size_t> targets,
-                                                    const SimplifyOptions& options) {
-    MelaxCost cost;
-    return run_edge_collapse(in, targets, options, cost);
-}
-
 }  // namespace hmdnode::lod_detail

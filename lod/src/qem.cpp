@@ -213,11 +213,4 @@ std::unique_ptr<CollapseCost> make_qem_cost() {
     return std::make_unique<QemCost>();
 }
 
-Result<std::vector<SimplifiedLevel>> simplify_qem(const Primitive& in,
-                                                  std::span<const size_t> targets,
-                                                  const SimplifyOptions& options) {
-    QemCost cost;
-    return run_edge_collapse(in, targets, options, cost);
-}
-
 }  // namespace hmdnode::lod_detail

@@ -16,8 +16,8 @@ namespace {
 struct Entry {
     AlgorithmInfo info;
     lod_detail::AlgorithmFn fn;
-    // The edge-collapse costs' factories (progressive meshes, AlgorithmInfo::edge_collapse);
-    // nullptr for the others.
+    // The edge-collapse costs' factories (run on the engine, also for progressive meshes and
+    // AlgorithmInfo::edge_collapse); nullptr for the others, which have `fn`.
     std::unique_ptr<lod_detail::CollapseCost> (*make_cost)() = nullptr;
 };
 
@@ -25,19 +25,19 @@ const std::vector<Entry>& table() {
     static const std::vector<Entry> entries = {
         {{"qem", "Garland-Heckbert quadric error metric, optimal placement",
           "Garland & Heckbert 1997, 002 eq. (1)-(5)"},
-         lod_detail::simplify_qem,
+         nullptr,
          lod_detail::make_qem_cost},
         {{"curvature-qem", "QEM weighted by absolute curvature |k1|+|k2| and edge length",
           "002 eq. (7)-(12)"},
-         lod_detail::simplify_curvature_qem,
+         nullptr,
          lod_detail::make_curvature_qem_cost},
         {{"formula1", "edge length / dot of the two face normals, half-edge collapse",
           "000 Formula 1"},
-         lod_detail::simplify_formula1,
+         nullptr,
          lod_detail::make_formula1_cost},
         {{"melax", "Melax: |u-v| * max_f min_n (1 - f.n)/2, half-edge collapse",
           "000 Formula 2 (Melax 1998)"},
-         lod_detail::simplify_melax,
+         nullptr,
          lod_detail::make_melax_cost},
         {{"ss", "spherical scanning: vertices within a sphere merged, radius found for the target",
           "001 sec. III.IV (SS)"},
@@ -159,7 +159,10 @@ Result<std::vector<SimplifiedLevel>> simplify(const Primitive& in, std::string_v
         return s.error();
     }
     for (const Entry& e : table()) {
-        if (e.info.name == algorithm) return e.fn(in, target_triangles, options);
+        if (e.info.name != algorithm) continue;
+        if (!e.make_cost) return e.fn(in, target_triangles, options);
+        const std::unique_ptr<lod_detail::CollapseCost> cost = e.make_cost();
+        return lod_detail::run_edge_collapse(in, target_triangles, options, *cost);
     }
     return make_error("unknown simplification algorithm '" + std::string(algorithm) + "'");
 }

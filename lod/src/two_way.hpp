@@ -4,8 +4,8 @@
 // so the result is the same bit for bit with or without the helper. Half 1 goes to whichever
 // thread claims it first: a caller done with f(0) before the helper has started f(1) runs it
 // itself, so a helper that waits for its core (a busy machine: another process on it) costs at
-// most its own half, not a scheduler time slice per run() (the fandisk ran 30-40x slower so, with
-// a compiler on the other core).
+// most its own half, not a scheduler time slice per run() (the fandisk at 10 % took 320-356 ms
+// instead of about 6 so, with a compiler on the other core).
 //
 // Cost: one thread start per object; per run(), a few microseconds when the other thread is still
 // spinning from the last run (up to a millisecond, see wait_change()), else a wake-up from a futex
