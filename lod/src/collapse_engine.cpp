@@ -19,9 +19,9 @@
 //   has its edges listed from its flat list alone. Each pass sorts the candidates (one per edge:
 //   the cheaper allowed direction, or a merge at a new point; by the top 22 bits of the float
 //   cost, costs within a relative 2^-13 keeping their previous order: a radix pass on the top 11
-//   bits, then counting sorts of only the buckets the pass reads) and applies them in order while
-//   neither endpoint was touched earlier in the pass, up to 1.5 times the cost of the k-th
-//   cheapest (k = collapses still needed) and, within 256 collapses of a target, up to 4 times
+//   bits, then counting or insertion sorts of only the buckets the pass reads) and applies them in
+//   order while neither endpoint was touched earlier in the pass, up to 1.5 times the cost of the
+//   k-th cheapest (k = collapses still needed) and, within 256 collapses of a target, up to 4 times
 //   the current cost of the cheapest candidate it had to skip; the next pass drops
 //   the candidates of touched positions and evaluates their edges again (prefetching what the
 //   evaluation reads a few positions ahead). Within a pass the order is greedy and every applied
@@ -405,7 +405,8 @@ class Engine {
     // (cost key << 32 | region class << 30 | candidate), in cost order
     Scratch<uint64_t> order_, order_tmp_;
     static constexpr uint32_t kCandidateIndex = (uint32_t(1) << 30) - 1;
-    static constexpr uint32_t kRadixBuckets = 2048;  // 11 bits
+    static constexpr uint32_t kRadixBuckets = 2048;      // 11 bits
+    static constexpr uint32_t kInsertionSortItems = 64;  // see sort_bucket()
     // sort_candidates(): where each high bucket starts in order_ (and order_tmp_), and the items
     // sorted, up to a bucket's start (order_ from sorted_ on holds the rest unsorted).
     std::array<uint32_t, kRadixBuckets + 1> bucket_start_{};
@@ -1419,12 +1420,12 @@ void Engine::run_batched(std::span<const size_t> targets, std::vector<Simplified
 // The candidates in cost order, into order_ as (key << 32 | region class << 30 | candidate), by
 // the top 22 bits of the cost (sign, exponent, 13 mantissa bits: costs within a relative 2^-13 of
 // each other keep their candidate order), as far as a pass reads them: a radix sort by the top
-// 11 bits (a few large buckets), then, bucket by bucket, by the next 11 (counting sorts), but only
-// of the buckets up to the one holding 1.5 times the cost of the goal-th candidate (the pass's
-// limit, returned; sort_rest() sorts the others if a pass reads past it). Each part splits in two
-// where there is a helper: the first by halves of the candidates (the first half's items of a
-// bucket before the second's), the buckets between the threads by their sizes. The order is that
-// of a stable sort on one thread.
+// 11 bits (a few large buckets), then, bucket by bucket, by the next 11 (counting sorts; insertion
+// sorts of small buckets), but only of the buckets up to the one holding 1.5 times the cost of the
+// goal-th candidate (the pass's limit, returned; sort_rest() sorts the others if a pass reads past
+// it). Each part splits in two where there is a helper: the first by halves of the candidates (the
+// first half's items of a bucket before the second's), the buckets between the threads by their
+// sizes. The order is that of a stable sort on one thread.
 double Engine::sort_candidates(bool classes, size_t goal) {
     const size_t n = candidates_.size();
     keys_.resize(n), order_.resize(n), order_tmp_.resize(n);
@@ -1503,8 +1504,21 @@ void Engine::sort_buckets(uint32_t first, uint32_t last, uint32_t skip) {
 // High bucket b of order_tmp_ into order_, stably by the next 11 bits of the key.
 void Engine::sort_bucket(uint32_t b, uint32_t* counts) {
     const uint32_t begin = bucket_start_[b], end = bucket_start_[b + 1];
-    if (end - begin <= 1) {
-        if (end > begin) order_[begin] = order_tmp_[begin];
+    if (end - begin <= kInsertionSortItems) {
+        // note: a counting sort clears and sums all 2 048 counters whatever the bucket's size,
+        // and most buckets a pass reads hold a few items or none (the spot at 10 %: 3 044 of the
+        // 3 093 buckets of its 7 passes, 1 463 items in all). An insertion sort is stable too, so
+        // the order is the same (fandisk 10 % 0.96x the time, the spot 0.99x, the bunny 1.00x).
+        for (uint32_t i = begin; i < end; ++i) {
+            const uint64_t item = order_tmp_[i];
+            const uint64_t digit = item >> 42;  // note: the high digit is the bucket's, equal
+            uint32_t j = i;
+            while (j > begin && (order_[j - 1] >> 42) > digit) {
+                order_[j] = order_[j - 1];
+                --j;
+            }
+            order_[j] = item;
+        }
         return;
     }
     std::fill(counts, counts + kRadixBuckets, 0u);
