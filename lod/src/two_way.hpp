@@ -7,15 +7,16 @@
 // most its own half, not a scheduler time slice per run() (the fandisk at 10 % took 320-356 ms
 // instead of about 6 so, with a compiler on the other core).
 //
-// Cost: one thread start per object; per run(), a few microseconds when the other thread is still
+// Cost: one thread start per object (within about 100 us, on a core other than the caller's, see
+// start()); per run(), a few microseconds when the other thread is still
 // spinning from the last run (up to a millisecond, see wait_change()), else a wake-up from a futex
 // (tens of microseconds on this machine). Between runs the helper spins for up to that
 // millisecond, on its own core.
 #pragma once
 
+#include <pthread.h>
 #include <atomic>
 #ifdef __linux__
-#include <pthread.h>
 #include <sched.h>
 #endif
 #include <chrono>
@@ -29,23 +30,19 @@ namespace hmdnode::lod_detail {
 class TwoWay {
   public:
     explicit TwoWay(bool helper) {
-        if (helper)
-            thread_ = std::thread([this, caller = current_cpu()] {
-                keep_off(caller);
-                serve();
-            });
+        if (helper) start();
     }
     ~TwoWay() {
-        if (!thread_.joinable()) return;
+        if (!has_helper()) return;
         stop_.store(true, std::memory_order_relaxed);
         go_.fetch_add(1, std::memory_order_release);
         go_.notify_one();
-        thread_.join();
+        pthread_join(thread_, nullptr);
     }
     TwoWay(const TwoWay&) = delete;
     TwoWay& operator=(const TwoWay&) = delete;
 
-    bool has_helper() const { return thread_.joinable(); }
+    bool has_helper() const { return started_; }
 
     // f(int half) must not throw (an exception on the helper thread ends the process). f is copied
     // into this object first and both threads call the copy: a closure left on the caller's stack
@@ -57,7 +54,7 @@ class TwoWay {
         static_assert(std::is_trivially_copyable_v<F> && sizeof(F) <= sizeof(job_) &&
                           alignof(F) <= alignof(Job),
                       "TwoWay::run takes a small lambda that captures by value or reference");
-        if (!thread_.joinable()) {
+        if (!started_) {
             f(0);
             f(1);
             return;
@@ -78,29 +75,39 @@ class TwoWay {
     }
 
   private:
-    static int current_cpu() {
-#ifdef __linux__
-        return sched_getcpu();
-#else
-        return -1;
-#endif
-    }
-    // note: a new thread starts on its creator's core, and for short work (a mesh of a few
-    // thousand faces) the scheduler left it there: every split then ran its halves one after the
-    // other on one core, the other idle (the fandisk 1.5x slower). The helper keeps off the
-    // caller's core of the moment (any other the process may use; nothing when it has one).
-    static void keep_off(int cpu) {
+    // note: a new thread starts on its creator's core. With the other core idle (halted, as this
+    // 2-core VM's idle vCPU is), the scheduler took about 2.9 ms to move it there (median of 31
+    // starts after 25 ms asleep; 60 us when the other core was busy), and work started after an
+    // idle moment ran on one thread meanwhile (the fandisk at 10 %: 6.6 ms instead of 5.7). Started
+    // with an affinity that leaves out the caller's core of the moment, it ran within about
+    // 100 us. For short work the scheduler would also have left it there: every split would then
+    // run its halves one after the other on one core (the fandisk 1.5x slower). The caller is not
+    // pinned; no mask is set where the process may use one core only. Without a thread (none
+    // could be created) the work runs on the caller.
+    void start() {
+        pthread_attr_t attr;
+        if (pthread_attr_init(&attr) != 0) return;
+        bool masked = false;
 #ifdef __linux__
         cpu_set_t set;
         CPU_ZERO(&set);
-        if (cpu < 0 || cpu >= CPU_SETSIZE) return;
-        if (sched_getaffinity(0, sizeof set, &set) != 0) return;
-        if (!CPU_ISSET(cpu, &set) || CPU_COUNT(&set) < 2) return;
-        CPU_CLR(cpu, &set);
-        pthread_setaffinity_np(pthread_self(), sizeof set, &set);
-#else
-        (void)cpu;
+        const int cpu = sched_getcpu();
+        if (cpu >= 0 && cpu < CPU_SETSIZE && sched_getaffinity(0, sizeof set, &set) == 0 &&
+            CPU_ISSET(cpu, &set) && CPU_COUNT(&set) >= 2) {
+            CPU_CLR(cpu, &set);
+            masked = pthread_attr_setaffinity_np(&attr, sizeof set, &set) == 0;
+        }
 #endif
+        started_ = pthread_create(&thread_, &attr, &TwoWay::serve_entry, this) == 0;
+        pthread_attr_destroy(&attr);
+        // note: a mask the kernel refuses (a core gone offline meanwhile): start it unmasked.
+        if (!started_ && masked) {
+            started_ = pthread_create(&thread_, nullptr, &TwoWay::serve_entry, this) == 0;
+        }
+    }
+    static void* serve_entry(void* self) {
+        static_cast<TwoWay*>(self)->serve();
+        return nullptr;
     }
 
     // Waits until a changes from old and returns the new value: spinning for up to kSpin first,
@@ -117,9 +124,9 @@ class TwoWay {
 #endif
             if (i % 64 == 0) {
                 if (std::chrono::steady_clock::now() - start > kSpin) break;
-                // note: should the two threads share a core for a while (the helper starts on
-                // its creator's before keep_off() moves it, and the caller is not pinned),
-                // spinning without yielding would hold the other off for the whole kSpin.
+                // note: should the two threads share a core for a while (the caller is not
+                // pinned, and may move to the helper's), spinning without yielding would hold
+                // the other off for the whole kSpin.
                 std::this_thread::yield();
             }
         }
@@ -158,7 +165,8 @@ class TwoWay {
     std::atomic<bool> stop_{false};
     void (*call_)(const void*, int) = nullptr;
     Job job_;
-    std::thread thread_;  // note: last, started once the rest is set up
+    pthread_t thread_{};  // note: last, started once the rest is set up
+    bool started_ = false;
 };
 
 }  // namespace hmdnode::lod_detail
