@@ -71,10 +71,10 @@
 // issue's figure for this machine); this engine does the same work with QEM on flat arrays, so
 // OpenMesh stays the baseline only (simplify_openmesh_quadric). Speed against meshopt_simplify,
 // in interleaved pairs on this 2-core machine (bench_lod_bench): the bunny, split over two
-// threads, 0.98-1.05 / 1.05-1.27 / 1.07-1.13x its time at 50 / 10 / 1 % (about 24-25 ms against
+// threads, 0.96-1.01 / 1.04-1.12 / 1.05-1.12x its time at 50 / 10 / 1 % (about 24-25 ms against
 // 25 at 10 % in quiet runs); on one thread about 1.5x (37-39 ms; 2.3-2.9x before the flat entry
-// lists with remapping, the simple-fan path and the scalar placement). The fandisk 0.89-0.91 /
-// 1.13-1.20 / 1.33-1.39x, the spot (under the split threshold) 1.28-1.44x. The set-up and first
+// lists with remapping, the simple-fan path and the scalar placement). The fandisk 0.87-0.89 /
+// 1.12-1.13 / 1.28-1.34x, the spot (under the split threshold) 1.27-1.39x. The set-up and first
 // pass take as long as meshopt_simplify's; the later passes about twice as long, for the work
 // it does not do (placement solve, link condition, flip checks on both endpoints, seams,
 // attributes; docs/simplification.md: commands, where the time goes).
