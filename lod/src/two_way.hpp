@@ -8,10 +8,9 @@
 // instead of about 6 so, with a compiler on the other core).
 //
 // Cost: one thread start per object (within about 100 us, on a core other than the caller's, see
-// start()); per run(), a few microseconds when the other thread is still
-// spinning from the last run (up to a millisecond, see wait_change()), else a wake-up from a futex
-// (tens of microseconds on this machine). Between runs the helper spins for up to that
-// millisecond, on its own core.
+// start()); per run(), a few microseconds when the other thread is still spinning from the last
+// run (up to a millisecond, see wait_change()), else a wake-up from a futex (tens of microseconds
+// on this machine). Between runs the helper spins for up to that millisecond, on its own core.
 #pragma once
 
 #include <pthread.h>
