@@ -9,8 +9,9 @@
 // and the corners that go back to the split vertex explicitly (wedge ids), which costs a few more
 // bytes per split but needs no connectivity at load time and reproduces the engine's snapshots
 // bit for bit, seams and all. The collapse may have moved the kept vertex (QEM's optimal point):
-// the split restores its position and the attributes of its wedges. Hoppe's geomorphs and
-// selective refinement are not implemented.
+// the split restores its position and the attributes of its wedges. Out of this file's scope:
+// Hoppe's geomorphs and view-dependent selective refinement (the reader refines the whole mesh
+// to a triangle count).
 //
 // Cost: build, the engine's plus O(total record size); refine O(base + splits applied) time and
 // O(V + F) memory; encode/decode O(file size).
