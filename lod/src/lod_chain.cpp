@@ -261,9 +261,7 @@ std::string check_lod_targets(const LodTargets& t) {
     return {};
 }
 
-// The positions (bit for bit, +0 == -0) that more than one primitive of `mesh` uses: its
-// material boundaries. Locking them keeps the boundary closed, since both sides then keep the same
-// boundary vertices (primitives are simplified one by one).
+// Each primitive's share of the mesh-wide targets (lod_chain.hpp).
 std::vector<size_t> primitive_targets(const Mesh& mesh, size_t primitive,
                                       const std::vector<size_t>& targets, std::vector<int>* which) {
     const size_t total = mesh.triangle_count();
@@ -279,6 +277,9 @@ std::vector<size_t> primitive_targets(const Mesh& mesh, size_t primitive,
     return list;
 }
 
+// The positions (bit for bit, +0 == -0) that more than one primitive of `mesh` uses: its
+// material boundaries. Locking them keeps the boundary closed, since both sides then keep the same
+// boundary vertices (primitives are simplified one by one).
 std::vector<glm::vec3> material_boundary_positions(const Mesh& mesh) {
     if (mesh.primitives.size() < 2) return {};
     using lod_detail::PositionSet;
