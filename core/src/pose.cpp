@@ -1,6 +1,11 @@
+// Pose maths on GLM (conventions in the header): shortest-path slerp, rotation vectors (the
+// quaternion exponential and logarithm), angular velocity by finite difference, and the
+// registration error (rotation angle plus the parallax of the position error at a viewing
+// distance). Every function O(1), no allocation.
 #include "hmdnode/core/pose.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 
 namespace hmdnode {
@@ -56,6 +61,15 @@ glm::dquat integrate(const glm::dquat& q, const glm::dvec3& omega_world, double 
 
 glm::dvec3 forward_of(const glm::dquat& q) {
     return q * glm::dvec3(0.0, 0.0, -1.0);
+}
+
+double registration_error_deg(const Pose& shown, const Pose& truth, double distance_m) {
+    assert(distance_m > 0.0);
+    const double rotation = angle_between_deg(shown.orientation, truth.orientation);
+    const glm::dvec3 gaze = forward_of(truth.orientation);
+    const glm::dvec3 dp = shown.position - truth.position;
+    const glm::dvec3 dp_perp = dp - glm::dot(dp, gaze) * gaze;
+    return rotation + rad_to_deg(std::atan(glm::length(dp_perp) / distance_m));
 }
 
 Pose interpolate(const Pose& a, const Pose& b, int64_t t_ns) {

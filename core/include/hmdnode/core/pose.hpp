@@ -39,6 +39,16 @@ inline double angle_between_deg(const glm::dquat& a, const glm::dquat& b) {
     return rad_to_deg(angle_between_rad(a, b));
 }
 
+// Registration error (degrees) of showing the world for pose `shown` to a head at `truth`: the
+// rotation angle between the orientations (angle_between_deg, roll included) plus the visual
+// angle, at distance_m straight ahead of the true head, of the position error perpendicular to the
+// true gaze: rad_to_deg(atan(|dp_perp| / distance_m)). By the triangle inequality on the sphere it
+// bounds how far a point distance_m ahead appears displaced; the parallax term is exact when the
+// position error along the gaze is zero, and first-order in it otherwise (a point brought closer
+// by dp_par moves by atan(|dp_perp| / (distance_m - dp_par))). With equal positions it equals
+// angle_between_deg exactly. distance_m > 0. O(1).
+double registration_error_deg(const Pose& shown, const Pose& truth, double distance_m);
+
 // World-frame angular velocity (rad/s) that rotates q0 into q1 in dt_s seconds:
 // q1 = exp(omega*dt/2) * q0. Double-cover aware.
 glm::dvec3 angular_velocity(const glm::dquat& q0, const glm::dquat& q1, double dt_s);
