@@ -1,8 +1,10 @@
 // Mock headset display. Vsyncs fall at epoch + k * period. A frame presented at time t for vsync V
-// is shown at V when t <= V - latch margin, else at the first vsync whose latch point is after t.
+// is shown at V when t <= V - latch margin and no earlier frame holds V, else at the first vsync
+// whose latch point is not before t and that is free (free_vsync_ns).
 // Photon time of the panel centre = vsync + scan-out of the middle row + half the persistence.
 #include "hmdnode/hal/mock_display.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <system_error>
@@ -21,6 +23,7 @@ class MockDisplay final : public Display {
         info_.eye_height = config.eye_height;
         info_.refresh_hz = config.refresh_hz;
         info_.period_ns = period_ns_;
+        info_.latch_margin_ns = config.latch_margin_ns;
     }
 
     DisplayInfo info() const override { return info_; }
@@ -30,6 +33,13 @@ class MockDisplay final : public Display {
         int64_t k = rel >= 0 ? rel / period_ns_ + 1 : -((-rel) / period_ns_);
         int64_t v = config_.vsync_epoch_ns + k * period_ns_;
         if (v <= t_ns) v += period_ns_;
+        return v;
+    }
+
+    int64_t free_vsync_ns(int64_t t_ns) const override {
+        // The first vsync V with t <= V - latch, i.e. the first vsync after t + latch - 1.
+        int64_t v = next_vsync_ns(t_ns + config_.latch_margin_ns - 1);
+        if (v <= last_vsync_ns_) v = last_vsync_ns_ + period_ns_;
         return v;
     }
 
@@ -43,10 +53,9 @@ class MockDisplay final : public Display {
         PresentResult r;
         r.frame_index = frame_index_++;
         r.target_vsync_ns = target_vsync_ns;
-        r.vsync_ns = target_vsync_ns;
-        while (now > r.vsync_ns - config_.latch_margin_ns) r.vsync_ns += period_ns_;
-        // A display cannot show two frames at one vsync: the later one waits for the next.
-        if (r.vsync_ns <= last_vsync_ns_) r.vsync_ns = last_vsync_ns_ + period_ns_;
+        // A display cannot show two frames at one vsync: the later one waits for the next free one;
+        // nor can it show a frame before the vsync it was meant for.
+        r.vsync_ns = std::max(free_vsync_ns(now), target_vsync_ns);
         last_vsync_ns_ = r.vsync_ns;
         r.on_time = r.vsync_ns == target_vsync_ns;
         r.photon_time_ns = r.vsync_ns + photon_offset_ns();

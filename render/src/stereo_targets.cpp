@@ -116,11 +116,12 @@ Result<StereoTargets> create_stereo_targets(const DeviceContext& ctx, uint32_t w
     if (t.depth_format == VK_FORMAT_UNDEFINED)
         return make_error("Vulkan: no depth format is renderable on " + ctx.name);
 
-    auto color =
-        create_image(ctx,
-                     {width, height, 2, kColorFormat,
-                      VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT, 0},
-                     "stereo colour target");
+    auto color = create_image(ctx,
+                              {width, height, 2, kColorFormat,
+                               VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT |
+                                   VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
+                               VK_IMAGE_CREATE_MUTABLE_FORMAT_BIT},
+                              "stereo colour target");
     if (!color) return color.error();
     t.color = std::move(*color);
     auto depth = create_image(

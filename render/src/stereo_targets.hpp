@@ -26,7 +26,7 @@ struct StereoTargets {
 };
 
 // The render pass clears colour and depth (1.0) and leaves colour in TRANSFER_SRC_OPTIMAL for the
-// read-back copy.
+// read-back copy; the colour image is also sampled by the warp pass (warp_pass.hpp).
 Result<StereoTargets> create_stereo_targets(const DeviceContext& ctx, uint32_t width,
                                             uint32_t height, bool multiview);
 

@@ -13,6 +13,7 @@
 #include <cstddef>
 #include <cstdlib>
 #include <cstring>
+#include <optional>
 #include <string>
 
 #include "gpu_scene.hpp"
@@ -22,6 +23,7 @@
 #include "vk_check.hpp"
 #include "vk_device.hpp"
 #include "vk_memory.hpp"
+#include "warp_pass.hpp"
 
 namespace hmdnode {
 namespace {
@@ -43,8 +45,13 @@ class VulkanRenderer final : public Renderer {
     Result<RenderStats> render(const StereoViews& views, std::span<const DrawItem> items,
                                StereoImage* out_image) override;
     std::string device_name() const override { return ctx_->name; }
+    Status set_warp(int panel_width, int panel_height, const DistortionMesh& left,
+                    const DistortionMesh& right) override;
+    Result<WarpStats> warp(const glm::dquat& delta, StereoImage* out_panel) override;
 
   private:
+    // (Re)creates the warp pass over the current targets from the stored meshes.
+    Status build_warp_pass();
     // (Re)creates the targets, pipelines and the per-frame descriptor set for one stereo mode.
     Status build_frame_path(bool multiview);
     // Renders a triangle that crosses every edge of both views; false when the eyes differ.
@@ -53,6 +60,8 @@ class VulkanRenderer final : public Renderer {
     void record_draws(std::span<const DrawItem> items, uint32_t view_base);
     void record(std::span<const DrawItem> items, bool read_back);
     void read_back(StereoImage& out_image) const;
+    // Waits for `fence`; on a timeout or lost device the renderer refuses all later work.
+    Status wait(VkFence fence, const char* what);
 
     RendererConfig config_;
     std::unique_ptr<vk::DeviceContext> ctx_;  // first: destroyed last
@@ -64,7 +73,16 @@ class VulkanRenderer final : public Renderer {
     VkCommandBuffer cmd_ = VK_NULL_HANDLE;  // freed with the context's pool
     vk::Fence fence_;
     std::unique_ptr<vk::GpuScene> scene_;  // null before the first upload
-    std::string lost_;                     // why the device is unusable; empty while it works
+    // Late warp: its own command buffer and fence, so a re-warp never touches the scene's.
+    VkCommandBuffer warp_cmd_ = VK_NULL_HANDLE;
+    vk::Fence warp_fence_;
+    std::optional<vk::WarpPass> warp_;
+    int panel_width_ = 0, panel_height_ = 0;
+    DistortionMesh warp_mesh_[2];
+    glm::mat4 rendered_projection_[2]{};  // of the eye buffers' last render()
+    bool rendered_ = false;               // the eye buffers hold a frame
+    bool eyes_sampled_ = false;           // the eye buffers are in SHADER_READ_ONLY_OPTIMAL
+    std::string lost_;                    // why the device is unusable; empty while it works
 };
 
 Result<std::unique_ptr<Renderer>> VulkanRenderer::create(const RendererConfig& config) {
@@ -86,11 +104,15 @@ Result<std::unique_ptr<Renderer>> VulkanRenderer::create(const RendererConfig& c
     cmd_info.commandBufferCount = 1;
     HMDNODE_VK_TRY(vkAllocateCommandBuffers(device, &cmd_info, &r->cmd_),
                    "vkAllocateCommandBuffers (frame)");
+    HMDNODE_VK_TRY(vkAllocateCommandBuffers(device, &cmd_info, &r->warp_cmd_),
+                   "vkAllocateCommandBuffers (warp)");
     VkFenceCreateInfo fence_info{};
     fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
     VkFence fence = VK_NULL_HANDLE;
     HMDNODE_VK_TRY(vkCreateFence(device, &fence_info, nullptr, &fence), "vkCreateFence (frame)");
     r->fence_ = vk::Fence(device, fence);
+    HMDNODE_VK_TRY(vkCreateFence(device, &fence_info, nullptr, &fence), "vkCreateFence (warp)");
+    r->warp_fence_ = vk::Fence(device, fence);
     auto frame_constants =
         vk::create_buffer(*r->ctx_, sizeof(vk::FrameConstants), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
                           vk::MemoryUse::Upload, "frame constants");
@@ -151,7 +173,117 @@ Status VulkanRenderer::build_frame_path(bool multiview) {
     write.descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
     write.pBufferInfo = &buffer_info;
     vkUpdateDescriptorSets(ctx.device, 1, &write, 0, nullptr);
+    rendered_ = false;
+    eyes_sampled_ = false;
+    return build_warp_pass();
+}
+
+Status VulkanRenderer::build_warp_pass() {
+    warp_.reset();
+    if (panel_width_ <= 0) return Status::success();  // no set_warp() yet
+    auto pass = vk::create_warp_pass(*ctx_, targets_.color, uint32_t(panel_width_),
+                                     uint32_t(panel_height_), warp_mesh_);
+    if (!pass) return pass.error();
+    warp_ = std::move(*pass);
     return Status::success();
+}
+
+Status VulkanRenderer::set_warp(int panel_width, int panel_height, const DistortionMesh& left,
+                                const DistortionMesh& right) {
+    if (!lost_.empty()) return make_error(lost_);
+    if (panel_width < 1 || panel_height < 1)
+        return make_error("renderer: panel " + std::to_string(panel_width) + "x" +
+                          std::to_string(panel_height) + " is empty");
+    vkDeviceWaitIdle(ctx_->device);
+    panel_width_ = panel_width;
+    panel_height_ = panel_height;
+    warp_mesh_[0] = left;
+    warp_mesh_[1] = right;
+    Status s = build_warp_pass();
+    if (!s) panel_width_ = panel_height_ = 0;
+    return s;
+}
+
+Status VulkanRenderer::wait(VkFence fence, const char* what) {
+    const VkResult r = vkWaitForFences(ctx_->device, 1, &fence, VK_TRUE, kFenceTimeoutNs);
+    if (r == VK_SUCCESS) return Status::success();
+    // note: a submission still in flight keeps its command buffer and fence busy: no later work
+    // can be recorded safely, so the renderer refuses further work.
+    lost_ = vk::vk_error(what, r).message;
+    return make_error(lost_);
+}
+
+Result<WarpStats> VulkanRenderer::warp(const glm::dquat& delta, StereoImage* out_panel) {
+    if (!lost_.empty()) return make_error(lost_);
+    if (!warp_) return make_error("renderer: warp() before set_warp()");
+    if (!rendered_) return make_error("renderer: warp() before any render()");
+    WarpStats stats;
+    const int64_t t0 = now_ns();
+    // Per eye: display direction -> rendered head frame (delta) -> eye buffer clip x, y, w (rows
+    // 0, 1 and 3 of the projection; directions have w = 0, so the view's translation drops out).
+    const glm::mat3 rotation = glm::mat3_cast(glm::quat(delta));
+    glm::mat4 reproject[2];
+    for (int e = 0; e < 2; ++e) {
+        const glm::mat4& p = rendered_projection_[e];
+        glm::mat3 p3;
+        for (int col = 0; col < 3; ++col) p3[col] = glm::vec3(p[col][0], p[col][1], p[col][3]);
+        reproject[e] = glm::mat4(p3 * rotation);
+    }
+    vkResetCommandBuffer(warp_cmd_, 0);
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    vkBeginCommandBuffer(warp_cmd_, &begin);
+    if (!eyes_sampled_) {
+        VkImageMemoryBarrier barrier{};
+        barrier.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+        barrier.srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+        barrier.dstAccessMask = VK_ACCESS_SHADER_READ_BIT;
+        barrier.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+        barrier.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
+        barrier.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+        barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+        barrier.image = targets_.color.get();
+        barrier.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 2};
+        vkCmdPipelineBarrier(
+            warp_cmd_,
+            VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+            VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, 0, 0, nullptr, 0, nullptr, 1, &barrier);
+    }
+    vk::record_warp(warp_cmd_, *warp_, reproject, out_panel != nullptr);
+    vkEndCommandBuffer(warp_cmd_);
+    const VkFence fence = warp_fence_;
+    HMDNODE_VK_TRY(vkResetFences(ctx_->device, 1, &fence), "vkResetFences (warp)");
+    VkSubmitInfo submit{};
+    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    submit.commandBufferCount = 1;
+    submit.pCommandBuffers = &warp_cmd_;
+    VkResult r = vkQueueSubmit(ctx_->queue, 1, &submit, fence);
+    if (r != VK_SUCCESS) {
+        if (r == VK_ERROR_DEVICE_LOST) lost_ = vk::vk_error("vkQueueSubmit", r).message;
+        return vk::vk_error("vkQueueSubmit (warp)", r);
+    }
+    const int64_t t1 = now_ns();
+    if (Status s = wait(fence, "vkWaitForFences (warp)"); !s) return s.error();
+    eyes_sampled_ = true;
+    const int64_t t2 = now_ns();
+    if (out_panel) {
+        if (Status s = warp_->readback.invalidate(); !s) return s.error();
+        const size_t eye_bytes = size_t(warp_->width) * warp_->height * 4;
+        const auto* src = static_cast<const uint8_t*>(warp_->readback.mapped());
+        for (int e = 0; e < 2; ++e) {
+            ImageRGBA8& eye = out_panel->eye[e];
+            eye.width = int(warp_->width);
+            eye.height = int(warp_->height);
+            eye.pixels.resize(eye_bytes);  // allocates only when the size changes
+            std::memcpy(eye.pixels.data(), src + size_t(e) * eye_bytes, eye_bytes);
+        }
+    }
+    const int64_t t3 = now_ns();
+    stats.cpu_record_ns = t1 - t0;
+    stats.gpu_wait_ns = t2 - t1;
+    stats.readback_ns = out_panel ? t3 - t2 : 0;
+    return stats;
 }
 
 Result<bool> VulkanRenderer::multiview_clips_correctly() {
@@ -333,13 +465,10 @@ Result<RenderStats> VulkanRenderer::render(const StereoViews& views,
     const int64_t t1 = now_ns();
 
     // 2. Wait for the GPU.
-    r = vkWaitForFences(ctx_->device, 1, &fence, VK_TRUE, kFenceTimeoutNs);
-    if (r != VK_SUCCESS) {
-        // note: a frame still in flight keeps the command buffer and fence busy: no later frame
-        // can be recorded safely, so the renderer refuses further work.
-        lost_ = vk::vk_error("vkWaitForFences (frame)", r).message;
-        return make_error(lost_);
-    }
+    if (Status s = wait(fence, "vkWaitForFences (frame)"); !s) return s.error();
+    rendered_ = true;
+    eyes_sampled_ = false;  // the render pass leaves the eye buffers in TRANSFER_SRC_OPTIMAL
+    for (int e = 0; e < 2; ++e) rendered_projection_[e] = views.projection[e];
     const int64_t t2 = now_ns();
 
     // 3. Read back.

@@ -87,7 +87,9 @@ TEST(CaptureCmd, ReplayStartAndDurationCountFromTheCapturesFirstSample) {
     const std::string base = kTool + " replay --quiet --eye-width 32 --eye-height 32 --scene " +
                              kScene + " --capture " + kCapture.string() + " --device 28de:2000";
     const fs::path report = dir / "report.json";
-    CommandRun r = run(base + " --start 10 --duration 1 --report " + report.string());
+    // A fixed frame cost: the simulated clock's default model is measured on this machine.
+    CommandRun r =
+        run(base + " --frame-cost-ms 4 --start 10 --duration 1 --report " + report.string());
     ASSERT_EQ(r.code, 0) << r.output;
     std::ifstream in(report);
     const nlohmann::json j = nlohmann::json::parse(in);
@@ -105,7 +107,8 @@ TEST(CaptureCmd, ReplayStartAndDurationCountFromTheCapturesFirstSample) {
     EXPECT_LT(j["frames"].back()["angular_speed_dps"].get<double>(), 3.0);
 
     // The same replay twice is the same (the simulated clock).
-    CommandRun again = run(base + " --start 10 --duration 1 --report " + (dir / "b.json").string());
+    CommandRun again = run(base + " --frame-cost-ms 4 --start 10 --duration 1 --report " +
+                           (dir / "b.json").string());
     ASSERT_EQ(again.code, 0) << again.output;
     std::ifstream in_b(dir / "b.json");
     const nlohmann::json b = nlohmann::json::parse(in_b);

@@ -75,3 +75,32 @@ TEST(MockDisplay, RejectsBadConfiguration) {
     ASSERT_FALSE(d.ok());
     EXPECT_NE(d.error().message.find("refresh"), std::string::npos);
 }
+
+TEST(MockDisplay, FeedbackNamesTheVsyncAPresentWouldLandOn) {
+    SimulatedClock clock(0);
+    MockDisplayConfig cfg;
+    cfg.latch_margin_ns = 500'000;
+    auto d = create_mock_display(clock, cfg);
+    ASSERT_TRUE(d.ok());
+    const int64_t period = (*d)->info().period_ns;
+    EXPECT_EQ((*d)->info().latch_margin_ns, cfg.latch_margin_ns);
+    // Before the latch point of the first vsync: that vsync; just after it: the next one.
+    EXPECT_EQ((*d)->free_vsync_ns(period - cfg.latch_margin_ns), period);
+    EXPECT_EQ((*d)->free_vsync_ns(period - cfg.latch_margin_ns + 1), 2 * period);
+    // A present holds its vsync: the next present made before that vsync lands one later, and the
+    // feedback says so before it is made (no loop can lock onto a vsync that is taken).
+    clock.sleep_until_ns(period / 2);
+    auto first = (*d)->present(nullptr, period);
+    ASSERT_TRUE(first.ok());
+    EXPECT_TRUE(first->on_time);
+    EXPECT_EQ((*d)->free_vsync_ns(clock.now_ns()), 2 * period);
+    auto second = (*d)->present(nullptr, period);  // aims at the held vsync
+    ASSERT_TRUE(second.ok());
+    EXPECT_EQ(second->vsync_ns, 2 * period);
+    EXPECT_FALSE(second->on_time);
+    // A frame presented early for a later vsync waits for it and is on time.
+    auto early = (*d)->present(nullptr, 5 * period);
+    ASSERT_TRUE(early.ok());
+    EXPECT_EQ(early->vsync_ns, 5 * period);
+    EXPECT_TRUE(early->on_time);
+}

@@ -136,11 +136,28 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         if (!frames_dir.empty()) c.display.frames_dir = resolve(frames_dir);
     }
     json n = j.value("node", json::object());
-    if (r.check_keys(n, "node", {"ipd_m", "predict", "lod_tolerance_px", "head_height_m"})) {
+    if (r.check_keys(n, "node",
+                     {"ipd_m", "predict", "lod_tolerance_px", "head_height_m", "warp", "distortion",
+                      "headset", "mesh"})) {
+        std::string headset;
+        int mesh = c.node.mesh_cols;
         r.get(n, "ipd_m", &c.node.rig.ipd_m);
         r.get(n, "predict", &c.node.predict);
         r.get(n, "lod_tolerance_px", &c.node.lod.tolerance_px);
         r.get(n, "head_height_m", &c.node.default_head_position.y);
+        r.get(n, "warp", &c.node.warp);
+        r.get(n, "distortion", &c.node.distortion);
+        r.get(n, "headset", &headset);
+        r.get(n, "mesh", &mesh);
+        if (mesh < 1 || mesh > 512) r.fail("node.mesh must be between 1 and 512");
+        c.node.mesh_cols = c.node.mesh_rows = mesh;
+        if (!headset.empty()) {
+            Result<HeadsetProfile> p = load_headset_profile(resolve(headset));
+            if (!p.ok())
+                r.fail("node.headset: " + p.error().message);
+            else
+                c.node.headset = *p;
+        }
     }
     json s = j.value("status", json::object());
     if (r.check_keys(s, "status", {"path", "every_s"})) {

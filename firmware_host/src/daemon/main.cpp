@@ -137,15 +137,19 @@ int main(int argc, char** argv) {
         (*renderer)->device_name());
 
     // Status window: the frames since the last status write.
-    std::vector<double> lat, reg;
-    size_t window_frames = 0, window_on_time = 0, errors = 0;
+    std::vector<double> lat, reg, render_ms, warp_ms;
+    // Honest accounting (docs/latency.md): every vsync without a new or re-warped frame on time is
+    // missed; a present after a gap adds the vsyncs it skipped.
+    size_t window_frames = 0, window_on_time = 0, window_vsyncs = 0, window_late = 0,
+           window_rewarps = 0, errors = 0;
     uint64_t frames = 0, no_pose_frames = 0;
     // Until the tracker's first sample each frame renders nothing (run_frame returns at once, so
     // SIGTERM is seen between frames); say so every 5 s.
     int64_t next_wait_log = clock->now_ns();
     int64_t next_status = clock->now_ns() + s_to_ns(cfg->status_every_s);
     // The status window's latencies: reserved once, so the frame loop does not allocate.
-    lat.reserve(size_t(cfg->status_every_s * dc.refresh_hz * 2.0) + 16);
+    for (std::vector<double>* v : {&lat, &render_ms, &warp_ms})
+        v->reserve(size_t(cfg->status_every_s * dc.refresh_hz * 2.0) + 16);
     FrameRecord rec;
     while (!g_stop && (cfg->max_frames <= 0 || int64_t(frames) < cfg->max_frames)) {
         if (node.tracker_finished()) {
@@ -186,7 +190,12 @@ int main(int argc, char** argv) {
             ++frames;
             ++window_frames;
             window_on_time += rec.on_time;
+            window_vsyncs += 1 + size_t(window_frames > 1 ? rec.missed_vsyncs_before : 0);
+            window_late += rec.late;
+            window_rewarps += rec.kind == FrameKind::rewarp;
             lat.push_back(rec.latency_ms);
+            if (rec.kind == FrameKind::new_frame) render_ms.push_back(rec.render_ms);
+            warp_ms.push_back(rec.warp_ms);
         }
         // Every status window: log it, write the status file when one is configured, start anew
         // (so the window never grows, with or without a status file).
@@ -199,10 +208,16 @@ int main(int argc, char** argv) {
                 {"has_pose", node.has_pose()},
                 {"no_pose_frames", no_pose_frames},
                 {"window_frames", window_frames},
+                {"window_vsyncs", window_vsyncs},
+                {"missed_vsyncs", window_vsyncs - window_on_time},
+                {"late_frames", window_late},
+                {"rewarps", window_rewarps},
                 {"on_time_rate",
-                 window_frames ? nlohmann::json(double(window_on_time) / double(window_frames))
+                 window_vsyncs ? nlohmann::json(double(window_on_time) / double(window_vsyncs))
                                : nlohmann::json()},
-                {"latency_ms", percentiles_json(p)}};
+                {"latency_ms", percentiles_json(p)},
+                {"render_ms", percentiles_json(percentiles(render_ms))},
+                {"warp_ms", percentiles_json(percentiles(warp_ms))}};
             if (device_tracker) {
                 // Recovery figures: a replug shows as a disconnect and the gap it left.
                 const DeviceTrackerStatus ts = device_tracker->status();
@@ -223,12 +238,16 @@ int main(int argc, char** argv) {
             if (!cfg->status_path.empty())
                 if (Status ws = write_file_atomically(cfg->status_path, s.dump(1)); !ws.ok())
                     spdlog::warn("{}", ws.error().message);
-            if (window_frames)
-                spdlog::info("frames {} on-time {:.1f}% latency p50 {:.1f} ms p99 {:.1f} ms",
-                             frames, 100.0 * double(window_on_time) / double(window_frames), p.p50,
-                             p.p99);
+            if (window_vsyncs)
+                spdlog::info(
+                    "frames {} vsyncs on time {:.1f}% ({} missed, {} re-warped) latency p50 {:.1f} "
+                    "ms p99 {:.1f} ms",
+                    frames, 100.0 * double(window_on_time) / double(window_vsyncs),
+                    window_vsyncs - window_on_time, window_rewarps, p.p50, p.p99);
             lat.clear();
-            window_frames = window_on_time = 0;
+            render_ms.clear();
+            warp_ms.clear();
+            window_frames = window_on_time = window_vsyncs = window_late = window_rewarps = 0;
             next_status = clock->now_ns() + s_to_ns(cfg->status_every_s);
         }
     }

@@ -1,13 +1,91 @@
-// The frame loop. Per frame: wake at (target vsync - estimated frame cost - margin), drain the
-// tracker into the pose history, predict the head pose at the target vsync's photon time, select
-// LOD per object, render both eyes front to back, present, and record. Before the tracker's first
-// sample a frame renders nothing and reports FrameOutcome::no_pose_yet (never an unbounded wait).
+// The frame loop (docs/latency.md). Per present:
+//  1. Pick the vsync: v_any, the first vsync a present can still make (free_vsync_ns of now + the
+//     warp estimate + margin: the display says which vsyncs earlier presents hold), and v_new, the
+//     first that a new frame can make (the render estimate on top). When they differ and the warp
+//     is on, the previous frame is re-warped for v_any, unless that would push the next new frame
+//     past v_new.
+//  2. New frame: wake at v_new - latch - (render + warp estimates + margin), drain the tracker,
+//     predict the head pose at v_new's photon time, select LOD, render both eyes. When the render
+//     overran, retarget to the first vsync still reachable (the one it was meant for is missed).
+//  3. Wake at target - latch - (warp estimate + margin), drain the tracker, predict again at the
+//     target's photon time, warp the eye buffers to that pose through the lens-distortion mesh,
+//     present; the display reports the vsync the frame landed on. A missed latch grows the
+//     margin; each vsync made shrinks it a little.
+// Estimates are the 95th percentile of the last 90 measured costs (on a simulated clock, of the
+// cost model's). Before the tracker's first sample a call renders nothing and reports
+// FrameOutcome::no_pose_yet (never an unbounded wait). Cost per present: O(objects log objects)
+// CPU for LOD and sorting, O(window) for the estimates, plus the render and the warp.
 #include "hmdnode/firmware_host/node.hpp"
 
 #include <algorithm>
 #include <chrono>
 
 namespace hmdnode {
+namespace {
+
+int64_t steady_ns() {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(
+               std::chrono::steady_clock::now().time_since_epoch())
+        .count();
+}
+
+EyeFov grown(const EyeFov& f, double margin) {
+    const double w = f.tan_right - f.tan_left, h = f.tan_up - f.tan_down;
+    return EyeFov{f.tan_left - margin * w, f.tan_right + margin * w, f.tan_up + margin * h,
+                  f.tan_down - margin * h};
+}
+
+// The panel shows `fov` without distortion: tangents are linear in panel position, so one cell is
+// exact.
+DistortionMesh linear_mesh(const EyeFov& fov) {
+    DistortionMesh m;
+    m.cols = m.rows = 1;
+    for (int r = 0; r <= 1; ++r)
+        for (int c = 0; c <= 1; ++c) {
+            DistortionVertex v;
+            v.ndc = glm::vec2(-1.0f + 2.0f * float(c), -1.0f + 2.0f * float(r));
+            const glm::vec2 t(float(c ? fov.tan_right : fov.tan_left),
+                              float(r ? fov.tan_down : fov.tan_up));
+            v.tangent[0] = v.tangent[1] = v.tangent[2] = t;
+            m.vertices.push_back(v);
+            m.valid.push_back(1);
+        }
+    m.indices = {0, 1, 3, 0, 3, 2};
+    return m;
+}
+
+int64_t median_ns(std::vector<int64_t> v) {
+    std::sort(v.begin(), v.end());
+    return v.empty() ? 0 : v[v.size() / 2];
+}
+
+}  // namespace
+
+double registration_error(const Pose& shown, const TruthPose& truth, double distance_m) {
+    if (!truth.position) return angle_between_deg(shown.orientation, truth.orientation);
+    Pose t;
+    t.orientation = truth.orientation;
+    t.position = *truth.position;
+    return registration_error_deg(shown, t, distance_m);
+}
+
+CostWindow::CostWindow(int capacity)
+    : ring_(size_t(std::clamp(capacity, 1, 256))), scratch_(ring_.size()) {}
+
+void CostWindow::push(int64_t ns) {
+    ring_[head_] = ns;
+    head_ = (head_ + 1) % ring_.size();
+    count_ = std::min(count_ + 1, ring_.size());
+}
+
+int64_t CostWindow::percentile(double p, int64_t fallback) const {
+    if (count_ == 0) return fallback;
+    std::copy(ring_.begin(), ring_.begin() + ptrdiff_t(count_), scratch_.begin());
+    const size_t k = std::min(count_ - 1, size_t(std::ceil(p * double(count_ - 1))));
+    std::nth_element(scratch_.begin(), scratch_.begin() + ptrdiff_t(k),
+                     scratch_.begin() + ptrdiff_t(count_));
+    return scratch_[k];
+}
 
 NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Renderer& renderer,
                          const Scene& scene, const NodeConfig& config)
@@ -18,7 +96,9 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
       scene_(scene),
       config_(config),
       history_(config.history),
-      selector_(0, config.lod) {
+      selector_(0, config.lod),
+      render_costs_(config.pacing.window),
+      warp_costs_(config.pacing.window) {
     objects_ = flatten_objects(scene);
     selector_ = LodSelector(objects_.size(), config.lod);
     level_errors_.resize(objects_.size());
@@ -27,14 +107,36 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
             level_errors_[i].push_back(l.geometric_error_m);
     draws_.reserve(objects_.size());
     order_.reserve(objects_.size());
+    frame_levels_.resize(objects_.size());
+    frame_eccentricity_.resize(objects_.size());
     read_buf_.resize(256);
+    margin_ns_ = config.pacing.margin_ns;
+
+    // The eye buffers' field of view: the lens's (or the rig's), grown for the late warp; the
+    // panel's meshes map each panel point to the direction it shows.
+    render_rig_ = config.rig;
+    const double margin = config.warp ? config.warp_fov_margin : 0.0;
+    for (int e = 0; e < 2; ++e) {
+        if (config.distortion) {
+            mesh_[e] = make_distortion_mesh(config.headset, e, config.mesh_cols, config.mesh_rows);
+            render_rig_.eye[e] = mesh_render_fov(mesh_[e], margin);
+        } else {
+            mesh_[e] = linear_mesh(config.rig.eye[e]);
+            render_rig_.eye[e] = grown(config.rig.eye[e], margin);
+        }
+    }
     const DisplayInfo info = display.info();
-    pixels_per_radian_ = pixels_per_radian(config.rig.eye[0], info.eye_height);
-    cost_estimate_ns_ = info.period_ns / 2;
+    pixels_per_radian_ = pixels_per_radian(render_rig_.eye[0], info.eye_height);
 }
 
 Status NodeRuntime::start() {
     if (Status st = renderer_.upload(scene_); !st.ok()) return st;
+    if (pass_enabled()) {
+        const DisplayInfo info = display_.info();
+        if (Status st = renderer_.set_warp(info.eye_width, info.eye_height, mesh_[0], mesh_[1]);
+            !st.ok())
+            return st;
+    }
     return tracker_->start();
 }
 
@@ -63,48 +165,28 @@ void NodeRuntime::drain_tracker() {
 StereoViews NodeRuntime::views_for(const Pose& head) const {
     StereoViews v;
     for (int eye = 0; eye < 2; ++eye) {
-        v.view[eye] = eye_view_matrix(config_.rig, head, eye);
+        v.view[eye] = eye_view_matrix(render_rig_, head, eye);
         v.projection[eye] =
-            eye_projection(config_.rig.eye[eye], config_.rig.near_m, config_.rig.far_m);
+            eye_projection(render_rig_.eye[eye], render_rig_.near_m, render_rig_.far_m);
     }
     return v;
 }
 
-Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& truth) {
-    const DisplayInfo info = display_.info();
-
-    // Pace: the earliest vsync we can still make, and the time to start working for it.
-    const int64_t now = clock_.now_ns();
-    const int64_t target_vsync =
-        display_.next_vsync_ns(now + cost_estimate_ns_ + config_.wake_margin_ns);
-    const int64_t wake = target_vsync - cost_estimate_ns_ - config_.wake_margin_ns;
-    clock_.sleep_until_ns(wake);
-    const int64_t start_ns = clock_.now_ns();
-
-    drain_tracker();
-    // Before the first sample there is nothing to show. Skip this vsync rather than wait for the
-    // sample here: an absent device must not hang the caller (which checks its stop flag between
-    // frames), and on a simulated clock the skipped frame advances time the same way every run.
-    if (history_.empty()) {
-        if (tracker_->finished()) return make_error("tracker finished before its first sample");
-        clock_.sleep_until_ns(target_vsync);
-        return FrameOutcome::no_pose_yet;
-    }
-
-    const int64_t predicted_photon = target_vsync + display_.photon_offset_ns();
-    Pose head = config_.predict ? history_.pose_at(predicted_photon)
+Pose NodeRuntime::predict(int64_t photon_time_ns) const {
+    Pose head = config_.predict ? history_.pose_at(photon_time_ns)
                                 : history_.pose_at(history_.newest_time_ns());
     if (!history_.newest().position) head.position = config_.default_head_position;
-    const glm::dvec3 omega = history_.angular_velocity();
-    const double speed_dps = rad_to_deg(glm::length(omega));
+    return head;
+}
 
-    // LOD selection per object, then draw front to back (nearest first saves fill on lavapipe).
+uint64_t NodeRuntime::select_and_sort(const Pose& head, FrameRecord* rec) {
+    const glm::dvec3 omega = history_.angular_velocity();
     LodViewer viewer;
     viewer.eye_position = head.position;
     viewer.gaze_direction = forward_of(head.orientation);
-    viewer.angular_speed_dps = speed_dps;
+    viewer.angular_speed_dps = rad_to_deg(glm::length(omega));
     viewer.pixels_per_radian = pixels_per_radian_;
-    viewer.near_m = config_.rig.near_m;
+    viewer.near_m = render_rig_.near_m;
     rec->levels.resize(objects_.size());
     rec->eccentricity_deg.resize(objects_.size());
     order_.clear();
@@ -118,49 +200,206 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
         triangles += o.levels[d.level].triangles;
         order_.emplace_back(glm::length(o.bounds_center - head.position) - o.bounds_radius, i);
     }
+    // Front to back: nearest first saves fill on lavapipe.
     std::sort(order_.begin(), order_.end());
     draws_.clear();
     for (const auto& [dist, i] : order_) {
         const SceneObject& o = objects_[i];
         draws_.push_back(DrawItem{o.levels[rec->levels[i]].mesh, glm::mat4(o.world)});
     }
+    return triangles;
+}
 
-    const auto t0 = std::chrono::steady_clock::now();
-    Result<RenderStats> stats =
-        renderer_.render(views_for(head), draws_, config_.read_back ? &frame_ : nullptr);
-    const auto t1 = std::chrono::steady_clock::now();
-    if (!stats.ok()) return stats.error();
+Result<FrameCostModel> NodeRuntime::calibrate_frame_cost() {
+    FrameCostModel model;
+    Pose head;
+    head.position = config_.default_head_position;
+    StereoImage* out = !pass_enabled() && config_.read_back ? &frame_ : nullptr;
+    // Renders every object at one level (0 = finest, 1 = coarsest) from four headings.
+    auto time_renders = [&](bool coarsest, int rounds, uint64_t* triangles) -> Result<int64_t> {
+        draws_.clear();
+        *triangles = 0;
+        for (const SceneObject& o : objects_) {
+            const LodLevel& l = coarsest ? o.levels.back() : o.levels.front();
+            draws_.push_back(DrawItem{l.mesh, glm::mat4(o.world)});
+            *triangles += l.triangles;
+        }
+        std::vector<int64_t> t;
+        for (int r = 0; r < rounds; ++r)
+            for (int k = 0; k < 4; ++k) {
+                head.orientation = glm::angleAxis(kPi / 2.0 * k, glm::dvec3(0, 1, 0));
+                const int64_t t0 = steady_ns();
+                Result<RenderStats> s = renderer_.render(views_for(head), draws_, out);
+                if (!s.ok()) return s.error();
+                t.push_back(steady_ns() - t0);
+            }
+        return median_ns(std::move(t));
+    };
+    uint64_t tri_fine = 0, tri_coarse = 0;
+    if (auto warm = time_renders(false, 1, &tri_fine); !warm.ok()) return warm.error();
+    auto fine = time_renders(false, 4, &tri_fine);
+    if (!fine.ok()) return fine.error();
+    auto coarse = time_renders(true, 4, &tri_coarse);
+    if (!coarse.ok()) return coarse.error();
+    if (tri_fine > tri_coarse)
+        model.per_triangle_ns =
+            std::max(0.0, double(*fine - *coarse) / double(tri_fine - tri_coarse));
+    model.base_ns =
+        std::max<int64_t>(0, *coarse - int64_t(model.per_triangle_ns * double(tri_coarse)));
+    model.warp_ns = 0;
+    if (pass_enabled()) {
+        std::vector<int64_t> t;
+        for (int i = 0; i < 17; ++i) {
+            const int64_t t0 = steady_ns();
+            Result<WarpStats> w =
+                renderer_.warp(glm::dquat(1, 0, 0, 0), config_.read_back ? &frame_ : nullptr);
+            if (!w.ok()) return w.error();
+            if (i > 0) t.push_back(steady_ns() - t0);
+        }
+        model.warp_ns = median_ns(std::move(t));
+    }
+    return model;
+}
 
-    if (clock_.is_simulated())
-        clock_.sleep_until_ns(start_ns + config_.sim_cost.cost_ns(
-                                             triangles, 2ull * info.eye_width * info.eye_height));
-    const int64_t cost = clock_.now_ns() - start_ns;
-    // Frame-cost estimate for pacing: fast to rise (avoid repeated misses), slow to fall.
-    cost_estimate_ns_ = cost > cost_estimate_ns_ ? cost : (cost_estimate_ns_ * 7 + cost) / 8;
+Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& truth) {
+    const DisplayInfo info = display_.info();
+    const PacingConfig& pc = config_.pacing;
+    const int64_t latch = info.latch_margin_ns;
+    const int64_t photon_offset = display_.photon_offset_ns();
 
-    Result<PresentResult> pr =
-        display_.present(config_.read_back ? &frame_ : nullptr, target_vsync);
+    drain_tracker();
+    // Before the first sample there is nothing to show. Skip this vsync rather than wait for the
+    // sample here: an absent device must not hang the caller (which checks its stop flag between
+    // frames), and on a simulated clock the skipped frame advances time the same way every run.
+    if (history_.empty()) {
+        if (tracker_->finished()) return make_error("tracker finished before its first sample");
+        clock_.sleep_until_ns(display_.next_vsync_ns(clock_.now_ns()));
+        return FrameOutcome::no_pose_yet;
+    }
+
+    // 1. Which vsync, and a new frame or a re-warp.
+    const int64_t render_est = render_costs_.percentile(pc.percentile, info.period_ns / 2);
+    const int64_t warp_est = warp_costs_.percentile(pc.percentile, info.period_ns / 10);
+    const int64_t now = clock_.now_ns();
+    const int64_t v_any = display_.free_vsync_ns(now + warp_est + margin_ns_);
+    const int64_t v_new = display_.free_vsync_ns(now + render_est + warp_est + margin_ns_);
+    bool rewarp = false;
+    if (config_.warp && has_frame_ && v_new != v_any) {
+        // After a re-warp for v_any (presented near v_any - latch), the first vsync a new frame
+        // could make; re-warp only when that is still v_new.
+        const int64_t after = std::max(
+            display_.next_vsync_ns(v_any - latch + render_est + warp_est + margin_ns_ + latch - 1),
+            v_any + info.period_ns);
+        rewarp = after <= v_new;
+    }
+
+    FrameRecord& r = *rec;
+    int64_t target = 0;
+    int64_t wake = 0;
+    double render_ms = 0.0;
+    if (!rewarp) {
+        // 2. A new frame for v_new.
+        target = v_new;
+        wake = target - latch - (render_est + warp_est + margin_ns_);
+        clock_.sleep_until_ns(wake);
+        const int64_t start = clock_.now_ns();
+        drain_tracker();
+        const Pose head = predict(target + photon_offset);
+        frame_triangles_ = select_and_sort(head, &r);
+        const auto t0 = std::chrono::steady_clock::now();
+        StereoImage* out = !pass_enabled() && config_.read_back ? &frame_ : nullptr;
+        Result<RenderStats> stats = renderer_.render(views_for(head), draws_, out);
+        const auto t1 = std::chrono::steady_clock::now();
+        if (!stats.ok()) return stats.error();
+        render_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
+        if (clock_.is_simulated())
+            clock_.sleep_until_ns(start + config_.sim_cost.render_ns(frame_triangles_));
+        render_costs_.push(clock_.now_ns() - start);
+        has_frame_ = true;
+        ++render_index_;
+        frame_pose_ = head;
+        frame_target_vsync_ns_ = target;
+        frame_pose_sample_ns_ = history_.newest_time_ns();
+        std::copy(r.levels.begin(), r.levels.end(), frame_levels_.begin());
+        std::copy(r.eccentricity_deg.begin(), r.eccentricity_deg.end(),
+                  frame_eccentricity_.begin());
+        // The render overran: aim at the first vsync still reachable (the meant one is missed).
+        const int64_t after = clock_.now_ns();
+        if (after + warp_est + margin_ns_ > target - latch)
+            target = display_.free_vsync_ns(after + warp_est + margin_ns_);
+    } else {
+        target = v_any;
+        r.levels.assign(frame_levels_.begin(), frame_levels_.end());
+        r.eccentricity_deg.assign(frame_eccentricity_.begin(), frame_eccentricity_.end());
+    }
+
+    // 3. Late warp (or the frame as rendered) just before the latch, then present.
+    const int64_t warp_wake = target - latch - (warp_est + margin_ns_);
+    if (rewarp) wake = warp_wake;
+    clock_.sleep_until_ns(warp_wake);
+    const int64_t warp_start = clock_.now_ns();
+    Pose shown = frame_pose_;
+    int64_t sample_ns = frame_pose_sample_ns_;
+    int64_t predicted_for = frame_target_vsync_ns_ + photon_offset;
+    double warp_ms = 0.0;
+    if (config_.warp) {
+        drain_tracker();
+        shown = predict(target + photon_offset);
+        sample_ns = history_.newest_time_ns();
+        predicted_for = target + photon_offset;
+    }
+    if (pass_enabled()) {
+        const glm::dquat delta = glm::inverse(frame_pose_.orientation) * shown.orientation;
+        const auto t0 = std::chrono::steady_clock::now();
+        Result<WarpStats> ws = renderer_.warp(delta, config_.read_back ? &frame_ : nullptr);
+        const auto t1 = std::chrono::steady_clock::now();
+        if (!ws.ok()) return ws.error();
+        warp_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
+        if (clock_.is_simulated()) clock_.sleep_until_ns(warp_start + config_.sim_cost.warp_ns);
+    }
+    warp_costs_.push(clock_.now_ns() - warp_start);
+
+    Result<PresentResult> pr = display_.present(config_.read_back ? &frame_ : nullptr, target);
     if (!pr.ok()) return pr.error();
+    if (pr->vsync_ns != target)
+        margin_ns_ = std::min(pc.max_margin_ns, margin_ns_ + pc.miss_step_ns);
+    else
+        margin_ns_ = std::max(pc.min_margin_ns, margin_ns_ - pc.recover_step_ns);
 
-    rec->index = frame_index_++;
-    rec->wake_ns = wake;
-    rec->target_vsync_ns = target_vsync;
-    rec->vsync_ns = pr->vsync_ns;
-    rec->pose_sample_time_ns = history_.newest_time_ns();
-    rec->predicted_photon_time_ns = predicted_photon;
-    rec->photon_time_ns = pr->photon_time_ns;
-    rec->latency_ms = ns_to_ms(pr->photon_time_ns - rec->pose_sample_time_ns);
-    rec->prediction_horizon_ms = ns_to_ms(predicted_photon - rec->pose_sample_time_ns);
-    rec->registration_error_deg = std::numeric_limits<double>::quiet_NaN();
+    r.index = present_index_++;
+    r.kind = rewarp ? FrameKind::rewarp : FrameKind::new_frame;
+    r.frame = render_index_ - 1;
+    r.wake_ns = wake;
+    r.render_target_vsync_ns = frame_target_vsync_ns_;
+    r.target_vsync_ns = target;
+    r.vsync_ns = pr->vsync_ns;
+    r.render_pose_sample_time_ns = frame_pose_sample_ns_;
+    r.pose_sample_time_ns = sample_ns;
+    r.predicted_photon_time_ns = predicted_for;
+    r.photon_time_ns = pr->photon_time_ns;
+    r.latency_ms = ns_to_ms(pr->photon_time_ns - sample_ns);
+    r.prediction_horizon_ms = ns_to_ms(predicted_for - sample_ns);
+    r.shown_pose = shown;
+    r.registration_error_deg = std::numeric_limits<double>::quiet_NaN();
     if (truth)
-        if (std::optional<glm::dquat> q = truth(pr->photon_time_ns))
-            rec->registration_error_deg = angle_between_deg(head.orientation, *q);
-    rec->angular_speed_dps = speed_dps;
-    rec->on_time = pr->on_time;
-    rec->triangles = triangles;
-    rec->render_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
-    rec->frame_cost_ms = ns_to_ms(cost);
-    return FrameOutcome::rendered;
+        if (std::optional<TruthPose> t = truth(pr->photon_time_ns))
+            r.registration_error_deg =
+                registration_error(shown, *t, config_.registration_distance_m);
+    r.angular_speed_dps = rad_to_deg(glm::length(history_.angular_velocity()));
+    r.on_time = pr->vsync_ns == target;
+    r.late = pr->vsync_ns > frame_target_vsync_ns_ && !rewarp;
+    r.missed_vsyncs_before =
+        last_shown_vsync_ns_ == INT64_MIN
+            ? 0
+            : std::max<int64_t>(
+                  0,
+                  (pr->vsync_ns - last_shown_vsync_ns_ + info.period_ns / 2) / info.period_ns - 1);
+    last_shown_vsync_ns_ = pr->vsync_ns;
+    r.triangles = rewarp ? 0 : frame_triangles_;
+    r.render_ms = render_ms;
+    r.warp_ms = warp_ms;
+    r.frame_cost_ms = ns_to_ms(clock_.now_ns() - wake);
+    return rewarp ? FrameOutcome::rewarped : FrameOutcome::rendered;
 }
 
 }  // namespace hmdnode

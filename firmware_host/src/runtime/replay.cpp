@@ -1,5 +1,5 @@
-// Replay wiring: scene + trace -> simulated tracker -> node runtime -> Vulkan renderer -> mock
-// display, then the report. The only place (with the daemon) that picks concrete backends.
+// Replay wiring: scene + trace (or capture) -> simulated (or capture) tracker -> node runtime ->
+// Vulkan renderer -> mock display, then the per-vsync summary and the report.
 #include "hmdnode/firmware_host/replay.hpp"
 
 #include <algorithm>
@@ -54,6 +54,59 @@ nlohmann::json percentiles_json(const Percentiles& p) {
             {"max", finite_or_null(p.max)}};
 }
 
+ReplaySummary summarize_presents(const std::vector<FrameRecord>& frames, int64_t period_ns,
+                                 const TruthFn& truth, double registration_distance_m) {
+    ReplaySummary s;
+    s.frames = frames.size();
+    if (frames.empty() || period_ns <= 0) return s;
+    std::vector<double> lat, reg, ren, warp;
+    double tri = 0.0;
+    for (const FrameRecord& f : frames) {
+        if (f.kind == FrameKind::new_frame) {
+            ++s.new_frames;
+            ren.push_back(f.render_ms);
+            tri += double(f.triangles);
+            s.late_frames += f.late ? 1 : 0;
+        } else {
+            ++s.rewarps;
+        }
+        if (f.warp_ms > 0.0) warp.push_back(f.warp_ms);
+    }
+    // Walk the vsyncs: the frame on screen at each is the last one shown at or before it.
+    const int64_t first = frames.front().vsync_ns, last = frames.back().vsync_ns;
+    size_t k = 0, good = 0, run = 0;
+    for (int64_t v = first; v <= last + period_ns / 2; v += period_ns) {
+        while (k + 1 < frames.size() && frames[k + 1].vsync_ns <= v + period_ns / 2) ++k;
+        const FrameRecord& f = frames[k];
+        const bool shown_now = std::llabs(f.vsync_ns - v) < period_ns / 2;
+        ++s.vsyncs;
+        if (shown_now && f.on_time) {
+            ++good;
+            run = 0;
+        } else {
+            s.longest_late_run = std::max(s.longest_late_run, ++run);
+        }
+        const int64_t photon = v + (f.photon_time_ns - f.vsync_ns);
+        lat.push_back(ns_to_ms(photon - f.pose_sample_time_ns));
+        double error = std::numeric_limits<double>::quiet_NaN();
+        if (shown_now)
+            error = f.registration_error_deg;
+        else if (truth)
+            if (std::optional<TruthPose> t = truth(photon))
+                error = registration_error(f.shown_pose, *t, registration_distance_m);
+        reg.push_back(error);
+    }
+    s.missed_vsyncs = s.vsyncs - good;
+    s.on_time_rate = double(good) / double(s.vsyncs);
+    s.new_frames_per_vsync = double(s.new_frames) / double(s.vsyncs);
+    s.latency_ms = percentiles(lat);
+    s.registration_error_deg = percentiles(reg);
+    s.render_ms = percentiles(ren);
+    s.warp_ms = percentiles(warp);
+    s.triangles_mean = s.new_frames ? tri / double(s.new_frames) : 0.0;
+    return s;
+}
+
 Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     const auto wall0 = std::chrono::steady_clock::now();
     Result<Scene> scene = load_gltf(opt.scene);
@@ -63,13 +116,25 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     // ring all at once and overflow it (the first frames would show stale poses).
     if (!opt.capture.empty() && opt.start_s > 0.0 && !opt.simulated_clock)
         return make_error("--start with --capture needs --clock sim");
-    if (opt.capture.empty()) {
+    if (opt.trace_data) {
+        trace = opt.trace_data;
+    } else if (opt.capture.empty()) {
         Result<Trace> trace_r = read_trace_csv(opt.trace);
         if (!trace_r.ok())
             return make_error(trace_r.error().message +
                               " (replay reads hmdnode trace CSV; convert other tables with "
                               "`hmdnode trace import`)");
         trace = std::make_shared<const Trace>(std::move(trace_r).value());
+    }
+    const bool has_position = trace && !trace->samples.empty() && trace->samples[0].position;
+    if (trace && opt.recentre) {
+        if (!has_position)
+            return make_error(opt.trace.string() + ": --recentre needs a trace with positions");
+        Trace moved = *trace;
+        const glm::dvec3 shift = opt.node.default_head_position - *moved.samples[0].position;
+        for (TraceSample& ts : moved.samples)
+            if (ts.position) *ts.position += shift;
+        trace = std::make_shared<const Trace>(std::move(moved));
     }
 
     std::unique_ptr<Clock> clock;
@@ -109,6 +174,21 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
 
     NodeRuntime node(*clock, **tracker, **display, **renderer, *scene, opt.node);
     if (Status st = node.start(); !st.ok()) return st.error();
+    // The simulated clock's frame cost: given, or measured on this renderer now (the simulated
+    // clock does not move while it is measured).
+    std::optional<FrameCostModel> cost_model;
+    bool calibrated = false;
+    if (opt.simulated_clock) {
+        if (opt.frame_cost) {
+            cost_model = *opt.frame_cost;
+        } else {
+            Result<FrameCostModel> m = node.calibrate_frame_cost();
+            if (!m.ok()) return m.error();
+            cost_model = *m;
+            calibrated = true;
+        }
+        node.set_sim_cost(*cost_model);
+    }
 
     // Truth for registration error: the trace itself, slerped, at the photon time.
     const int64_t trace_t0 = trace ? trace->start_ns() + tc.start_offset_ns : 0;
@@ -116,11 +196,15 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
                               : tc.duration_ns > 0
                                   ? std::min(trace->end_ns(), trace_t0 + tc.duration_ns)
                                   : trace->end_ns();
-    TruthFn truth = [&](int64_t host_ns) -> std::optional<glm::dquat> {
+    TruthFn truth = [&](int64_t host_ns) -> std::optional<TruthPose> {
         if (!trace) return std::nullopt;
         const int64_t t = host_ns - host_start + trace_t0;
         if (t > trace_end) return std::nullopt;  // past the recording: no truth
-        return trace->pose_at(t).orientation;
+        const Pose p = trace->pose_at(t);
+        TruthPose tp;
+        tp.orientation = p.orientation;
+        if (has_position) tp.position = p.position;
+        return tp;
     };
 
     ReplayResult result;
@@ -154,23 +238,11 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     }
     result.trace_samples = (*tracker)->counters().samples_delivered;
 
+    result.summary = summarize_presents(result.frames, (*display)->info().period_ns, truth,
+                                        opt.node.registration_distance_m);
     ReplaySummary& s = result.summary;
-    s.frames = result.frames.size();
-    std::vector<double> lat, reg, ren;
-    double tri = 0.0;
-    size_t on_time = 0;
-    for (const FrameRecord& f : result.frames) {
-        lat.push_back(f.latency_ms);
-        reg.push_back(f.registration_error_deg);
-        ren.push_back(f.render_ms);
-        tri += double(f.triangles);
-        on_time += f.on_time ? 1 : 0;
-    }
-    s.latency_ms = percentiles(lat);
-    s.registration_error_deg = percentiles(reg);
-    s.render_ms = percentiles(ren);
-    s.on_time_rate = s.frames ? double(on_time) / double(s.frames) : 0.0;
-    s.triangles_mean = s.frames ? tri / double(s.frames) : 0.0;
+    s.frame_cost_model = cost_model;
+    s.frame_cost_calibrated = calibrated;
     s.replayed_s =
         s.frames
             ? ns_to_s(result.frames.back().photon_time_ns - result.frames.front().photon_time_ns)
@@ -191,6 +263,9 @@ nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& 
         json levels = json::object();
         for (size_t i = 0; i < f.levels.size(); ++i) levels[r.object_names[i]] = f.levels[i];
         frames.push_back({{"index", f.index},
+                          {"kind", f.kind == FrameKind::rewarp ? "rewarp" : "new"},
+                          {"frame", f.frame},
+                          {"render_target_vsync_ns", f.render_target_vsync_ns},
                           {"target_vsync_ns", f.target_vsync_ns},
                           {"vsync_ns", f.vsync_ns},
                           {"pose_sample_time_ns", f.pose_sample_time_ns},
@@ -201,13 +276,23 @@ nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& 
                           {"registration_error_deg", finite_or_null(f.registration_error_deg)},
                           {"angular_speed_dps", f.angular_speed_dps},
                           {"on_time", f.on_time},
+                          {"late", f.late},
+                          {"missed_vsyncs_before", f.missed_vsyncs_before},
+                          {"render_pose_sample_time_ns", f.render_pose_sample_time_ns},
                           {"lod", levels},
                           {"triangles", f.triangles},
                           {"render_ms", f.render_ms},
+                          {"warp_ms", f.warp_ms},
                           {"frame_cost_ms", f.frame_cost_ms}});
     }
     const ReplaySummary& s = r.summary;
-    return {{"format", "hmdnode-replay-report/1"},
+    json cost = nullptr;
+    if (s.frame_cost_model)
+        cost = {{"render_base", ns_to_ms(s.frame_cost_model->base_ns)},
+                {"render_per_1k_triangles", s.frame_cost_model->per_triangle_ns * 1e-3},
+                {"warp", ns_to_ms(s.frame_cost_model->warp_ns)},
+                {"calibrated", s.frame_cost_calibrated}};
+    return {{"format", "hmdnode-replay-report/2"},
             {"scene", opt.scene.string()},
             {"trace", opt.trace.string()},
             {"clock", opt.simulated_clock ? "sim" : "real"},
@@ -220,13 +305,26 @@ nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& 
               {"scanout_fraction", opt.display.scanout_fraction}}},
             {"ipd_m", opt.node.rig.ipd_m},
             {"prediction", opt.node.predict},
+            {"warp", opt.node.warp},
+            {"distortion", opt.node.distortion ? json(opt.node.headset.name) : json(nullptr)},
+            {"distortion_mesh", {opt.node.mesh_cols, opt.node.mesh_rows}},
             {"objects", r.object_names},
             {"trace_samples", r.trace_samples},
             {"summary",
              {{"frames", s.frames},
+              {"new_frames", s.new_frames},
+              {"rewarps", s.rewarps},
+              {"vsyncs", s.vsyncs},
+              {"missed_vsyncs", s.missed_vsyncs},
+              {"late_frames", s.late_frames},
+              {"longest_late_run", s.longest_late_run},
+              {"new_frames_per_vsync", s.new_frames_per_vsync},
               {"latency_ms", percentiles_json(s.latency_ms)},
               {"registration_error_deg", percentiles_json(s.registration_error_deg)},
               {"render_ms", percentiles_json(s.render_ms)},
+              {"warp_ms",
+               {{"p50", finite_or_null(s.warp_ms.p50)}, {"p99", finite_or_null(s.warp_ms.p99)}}},
+              {"frame_cost_model_ms", cost},
               {"on_time_rate", s.on_time_rate},
               {"triangles_mean", s.triangles_mean},
               {"replayed_s", s.replayed_s},
@@ -252,16 +350,31 @@ std::string replay_summary_table(const ReplayResult& r) {
         out << '\n';
     };
     std::snprintf(buf, sizeof buf,
-                  "frames %zu over %.1f s of trace (%zu samples), wall %.1f s, renderer %s\n"
+                  "%zu new frames + %zu re-warps over %.1f s of trace (%zu samples), wall %.1f s, "
+                  "renderer %s\n"
+                  "vsyncs %zu: %.1f %% on time (new or re-warped), %zu missed, %.2f new frames "
+                  "per vsync, %zu late frames, longest missed run %zu\n"
                   "%-26s %8s %8s %8s %8s\n",
-                  s.frames, s.replayed_s, r.trace_samples, s.wall_s, r.device_name.c_str(), "",
-                  "p50", "p95", "p99", "max");
+                  s.new_frames, s.rewarps, s.replayed_s, r.trace_samples, s.wall_s,
+                  r.device_name.c_str(), s.vsyncs, 100.0 * s.on_time_rate, s.missed_vsyncs,
+                  s.new_frames_per_vsync, s.late_frames, s.longest_late_run, "", "p50", "p95",
+                  "p99", "max");
     out << buf;
     row("motion-to-photon (ms)", s.latency_ms, 2);
     row("registration error (deg)", s.registration_error_deg, 3);
     row("render, measured (ms)", s.render_ms, 2);
-    std::snprintf(buf, sizeof buf, "on-time rate %.1f %%, triangles per frame %.0f (mean)\n",
-                  100.0 * s.on_time_rate, s.triangles_mean);
+    row("warp, measured (ms)", s.warp_ms, 2);
+    if (s.frame_cost_model) {
+        std::snprintf(
+            buf, sizeof buf,
+            "simulated clock: frame cost model %.2f ms + %.3f ms per 1k triangles, warp "
+            "%.2f ms (%s); latency above follows the model\n",
+            ns_to_ms(s.frame_cost_model->base_ns), s.frame_cost_model->per_triangle_ns * 1e-3,
+            ns_to_ms(s.frame_cost_model->warp_ns),
+            s.frame_cost_calibrated ? "calibrated on this renderer at start-up" : "given");
+        out << buf;
+    }
+    std::snprintf(buf, sizeof buf, "triangles per new frame %.0f (mean)\n", s.triangles_mean);
     out << buf;
     return out.str();
 }

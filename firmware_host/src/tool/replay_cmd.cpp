@@ -17,6 +17,12 @@ void add_replay_command(CLI::App& app) {
     auto latency_us = std::make_shared<double>(1000.0);
     auto jitter_us = std::make_shared<double>(0.0);
     auto persistence_ms = std::make_shared<double>(2.0);
+    auto no_warp = std::make_shared<bool>(false);
+    auto no_distortion = std::make_shared<bool>(false);
+    auto headset = std::make_shared<std::string>();
+    auto mesh = std::make_shared<int>(64);
+    auto frame_cost_ms = std::make_shared<double>(-1.0);
+    auto warp_cost_ms = std::make_shared<double>(-1.0);
 
     CLI::App* c = app.add_subcommand("replay",
                                      "Replay a head trace through tracking, LOD selection, "
@@ -62,6 +68,28 @@ void add_replay_command(CLI::App& app) {
     c->add_option("--seed", opt->tracker.seed, "Seed for noise and jitter");
     c->add_option("--lod-tolerance-px", opt->node.lod.tolerance_px,
                   "LOD pixel tolerance at the gaze point");
+    c->add_flag("--no-warp", *no_warp,
+                "No late warp: show each frame as rendered (a missed vsync repeats the old one)");
+    c->add_flag("--no-distortion", *no_distortion,
+                "No lens distortion or chromatic-aberration correction");
+    c->add_option("--headset", *headset,
+                  "Headset profile JSON for the lens (default: the built-in generic one; "
+                  "data/headsets/valve-index.json for a Valve Index)");
+    c->add_option("--mesh", *mesh, "Distortion mesh cells per side (default 64)")
+        ->check(CLI::Range(1, 512));
+    c->add_option("--frame-cost-ms", *frame_cost_ms,
+                  "Simulated clock: a fixed render cost per frame instead of the model calibrated "
+                  "on the renderer at start-up")
+        ->check(CLI::Range(0.0, 10000.0));
+    c->add_option("--warp-cost-ms", *warp_cost_ms,
+                  "Simulated clock, with --frame-cost-ms: the warp pass's cost (default 0.5)")
+        ->check(CLI::Range(0.0, 10000.0));
+    c->add_flag("--recentre", opt->recentre,
+                "Move a 6DoF trace so that it starts at the default head position (traces whose "
+                "positions start at the floor)");
+    c->add_option("--registration-distance", opt->node.registration_distance_m,
+                  "Distance (m) at which position error counts in the registration error")
+        ->check(CLI::Range(0.01, 1000.0));
     c->add_flag("--quiet", *quiet, "Print only the summary");
 
     // A later occurrence of an option wins, so scripts/demo's defaults can be overridden.
@@ -79,6 +107,30 @@ void add_replay_command(CLI::App& app) {
             return;
         }
         o.simulated_clock = *clock == "sim";
+        o.node.warp = !*no_warp;
+        o.node.distortion = !*no_distortion;
+        o.node.mesh_cols = o.node.mesh_rows = *mesh;
+        if (!headset->empty()) {
+            Result<HeadsetProfile> p = load_headset_profile(*headset);
+            if (!p.ok()) {
+                std::fprintf(stderr, "hmdnode replay: error: %s\n", p.error().message.c_str());
+                set_exit_code(1);
+                return;
+            }
+            o.node.headset = *p;
+        }
+        if (*warp_cost_ms >= 0.0 && *frame_cost_ms < 0.0) {
+            std::fprintf(stderr, "hmdnode replay: error: --warp-cost-ms needs --frame-cost-ms\n");
+            set_exit_code(2);
+            return;
+        }
+        if (*frame_cost_ms >= 0.0) {
+            FrameCostModel m;
+            m.base_ns = ms_to_ns(*frame_cost_ms);
+            m.per_triangle_ns = 0.0;
+            m.warp_ns = ms_to_ns(*warp_cost_ms >= 0.0 ? *warp_cost_ms : 0.5);
+            o.frame_cost = m;
+        }
         o.display.frames_dir = *frames_dir;
         o.display.persistence_ns = ms_to_ns(*persistence_ms);
         o.node.predict = !*no_predict;
@@ -90,7 +142,7 @@ void add_replay_command(CLI::App& app) {
                 char error[32] = "n/a";  // no truth (a capture)
                 if (std::isfinite(f.registration_error_deg))
                     std::snprintf(error, sizeof error, "%.2f deg", f.registration_error_deg);
-                std::fprintf(stderr, "\rframe %llu  latency %.1f ms  error %s   ",
+                std::fprintf(stderr, "\rpresent %llu  latency %.1f ms  error %s   ",
                              (unsigned long long)f.index, f.latency_ms, error);
             };
         Result<ReplayResult> r = run_replay(o);

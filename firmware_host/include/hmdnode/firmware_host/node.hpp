@@ -1,6 +1,9 @@
 // The node runtime: the frame loop paced to the display's vsync. Each frame it wakes just early
 // enough to render, reads the tracker, predicts the head pose at the frame's photon time, picks a
-// level of detail per object, renders both eyes, presents, and records what it did.
+// level of detail per object, renders both eyes, then, just before the latch, reads the tracker
+// again and warps the finished frame to the newest prediction through the lens-distortion mesh,
+// presents, and records what it did. A vsync that a new frame cannot reach gets the previous frame
+// re-warped when that does not delay the next new frame.
 //
 // Threads: a NodeRuntime belongs to one thread (the frame thread). The tracker's reader thread, if
 // any, only feeds the tracker's ring.
@@ -22,63 +25,131 @@
 #include "hmdnode/hal/display.hpp"
 #include "hmdnode/hal/tracker.hpp"
 #include "hmdnode/lod/selector.hpp"
+#include "hmdnode/render/lens.hpp"
 #include "hmdnode/render/renderer.hpp"
 
 namespace hmdnode {
 
-// On a simulated clock the frame's duration cannot be the measured one (that would make a replay
-// depend on the machine), so the clock advances by this model of the target hardware instead.
+// What a frame costs on the simulated clock. A replay on a simulated clock cannot use the
+// measured duration (that would make it depend on the machine), so the clock advances by this
+// model instead: calibrated on the actual renderer at start-up (calibrate_frame_cost), or given
+// (`--frame-cost-ms`), and printed in the report so that a run can be reproduced exactly.
 struct FrameCostModel {
-    int64_t base_ns = 1'500'000;
-    double per_triangle_ns = 40.0;  // both eyes (one multiview pass)
-    double per_pixel_ns = 2.0;      // both eyes
-    int64_t cost_ns(uint64_t triangles, uint64_t pixels) const {
-        return base_ns +
-               int64_t(per_triangle_ns * double(triangles) + per_pixel_ns * double(pixels));
+    int64_t base_ns = 2'000'000;   // a render of no triangles at the run's eye size (both eyes)
+    double per_triangle_ns = 0.0;  // both eyes
+    int64_t warp_ns = 500'000;     // the warp + distortion pass with its read-back
+    int64_t render_ns(uint64_t triangles) const {
+        return base_ns + int64_t(per_triangle_ns * double(triangles));
     }
 };
 
+// Pacing (docs/latency.md): the loop targets the first vsync that is free and reachable (the
+// display says which vsync a present lands on), wakes at vsync - latch - (render estimate + warp
+// estimate + margin), and samples the pose again just before the warp. The estimates are a high
+// percentile of the recent frames, not the last one; the margin grows on a missed latch and
+// shrinks slowly while frames make it (after Monado's compositor pacing, u_pacing_compositor.c).
+struct PacingConfig {
+    int window = 90;                    // recent costs the estimates look at (<= 256)
+    double percentile = 0.95;           // the estimate: this percentile of the window
+    int64_t margin_ns = 1'000'000;      // initial margin
+    int64_t min_margin_ns = 300'000;    // the margin never shrinks below this
+    int64_t max_margin_ns = 4'000'000;  // nor grows above this
+    int64_t miss_step_ns = 500'000;     // growth on a missed latch
+    int64_t recover_step_ns = 10'000;   // shrink on a vsync made
+};
+
 struct NodeConfig {
-    StereoRig rig = StereoRig::typical();
+    StereoRig rig = StereoRig::typical();  // eye offsets, near/far; the field of view when
+                                           // distortion is off
     glm::dvec3 default_head_position{0.0, 1.6, 0.0};  // used when the tracker gives no position
     bool predict = true;                              // false: render the newest sample's pose
     PoseHistoryConfig history;
     LodSelectorParams lod;
-    int64_t wake_margin_ns = 1'000'000;  // wake this long before the estimated frame cost
+    // Late warp: the finished frame is reprojected to the newest pose just before the latch, and
+    // re-warped for a vsync that gets no new frame. Off: the frame is shown as rendered.
+    bool warp = true;
+    // Lens distortion and chromatic aberration correction from `headset` (a distortion mesh per
+    // eye of mesh_cols x mesh_rows cells). Off: the panel shows the rig's field of view
+    // undistorted.
+    bool distortion = true;
+    HeadsetProfile headset = generic_headset_profile();
+    int mesh_cols = 64, mesh_rows = 64;
+    double warp_fov_margin = 0.1;  // the eye buffers cover this much more per side (fraction of
+                                   // the panel's tangent span) so a late rotation finds pixels
+    PacingConfig pacing;
     FrameCostModel sim_cost;
-    bool read_back = true;  // copy frames back to the CPU for the display
+    bool read_back = true;                 // copy frames back to the CPU for the display
+    double registration_distance_m = 1.0;  // position error is seen at this distance
 };
 
+enum class FrameKind {
+    new_frame,  // rendered for this present, then warped (or shown as rendered)
+    rewarp,     // the previous frame warped again for a vsync that had no new frame
+};
+
+// One present. Times on the node's clock.
 struct FrameRecord {
-    uint64_t index = 0;
-    int64_t wake_ns = 0;
-    int64_t target_vsync_ns = 0;
-    int64_t vsync_ns = 0;
-    int64_t pose_sample_time_ns = 0;       // newest tracker sample used
-    int64_t predicted_photon_time_ns = 0;  // the time the pose was predicted for
-    int64_t photon_time_ns = 0;            // actual photon time of the panel centre
-    double latency_ms = 0.0;               // photon_time - pose_sample_time
-    double prediction_horizon_ms = 0.0;    // predicted_photon_time - pose_sample_time
+    uint64_t index = 0;  // counts presents
+    FrameKind kind = FrameKind::new_frame;
+    uint64_t frame = 0;                      // which rendered frame is shown (counts renders)
+    int64_t wake_ns = 0;                     // render wake-up (a re-warp: warp wake-up)
+    int64_t render_target_vsync_ns = 0;      // the vsync the shown frame was rendered for
+    int64_t target_vsync_ns = 0;             // the vsync this present aimed at
+    int64_t vsync_ns = 0;                    // the vsync it was shown at (display feedback)
+    int64_t render_pose_sample_time_ns = 0;  // newest tracker sample when the frame was rendered
+    int64_t pose_sample_time_ns = 0;         // newest sample that shaped the shown image (warp's)
+    int64_t predicted_photon_time_ns = 0;    // the time the shown pose was predicted for
+    int64_t photon_time_ns = 0;              // actual photon time of the panel centre
+    double latency_ms = 0.0;                 // photon_time - pose_sample_time
+    double prediction_horizon_ms = 0.0;      // predicted_photon_time - pose_sample_time
     double registration_error_deg = std::numeric_limits<double>::quiet_NaN();  // NaN: no truth
     double angular_speed_dps = 0.0;
-    bool on_time = false;
+    bool on_time = false;              // shown at target_vsync_ns
+    bool late = false;                 // a new frame shown after the vsync it was rendered for
+    int64_t missed_vsyncs_before = 0;  // vsyncs since the previous present that showed nothing
     uint64_t triangles = 0;
-    double render_ms = 0.0;      // measured wall time of the render call (record, GPU, read-back)
+    double render_ms = 0.0;      // measured wall time of the render call (0 for a re-warp)
+    double warp_ms = 0.0;        // measured wall time of the warp call (0 when there is none)
     double frame_cost_ms = 0.0;  // on the node's clock: wake to present
     std::vector<int> levels;     // LOD level per object (index as in objects())
     std::vector<double> eccentricity_deg;  // per object
+    Pose shown_pose;                       // the head pose the shown image was made for
 };
 
-// The truth for registration error: the true head orientation at a host time, or nothing where
-// the truth is unknown (replay only: outside the recorded trace).
-using TruthFn = std::function<std::optional<glm::dquat>(int64_t host_time_ns)>;
+// The truth for registration error: the true head pose at a host time (position only where the
+// truth has one), or nothing where the truth is unknown (replay only: outside the recorded trace).
+struct TruthPose {
+    glm::dquat orientation{1.0, 0.0, 0.0, 0.0};
+    std::optional<glm::dvec3> position;
+};
+using TruthFn = std::function<std::optional<TruthPose>(int64_t host_time_ns)>;
+
+// Registration error (degrees) of a shown pose against the truth: the rotation between them, plus
+// the position error seen at `distance_m` where the truth has a position.
+double registration_error(const Pose& shown, const TruthPose& truth, double distance_m);
 
 // What one run_frame call did.
 enum class FrameOutcome {
-    rendered,     // rendered and presented; the record is filled out
+    rendered,     // a new frame rendered and presented; the record is filled out
+    rewarped,     // the previous frame re-warped and presented; the record is filled out
     no_pose_yet,  // the tracker has delivered no sample yet: nothing was rendered or presented,
                   // the frame's vsync has passed (so the next call aims at the one after), and
                   // the record is left as it was
+};
+
+// A fixed window of recent costs and a percentile over it (no allocation after construction).
+class CostWindow {
+  public:
+    explicit CostWindow(int capacity = 90);
+    void push(int64_t ns);
+    bool empty() const { return count_ == 0; }
+    // The p-quantile (0..1) of the window; `fallback` while it is empty.
+    int64_t percentile(double p, int64_t fallback) const;
+
+  private:
+    std::vector<int64_t> ring_;
+    mutable std::vector<int64_t> scratch_;
+    size_t head_ = 0, count_ = 0;
 };
 
 class NodeRuntime {
@@ -87,16 +158,24 @@ class NodeRuntime {
     NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Renderer& renderer,
                 const Scene& scene, const NodeConfig& config);
 
-    // Uploads the scene and starts the tracker.
+    // Uploads the scene, sets up the warp pass and starts the tracker.
     Status start();
+
+    // Measures the renderer on this scene at start-up (after start(), before the first frame):
+    // renders at the finest and at the coarsest levels from a few head poses and times the warp,
+    // and returns the model the simulated clock can use (medians; triangles of both eyes). Blocks
+    // for about 40 frames.
+    Result<FrameCostModel> calibrate_frame_cost();
+    void set_sim_cost(const FrameCostModel& model) { config_.sim_cost = model; }
     void stop();
 
-    // Runs one frame: waits for its wake-up time, then does the frame's work and presents, and
-    // fills out_record (reused by the caller so the frame path does not allocate). Never waits
-    // longer than about one display period: before the tracker's first sample there is nothing
-    // to show, so the frame is skipped (FrameOutcome::no_pose_yet) and the caller can look at its
-    // stop flag and call again. Returns an error when rendering or presenting fails, or when the
-    // tracker finished without delivering a sample; the caller decides to go on or stop.
+    // Runs one present: waits for its wake-up time, then renders a new frame (or re-warps the
+    // previous one), warps, presents, and fills out_record (reused by the caller so the frame
+    // path does not allocate). Never waits longer than about two display periods: before the
+    // tracker's first sample there is nothing to show, so the frame is skipped
+    // (FrameOutcome::no_pose_yet) and the caller can look at its stop flag and call again. Returns
+    // an error when rendering or presenting fails, or when the tracker finished without
+    // delivering a sample; the caller decides to go on or stop.
     Result<FrameOutcome> run_frame(FrameRecord* out_record, const TruthFn& truth = nullptr);
 
     // True once the tracker has delivered a sample (run_frame renders from then on).
@@ -110,6 +189,9 @@ class NodeRuntime {
     bool tracker_finished() const;
 
     const std::vector<SceneObject>& objects() const { return objects_; }
+    const NodeConfig& config() const { return config_; }
+    // The field of view each eye buffer is rendered with (the lens's, grown for the warp).
+    const StereoRig& render_rig() const { return render_rig_; }
     const Renderer& renderer() const { return renderer_; }
     const PoseHistory& history() const { return history_; }
     // The last rendered frame (empty unless config.read_back).
@@ -118,6 +200,10 @@ class NodeRuntime {
   private:
     void drain_tracker();
     StereoViews views_for(const Pose& head) const;
+    Pose predict(int64_t photon_time_ns) const;
+    // LOD selection for `head`, fills rec->levels / eccentricity and draws_; returns triangles.
+    uint64_t select_and_sort(const Pose& head, FrameRecord* rec);
+    bool pass_enabled() const { return config_.warp || config_.distortion; }
 
     Clock& clock_;
     Tracker* tracker_;
@@ -133,8 +219,20 @@ class NodeRuntime {
     std::vector<std::pair<double, size_t>> order_;   // front-to-back sort keys, reused
     std::vector<TrackerSample> read_buf_;
     StereoImage frame_;
-    int64_t cost_estimate_ns_ = 0;
-    uint64_t frame_index_ = 0;
+    StereoRig render_rig_;
+    DistortionMesh mesh_[2];
+    CostWindow render_costs_, warp_costs_;
+    int64_t margin_ns_ = 0;
+    uint64_t present_index_ = 0, render_index_ = 0;
+    int64_t last_shown_vsync_ns_ = INT64_MIN;
+    // The frame in the eye buffers: its pose, target, levels and the tracker sample it used.
+    bool has_frame_ = false;
+    Pose frame_pose_;
+    int64_t frame_target_vsync_ns_ = 0;
+    int64_t frame_pose_sample_ns_ = 0;
+    uint64_t frame_triangles_ = 0;
+    std::vector<int> frame_levels_;
+    std::vector<double> frame_eccentricity_;
     double pixels_per_radian_ = 0.0;
 };
 

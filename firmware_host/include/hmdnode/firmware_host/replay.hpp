@@ -1,16 +1,20 @@
 // Replay: a recorded trace through the simulated tracker, the node runtime, the Vulkan renderer and
-// the mock headset display, on the simulated or the system clock; and its report.
+// the mock headset display, on the simulated or the system clock; and its report
+// (docs/formats.md, "Replay report").
 #pragma once
 
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json_fwd.hpp>
 
 #include "hmdnode/core/result.hpp"
+#include "hmdnode/core/trace.hpp"
 #include "hmdnode/firmware_host/node.hpp"
 #include "hmdnode/hal/mock_display.hpp"
 #include "hmdnode/hal/sim_tracker.hpp"
@@ -21,9 +25,10 @@ namespace hmdnode {
 struct ReplayOptions {
     std::filesystem::path scene;
     std::filesystem::path trace;
-    std::filesystem::path capture;  // instead of trace: a usbmon capture (pcap[.gz]) ...
-    std::string capture_device;     // ... and the "VID:PID" of its device to replay
-    std::filesystem::path report;   // empty: no JSON report
+    std::shared_ptr<const Trace> trace_data;  // instead of trace: a trace in memory
+    std::filesystem::path capture;            // instead of trace: a usbmon capture (pcap[.gz]) ...
+    std::string capture_device;               // ... and the "VID:PID" of its device to replay
+    std::filesystem::path report;             // empty: no JSON report
     bool simulated_clock = true;
     double start_s = 0.0;      // offset into the trace (a capture: from its first report)
     double duration_s = 0.0;   // 0: to the end
@@ -31,7 +36,11 @@ struct ReplayOptions {
     SimTrackerConfig tracker;  // host_start/start_offset/duration are filled in by replay
     MockDisplayConfig display;
     NodeConfig node;
-    RendererConfig renderer;                           // eye size is taken from the display
+    RendererConfig renderer;  // eye size is taken from the display
+    // The simulated clock's frame cost: empty = calibrated on the renderer at start-up.
+    std::optional<FrameCostModel> frame_cost;
+    // Move a 6DoF trace so that its first position is the node's default head position.
+    bool recentre = false;
     std::function<void(const FrameRecord&)> on_frame;  // progress (optional)
 };
 
@@ -40,13 +49,27 @@ struct Percentiles {
     double p50 = 0, p95 = 0, p99 = 0, max = 0;
 };
 
+// Counted per vsync (docs/formats.md): every vsync from the first present's to the last one's
+// either showed a new or re-warped frame on time, or it is missed (nothing new, or a late frame).
+// Latency and registration error are per displayed vsync: a vsync that repeats a frame shows it
+// older, against the head where it is now.
 struct ReplaySummary {
-    size_t frames = 0;
+    size_t frames = 0;      // presents (new frames + re-warps)
+    size_t new_frames = 0;  // rendered frames presented
+    size_t rewarps = 0;     // re-warps of a previous frame
+    size_t vsyncs = 0;
+    size_t missed_vsyncs = 0;
+    size_t late_frames = 0;       // new frames shown after the vsync they were rendered for
+    size_t longest_late_run = 0;  // consecutive vsyncs missed, at most
+    double new_frames_per_vsync = 0.0;
     Percentiles latency_ms;
     Percentiles registration_error_deg;
     Percentiles render_ms;
-    double on_time_rate = 0.0;
-    double triangles_mean = 0.0;
+    Percentiles warp_ms;
+    double on_time_rate = 0.0;    // vsyncs that showed a new or re-warped frame on time / vsyncs
+    double triangles_mean = 0.0;  // per new frame
+    std::optional<FrameCostModel> frame_cost_model;  // simulated clock: the model used
+    bool frame_cost_calibrated = false;
     double replayed_s = 0.0;  // trace time covered
     double wall_s = 0.0;      // wall time the replay took
 };
@@ -68,7 +91,11 @@ nlohmann::json percentiles_json(const Percentiles& p);
 // (and writes no report) on a bad scene or trace, or a renderer/display error.
 Result<ReplayResult> run_replay(const ReplayOptions& options);
 
-// The JSON report (docs/report-format.md).
+// The per-vsync summary of a run's presents (period and truth as in the run; truth may be null).
+ReplaySummary summarize_presents(const std::vector<FrameRecord>& frames, int64_t period_ns,
+                                 const TruthFn& truth, double registration_distance_m);
+
+// The JSON report (docs/formats.md).
 nlohmann::json replay_report_json(const ReplayOptions& options, const ReplayResult& result);
 // A short table for people ("n/a" where a percentile is NaN).
 std::string replay_summary_table(const ReplayResult& result);

@@ -1,5 +1,8 @@
-// The display interface of the hardware abstraction layer: vsync timing and presentation of a
-// finished stereo frame. Backends: the mock headset (mock_display.hpp), later Vulkan direct mode.
+// The display interface of the hardware abstraction layer: vsync timing, presentation of a
+// finished stereo frame, and feedback on which vsync each present lands on (what a KMS page-flip
+// event or VK_GOOGLE_display_timing / VK_KHR_present_wait report on real hardware), so that pacing
+// never targets a vsync that an earlier frame already holds. Backend: the mock headset
+// (mock_display.hpp); direct-mode output (KMS, VK_KHR_display) is planned.
 #pragma once
 
 #include <cstdint>
@@ -16,6 +19,7 @@ struct DisplayInfo {
     int eye_height = 0;
     double refresh_hz = 0.0;
     int64_t period_ns = 0;
+    int64_t latch_margin_ns = 0;  // a frame must be presented this long before its vsync
 };
 
 struct PresentResult {
@@ -35,12 +39,17 @@ class Display {
     virtual DisplayInfo info() const = 0;
     // The first vsync strictly after t_ns (host clock).
     virtual int64_t next_vsync_ns(int64_t t_ns) const = 0;
+    // The vsync a frame presented at t_ns would be shown at: the first vsync whose latch point
+    // (vsync - latch margin) is not before t_ns and that no earlier present already holds. This is
+    // the display's feedback to pacing (a frame queued behind another waits for the next vsync).
+    virtual int64_t free_vsync_ns(int64_t t_ns) const = 0;
     // Time from a vsync to the photons of the panel centre.
     virtual int64_t photon_offset_ns() const = 0;
 
     // Frame thread only. Presents a frame at the current time of the display's clock, meant for
     // target_vsync_ns. image may be null (timing only). A frame that arrives after its vsync's
-    // latch point is shown at the next vsync and counts as late.
+    // latch point, or whose vsync an earlier present already holds, is shown at the vsync
+    // free_vsync_ns(now) names and counts as late.
     virtual Result<PresentResult> present(const StereoImage* image, int64_t target_vsync_ns) = 0;
 };
 

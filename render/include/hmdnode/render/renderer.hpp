@@ -10,10 +10,12 @@
 #include <string>
 
 #include <glm/glm.hpp>
+#include <glm/gtc/quaternion.hpp>
 
 #include "hmdnode/core/image.hpp"
 #include "hmdnode/core/result.hpp"
 #include "hmdnode/core/scene.hpp"
+#include "hmdnode/render/lens.hpp"
 
 namespace hmdnode {
 
@@ -45,6 +47,12 @@ struct RenderStats {
                                 // 2 = one pass per eye (fallback for a broken driver multiview)
 };
 
+struct WarpStats {
+    int64_t cpu_record_ns = 0;  // recording + submission
+    int64_t gpu_wait_ns = 0;    // submit to fence signalled
+    int64_t readback_ns = 0;    // copy of the panel image into the output (0 without one)
+};
+
 class Renderer {
   public:
     virtual ~Renderer() = default;
@@ -69,6 +77,22 @@ class Renderer {
     // Error.
     virtual Result<RenderStats> render(const StereoViews& views, std::span<const DrawItem> items,
                                        StereoImage* out_image) = 0;
+
+    // Sets up the late-warp + lens-distortion pass: the panel size per eye and one distortion mesh
+    // per eye (lens.hpp; a mesh whose tangents span the eye buffer's field of view linearly gives a
+    // warp without distortion). Allocates and blocks: not for the frame path. Replaces an earlier
+    // set-up. Errors: an empty or malformed mesh, a panel beyond the device's limits.
+    virtual Status set_warp(int panel_width, int panel_height, const DistortionMesh& left,
+                            const DistortionMesh& right) = 0;
+
+    // Late warp: resamples the eye buffers of the last render() through the distortion meshes
+    // into the panel image, for a head whose orientation differs from the rendered one by
+    // `delta` = inverse(rendered orientation) * displayed orientation (rotational reprojection, per
+    // pixel exact for the rotation; colour channels sampled separately through their own lens
+    // tangents), and reads the panel image back into out_panel when not null. May run several
+    // times on the same eye buffers (a re-warp of the previous frame for a vsync that got no new
+    // one). Waits for the GPU. Errors: no set_warp() yet, no render() yet, a lost device.
+    virtual Result<WarpStats> warp(const glm::dquat& delta, StereoImage* out_panel) = 0;
 
     // e.g. "llvmpipe (LLVM 15.0.6, 256 bits)".
     virtual std::string device_name() const = 0;

@@ -1,0 +1,335 @@
+// The late-warp + lens-distortion pass (see warp_pass.hpp). Creation allocates the panel image,
+// the meshes and the pipeline; record_warp() allocates nothing.
+#include "warp_pass.hpp"
+
+#include <cstddef>
+#include <cstring>
+#include <string>
+
+#include "vk_check.hpp"
+#include "vk_shader.hpp"
+
+namespace hmdnode::vk {
+namespace {
+
+const uint32_t kWarpVert[] =
+#include "warp.vert.spv.h"
+    ;
+const uint32_t kWarpFrag[] =
+#include "warp.frag.spv.h"
+    ;
+
+// note: the pass reads the sRGB eye buffers through UNORM views and writes a UNORM panel, so it
+// filters the encoded values and neither decodes nor encodes sRGB: on llvmpipe the per-texel sRGB
+// decode of 12 texels and the encode of each pixel cost several times the rest of the pass. The
+// bytes are the same sRGB-encoded pixels; only the bilinear weights act on encoded values.
+constexpr VkFormat kPanelFormat = VK_FORMAT_R8G8B8A8_UNORM;
+constexpr VkFormat kEyeSampleFormat = VK_FORMAT_R8G8B8A8_UNORM;
+
+Result<RenderPass> create_panel_render_pass(const DeviceContext& ctx) {
+    VkAttachmentDescription color{};
+    color.format = kPanelFormat;
+    color.samples = VK_SAMPLE_COUNT_1_BIT;
+    color.loadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;  // the mesh covers the whole panel
+    color.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    color.stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+    color.stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    color.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    color.finalLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    VkAttachmentReference ref{0, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL};
+    VkSubpassDescription subpass{};
+    subpass.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
+    subpass.colorAttachmentCount = 1;
+    subpass.pColorAttachments = &ref;
+    // note: the previous warp's read-back copy must finish before this pass writes the panel;
+    // this pass's writes must finish before its own copy reads them.
+    VkSubpassDependency deps[2]{};
+    deps[0].srcSubpass = VK_SUBPASS_EXTERNAL;
+    deps[0].dstSubpass = 0;
+    deps[0].srcStageMask = VK_PIPELINE_STAGE_TRANSFER_BIT;
+    deps[0].dstStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
+    deps[0].srcAccessMask = 0;
+    deps[0].dstAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+    deps[1].srcSubpass = 0;
+    deps[1].dstSubpass = VK_SUBPASS_EXTERNAL;
+    deps[1].srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
+    deps[1].dstStageMask = VK_PIPELINE_STAGE_TRANSFER_BIT;
+    deps[1].srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+    deps[1].dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+    VkRenderPassCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO;
+    info.attachmentCount = 1;
+    info.pAttachments = &color;
+    info.subpassCount = 1;
+    info.pSubpasses = &subpass;
+    info.dependencyCount = 2;
+    info.pDependencies = deps;
+    VkRenderPass pass = VK_NULL_HANDLE;
+    HMDNODE_VK_TRY(vkCreateRenderPass(ctx.device, &info, nullptr, &pass),
+                   "vkCreateRenderPass (warp)");
+    return RenderPass(ctx.device, pass);
+}
+
+Result<Pipeline> create_warp_pipeline(const DeviceContext& ctx, VkPipelineLayout layout,
+                                      VkRenderPass render_pass) {
+    auto vert = create_module(ctx, kWarpVert, sizeof(kWarpVert), "vkCreateShaderModule (warp)");
+    if (!vert) return vert.error();
+    auto frag = create_module(ctx, kWarpFrag, sizeof(kWarpFrag), "vkCreateShaderModule (warp)");
+    if (!frag) return frag.error();
+    VkPipelineShaderStageCreateInfo stages[2]{};
+    for (int i = 0; i < 2; ++i) {
+        stages[i].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+        stages[i].stage = i == 0 ? VK_SHADER_STAGE_VERTEX_BIT : VK_SHADER_STAGE_FRAGMENT_BIT;
+        stages[i].module = i == 0 ? vert->get() : frag->get();
+        stages[i].pName = "main";
+    }
+    const VkVertexInputBindingDescription binding{0, sizeof(DistortionVertex),
+                                                  VK_VERTEX_INPUT_RATE_VERTEX};
+    VkVertexInputAttributeDescription attributes[4];
+    attributes[0] = {0, 0, VK_FORMAT_R32G32_SFLOAT, uint32_t(offsetof(DistortionVertex, ndc))};
+    for (uint32_t c = 0; c < 3; ++c)
+        attributes[c + 1] = {c + 1, 0, VK_FORMAT_R32G32_SFLOAT,
+                             uint32_t(offsetof(DistortionVertex, tangent) + c * sizeof(glm::vec2))};
+    VkPipelineVertexInputStateCreateInfo vertex_input{};
+    vertex_input.sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO;
+    vertex_input.vertexBindingDescriptionCount = 1;
+    vertex_input.pVertexBindingDescriptions = &binding;
+    vertex_input.vertexAttributeDescriptionCount = 4;
+    vertex_input.pVertexAttributeDescriptions = attributes;
+    VkPipelineInputAssemblyStateCreateInfo assembly{};
+    assembly.sType = VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO;
+    assembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+    VkPipelineViewportStateCreateInfo viewport{};
+    viewport.sType = VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO;
+    viewport.viewportCount = 1;
+    viewport.scissorCount = 1;
+    VkPipelineRasterizationStateCreateInfo raster{};
+    raster.sType = VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO;
+    raster.polygonMode = VK_POLYGON_MODE_FILL;
+    raster.cullMode = VK_CULL_MODE_NONE;
+    raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+    raster.lineWidth = 1.0f;
+    VkPipelineMultisampleStateCreateInfo multisample{};
+    multisample.sType = VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO;
+    multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+    VkPipelineColorBlendAttachmentState blend_attachment{};
+    blend_attachment.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
+                                      VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
+    VkPipelineColorBlendStateCreateInfo blend{};
+    blend.sType = VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO;
+    blend.attachmentCount = 1;
+    blend.pAttachments = &blend_attachment;
+    const VkDynamicState dynamic_states[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+    VkPipelineDynamicStateCreateInfo dynamic{};
+    dynamic.sType = VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO;
+    dynamic.dynamicStateCount = 2;
+    dynamic.pDynamicStates = dynamic_states;
+    VkGraphicsPipelineCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO;
+    info.stageCount = 2;
+    info.pStages = stages;
+    info.pVertexInputState = &vertex_input;
+    info.pInputAssemblyState = &assembly;
+    info.pViewportState = &viewport;
+    info.pRasterizationState = &raster;
+    info.pMultisampleState = &multisample;
+    info.pColorBlendState = &blend;
+    info.pDynamicState = &dynamic;
+    info.layout = layout;
+    info.renderPass = render_pass;
+    VkPipeline pipeline = VK_NULL_HANDLE;
+    HMDNODE_VK_TRY(
+        vkCreateGraphicsPipelines(ctx.device, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline),
+        "vkCreateGraphicsPipelines (warp)");
+    return Pipeline(ctx.device, pipeline);
+}
+
+}  // namespace
+
+Result<WarpPass> create_warp_pass(DeviceContext& ctx, const Image& eyes, uint32_t width,
+                                  uint32_t height, const DistortionMesh mesh[2]) {
+    const VkPhysicalDeviceLimits& limits = ctx.properties.limits;
+    if (width < 1 || height < 1 || width > limits.maxFramebufferWidth ||
+        height > limits.maxFramebufferHeight)
+        return make_error("Vulkan: panel " + std::to_string(width) + "x" + std::to_string(height) +
+                          " is empty or exceeds the device's framebuffer limit");
+    WarpPass w;
+    w.width = width;
+    w.height = height;
+
+    // 1. The panel image (one layer per eye), its pass and framebuffers, the read-back buffer.
+    auto panel =
+        create_image(ctx,
+                     {width, height, 2, kPanelFormat,
+                      VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT, 0},
+                     "panel image");
+    if (!panel) return panel.error();
+    w.panel = std::move(*panel);
+    auto pass = create_panel_render_pass(ctx);
+    if (!pass) return pass.error();
+    w.render_pass = std::move(*pass);
+    for (uint32_t e = 0; e < 2; ++e) {
+        auto view =
+            create_view(ctx, w.panel, kPanelFormat, VK_IMAGE_ASPECT_COLOR_BIT, "panel", e, 1);
+        if (!view) return view.error();
+        w.panel_view[e] = std::move(*view);
+        const VkImageView attachment = w.panel_view[e];
+        VkFramebufferCreateInfo fb{};
+        fb.sType = VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO;
+        fb.renderPass = w.render_pass;
+        fb.attachmentCount = 1;
+        fb.pAttachments = &attachment;
+        fb.width = width;
+        fb.height = height;
+        fb.layers = 1;
+        VkFramebuffer framebuffer = VK_NULL_HANDLE;
+        HMDNODE_VK_TRY(vkCreateFramebuffer(ctx.device, &fb, nullptr, &framebuffer),
+                       "vkCreateFramebuffer (panel)");
+        w.framebuffer[e] = Framebuffer(ctx.device, framebuffer);
+    }
+    auto readback =
+        create_buffer(ctx, VkDeviceSize(width) * height * 4 * 2, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                      MemoryUse::Readback, "panel read-back");
+    if (!readback) return readback.error();
+    w.readback = std::move(*readback);
+
+    // 2. The eye buffers as a sampled array, behind a bilinear sampler that is black outside.
+    VkSamplerCreateInfo sampler_info{};
+    sampler_info.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
+    sampler_info.magFilter = VK_FILTER_LINEAR;
+    sampler_info.minFilter = VK_FILTER_LINEAR;
+    sampler_info.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
+    // note: clamp to edge, with the outside blacked out by the shader: llvmpipe's fast 8-bit
+    // filtering path does not take a border colour.
+    sampler_info.addressModeU = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+    sampler_info.addressModeV = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+    sampler_info.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+    sampler_info.maxLod = 0.0f;
+    VkSampler sampler = VK_NULL_HANDLE;
+    HMDNODE_VK_TRY(vkCreateSampler(ctx.device, &sampler_info, nullptr, &sampler),
+                   "vkCreateSampler (warp)");
+    w.sampler = Sampler(ctx.device, sampler);
+    auto eyes_view = create_view(ctx, eyes, kEyeSampleFormat, VK_IMAGE_ASPECT_COLOR_BIT,
+                                 "eye buffers (sampled)", 0, 2);
+    if (!eyes_view) return eyes_view.error();
+    w.eyes_view = std::move(*eyes_view);
+
+    const VkDescriptorSetLayoutBinding binding{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1,
+                                               VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
+    auto set_layout = create_set_layout(ctx, {&binding, 1});
+    if (!set_layout) return set_layout.error();
+    w.set_layout = std::move(*set_layout);
+    const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1};
+    VkDescriptorPoolCreateInfo pool_info{};
+    pool_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+    pool_info.maxSets = 1;
+    pool_info.poolSizeCount = 1;
+    pool_info.pPoolSizes = &size;
+    VkDescriptorPool pool = VK_NULL_HANDLE;
+    HMDNODE_VK_TRY(vkCreateDescriptorPool(ctx.device, &pool_info, nullptr, &pool),
+                   "vkCreateDescriptorPool (warp)");
+    w.pool = DescriptorPool(ctx.device, pool);
+    const VkDescriptorSetLayout set_layout_handle = w.set_layout;
+    VkDescriptorSetAllocateInfo set_info{};
+    set_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+    set_info.descriptorPool = pool;
+    set_info.descriptorSetCount = 1;
+    set_info.pSetLayouts = &set_layout_handle;
+    HMDNODE_VK_TRY(vkAllocateDescriptorSets(ctx.device, &set_info, &w.set),
+                   "vkAllocateDescriptorSets (warp)");
+    const VkDescriptorImageInfo image_info{w.sampler, w.eyes_view,
+                                           VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+    VkWriteDescriptorSet write{};
+    write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+    write.dstSet = w.set;
+    write.dstBinding = 0;
+    write.descriptorCount = 1;
+    write.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+    write.pImageInfo = &image_info;
+    vkUpdateDescriptorSets(ctx.device, 1, &write, 0, nullptr);
+
+    // 3. Pipeline.
+    const VkPushConstantRange push{VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
+                                   sizeof(WarpConstants)};
+    VkPipelineLayoutCreateInfo layout_info{};
+    layout_info.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
+    layout_info.setLayoutCount = 1;
+    layout_info.pSetLayouts = &set_layout_handle;
+    layout_info.pushConstantRangeCount = 1;
+    layout_info.pPushConstantRanges = &push;
+    VkPipelineLayout layout = VK_NULL_HANDLE;
+    HMDNODE_VK_TRY(vkCreatePipelineLayout(ctx.device, &layout_info, nullptr, &layout),
+                   "vkCreatePipelineLayout (warp)");
+    w.layout = PipelineLayout(ctx.device, layout);
+    auto pipeline = create_warp_pipeline(ctx, w.layout, w.render_pass);
+    if (!pipeline) return pipeline.error();
+    w.pipeline = std::move(*pipeline);
+
+    // 4. The meshes.
+    for (int e = 0; e < 2; ++e) {
+        const DistortionMesh& m = mesh[e];
+        if (m.vertices.empty() || m.indices.empty())
+            return make_error("warp: the distortion mesh of eye " + std::to_string(e) +
+                              " is empty");
+        for (uint32_t i : m.indices)
+            if (i >= m.vertices.size())
+                return make_error("warp: the distortion mesh of eye " + std::to_string(e) +
+                                  " has an index past its vertices");
+        auto vb = create_buffer_with_data(ctx, std::as_bytes(std::span(m.vertices)),
+                                          VK_BUFFER_USAGE_VERTEX_BUFFER_BIT, "distortion mesh");
+        if (!vb) return vb.error();
+        w.vertices[e] = std::move(*vb);
+        auto ib = create_buffer_with_data(ctx, std::as_bytes(std::span(m.indices)),
+                                          VK_BUFFER_USAGE_INDEX_BUFFER_BIT, "distortion mesh");
+        if (!ib) return ib.error();
+        w.indices[e] = std::move(*ib);
+        w.index_count[e] = uint32_t(m.indices.size());
+    }
+    return w;
+}
+
+void record_warp(VkCommandBuffer cmd, const WarpPass& w, const glm::mat4 reproject[2],
+                 bool read_back) {
+    const VkViewport viewport{0.0f, 0.0f, float(w.width), float(w.height), 0.0f, 1.0f};
+    const VkRect2D area{{0, 0}, {w.width, w.height}};
+    for (int e = 0; e < 2; ++e) {
+        VkRenderPassBeginInfo begin{};
+        begin.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
+        begin.renderPass = w.render_pass;
+        begin.framebuffer = w.framebuffer[e];
+        begin.renderArea = area;
+        vkCmdBeginRenderPass(cmd, &begin, VK_SUBPASS_CONTENTS_INLINE);
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, w.pipeline);
+        vkCmdSetViewport(cmd, 0, 1, &viewport);
+        vkCmdSetScissor(cmd, 0, 1, &area);
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, w.layout, 0, 1, &w.set, 0,
+                                nullptr);
+        WarpConstants constants{reproject[e], float(e)};
+        vkCmdPushConstants(cmd, w.layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT,
+                           0, sizeof(constants), &constants);
+        const VkBuffer vb = w.vertices[e].get();
+        const VkDeviceSize zero = 0;
+        vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &zero);
+        vkCmdBindIndexBuffer(cmd, w.indices[e].get(), 0, VK_INDEX_TYPE_UINT32);
+        vkCmdDrawIndexed(cmd, w.index_count[e], 1, 0, 0, 0);
+        vkCmdEndRenderPass(cmd);
+    }
+    if (!read_back) return;
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 2};
+    region.imageExtent = {w.width, w.height, 1};
+    vkCmdCopyImageToBuffer(cmd, w.panel.get(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                           w.readback.get(), 1, &region);
+    VkBufferMemoryBarrier to_host{};
+    to_host.sType = VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER;
+    to_host.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    to_host.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+    to_host.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    to_host.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    to_host.buffer = w.readback.get();
+    to_host.size = VK_WHOLE_SIZE;
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 0,
+                         nullptr, 1, &to_host, 0, nullptr);
+}
+
+}  // namespace hmdnode::vk

@@ -1,0 +1,52 @@
+// The late-warp + lens-distortion pass (render/shaders/warp.vert, warp.frag): resamples the
+// rendered eye buffers through one distortion mesh per eye into the panel image, rotating every
+// view direction from the displayed head pose into the rendered one (rotational reprojection,
+// J.M.P. van Waveren, "The asynchronous time warp for virtual reality on consumer hardware",
+// VRST 2016; mesh-based distortion and chromatic aberration as in Monado's compositor). One pass
+// per eye into a 2-layer panel image, then a read-back copy. Cost per frame: (cols+1)(rows+1)
+// vertices and panel_width * panel_height fragments (3 bilinear samples each) per eye, plus the
+// copy of 2 * panel_width * panel_height * 4 bytes.
+#pragma once
+
+#include <glm/glm.hpp>
+
+#include "hmdnode/render/lens.hpp"
+#include "vk_memory.hpp"
+
+namespace hmdnode::vk {
+
+// Push constants of the warp shaders.
+struct WarpConstants {
+    glm::mat4 reproject;  // upper 3x3: eye-frame direction -> (clip.x, clip.y, clip.w)
+    float layer;
+};
+
+struct WarpPass {
+    uint32_t width = 0, height = 0;  // panel pixels per eye
+    Image panel;                     // 2 layers, sRGB
+    ImageView panel_view[2];
+    RenderPass render_pass;
+    Framebuffer framebuffer[2];
+    Sampler sampler;      // bilinear, black border
+    ImageView eyes_view;  // the eye buffers as a 2-layer array
+    DescriptorSetLayout set_layout;
+    DescriptorPool pool;
+    VkDescriptorSet set = VK_NULL_HANDLE;
+    PipelineLayout layout;
+    Pipeline pipeline;
+    Buffer vertices[2], indices[2];
+    uint32_t index_count[2] = {0, 0};
+    Buffer readback;  // width * height * 4 bytes per eye, left first
+};
+
+// `eyes` is the stereo colour target (2 layers, sampled usage) that the pass reads.
+Result<WarpPass> create_warp_pass(DeviceContext& ctx, const Image& eyes, uint32_t width,
+                                  uint32_t height, const DistortionMesh mesh[2]);
+
+// Records both eyes' passes and the read-back copy (when read_back). reproject[e] maps eye e's
+// display directions into its eye buffer's clip space. The eye buffers must be in
+// SHADER_READ_ONLY_OPTIMAL.
+void record_warp(VkCommandBuffer cmd, const WarpPass& pass, const glm::mat4 reproject[2],
+                 bool read_back);
+
+}  // namespace hmdnode::vk

@@ -1,0 +1,191 @@
+// Frame pacing and honest accounting of the node runtime on the simulated clock, with a scripted
+// renderer whose cost per frame the test chooses (spikes, a render slower than the refresh), the
+// simulated tracker and the mock display; and the per-vsync summary on hand-made presents.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <memory>
+
+#include "hmdnode/firmware_host/node.hpp"
+#include "hmdnode/firmware_host/replay.hpp"
+#include "hmdnode/hal/mock_display.hpp"
+#include "hmdnode/hal/sim_tracker.hpp"
+
+using namespace hmdnode;
+
+namespace {
+
+// A renderer that draws nothing and costs what the script says, by advancing the simulated clock.
+class ScriptedRenderer final : public Renderer {
+  public:
+    ScriptedRenderer(SimulatedClock& clock, std::function<int64_t(int)> render_cost,
+                     int64_t warp_cost)
+        : clock_(clock), render_cost_(std::move(render_cost)), warp_cost_(warp_cost) {}
+    Status upload(const Scene&) override { return Status::success(); }
+    Result<RenderStats> render(const StereoViews&, std::span<const DrawItem>,
+                               StereoImage*) override {
+        clock_.advance_ns(render_cost_(renders_++));
+        return RenderStats{};
+    }
+    Status set_warp(int, int, const DistortionMesh&, const DistortionMesh&) override {
+        return Status::success();
+    }
+    Result<WarpStats> warp(const glm::dquat&, StereoImage*) override {
+        clock_.advance_ns(warp_cost_);
+        return WarpStats{};
+    }
+    std::string device_name() const override { return "scripted"; }
+    int renders() const { return renders_; }
+
+  private:
+    SimulatedClock& clock_;
+    std::function<int64_t(int)> render_cost_;
+    int64_t warp_cost_;
+    int renders_ = 0;
+};
+
+// A constant 90 deg/s yaw sampled at 1 kHz for `seconds`.
+std::shared_ptr<const Trace> yaw_trace(double seconds) {
+    auto t = std::make_shared<Trace>();
+    for (int i = 0; i <= int(seconds * 1000); ++i) {
+        TraceSample s;
+        s.time_ns = int64_t(i) * kNsPerMs;
+        s.orientation = glm::angleAxis(deg_to_rad(90.0 * i / 1000.0), glm::dvec3(0, 1, 0));
+        t->samples.push_back(s);
+    }
+    return t;
+}
+
+struct PacedRun {
+    std::vector<FrameRecord> frames;
+    ReplaySummary summary;
+    int renders = 0;
+};
+
+// Runs the node for `seconds` with the scripted costs and returns its presents and summary.
+PacedRun run(std::function<int64_t(int)> render_cost, int64_t warp_cost, double seconds,
+             bool warp = true) {
+    SimulatedClock clock(0);
+    auto trace = yaw_trace(seconds + 0.5);
+    SimTrackerConfig tc;
+    auto tracker = create_sim_tracker(trace, clock, tc);
+    EXPECT_TRUE(tracker.ok());
+    MockDisplayConfig dc;
+    dc.eye_width = 32;
+    dc.eye_height = 32;
+    auto display = create_mock_display(clock, dc);
+    EXPECT_TRUE(display.ok());
+    ScriptedRenderer renderer(clock, std::move(render_cost), warp_cost);
+    Scene scene;  // no objects: the script is the cost
+    NodeConfig nc;
+    nc.warp = warp;
+    nc.sim_cost.base_ns = 0;
+    nc.sim_cost.warp_ns = 0;
+    NodeRuntime node(clock, **tracker, **display, renderer, scene, nc);
+    EXPECT_TRUE(node.start().ok());
+    TruthFn truth = [&](int64_t t) -> std::optional<TruthPose> {
+        return TruthPose{trace->pose_at(t).orientation, std::nullopt};
+    };
+    PacedRun r;
+    FrameRecord rec;
+    while (clock.now_ns() < s_to_ns(seconds)) {
+        Result<FrameOutcome> fr = node.run_frame(&rec, truth);
+        EXPECT_TRUE(fr.ok());
+        if (!fr.ok()) break;
+        if (*fr != FrameOutcome::no_pose_yet) r.frames.push_back(rec);
+    }
+    node.stop();
+    r.summary = summarize_presents(r.frames, (*display)->info().period_ns, truth, 1.0);
+    r.renders = renderer.renders();
+    return r;
+}
+
+}  // namespace
+
+TEST(Pacing, ARenderThatFitsShowsANewFrameAtEveryVsync) {
+    const PacedRun r = run([](int) { return 5 * kNsPerMs; }, kNsPerMs, 3.0);
+    ASSERT_GT(r.summary.vsyncs, 250u);
+    EXPECT_EQ(r.summary.missed_vsyncs, 0u);
+    EXPECT_DOUBLE_EQ(r.summary.on_time_rate, 1.0);
+    EXPECT_DOUBLE_EQ(r.summary.new_frames_per_vsync, 1.0);
+    EXPECT_EQ(r.summary.rewarps, 0u);
+    // Late warp: the pose is sampled about latch + warp + margin before vsync; motion-to-photon is
+    // that plus the photon offset (5.56 + 1 ms) plus the sample's age (1 kHz, 1 ms transport).
+    EXPECT_LT(r.summary.latency_ms.max, 11.1);
+    // A constant turn is predicted exactly, so the warped pose matches the truth at photon time.
+    EXPECT_LT(r.summary.registration_error_deg.max, 0.01);
+}
+
+TEST(Pacing, ASpikeMissesItsVsyncAndTheLoopDoesNotLockLate) {
+    // Frame 100 takes 25 ms; every other frame 5 ms.
+    const PacedRun r = run([](int i) { return (i == 100 ? 25 : 5) * kNsPerMs; }, kNsPerMs, 3.0);
+    // The spike costs the vsyncs it spans, and only those: every later vsync is on time again.
+    EXPECT_GE(r.summary.missed_vsyncs, 2u);
+    EXPECT_LE(r.summary.missed_vsyncs, 3u);
+    EXPECT_LE(r.summary.longest_late_run, 3u);
+    size_t after = 0;
+    for (const FrameRecord& f : r.frames)
+        if (f.frame > 101) {
+            EXPECT_TRUE(f.on_time) << f.index;
+            EXPECT_EQ(f.missed_vsyncs_before, 0) << f.index;
+            ++after;
+        }
+    EXPECT_GT(after, 150u);
+    // The spike's frame was rendered for a vsync it could not make: it is late.
+    EXPECT_EQ(r.summary.late_frames, 1u);
+}
+
+TEST(Pacing, ARenderSlowerThanTheRefreshIsCountedAsMissedVsyncs) {
+    // 14 ms per render at 90 Hz: at most one new frame every other vsync.
+    const PacedRun r = run([](int) { return 14 * kNsPerMs; }, kNsPerMs, 3.0);
+    EXPECT_NEAR(r.summary.new_frames_per_vsync, 0.5, 0.02);
+    // Every vsync without a new or re-warped frame counts as missed: about half of them.
+    EXPECT_NEAR(double(r.summary.missed_vsyncs) / double(r.summary.vsyncs),
+                1.0 - r.summary.on_time_rate, 1e-12);
+    EXPECT_LE(r.summary.on_time_rate, 0.55);
+    // A repeated frame ages: the latency of the vsyncs between new frames is one period longer.
+    EXPECT_GT(r.summary.latency_ms.max - r.summary.latency_ms.p50 + 1e-9, 0.0);
+    EXPECT_GT(r.summary.latency_ms.max, 11.1 + 5.0);
+}
+
+TEST(Pacing, LateWarpCutsMotionToPhotonByTheRenderTime) {
+    const PacedRun warped = run([](int) { return 6 * kNsPerMs; }, kNsPerMs, 2.0, true);
+    const PacedRun plain = run([](int) { return 6 * kNsPerMs; }, kNsPerMs, 2.0, false);
+    EXPECT_NEAR(plain.summary.latency_ms.p50 - warped.summary.latency_ms.p50, 6.0, 1.5);
+}
+
+TEST(Accounting, EveryVsyncWithoutAFrameOnTimeIsMissedAndRepeatedFramesAge) {
+    const int64_t period = 10 * kNsPerMs, offset = 2 * kNsPerMs;
+    auto present = [&](int vsync, int target, int sampled_ms, FrameKind kind) {
+        FrameRecord f;
+        f.kind = kind;
+        f.vsync_ns = vsync * period;
+        f.target_vsync_ns = target * period;
+        f.render_target_vsync_ns = target * period;
+        f.on_time = vsync == target;
+        f.late = kind == FrameKind::new_frame && vsync > target;
+        f.photon_time_ns = f.vsync_ns + offset;
+        f.pose_sample_time_ns = sampled_ms * kNsPerMs;
+        f.latency_ms = ns_to_ms(f.photon_time_ns - f.pose_sample_time_ns);
+        f.registration_error_deg = 0.0;
+        return f;
+    };
+    // Vsyncs 1..6: 1 on time, 2 nothing, 3 late (meant for 2), 4 re-warp on time, 5 nothing,
+    // 6 on time.
+    const std::vector<FrameRecord> frames = {
+        present(1, 1, 5, FrameKind::new_frame), present(3, 2, 21, FrameKind::new_frame),
+        present(4, 4, 37, FrameKind::rewarp), present(6, 6, 57, FrameKind::new_frame)};
+    const ReplaySummary s = summarize_presents(frames, period, nullptr, 1.0);
+    EXPECT_EQ(s.vsyncs, 6u);
+    EXPECT_EQ(s.missed_vsyncs, 3u);  // 2, 3 (late), 5
+    EXPECT_DOUBLE_EQ(s.on_time_rate, 0.5);
+    EXPECT_EQ(s.late_frames, 1u);
+    EXPECT_EQ(s.rewarps, 1u);
+    EXPECT_EQ(s.longest_late_run, 2u);  // 2 and 3
+    EXPECT_DOUBLE_EQ(s.new_frames_per_vsync, 3.0 / 6.0);
+    // Per vsync latency: 1: 12-5=7; 2: 22-5=17 (frame 1 again); 3: 32-21=11; 4: 42-37=5;
+    // 5: 52-37=15; 6: 62-57=5.
+    EXPECT_NEAR(s.latency_ms.max, 17.0, 1e-9);
+    EXPECT_NEAR(s.latency_ms.p50, (7.0 + 11.0) / 2.0, 1e-9);
+}
