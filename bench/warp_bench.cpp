@@ -9,6 +9,8 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <memory>
+#include <string>
 #include <vector>
 
 #include "hmdnode/core/gltf.hpp"
@@ -53,14 +55,19 @@ int main(int argc, char** argv) {
     const Config configs[] = {{"generic", 360, 400, 16}, {"generic", 360, 400, 32},
                               {"generic", 360, 400, 64}, {"valve-index", 360, 400, 64},
                               {"generic", 540, 600, 64}, {"valve-index", 1440, 1600, 64}};
-    std::printf(
-        "late warp + distortion pass per stereo frame (record, GPU, read-back of both "
-        "eyes), %d interleaved rounds\n",
-        rounds);
-    std::printf("%-12s %11s %5s %9s %9s %11s %9s %8s\n", "profile", "eye", "mesh", "warp p50",
-                "warp p99", "scene p50", "target", "p50/tgt");
+    struct Bench {
+        Config config;
+        std::unique_ptr<Renderer> renderer;
+        StereoViews views;
+        std::vector<DrawItem> items;
+        std::vector<double> scene_ms, warp_ms;
+        StereoImage panel;
+    };
+    std::vector<Bench> benches;
     std::string device;
     for (const Config& c : configs) {
+        Bench b;
+        b.config = c;
         const HeadsetProfile profile =
             std::string(c.profile) == "generic" ? generic_headset_profile() : *index;
         RendererConfig rc;
@@ -71,11 +78,12 @@ int main(int argc, char** argv) {
             std::fprintf(stderr, "warp bench: %s\n", renderer.error().message.c_str());
             return 1;
         }
-        device = (*renderer)->device_name();
-        if (Status s = (*renderer)->upload(*scene); !s.ok()) return 1;
+        b.renderer = std::move(*renderer);
+        device = b.renderer->device_name();
+        if (Status s = b.renderer->upload(*scene); !s.ok()) return 1;
         const DistortionMesh left = make_distortion_mesh(profile, 0, c.mesh, c.mesh);
         const DistortionMesh right = make_distortion_mesh(profile, 1, c.mesh, c.mesh);
-        if (Status s = (*renderer)->set_warp(c.w, c.h, left, right); !s.ok()) {
+        if (Status s = b.renderer->set_warp(c.w, c.h, left, right); !s.ok()) {
             std::fprintf(stderr, "warp bench: %s\n", s.error().message.c_str());
             return 1;
         }
@@ -84,35 +92,43 @@ int main(int argc, char** argv) {
         rig.eye[1] = mesh_render_fov(right, 0.1);
         Pose head;
         head.position = {0.0, 1.6, 0.0};
-        StereoViews views;
         for (int e = 0; e < 2; ++e) {
-            views.view[e] = eye_view_matrix(rig, head, e);
-            views.projection[e] = eye_projection(rig.eye[e], rig.near_m, rig.far_m);
+            b.views.view[e] = eye_view_matrix(rig, head, e);
+            b.views.projection[e] = eye_projection(rig.eye[e], rig.near_m, rig.far_m);
         }
-        std::vector<DrawItem> items;
         for (const SceneObject& o : flatten_objects(*scene))
-            items.push_back(DrawItem{o.levels.back().mesh, glm::mat4(o.world)});
-        std::vector<double> scene_ms, warp_ms;
-        StereoImage panel;
-        const int n = c.w > 1000 ? std::max(10, rounds / 10) : rounds;
-        for (int i = 0; i < n + 3; ++i) {
+            b.items.push_back(DrawItem{o.levels.back().mesh, glm::mat4(o.world)});
+        benches.push_back(std::move(b));
+    }
+    // Interleaved: one frame of every configuration per round (headset resolution every 10th).
+    for (int i = 0; i < rounds + 3; ++i)
+        for (Bench& b : benches) {
+            if (b.config.w > 1000 && i % 10 != 3) continue;
             const int64_t t0 = now_ns();
-            if (!(*renderer)->render(views, items, nullptr).ok()) return 1;
+            if (!b.renderer->render(b.views, b.items, nullptr).ok()) return 1;
             const int64_t t1 = now_ns();
             const glm::dquat delta =
                 glm::angleAxis(deg_to_rad(0.5 * (i % 5)), glm::dvec3(0.0, 1.0, 0.0));
-            if (!(*renderer)->warp(delta, &panel).ok()) return 1;
+            if (!b.renderer->warp(delta, &b.panel).ok()) return 1;
             const int64_t t2 = now_ns();
             if (i < 3) continue;  // warm-up (shader compilation)
-            scene_ms.push_back(double(t1 - t0) * 1e-6);
-            warp_ms.push_back(double(t2 - t1) * 1e-6);
+            b.scene_ms.push_back(double(t1 - t0) * 1e-6);
+            b.warp_ms.push_back(double(t2 - t1) * 1e-6);
         }
+    std::printf(
+        "late warp + distortion pass per stereo frame (record, GPU, read-back of both "
+        "eyes), %d interleaved rounds\n",
+        rounds);
+    std::printf("%-12s %11s %5s %9s %9s %11s %9s %8s\n", "profile", "eye", "mesh", "warp p50",
+                "warp p99", "scene p50", "target", "p50/tgt");
+    for (const Bench& b : benches) {
+        const Config& c = b.config;
         const double target = 1.5 * double(c.w) * c.h / (360.0 * 400.0);
         char eye[32];
         std::snprintf(eye, sizeof eye, "%dx%d", c.w, c.h);
         std::printf("%-12s %11s %5d %9.2f %9.2f %11.2f %9.2f %8.2f\n", c.profile, eye, c.mesh,
-                    quantile(warp_ms, 0.5), quantile(warp_ms, 0.99), quantile(scene_ms, 0.5),
-                    target, quantile(warp_ms, 0.5) / target);
+                    quantile(b.warp_ms, 0.5), quantile(b.warp_ms, 0.99), quantile(b.scene_ms, 0.5),
+                    target, quantile(b.warp_ms, 0.5) / target);
     }
     std::printf("device: %s\n", device.c_str());
     std::printf(

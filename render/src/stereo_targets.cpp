@@ -19,23 +19,25 @@ bool supports(const DeviceContext& ctx, VkFormat format, VkFormatFeatureFlags fe
 }
 
 Result<RenderPass> create_render_pass(const DeviceContext& ctx, VkFormat depth_format,
-                                      bool multiview) {
+                                      bool multiview, bool load) {
     VkAttachmentDescription attachments[2]{};
     attachments[0].format = kColorFormat;
     attachments[0].samples = VK_SAMPLE_COUNT_1_BIT;
-    attachments[0].loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    attachments[0].loadOp = load ? VK_ATTACHMENT_LOAD_OP_LOAD : VK_ATTACHMENT_LOAD_OP_CLEAR;
     attachments[0].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
     attachments[0].stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
     attachments[0].stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-    attachments[0].initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    attachments[0].initialLayout =
+        load ? VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED;
     attachments[0].finalLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
     attachments[1].format = depth_format;
     attachments[1].samples = VK_SAMPLE_COUNT_1_BIT;
-    attachments[1].loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-    attachments[1].storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    attachments[1].loadOp = load ? VK_ATTACHMENT_LOAD_OP_LOAD : VK_ATTACHMENT_LOAD_OP_CLEAR;
+    attachments[1].storeOp = VK_ATTACHMENT_STORE_OP_STORE;  // a later piece of the frame loads it
     attachments[1].stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
     attachments[1].stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-    attachments[1].initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    attachments[1].initialLayout =
+        load ? VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED;
     attachments[1].finalLayout = VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
 
     VkAttachmentReference color_ref{0, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL};
@@ -46,20 +48,22 @@ Result<RenderPass> create_render_pass(const DeviceContext& ctx, VkFormat depth_f
     subpass.pColorAttachments = &color_ref;
     subpass.pDepthStencilAttachment = &depth_ref;
 
-    // note: the previous frame's read-back copy (transfer read) and depth writes must finish
-    // before this frame writes the attachments; this frame's colour writes must finish before its
-    // own copy reads them.
+    // note: the previous frame's (or piece's) read-back copy, colour and depth writes and the warp
+    // pass's reads must finish before this pass writes the attachments; this pass's colour writes
+    // must finish before its own copy reads them.
     VkSubpassDependency deps[2]{};
     deps[0].srcSubpass = VK_SUBPASS_EXTERNAL;
     deps[0].dstSubpass = 0;
     deps[0].srcStageMask =
-        VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT;
+        VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT |
+        VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT;
     deps[0].dstStageMask =
         VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_EARLY_FRAGMENT_TESTS_BIT;
-    deps[0].srcAccessMask = VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
-    deps[0].dstAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT |
-                            VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_READ_BIT |
-                            VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+    deps[0].srcAccessMask =
+        VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+    deps[0].dstAccessMask =
+        VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_COLOR_ATTACHMENT_READ_BIT |
+        VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
     deps[1].srcSubpass = 0;
     deps[1].dstSubpass = VK_SUBPASS_EXTERNAL;
     deps[1].srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
@@ -116,48 +120,55 @@ Result<StereoTargets> create_stereo_targets(const DeviceContext& ctx, uint32_t w
     if (t.depth_format == VK_FORMAT_UNDEFINED)
         return make_error("Vulkan: no depth format is renderable on " + ctx.name);
 
-    auto color = create_image(ctx,
-                              {width, height, 2, kColorFormat,
-                               VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT |
-                                   VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
-                               VK_IMAGE_CREATE_MUTABLE_FORMAT_BIT},
-                              "stereo colour target");
-    if (!color) return color.error();
-    t.color = std::move(*color);
+    for (int slot = 0; slot < 2; ++slot) {
+        auto color = create_image(ctx,
+                                  {width, height, 2, kColorFormat,
+                                   VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT |
+                                       VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
+                                   VK_IMAGE_CREATE_MUTABLE_FORMAT_BIT},
+                                  "stereo colour target");
+        if (!color) return color.error();
+        t.color[slot] = std::move(*color);
+    }
     auto depth = create_image(
         ctx, {width, height, 2, t.depth_format, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, 0},
         "stereo depth target");
     if (!depth) return depth.error();
     t.depth = std::move(*depth);
-    auto pass = create_render_pass(ctx, t.depth_format, multiview);
+    auto pass = create_render_pass(ctx, t.depth_format, multiview, false);
     if (!pass) return pass.error();
     t.render_pass = std::move(*pass);
+    auto load_pass = create_render_pass(ctx, t.depth_format, multiview, true);
+    if (!load_pass) return load_pass.error();
+    t.render_pass_load = std::move(*load_pass);
 
     // note: with multiview the framebuffer has one layer; the view mask addresses the image layers.
     for (int v = 0; v < t.pass_count(); ++v) {
         const uint32_t base = multiview ? 0 : uint32_t(v), count = multiview ? 2 : 1;
-        auto color_view = create_view(ctx, t.color, kColorFormat, VK_IMAGE_ASPECT_COLOR_BIT,
-                                      "stereo colour target", base, count);
-        if (!color_view) return color_view.error();
-        t.color_view[v] = std::move(*color_view);
         auto depth_view = create_view(ctx, t.depth, t.depth_format, VK_IMAGE_ASPECT_DEPTH_BIT,
                                       "stereo depth target", base, count);
         if (!depth_view) return depth_view.error();
         t.depth_view[v] = std::move(*depth_view);
-
-        VkImageView views[2] = {t.color_view[v], t.depth_view[v]};
-        VkFramebufferCreateInfo fb{};
-        fb.sType = VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO;
-        fb.renderPass = t.render_pass;
-        fb.attachmentCount = 2;
-        fb.pAttachments = views;
-        fb.width = width;
-        fb.height = height;
-        fb.layers = 1;
-        VkFramebuffer framebuffer = VK_NULL_HANDLE;
-        HMDNODE_VK_TRY(vkCreateFramebuffer(ctx.device, &fb, nullptr, &framebuffer),
-                       "vkCreateFramebuffer (stereo)");
-        t.framebuffer[v] = Framebuffer(ctx.device, framebuffer);
+        for (int slot = 0; slot < 2; ++slot) {
+            auto color_view =
+                create_view(ctx, t.color[slot], kColorFormat, VK_IMAGE_ASPECT_COLOR_BIT,
+                            "stereo colour target", base, count);
+            if (!color_view) return color_view.error();
+            t.color_view[slot][v] = std::move(*color_view);
+            VkImageView views[2] = {t.color_view[slot][v], t.depth_view[v]};
+            VkFramebufferCreateInfo fb{};
+            fb.sType = VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO;
+            fb.renderPass = t.render_pass;
+            fb.attachmentCount = 2;
+            fb.pAttachments = views;
+            fb.width = width;
+            fb.height = height;
+            fb.layers = 1;
+            VkFramebuffer framebuffer = VK_NULL_HANDLE;
+            HMDNODE_VK_TRY(vkCreateFramebuffer(ctx.device, &fb, nullptr, &framebuffer),
+                           "vkCreateFramebuffer (stereo)");
+            t.framebuffer[slot][v] = Framebuffer(ctx.device, framebuffer);
+        }
     }
 
     auto readback =

@@ -45,6 +45,8 @@ class VulkanRenderer final : public Renderer {
     Result<RenderStats> render(const StereoViews& views, std::span<const DrawItem> items,
                                StereoImage* out_image) override;
     std::string device_name() const override { return ctx_->name; }
+    Status begin_frame(const StereoViews& views, std::span<const DrawItem> items) override;
+    Result<bool> render_more(uint64_t max_triangles, size_t* items_rendered) override;
     Status set_warp(int panel_width, int panel_height, const DistortionMesh& left,
                     const DistortionMesh& right) override;
     Result<WarpStats> warp(const glm::dquat& delta, StereoImage* out_panel) override;
@@ -58,7 +60,13 @@ class VulkanRenderer final : public Renderer {
     Result<bool> multiview_clips_correctly();
     // Draws of one pass; view_base is 0 with multiview, else the eye the pass renders.
     void record_draws(std::span<const DrawItem> items, uint32_t view_base);
-    void record(std::span<const DrawItem> items, bool read_back);
+    // Records one piece of the open frame: items [first, last) into the back slot, clearing when
+    // first == 0, with the read-back copy when read_back.
+    void record(size_t first, size_t last, bool read_back);
+    // Runs the next piece of the open frame (see render_more); on completion the back slot
+    // becomes the front one.
+    Result<bool> run_piece(uint64_t max_triangles, bool read_back, int64_t* wait_ns,
+                           size_t* items_rendered);
     void read_back(StereoImage& out_image) const;
     // Waits for `fence`; on a timeout or lost device the renderer refuses all later work.
     Status wait(VkFence fence, const char* what);
@@ -79,10 +87,17 @@ class VulkanRenderer final : public Renderer {
     std::optional<vk::WarpPass> warp_;
     int panel_width_ = 0, panel_height_ = 0;
     DistortionMesh warp_mesh_[2];
-    glm::mat4 rendered_projection_[2]{};  // of the eye buffers' last render()
-    bool rendered_ = false;               // the eye buffers hold a frame
-    bool eyes_sampled_ = false;           // the eye buffers are in SHADER_READ_ONLY_OPTIMAL
-    std::string lost_;                    // why the device is unusable; empty while it works
+    // The frame being rendered (into slot back_) and the last finished one (slot 1 - back_).
+    std::vector<DrawItem> frame_items_;
+    std::vector<uint64_t> frame_item_triangles_;
+    size_t frame_cursor_ = 0;
+    bool frame_open_ = false;
+    int back_ = 0;
+    glm::mat4 frame_projection_[2]{};        // of the open frame
+    glm::mat4 rendered_projection_[2]{};     // of the finished frame
+    bool rendered_ = false;                  // a finished frame exists
+    bool eyes_sampled_[2] = {false, false};  // slot in SHADER_READ_ONLY_OPTIMAL
+    std::string lost_;                       // why the device is unusable; empty while it works
 };
 
 Result<std::unique_ptr<Renderer>> VulkanRenderer::create(const RendererConfig& config) {
@@ -174,7 +189,8 @@ Status VulkanRenderer::build_frame_path(bool multiview) {
     write.pBufferInfo = &buffer_info;
     vkUpdateDescriptorSets(ctx.device, 1, &write, 0, nullptr);
     rendered_ = false;
-    eyes_sampled_ = false;
+    frame_open_ = false;
+    eyes_sampled_[0] = eyes_sampled_[1] = false;
     return build_warp_pass();
 }
 
@@ -234,7 +250,8 @@ Result<WarpStats> VulkanRenderer::warp(const glm::dquat& delta, StereoImage* out
     begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
     begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
     vkBeginCommandBuffer(warp_cmd_, &begin);
-    if (!eyes_sampled_) {
+    const int front = 1 - back_;
+    if (!eyes_sampled_[front]) {
         VkImageMemoryBarrier barrier{};
         barrier.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
         barrier.srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
@@ -243,14 +260,14 @@ Result<WarpStats> VulkanRenderer::warp(const glm::dquat& delta, StereoImage* out
         barrier.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
         barrier.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
         barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-        barrier.image = targets_.color.get();
+        barrier.image = targets_.color[front].get();
         barrier.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 2};
         vkCmdPipelineBarrier(
             warp_cmd_,
             VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
             VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, 0, 0, nullptr, 0, nullptr, 1, &barrier);
     }
-    vk::record_warp(warp_cmd_, *warp_, reproject, out_panel != nullptr);
+    vk::record_warp(warp_cmd_, *warp_, front, reproject, out_panel != nullptr);
     vkEndCommandBuffer(warp_cmd_);
     const VkFence fence = warp_fence_;
     HMDNODE_VK_TRY(vkResetFences(ctx_->device, 1, &fence), "vkResetFences (warp)");
@@ -265,7 +282,7 @@ Result<WarpStats> VulkanRenderer::warp(const glm::dquat& delta, StereoImage* out
     }
     const int64_t t1 = now_ns();
     if (Status s = wait(fence, "vkWaitForFences (warp)"); !s) return s.error();
-    eyes_sampled_ = true;
+    eyes_sampled_[front] = true;
     const int64_t t2 = now_ns();
     if (out_panel) {
         if (Status s = warp_->readback.invalidate(); !s) return s.error();
@@ -374,7 +391,7 @@ void VulkanRenderer::record_draws(std::span<const DrawItem> items, uint32_t view
     }
 }
 
-void VulkanRenderer::record(std::span<const DrawItem> items, bool read_back) {
+void VulkanRenderer::record(size_t first, size_t last, bool read_back) {
     VkCommandBufferBeginInfo begin{};
     begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
     begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
@@ -384,14 +401,15 @@ void VulkanRenderer::record(std::span<const DrawItem> items, bool read_back) {
     const glm::vec4& c = config_.clear_color;
     clears[0].color = {{c.r, c.g, c.b, c.a}};
     clears[1].depthStencil = {1.0f, 0};
+    const std::span<const DrawItem> items(frame_items_.data() + first, last - first);
     for (int p = 0; p < targets_.pass_count(); ++p) {
         VkRenderPassBeginInfo pass{};
         pass.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
-        pass.renderPass = targets_.render_pass;
-        pass.framebuffer = targets_.framebuffer[p];
+        pass.renderPass = first == 0 ? targets_.render_pass : targets_.render_pass_load;
+        pass.framebuffer = targets_.framebuffer[back_][p];
         pass.renderArea = {{0, 0}, {targets_.width, targets_.height}};
-        pass.clearValueCount = 2;
-        pass.pClearValues = clears;
+        pass.clearValueCount = first == 0 ? 2 : 0;
+        pass.pClearValues = first == 0 ? clears : nullptr;
         vkCmdBeginRenderPass(cmd_, &pass, VK_SUBPASS_CONTENTS_INLINE);
         record_draws(items, uint32_t(p));
         vkCmdEndRenderPass(cmd_);
@@ -403,8 +421,9 @@ void VulkanRenderer::record(std::span<const DrawItem> items, bool read_back) {
         VkBufferImageCopy region{};
         region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 2};
         region.imageExtent = {targets_.width, targets_.height, 1};
-        vkCmdCopyImageToBuffer(cmd_, targets_.color.get(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                               targets_.readback.get(), 1, &region);
+        vkCmdCopyImageToBuffer(cmd_, targets_.color[back_].get(),
+                               VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, targets_.readback.get(), 1,
+                               &region);
         VkBufferMemoryBarrier to_host{};
         to_host.sType = VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER;
         to_host.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
@@ -417,6 +436,73 @@ void VulkanRenderer::record(std::span<const DrawItem> items, bool read_back) {
                              nullptr, 1, &to_host, 0, nullptr);
     }
     vkEndCommandBuffer(cmd_);
+}
+
+Status VulkanRenderer::begin_frame(const StereoViews& views, std::span<const DrawItem> items) {
+    if (!lost_.empty()) return make_error(lost_);
+    const size_t mesh_count = scene_ ? scene_->meshes.size() : 0;
+    frame_item_triangles_.clear();
+    for (const DrawItem& item : items) {
+        if (item.mesh < 0 || size_t(item.mesh) >= mesh_count)
+            return make_error("renderer: draw item refers to mesh " + std::to_string(item.mesh) +
+                              " but the uploaded scene has " + std::to_string(mesh_count));
+        frame_item_triangles_.push_back(scene_->meshes[size_t(item.mesh)].triangles);
+    }
+    frame_items_.assign(items.begin(), items.end());  // allocates only when the list grows
+    frame_cursor_ = 0;
+    frame_open_ = true;
+    vk::FrameConstants frame;
+    for (int e = 0; e < 2; ++e) {
+        frame.view_projection[e] = views.projection[e] * views.view[e];
+        frame_projection_[e] = views.projection[e];
+    }
+    std::memcpy(frame_constants_.mapped(), &frame, sizeof(frame));
+    return frame_constants_.flush();
+}
+
+Result<bool> VulkanRenderer::run_piece(uint64_t max_triangles, bool read_back, int64_t* wait_ns,
+                                       size_t* items_rendered) {
+    if (!lost_.empty()) return make_error(lost_);
+    if (!frame_open_) return make_error("renderer: render_more() without begin_frame()");
+    // At least one item, then items while the piece stays within max_triangles.
+    size_t last = frame_cursor_;
+    uint64_t triangles = 0;
+    do {
+        triangles += last < frame_items_.size() ? frame_item_triangles_[last] : 0;
+        ++last;
+    } while (last < frame_items_.size() &&
+             triangles + frame_item_triangles_[last] <= max_triangles);
+    last = std::min(last, frame_items_.size());
+    const bool done = last == frame_items_.size();
+    record(frame_cursor_, last, read_back && done);
+    const VkFence fence = fence_;
+    HMDNODE_VK_TRY(vkResetFences(ctx_->device, 1, &fence), "vkResetFences");
+    VkSubmitInfo submit{};
+    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    submit.commandBufferCount = 1;
+    submit.pCommandBuffers = &cmd_;
+    VkResult r = vkQueueSubmit(ctx_->queue, 1, &submit, fence);
+    if (r != VK_SUCCESS) {
+        if (r == VK_ERROR_DEVICE_LOST) lost_ = vk::vk_error("vkQueueSubmit", r).message;
+        return vk::vk_error("vkQueueSubmit (frame)", r);
+    }
+    const int64_t t0 = now_ns();
+    if (Status s = wait(fence, "vkWaitForFences (frame)"); !s) return s.error();
+    if (wait_ns) *wait_ns = now_ns() - t0;
+    if (items_rendered) *items_rendered = last - frame_cursor_;
+    frame_cursor_ = last;
+    if (!done) return false;
+    // The frame is complete: it becomes the one warp() reads, in TRANSFER_SRC_OPTIMAL.
+    frame_open_ = false;
+    rendered_ = true;
+    eyes_sampled_[back_] = false;
+    for (int e = 0; e < 2; ++e) rendered_projection_[e] = frame_projection_[e];
+    back_ = 1 - back_;
+    return true;
+}
+
+Result<bool> VulkanRenderer::render_more(uint64_t max_triangles, size_t* items_rendered) {
+    return run_piece(max_triangles, false, nullptr, items_rendered);
 }
 
 void VulkanRenderer::read_back(StereoImage& out_image) const {
@@ -434,51 +520,22 @@ void VulkanRenderer::read_back(StereoImage& out_image) const {
 Result<RenderStats> VulkanRenderer::render(const StereoViews& views,
                                            std::span<const DrawItem> items,
                                            StereoImage* out_image) {
-    if (!lost_.empty()) return make_error(lost_);
     RenderStats stats;
-    const size_t mesh_count = scene_ ? scene_->meshes.size() : 0;
-    for (const DrawItem& item : items) {
-        if (item.mesh < 0 || size_t(item.mesh) >= mesh_count)
-            return make_error("renderer: draw item refers to mesh " + std::to_string(item.mesh) +
-                              " but the uploaded scene has " + std::to_string(mesh_count));
-        stats.triangles += scene_->meshes[size_t(item.mesh)].triangles;
-    }
-
-    // 1. Record and submit.
     const int64_t t0 = now_ns();
-    vk::FrameConstants frame;
-    for (int e = 0; e < 2; ++e) frame.view_projection[e] = views.projection[e] * views.view[e];
-    std::memcpy(frame_constants_.mapped(), &frame, sizeof(frame));
-    if (Status s = frame_constants_.flush(); !s) return s.error();
-    record(items, out_image != nullptr);
-    const VkFence fence = fence_;
-    HMDNODE_VK_TRY(vkResetFences(ctx_->device, 1, &fence), "vkResetFences");
-    VkSubmitInfo submit{};
-    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-    submit.commandBufferCount = 1;
-    submit.pCommandBuffers = &cmd_;
-    VkResult r = vkQueueSubmit(ctx_->queue, 1, &submit, fence);
-    if (r != VK_SUCCESS) {
-        if (r == VK_ERROR_DEVICE_LOST) lost_ = vk::vk_error("vkQueueSubmit", r).message;
-        return vk::vk_error("vkQueueSubmit (frame)", r);
-    }
-    const int64_t t1 = now_ns();
-
-    // 2. Wait for the GPU.
-    if (Status s = wait(fence, "vkWaitForFences (frame)"); !s) return s.error();
-    rendered_ = true;
-    eyes_sampled_ = false;  // the render pass leaves the eye buffers in TRANSFER_SRC_OPTIMAL
-    for (int e = 0; e < 2; ++e) rendered_projection_[e] = views.projection[e];
+    if (Status s = begin_frame(views, items); !s) return s.error();
+    for (uint64_t t : frame_item_triangles_) stats.triangles += t;
+    int64_t wait_ns = 0;
+    // The whole frame in one piece.
+    auto done = run_piece(UINT64_MAX, out_image != nullptr, &wait_ns, nullptr);
+    if (!done) return done.error();
     const int64_t t2 = now_ns();
-
-    // 3. Read back.
     if (out_image) {
         if (Status s = targets_.readback.invalidate(); !s) return s.error();
         read_back(*out_image);
     }
     const int64_t t3 = now_ns();
-    stats.cpu_record_ns = t1 - t0;
-    stats.gpu_wait_ns = t2 - t1;
+    stats.gpu_wait_ns = wait_ns;
+    stats.cpu_record_ns = t2 - t0 - wait_ns;
     stats.readback_ns = out_image ? t3 - t2 : 0;
     stats.passes = targets_.pass_count();
     return stats;

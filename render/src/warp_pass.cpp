@@ -146,7 +146,7 @@ Result<Pipeline> create_warp_pipeline(const DeviceContext& ctx, VkPipelineLayout
 
 }  // namespace
 
-Result<WarpPass> create_warp_pass(DeviceContext& ctx, const Image& eyes, uint32_t width,
+Result<WarpPass> create_warp_pass(DeviceContext& ctx, const Image eyes[2], uint32_t width,
                                   uint32_t height, const DistortionMesh mesh[2]) {
     const VkPhysicalDeviceLimits& limits = ctx.properties.limits;
     if (width < 1 || height < 1 || width > limits.maxFramebufferWidth ||
@@ -209,20 +209,22 @@ Result<WarpPass> create_warp_pass(DeviceContext& ctx, const Image& eyes, uint32_
     HMDNODE_VK_TRY(vkCreateSampler(ctx.device, &sampler_info, nullptr, &sampler),
                    "vkCreateSampler (warp)");
     w.sampler = Sampler(ctx.device, sampler);
-    auto eyes_view = create_view(ctx, eyes, kEyeSampleFormat, VK_IMAGE_ASPECT_COLOR_BIT,
-                                 "eye buffers (sampled)", 0, 2);
-    if (!eyes_view) return eyes_view.error();
-    w.eyes_view = std::move(*eyes_view);
+    for (int slot = 0; slot < 2; ++slot) {
+        auto eyes_view = create_view(ctx, eyes[slot], kEyeSampleFormat, VK_IMAGE_ASPECT_COLOR_BIT,
+                                     "eye buffers (sampled)", 0, 2);
+        if (!eyes_view) return eyes_view.error();
+        w.eyes_view[slot] = std::move(*eyes_view);
+    }
 
     const VkDescriptorSetLayoutBinding binding{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1,
                                                VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
     auto set_layout = create_set_layout(ctx, {&binding, 1});
     if (!set_layout) return set_layout.error();
     w.set_layout = std::move(*set_layout);
-    const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1};
+    const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2};
     VkDescriptorPoolCreateInfo pool_info{};
     pool_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
-    pool_info.maxSets = 1;
+    pool_info.maxSets = 2;
     pool_info.poolSizeCount = 1;
     pool_info.pPoolSizes = &size;
     VkDescriptorPool pool = VK_NULL_HANDLE;
@@ -230,23 +232,26 @@ Result<WarpPass> create_warp_pass(DeviceContext& ctx, const Image& eyes, uint32_
                    "vkCreateDescriptorPool (warp)");
     w.pool = DescriptorPool(ctx.device, pool);
     const VkDescriptorSetLayout set_layout_handle = w.set_layout;
+    const VkDescriptorSetLayout set_layouts[2] = {w.set_layout, w.set_layout};
     VkDescriptorSetAllocateInfo set_info{};
     set_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
     set_info.descriptorPool = pool;
-    set_info.descriptorSetCount = 1;
-    set_info.pSetLayouts = &set_layout_handle;
-    HMDNODE_VK_TRY(vkAllocateDescriptorSets(ctx.device, &set_info, &w.set),
+    set_info.descriptorSetCount = 2;
+    set_info.pSetLayouts = set_layouts;
+    HMDNODE_VK_TRY(vkAllocateDescriptorSets(ctx.device, &set_info, w.set),
                    "vkAllocateDescriptorSets (warp)");
-    const VkDescriptorImageInfo image_info{w.sampler, w.eyes_view,
-                                           VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-    VkWriteDescriptorSet write{};
-    write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
-    write.dstSet = w.set;
-    write.dstBinding = 0;
-    write.descriptorCount = 1;
-    write.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-    write.pImageInfo = &image_info;
-    vkUpdateDescriptorSets(ctx.device, 1, &write, 0, nullptr);
+    for (int slot = 0; slot < 2; ++slot) {
+        const VkDescriptorImageInfo image_info{w.sampler, w.eyes_view[slot],
+                                               VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+        VkWriteDescriptorSet write{};
+        write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+        write.dstSet = w.set[slot];
+        write.dstBinding = 0;
+        write.descriptorCount = 1;
+        write.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+        write.pImageInfo = &image_info;
+        vkUpdateDescriptorSets(ctx.device, 1, &write, 0, nullptr);
+    }
 
     // 3. Pipeline.
     const VkPushConstantRange push{VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
@@ -288,7 +293,7 @@ Result<WarpPass> create_warp_pass(DeviceContext& ctx, const Image& eyes, uint32_
     return w;
 }
 
-void record_warp(VkCommandBuffer cmd, const WarpPass& w, const glm::mat4 reproject[2],
+void record_warp(VkCommandBuffer cmd, const WarpPass& w, int slot, const glm::mat4 reproject[2],
                  bool read_back) {
     const VkViewport viewport{0.0f, 0.0f, float(w.width), float(w.height), 0.0f, 1.0f};
     const VkRect2D area{{0, 0}, {w.width, w.height}};
@@ -302,8 +307,8 @@ void record_warp(VkCommandBuffer cmd, const WarpPass& w, const glm::mat4 reproje
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, w.pipeline);
         vkCmdSetViewport(cmd, 0, 1, &viewport);
         vkCmdSetScissor(cmd, 0, 1, &area);
-        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, w.layout, 0, 1, &w.set, 0,
-                                nullptr);
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, w.layout, 0, 1, &w.set[slot],
+                                0, nullptr);
         WarpConstants constants{reproject[e], float(e)};
         vkCmdPushConstants(cmd, w.layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT,
                            0, sizeof(constants), &constants);

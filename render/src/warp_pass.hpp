@@ -27,11 +27,11 @@ struct WarpPass {
     ImageView panel_view[2];
     RenderPass render_pass;
     Framebuffer framebuffer[2];
-    Sampler sampler;      // bilinear, black border
-    ImageView eyes_view;  // the eye buffers as a 2-layer array
+    Sampler sampler;         // bilinear, black border
+    ImageView eyes_view[2];  // per slot: the eye buffers as a 2-layer array
     DescriptorSetLayout set_layout;
     DescriptorPool pool;
-    VkDescriptorSet set = VK_NULL_HANDLE;
+    VkDescriptorSet set[2] = {VK_NULL_HANDLE, VK_NULL_HANDLE};  // per slot
     PipelineLayout layout;
     Pipeline pipeline;
     Buffer vertices[2], indices[2];
@@ -39,14 +39,14 @@ struct WarpPass {
     Buffer readback;  // width * height * 4 bytes per eye, left first
 };
 
-// `eyes` is the stereo colour target (2 layers, sampled usage) that the pass reads.
-Result<WarpPass> create_warp_pass(DeviceContext& ctx, const Image& eyes, uint32_t width,
+// `eyes` are the two slots of the stereo colour target (2 layers each, sampled usage).
+Result<WarpPass> create_warp_pass(DeviceContext& ctx, const Image eyes[2], uint32_t width,
                                   uint32_t height, const DistortionMesh mesh[2]);
 
-// Records both eyes' passes and the read-back copy (when read_back). reproject[e] maps eye e's
-// display directions into its eye buffer's clip space. The eye buffers must be in
-// SHADER_READ_ONLY_OPTIMAL.
-void record_warp(VkCommandBuffer cmd, const WarpPass& pass, const glm::mat4 reproject[2],
+// Records both eyes' passes reading slot `slot` and the read-back copy (when read_back).
+// reproject[e] maps eye e's display directions into its eye buffer's clip space. The slot's eye
+// buffers must be in SHADER_READ_ONLY_OPTIMAL.
+void record_warp(VkCommandBuffer cmd, const WarpPass& pass, int slot, const glm::mat4 reproject[2],
                  bool read_back);
 
 }  // namespace hmdnode::vk

@@ -16,17 +16,39 @@ using namespace hmdnode;
 
 namespace {
 
-// A renderer that draws nothing and costs what the script says, by advancing the simulated clock.
+// A renderer that draws nothing and costs what the script says, by advancing the simulated clock:
+// a frame's cost is spread over its pieces by their share of the draw items.
 class ScriptedRenderer final : public Renderer {
   public:
     ScriptedRenderer(SimulatedClock& clock, std::function<int64_t(int)> render_cost,
                      int64_t warp_cost)
         : clock_(clock), render_cost_(std::move(render_cost)), warp_cost_(warp_cost) {}
     Status upload(const Scene&) override { return Status::success(); }
-    Result<RenderStats> render(const StereoViews&, std::span<const DrawItem>,
+    Result<RenderStats> render(const StereoViews& views, std::span<const DrawItem> items,
                                StereoImage*) override {
-        clock_.advance_ns(render_cost_(renders_++));
+        if (Status s = begin_frame(views, items); !s.ok()) return s.error();
+        Result<bool> done = render_more(UINT64_MAX, nullptr);
+        if (!done.ok()) return done.error();
         return RenderStats{};
+    }
+    Status begin_frame(const StereoViews&, std::span<const DrawItem> items) override {
+        items_ = items.size();
+        cursor_ = 0;
+        frame_cost_ = render_cost_(renders_++);
+        return Status::success();
+    }
+    // One item per piece when max_triangles is limited (the test's items have 12 triangles).
+    Result<bool> render_more(uint64_t max_triangles, size_t* items_rendered) override {
+        const size_t n =
+            items_ == 0 ? 0
+            : max_triangles == UINT64_MAX
+                ? items_ - cursor_
+                : std::max<size_t>(1, std::min<size_t>(items_ - cursor_, max_triangles / 12));
+        clock_.advance_ns(items_ == 0 ? frame_cost_ : frame_cost_ * int64_t(n) / int64_t(items_));
+        cursor_ += n;
+        pieces_ += 1;
+        if (items_rendered) *items_rendered = n;
+        return cursor_ >= items_;
     }
     Status set_warp(int, int, const DistortionMesh&, const DistortionMesh&) override {
         return Status::success();
@@ -37,13 +59,39 @@ class ScriptedRenderer final : public Renderer {
     }
     std::string device_name() const override { return "scripted"; }
     int renders() const { return renders_; }
+    int pieces() const { return pieces_; }
 
   private:
     SimulatedClock& clock_;
     std::function<int64_t(int)> render_cost_;
     int64_t warp_cost_;
-    int renders_ = 0;
+    int renders_ = 0, pieces_ = 0;
+    size_t items_ = 0, cursor_ = 0;
+    int64_t frame_cost_ = 0;
 };
+
+// Twenty boxes of 12 triangles ahead of the viewer, one draw item each.
+Scene boxes() {
+    Scene s;
+    s.materials.push_back(Material{});
+    Primitive p;
+    for (int i = 0; i < 8; ++i)
+        p.positions.push_back(
+            glm::vec3(i & 1 ? 0.1f : -0.1f, i & 2 ? 0.1f : -0.1f, i & 4 ? 0.1f : -0.1f));
+    p.indices = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4,
+                 3, 6, 2, 3, 7, 6, 0, 4, 7, 0, 7, 3, 1, 2, 6, 1, 6, 5};
+    p.material = 0;
+    s.meshes.push_back(Mesh{"box", {p}});
+    for (int i = 0; i < 20; ++i) {
+        Node n;
+        n.name = "box" + std::to_string(i);
+        n.mesh = 0;
+        n.translation = {0.3 * (i % 5) - 0.6, 1.6, -2.0 - 0.3 * (i / 5)};
+        s.nodes.push_back(n);
+        s.roots.push_back(i);
+    }
+    return s;
+}
 
 // A constant 90 deg/s yaw sampled at 1 kHz for `seconds`.
 std::shared_ptr<const Trace> yaw_trace(double seconds) {
@@ -60,7 +108,7 @@ std::shared_ptr<const Trace> yaw_trace(double seconds) {
 struct PacedRun {
     std::vector<FrameRecord> frames;
     ReplaySummary summary;
-    int renders = 0;
+    int renders = 0, pieces = 0;
 };
 
 // Runs the node for `seconds` with the scripted costs and returns its presents and summary.
@@ -77,7 +125,7 @@ PacedRun run(std::function<int64_t(int)> render_cost, int64_t warp_cost, double 
     auto display = create_mock_display(clock, dc);
     EXPECT_TRUE(display.ok());
     ScriptedRenderer renderer(clock, std::move(render_cost), warp_cost);
-    Scene scene;  // no objects: the script is the cost
+    const Scene scene = boxes();
     NodeConfig nc;
     nc.warp = warp;
     nc.sim_cost.base_ns = 0;
@@ -98,6 +146,7 @@ PacedRun run(std::function<int64_t(int)> render_cost, int64_t warp_cost, double 
     node.stop();
     r.summary = summarize_presents(r.frames, (*display)->info().period_ns, truth, 1.0);
     r.renders = renderer.renders();
+    r.pieces = renderer.pieces();
     return r;
 }
 
@@ -137,8 +186,9 @@ TEST(Pacing, ASpikeMissesItsVsyncAndTheLoopDoesNotLockLate) {
 }
 
 TEST(Pacing, ARenderSlowerThanTheRefreshIsCountedAsMissedVsyncs) {
-    // 14 ms per render at 90 Hz: at most one new frame every other vsync.
-    const PacedRun r = run([](int) { return 14 * kNsPerMs; }, kNsPerMs, 3.0);
+    // 14 ms per render at 90 Hz: at most one new frame every other vsync; without the warp the
+    // vsyncs in between repeat the old frame.
+    const PacedRun r = run([](int) { return 14 * kNsPerMs; }, kNsPerMs, 3.0, /*warp=*/false);
     EXPECT_NEAR(r.summary.new_frames_per_vsync, 0.5, 0.02);
     // Every vsync without a new or re-warped frame counts as missed: about half of them.
     EXPECT_NEAR(double(r.summary.missed_vsyncs) / double(r.summary.vsyncs),
@@ -147,6 +197,28 @@ TEST(Pacing, ARenderSlowerThanTheRefreshIsCountedAsMissedVsyncs) {
     // A repeated frame ages: the latency of the vsyncs between new frames is one period longer.
     EXPECT_GT(r.summary.latency_ms.max - r.summary.latency_ms.p50 + 1e-9, 0.0);
     EXPECT_GT(r.summary.latency_ms.max, 11.1 + 5.0);
+}
+
+TEST(Pacing, VsyncsDuringASlowRenderGetTheFinishedFrameReWarped) {
+    // 25 ms renders at 90 Hz: a new frame every third vsync at best. Between the render's pieces
+    // the finished frame is warped again to the newest pose for each vsync the new one cannot
+    // make, so those vsyncs are not missed and stay registered.
+    const PacedRun r = run([](int) { return 25 * kNsPerMs; }, kNsPerMs, 3.0);
+    EXPECT_GT(r.pieces, r.renders);
+    EXPECT_GT(r.summary.rewarps, r.summary.new_frames);
+    EXPECT_GT(r.summary.on_time_rate, 0.95);
+    EXPECT_LE(r.summary.longest_late_run, 3u);
+    for (const FrameRecord& f : r.frames)
+        if (f.kind == FrameKind::rewarp) {
+            EXPECT_TRUE(f.on_time) << f.index;
+            EXPECT_LT(f.registration_error_deg, 0.01) << f.index;  // warped to the newest pose
+        }
+    EXPECT_LT(r.summary.latency_ms.p99, 11.1);
+    // Without the warp the same vsyncs repeat an old image: missed, and it ages.
+    const PacedRun plain = run([](int) { return 25 * kNsPerMs; }, kNsPerMs, 3.0, false);
+    EXPECT_EQ(plain.summary.rewarps, 0u);
+    EXPECT_LT(plain.summary.on_time_rate, 0.4);
+    EXPECT_GT(plain.summary.latency_ms.p50, 20.0);
 }
 
 TEST(Pacing, LateWarpCutsMotionToPhotonByTheRenderTime) {

@@ -223,6 +223,42 @@ TEST(Warp, DistortionAndChromaticAberrationFollowTheIndexLensModel) {
     EXPECT_GT(split, 1.0);
 }
 
+TEST(Warp, AFrameInPiecesEqualsOneRenderAndTheWarpReadsTheFinishedFrameMeanwhile) {
+    const int w = 64, h = 64;
+    auto r = make_renderer(w, h);
+    ASSERT_TRUE(r);
+    // Three meshes, one draw item each, overlapping (the depth test must carry across pieces).
+    Scene s =
+        scene_of({marker(0.0, 0.0, 0.8, 5.0, 0)},
+                 {{1.0f, 0.2f, 0.1f, 1.0f}, {0.1f, 0.9f, 0.2f, 1.0f}, {0.2f, 0.3f, 1.0f, 1.0f}});
+    s.meshes.push_back(Mesh{"b", {marker(0.2, 0.1, 0.6, 4.0, 1)}});
+    s.meshes.push_back(Mesh{"c", {marker(-0.2, -0.1, 0.6, 6.0, 2)}});
+    ASSERT_TRUE(r->upload(s).ok());
+    const EyeFov fov[2] = {EyeFov{}, EyeFov{}};
+    ASSERT_TRUE(r->set_warp(w, h, linear_mesh(fov[0]), linear_mesh(fov[1])).ok());
+    const DrawItem items[3] = {{2, glm::mat4(1.0f)}, {0, glm::mat4(1.0f)}, {1, glm::mat4(1.0f)}};
+    const StereoViews a = views_for(glm::dquat(1, 0, 0, 0), fov);
+    const StereoViews b = views_for(glm::angleAxis(0.1, glm::dvec3(0, 1, 0)), fov);
+    StereoImage whole_a, whole_b, panel;
+    ASSERT_TRUE(r->render(b, items, &whole_b).ok());
+    ASSERT_TRUE(r->render(a, items, &whole_a).ok());
+    // Frame b again, one item per piece; meanwhile the warp still shows frame a.
+    ASSERT_TRUE(r->begin_frame(b, items).ok());
+    size_t pieces = 0, n = 0;
+    for (;;) {
+        auto done = r->render_more(1, &n);
+        ASSERT_TRUE(done.ok()) << done.error().message;
+        EXPECT_EQ(n, 1u);
+        ++pieces;
+        if (*done) break;
+        ASSERT_TRUE(r->warp(glm::dquat(1, 0, 0, 0), &panel).ok());
+        EXPECT_EQ(panel.eye[0].pixels, whole_a.eye[0].pixels) << "piece " << pieces;
+    }
+    EXPECT_EQ(pieces, 3u);
+    ASSERT_TRUE(r->warp(glm::dquat(1, 0, 0, 0), &panel).ok());
+    for (int e = 0; e < 2; ++e) EXPECT_EQ(panel.eye[e].pixels, whole_b.eye[e].pixels) << e;
+}
+
 TEST(Warp, BeforeSetUpOrRenderIsAnError) {
     auto r = make_renderer(16, 16);
     ASSERT_TRUE(r);

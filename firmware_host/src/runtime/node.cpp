@@ -106,9 +106,12 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
         for (const LodLevel& l : objects_[i].levels)
             level_errors_[i].push_back(l.geometric_error_m);
     draws_.reserve(objects_.size());
+    draw_triangles_.reserve(objects_.size());
     order_.reserve(objects_.size());
     frame_levels_.resize(objects_.size());
     frame_eccentricity_.resize(objects_.size());
+    open_levels_.resize(objects_.size());
+    open_eccentricity_.resize(objects_.size());
     read_buf_.resize(256);
     margin_ns_ = config.pacing.margin_ns;
 
@@ -203,9 +206,12 @@ uint64_t NodeRuntime::select_and_sort(const Pose& head, FrameRecord* rec) {
     // Front to back: nearest first saves fill on lavapipe.
     std::sort(order_.begin(), order_.end());
     draws_.clear();
+    draw_triangles_.clear();
     for (const auto& [dist, i] : order_) {
         const SceneObject& o = objects_[i];
-        draws_.push_back(DrawItem{o.levels[rec->levels[i]].mesh, glm::mat4(o.world)});
+        const LodLevel& l = o.levels[rec->levels[i]];
+        draws_.push_back(DrawItem{l.mesh, glm::mat4(o.world)});
+        draw_triangles_.push_back(l.triangles);
     }
     return triangles;
 }
@@ -261,81 +267,11 @@ Result<FrameCostModel> NodeRuntime::calibrate_frame_cost() {
     return model;
 }
 
-Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& truth) {
+Status NodeRuntime::warp_and_present(int64_t target, int64_t warp_est, FrameRecord* rec) {
     const DisplayInfo info = display_.info();
     const PacingConfig& pc = config_.pacing;
-    const int64_t latch = info.latch_margin_ns;
     const int64_t photon_offset = display_.photon_offset_ns();
-
-    drain_tracker();
-    // Before the first sample there is nothing to show. Skip this vsync rather than wait for the
-    // sample here: an absent device must not hang the caller (which checks its stop flag between
-    // frames), and on a simulated clock the skipped frame advances time the same way every run.
-    if (history_.empty()) {
-        if (tracker_->finished()) return make_error("tracker finished before its first sample");
-        clock_.sleep_until_ns(display_.next_vsync_ns(clock_.now_ns()));
-        return FrameOutcome::no_pose_yet;
-    }
-
-    // 1. Which vsync, and a new frame or a re-warp.
-    const int64_t render_est = render_costs_.percentile(pc.percentile, info.period_ns / 2);
-    const int64_t warp_est = warp_costs_.percentile(pc.percentile, info.period_ns / 10);
-    const int64_t now = clock_.now_ns();
-    const int64_t v_any = display_.free_vsync_ns(now + warp_est + margin_ns_);
-    const int64_t v_new = display_.free_vsync_ns(now + render_est + warp_est + margin_ns_);
-    bool rewarp = false;
-    if (config_.warp && has_frame_ && v_new != v_any) {
-        // After a re-warp for v_any (presented near v_any - latch), the first vsync a new frame
-        // could make; re-warp only when that is still v_new.
-        const int64_t after = std::max(
-            display_.next_vsync_ns(v_any - latch + render_est + warp_est + margin_ns_ + latch - 1),
-            v_any + info.period_ns);
-        rewarp = after <= v_new;
-    }
-
-    FrameRecord& r = *rec;
-    int64_t target = 0;
-    int64_t wake = 0;
-    double render_ms = 0.0;
-    if (!rewarp) {
-        // 2. A new frame for v_new.
-        target = v_new;
-        wake = target - latch - (render_est + warp_est + margin_ns_);
-        clock_.sleep_until_ns(wake);
-        const int64_t start = clock_.now_ns();
-        drain_tracker();
-        const Pose head = predict(target + photon_offset);
-        frame_triangles_ = select_and_sort(head, &r);
-        const auto t0 = std::chrono::steady_clock::now();
-        StereoImage* out = !pass_enabled() && config_.read_back ? &frame_ : nullptr;
-        Result<RenderStats> stats = renderer_.render(views_for(head), draws_, out);
-        const auto t1 = std::chrono::steady_clock::now();
-        if (!stats.ok()) return stats.error();
-        render_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
-        if (clock_.is_simulated())
-            clock_.sleep_until_ns(start + config_.sim_cost.render_ns(frame_triangles_));
-        render_costs_.push(clock_.now_ns() - start);
-        has_frame_ = true;
-        ++render_index_;
-        frame_pose_ = head;
-        frame_target_vsync_ns_ = target;
-        frame_pose_sample_ns_ = history_.newest_time_ns();
-        std::copy(r.levels.begin(), r.levels.end(), frame_levels_.begin());
-        std::copy(r.eccentricity_deg.begin(), r.eccentricity_deg.end(),
-                  frame_eccentricity_.begin());
-        // The render overran: aim at the first vsync still reachable (the meant one is missed).
-        const int64_t after = clock_.now_ns();
-        if (after + warp_est + margin_ns_ > target - latch)
-            target = display_.free_vsync_ns(after + warp_est + margin_ns_);
-    } else {
-        target = v_any;
-        r.levels.assign(frame_levels_.begin(), frame_levels_.end());
-        r.eccentricity_deg.assign(frame_eccentricity_.begin(), frame_eccentricity_.end());
-    }
-
-    // 3. Late warp (or the frame as rendered) just before the latch, then present.
-    const int64_t warp_wake = target - latch - (warp_est + margin_ns_);
-    if (rewarp) wake = warp_wake;
+    const int64_t warp_wake = target - info.latch_margin_ns - (warp_est + margin_ns_);
     clock_.sleep_until_ns(warp_wake);
     const int64_t warp_start = clock_.now_ns();
     Pose shown = frame_pose_;
@@ -366,10 +302,9 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
     else
         margin_ns_ = std::max(pc.min_margin_ns, margin_ns_ - pc.recover_step_ns);
 
+    FrameRecord& r = *rec;
     r.index = present_index_++;
-    r.kind = rewarp ? FrameKind::rewarp : FrameKind::new_frame;
     r.frame = render_index_ - 1;
-    r.wake_ns = wake;
     r.render_target_vsync_ns = frame_target_vsync_ns_;
     r.target_vsync_ns = target;
     r.vsync_ns = pr->vsync_ns;
@@ -380,14 +315,8 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
     r.latency_ms = ns_to_ms(pr->photon_time_ns - sample_ns);
     r.prediction_horizon_ms = ns_to_ms(predicted_for - sample_ns);
     r.shown_pose = shown;
-    r.registration_error_deg = std::numeric_limits<double>::quiet_NaN();
-    if (truth)
-        if (std::optional<TruthPose> t = truth(pr->photon_time_ns))
-            r.registration_error_deg =
-                registration_error(shown, *t, config_.registration_distance_m);
     r.angular_speed_dps = rad_to_deg(glm::length(history_.angular_velocity()));
     r.on_time = pr->vsync_ns == target;
-    r.late = pr->vsync_ns > frame_target_vsync_ns_ && !rewarp;
     r.missed_vsyncs_before =
         last_shown_vsync_ns_ == INT64_MIN
             ? 0
@@ -395,11 +324,142 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
                   0,
                   (pr->vsync_ns - last_shown_vsync_ns_ + info.period_ns / 2) / info.period_ns - 1);
     last_shown_vsync_ns_ = pr->vsync_ns;
-    r.triangles = rewarp ? 0 : frame_triangles_;
-    r.render_ms = render_ms;
     r.warp_ms = warp_ms;
-    r.frame_cost_ms = ns_to_ms(clock_.now_ns() - wake);
-    return rewarp ? FrameOutcome::rewarped : FrameOutcome::rendered;
+    return Status::success();
+}
+
+Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& truth) {
+    const DisplayInfo info = display_.info();
+    const PacingConfig& pc = config_.pacing;
+    const int64_t latch = info.latch_margin_ns;
+    const int64_t photon_offset = display_.photon_offset_ns();
+    FrameRecord& r = *rec;
+    auto fill_truth = [&] {
+        r.registration_error_deg = std::numeric_limits<double>::quiet_NaN();
+        if (truth)
+            if (std::optional<TruthPose> t = truth(r.photon_time_ns))
+                r.registration_error_deg =
+                    registration_error(r.shown_pose, *t, config_.registration_distance_m);
+    };
+
+    drain_tracker();
+    // Before the first sample there is nothing to show. Skip this vsync rather than wait for the
+    // sample here: an absent device must not hang the caller (which checks its stop flag between
+    // frames), and on a simulated clock the skipped frame advances time the same way every run.
+    if (history_.empty()) {
+        if (tracker_->finished()) return make_error("tracker finished before its first sample");
+        clock_.sleep_until_ns(display_.next_vsync_ns(clock_.now_ns()));
+        return FrameOutcome::no_pose_yet;
+    }
+
+    const int64_t render_est = render_costs_.percentile(pc.percentile, info.period_ns / 2);
+    const int64_t warp_est = warp_costs_.percentile(pc.percentile, info.period_ns / 10);
+
+    // 1. A new frame for the first vsync it can make, unless one is being rendered.
+    if (!open_) {
+        const int64_t now = clock_.now_ns();
+        const int64_t target = display_.free_vsync_ns(now + render_est + warp_est + margin_ns_);
+        open_wake_ns_ = target - latch - (render_est + warp_est + margin_ns_);
+        clock_.sleep_until_ns(open_wake_ns_);
+        drain_tracker();
+        open_pose_ = predict(target + photon_offset);
+        open_triangles_ = select_and_sort(open_pose_, &r);
+        std::copy(r.levels.begin(), r.levels.end(), open_levels_.begin());
+        std::copy(r.eccentricity_deg.begin(), r.eccentricity_deg.end(), open_eccentricity_.begin());
+        if (Status st = renderer_.begin_frame(views_for(open_pose_), draws_); !st.ok())
+            return st.error();
+        open_ = true;
+        open_cursor_ = 0;
+        open_target_ns_ = target;
+        open_render_ns_ = 0;
+        open_render_ms_ = 0.0;
+        open_pose_sample_ns_ = history_.newest_time_ns();
+    }
+
+    // 2. Render it in pieces. Before a vsync that it cannot make, the finished frame is re-warped
+    // for that vsync between two pieces (one queue: a piece cannot be interrupted).
+    const double per_triangle_ns =
+        double(render_est) / double(std::max<uint64_t>(1, open_triangles_));
+    while (open_) {
+        const int64_t now = clock_.now_ns();
+        uint64_t max_triangles = UINT64_MAX;
+        if (config_.warp && has_frame_) {
+            const int64_t remaining = std::max<int64_t>(0, render_est - open_render_ns_);
+            const int64_t v_any = display_.free_vsync_ns(now + warp_est + margin_ns_);
+            const int64_t v_done = display_.free_vsync_ns(now + remaining + warp_est + margin_ns_);
+            if (v_done > v_any) {
+                const int64_t rewarp_wake = v_any - latch - (warp_est + margin_ns_);
+                const double next = open_cursor_ < draw_triangles_.size()
+                                        ? double(draw_triangles_[open_cursor_]) * per_triangle_ns
+                                        : 0.0;
+                if (double(rewarp_wake - now) < next) {
+                    // Re-warp the finished frame for v_any now; the open one resumes afterwards.
+                    if (Status st = warp_and_present(v_any, warp_est, &r); !st.ok())
+                        return st.error();
+                    r.kind = FrameKind::rewarp;
+                    r.wake_ns = rewarp_wake;
+                    r.late = false;
+                    r.triangles = 0;
+                    r.render_ms = 0.0;
+                    r.levels.assign(frame_levels_.begin(), frame_levels_.end());
+                    r.eccentricity_deg.assign(frame_eccentricity_.begin(),
+                                              frame_eccentricity_.end());
+                    r.frame_cost_ms = ns_to_ms(clock_.now_ns() - rewarp_wake);
+                    fill_truth();
+                    return FrameOutcome::rewarped;
+                }
+                max_triangles = uint64_t(double(rewarp_wake - now) / per_triangle_ns);
+            }
+        }
+        const int64_t piece_start = clock_.now_ns();
+        size_t items = 0;
+        const auto t0 = std::chrono::steady_clock::now();
+        Result<bool> done = renderer_.render_more(max_triangles, &items);
+        const auto t1 = std::chrono::steady_clock::now();
+        if (!done.ok()) {
+            open_ = false;
+            return done.error();
+        }
+        open_render_ms_ += std::chrono::duration<double, std::milli>(t1 - t0).count();
+        if (clock_.is_simulated()) {
+            uint64_t piece_triangles = 0;
+            for (size_t i = open_cursor_; i < open_cursor_ + items; ++i)
+                piece_triangles += draw_triangles_[i];
+            int64_t cost = int64_t(config_.sim_cost.per_triangle_ns * double(piece_triangles));
+            if (open_cursor_ == 0) cost += config_.sim_cost.base_ns;
+            clock_.sleep_until_ns(piece_start + cost);
+        }
+        open_cursor_ += items;
+        open_render_ns_ += clock_.now_ns() - piece_start;
+        open_ = !*done;
+    }
+    render_costs_.push(open_render_ns_);
+    has_frame_ = true;
+    ++render_index_;
+    frame_pose_ = open_pose_;
+    frame_target_vsync_ns_ = open_target_ns_;
+    frame_pose_sample_ns_ = open_pose_sample_ns_;
+    frame_triangles_ = open_triangles_;
+    std::copy(open_levels_.begin(), open_levels_.end(), frame_levels_.begin());
+    std::copy(open_eccentricity_.begin(), open_eccentricity_.end(), frame_eccentricity_.begin());
+
+    // 3. Late warp just before the latch, then present. A render that overran aims at the first
+    // vsync still reachable (the one it was meant for is missed).
+    int64_t target = open_target_ns_;
+    const int64_t after = clock_.now_ns();
+    if (after + warp_est + margin_ns_ > target - latch)
+        target = display_.free_vsync_ns(after + warp_est + margin_ns_);
+    if (Status st = warp_and_present(target, warp_est, &r); !st.ok()) return st.error();
+    r.kind = FrameKind::new_frame;
+    r.wake_ns = open_wake_ns_;
+    r.late = r.vsync_ns > frame_target_vsync_ns_;
+    r.triangles = frame_triangles_;
+    r.render_ms = open_render_ms_;
+    r.levels.assign(frame_levels_.begin(), frame_levels_.end());
+    r.eccentricity_deg.assign(frame_eccentricity_.begin(), frame_eccentricity_.end());
+    r.frame_cost_ms = ns_to_ms(clock_.now_ns() - open_wake_ns_);
+    fill_truth();
+    return FrameOutcome::rendered;
 }
 
 }  // namespace hmdnode

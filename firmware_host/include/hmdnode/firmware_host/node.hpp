@@ -201,8 +201,12 @@ class NodeRuntime {
     void drain_tracker();
     StereoViews views_for(const Pose& head) const;
     Pose predict(int64_t photon_time_ns) const;
-    // LOD selection for `head`, fills rec->levels / eccentricity and draws_; returns triangles.
+    // LOD selection for `head`, fills rec->levels / eccentricity, draws_ and draw_triangles_;
+    // returns triangles.
     uint64_t select_and_sort(const Pose& head, FrameRecord* rec);
+    // Warps the finished frame for `target` (sampling the newest pose first when the warp is on),
+    // presents it and fills the record's present fields; adapts the margin.
+    Status warp_and_present(int64_t target, int64_t warp_est, FrameRecord* rec);
     bool pass_enabled() const { return config_.warp || config_.distortion; }
 
     Clock& clock_;
@@ -216,6 +220,7 @@ class NodeRuntime {
     std::vector<SceneObject> objects_;
     std::vector<std::vector<double>> level_errors_;  // per object, per level (world metres)
     std::vector<DrawItem> draws_;                    // reused every frame
+    std::vector<uint64_t> draw_triangles_;           // per draw
     std::vector<std::pair<double, size_t>> order_;   // front-to-back sort keys, reused
     std::vector<TrackerSample> read_buf_;
     StereoImage frame_;
@@ -225,7 +230,20 @@ class NodeRuntime {
     int64_t margin_ns_ = 0;
     uint64_t present_index_ = 0, render_index_ = 0;
     int64_t last_shown_vsync_ns_ = INT64_MIN;
-    // The frame in the eye buffers: its pose, target, levels and the tracker sample it used.
+    // The frame being rendered in pieces, between which the finished one may be re-warped.
+    bool open_ = false;
+    size_t open_cursor_ = 0;      // draws rendered so far
+    int64_t open_target_ns_ = 0;  // the vsync it is rendered for
+    int64_t open_wake_ns_ = 0;
+    int64_t open_render_ns_ = 0;   // node-clock time its pieces took
+    double open_render_ms_ = 0.0;  // measured wall time of its pieces
+    Pose open_pose_;
+    int64_t open_pose_sample_ns_ = 0;
+    uint64_t open_triangles_ = 0;
+    std::vector<int> open_levels_;
+    std::vector<double> open_eccentricity_;
+    // The finished frame in the eye buffers: its pose, target, levels and the tracker sample it
+    // used.
     bool has_frame_ = false;
     Pose frame_pose_;
     int64_t frame_target_vsync_ns_ = 0;

@@ -78,6 +78,18 @@ class Renderer {
     virtual Result<RenderStats> render(const StereoViews& views, std::span<const DrawItem> items,
                                        StereoImage* out_image) = 0;
 
+    // A frame in pieces, so that a re-warp of the previous frame can run between them on one
+    // queue: begin_frame() starts a frame into the back eye buffers (the last finished frame
+    // stays what warp() reads); render_more() records and runs the next draws, at least one item
+    // and then items while the piece's triangles stay within max_triangles, and waits; it returns
+    // true once the frame is complete, which then becomes the frame warp() reads. render() is
+    // begin_frame() + render_more(all) + the read-back. A DrawItem whose mesh is not in the
+    // uploaded scene is an Error of begin_frame(); begin_frame() while a frame is unfinished
+    // drops it. Each piece after the first costs a render pass that loads the attachments.
+    virtual Status begin_frame(const StereoViews& views, std::span<const DrawItem> items) = 0;
+    // items_rendered (optional) receives the number of draw items of the piece.
+    virtual Result<bool> render_more(uint64_t max_triangles, size_t* items_rendered = nullptr) = 0;
+
     // Sets up the late-warp + lens-distortion pass: the panel size per eye and one distortion mesh
     // per eye (lens.hpp; a mesh whose tangents span the eye buffer's field of view linearly gives a
     // warp without distortion). Allocates and blocks: not for the frame path. Replaces an earlier
