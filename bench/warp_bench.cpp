@@ -54,13 +54,15 @@ int main(int argc, char** argv) {
     };
     const Config configs[] = {{"generic", 360, 400, 16}, {"generic", 360, 400, 32},
                               {"generic", 360, 400, 64}, {"valve-index", 360, 400, 64},
-                              {"generic", 540, 600, 64}, {"valve-index", 1440, 1600, 64}};
+                              {"generic", 540, 600, 64}, {"valve-index", 1440, 1600, 64},
+                              {"none", 360, 400, 1},     {"valve-index", 360, 400, 48},
+                              {"generic", 360, 400, 24}};
     struct Bench {
         Config config;
         std::unique_ptr<Renderer> renderer;
         StereoViews views;
         std::vector<DrawItem> items;
-        std::vector<double> scene_ms, warp_ms;
+        std::vector<double> scene_ms, warp_ms, warp_only_ms;
         StereoImage panel;
     };
     std::vector<Bench> benches;
@@ -68,8 +70,13 @@ int main(int argc, char** argv) {
     for (const Config& c : configs) {
         Bench b;
         b.config = c;
-        const HeadsetProfile profile =
+        HeadsetProfile profile =
             std::string(c.profile) == "generic" ? generic_headset_profile() : *index;
+        if (std::string(c.profile) == "none")  // warp only: no distortion, one cell
+            for (int e = 0; e < 2; ++e) {
+                profile.eye[e] = EyeLens{};
+                profile.eye[e].fov = StereoRig::typical().eye[e];
+            }
         RendererConfig rc;
         rc.eye_width = c.w;
         rc.eye_height = c.h;
@@ -111,24 +118,29 @@ int main(int argc, char** argv) {
                 glm::angleAxis(deg_to_rad(0.5 * (i % 5)), glm::dvec3(0.0, 1.0, 0.0));
             if (!b.renderer->warp(delta, &b.panel).ok()) return 1;
             const int64_t t2 = now_ns();
+            // Without the read-back (a display that scans out the panel image itself).
+            if (!b.renderer->warp(delta, nullptr).ok()) return 1;
+            const int64_t t3 = now_ns();
             if (i < 3) continue;  // warm-up (shader compilation)
             b.scene_ms.push_back(double(t1 - t0) * 1e-6);
             b.warp_ms.push_back(double(t2 - t1) * 1e-6);
+            b.warp_only_ms.push_back(double(t3 - t2) * 1e-6);
         }
     std::printf(
         "late warp + distortion pass per stereo frame (record, GPU, read-back of both "
         "eyes), %d interleaved rounds\n",
         rounds);
-    std::printf("%-12s %11s %5s %9s %9s %11s %9s %8s\n", "profile", "eye", "mesh", "warp p50",
-                "warp p99", "scene p50", "target", "p50/tgt");
+    std::printf("%-12s %11s %5s %9s %9s %12s %12s %11s %9s %8s\n", "profile", "eye", "mesh",
+                "warp p50", "warp p99", "no-rb p50", "no-rb p99", "scene p50", "target", "p50/tgt");
     for (const Bench& b : benches) {
         const Config& c = b.config;
         const double target = 1.5 * double(c.w) * c.h / (360.0 * 400.0);
         char eye[32];
         std::snprintf(eye, sizeof eye, "%dx%d", c.w, c.h);
-        std::printf("%-12s %11s %5d %9.2f %9.2f %11.2f %9.2f %8.2f\n", c.profile, eye, c.mesh,
-                    quantile(b.warp_ms, 0.5), quantile(b.warp_ms, 0.99), quantile(b.scene_ms, 0.5),
-                    target, quantile(b.warp_ms, 0.5) / target);
+        std::printf("%-12s %11s %5d %9.2f %9.2f %12.2f %12.2f %11.2f %9.2f %8.2f\n", c.profile, eye,
+                    c.mesh, quantile(b.warp_ms, 0.5), quantile(b.warp_ms, 0.99),
+                    quantile(b.warp_only_ms, 0.5), quantile(b.warp_only_ms, 0.99),
+                    quantile(b.scene_ms, 0.5), target, quantile(b.warp_only_ms, 0.5) / target);
     }
     std::printf("device: %s\n", device.c_str());
     std::printf(

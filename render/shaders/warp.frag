@@ -3,7 +3,7 @@
 // (bilinear, black outside the rendered field of view or behind the eye). Three samples per pixel.
 #version 450
 
-layout(set = 0, binding = 0) uniform sampler2DArray eyes;  // the rendered eye buffers (linear)
+layout(set = 0, binding = 0) uniform sampler2D eye;  // this eye's rendered buffer
 
 layout(push_constant) uniform Warp {
     mat4 reproject;
@@ -20,7 +20,7 @@ float fetch(vec3 h, int channel) {
     if (h.z <= 1e-6) return 0.0;
     vec2 uv = h.xy / h.z * 0.5 + 0.5;
     if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) return 0.0;
-    return textureLod(eyes, vec3(uv, warp.layer), 0.0)[channel];
+    return textureLod(eye, uv, 0.0)[channel];
 }
 
 void main() {

@@ -210,4 +210,58 @@ EyeFov lens_render_fov(const HeadsetProfile& profile, int eye, double margin) {
     return mesh_render_fov(make_distortion_mesh(profile, eye), margin);
 }
 
+MeshError mesh_interpolation_error(const HeadsetProfile& profile, int eye,
+                                   const DistortionMesh& mesh, int panel_width, int panel_height) {
+    // At every cell centre and the midpoints of its top and left edges (where a bilinear-like
+    // error peaks): the mesh's tangent error through the inverse of the model's local Jacobian
+    // (tangent per panel pixel, central differences over 0.25 px), for each channel.
+    const double w = panel_width, h = panel_height, d = 0.25;
+    std::vector<double> errors;
+    errors.reserve(size_t(mesh.cols) * mesh.rows * 3);
+    for (int r = 0; r < mesh.rows; ++r)
+        for (int c = 0; c < mesh.cols; ++c)
+            for (const glm::dvec2 f :
+                 {glm::dvec2(0.5, 0.5), glm::dvec2(0.5, 0.0), glm::dvec2(0.0, 0.5)}) {
+                const glm::dvec2 uv((c + f.x) / mesh.cols, (r + f.y) / mesh.rows);
+                const LensSample m = sample_distortion_mesh(mesh, uv);
+                const LensSample x = lens_sample(profile, eye, uv);
+                const LensSample xp = lens_sample(profile, eye, uv + glm::dvec2(d / w, 0.0));
+                const LensSample xm = lens_sample(profile, eye, uv - glm::dvec2(d / w, 0.0));
+                const LensSample yp = lens_sample(profile, eye, uv + glm::dvec2(0.0, d / h));
+                const LensSample ym = lens_sample(profile, eye, uv - glm::dvec2(0.0, d / h));
+                if (!m.valid || !x.valid || !xp.valid || !xm.valid || !yp.valid || !ym.valid)
+                    continue;
+                double worst = 0.0;
+                for (int ch = 0; ch < 3; ++ch) {
+                    const glm::dmat2 j((xp.tangent[ch] - xm.tangent[ch]) / (2.0 * d),
+                                       (yp.tangent[ch] - ym.tangent[ch]) / (2.0 * d));
+                    if (std::abs(glm::determinant(j)) < 1e-300) continue;
+                    worst = std::max(
+                        worst, glm::length(glm::inverse(j) * (m.tangent[ch] - x.tangent[ch])));
+                }
+                errors.push_back(worst);
+            }
+    MeshError e;
+    if (errors.empty()) return e;
+    std::sort(errors.begin(), errors.end());
+    e.max_px = errors.back();
+    e.p99_px = errors[size_t(0.99 * double(errors.size() - 1))];
+    return e;
+}
+
+int choose_mesh_cells(const HeadsetProfile& profile, int panel_width, int panel_height,
+                      double max_error_px) {
+    const int sizes[] = {8, 12, 16, 24, 32, 48, 64, 96, 128};
+    for (int n : sizes) {
+        double worst = 0.0;
+        for (int eye = 0; eye < 2; ++eye)
+            worst = std::max(worst, mesh_interpolation_error(
+                                        profile, eye, make_distortion_mesh(profile, eye, n, n),
+                                        panel_width, panel_height)
+                                        .max_px);
+        if (worst <= max_error_px) return n;
+    }
+    return 128;
+}
+
 }  // namespace hmdnode

@@ -18,6 +18,9 @@ const uint32_t kWarpVert[] =
 const uint32_t kWarpFrag[] =
 #include "warp.frag.spv.h"
     ;
+const uint32_t kWarpMonoFrag[] =
+#include "warp_mono.frag.spv.h"
+    ;
 
 // note: the pass reads the sRGB eye buffers through UNORM views and writes a UNORM panel, so it
 // filters the encoded values and neither decodes nor encodes sRGB: on llvmpipe the per-texel sRGB
@@ -70,11 +73,21 @@ Result<RenderPass> create_panel_render_pass(const DeviceContext& ctx) {
     return RenderPass(ctx.device, pass);
 }
 
+// True when every vertex shows one direction for all three colours (no chromatic aberration).
+bool channels_agree(const DistortionMesh& m) {
+    for (const DistortionVertex& v : m.vertices)
+        if (v.tangent[0] != v.tangent[1] || v.tangent[2] != v.tangent[1]) return false;
+    return true;
+}
+
 Result<Pipeline> create_warp_pipeline(const DeviceContext& ctx, VkPipelineLayout layout,
-                                      VkRenderPass render_pass) {
+                                      VkRenderPass render_pass, bool mono) {
     auto vert = create_module(ctx, kWarpVert, sizeof(kWarpVert), "vkCreateShaderModule (warp)");
     if (!vert) return vert.error();
-    auto frag = create_module(ctx, kWarpFrag, sizeof(kWarpFrag), "vkCreateShaderModule (warp)");
+    auto frag =
+        mono ? create_module(ctx, kWarpMonoFrag, sizeof(kWarpMonoFrag),
+                             "vkCreateShaderModule (warp)")
+             : create_module(ctx, kWarpFrag, sizeof(kWarpFrag), "vkCreateShaderModule (warp)");
     if (!frag) return frag.error();
     VkPipelineShaderStageCreateInfo stages[2]{};
     for (int i = 0; i < 2; ++i) {
@@ -209,22 +222,23 @@ Result<WarpPass> create_warp_pass(DeviceContext& ctx, const Image eyes[2], uint3
     HMDNODE_VK_TRY(vkCreateSampler(ctx.device, &sampler_info, nullptr, &sampler),
                    "vkCreateSampler (warp)");
     w.sampler = Sampler(ctx.device, sampler);
-    for (int slot = 0; slot < 2; ++slot) {
-        auto eyes_view = create_view(ctx, eyes[slot], kEyeSampleFormat, VK_IMAGE_ASPECT_COLOR_BIT,
-                                     "eye buffers (sampled)", 0, 2);
-        if (!eyes_view) return eyes_view.error();
-        w.eyes_view[slot] = std::move(*eyes_view);
-    }
+    for (int slot = 0; slot < 2; ++slot)
+        for (uint32_t e = 0; e < 2; ++e) {
+            auto eyes_view = create_view(ctx, eyes[slot], kEyeSampleFormat,
+                                         VK_IMAGE_ASPECT_COLOR_BIT, "eye buffer (sampled)", e, 1);
+            if (!eyes_view) return eyes_view.error();
+            w.eyes_view[slot][e] = std::move(*eyes_view);
+        }
 
     const VkDescriptorSetLayoutBinding binding{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1,
                                                VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
     auto set_layout = create_set_layout(ctx, {&binding, 1});
     if (!set_layout) return set_layout.error();
     w.set_layout = std::move(*set_layout);
-    const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2};
+    const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 4};
     VkDescriptorPoolCreateInfo pool_info{};
     pool_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
-    pool_info.maxSets = 2;
+    pool_info.maxSets = 4;
     pool_info.poolSizeCount = 1;
     pool_info.pPoolSizes = &size;
     VkDescriptorPool pool = VK_NULL_HANDLE;
@@ -232,20 +246,22 @@ Result<WarpPass> create_warp_pass(DeviceContext& ctx, const Image eyes[2], uint3
                    "vkCreateDescriptorPool (warp)");
     w.pool = DescriptorPool(ctx.device, pool);
     const VkDescriptorSetLayout set_layout_handle = w.set_layout;
-    const VkDescriptorSetLayout set_layouts[2] = {w.set_layout, w.set_layout};
+    const VkDescriptorSetLayout set_layouts[4] = {w.set_layout, w.set_layout, w.set_layout,
+                                                  w.set_layout};
     VkDescriptorSetAllocateInfo set_info{};
     set_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
     set_info.descriptorPool = pool;
-    set_info.descriptorSetCount = 2;
+    set_info.descriptorSetCount = 4;
     set_info.pSetLayouts = set_layouts;
-    HMDNODE_VK_TRY(vkAllocateDescriptorSets(ctx.device, &set_info, w.set),
+    HMDNODE_VK_TRY(vkAllocateDescriptorSets(ctx.device, &set_info, &w.set[0][0]),
                    "vkAllocateDescriptorSets (warp)");
-    for (int slot = 0; slot < 2; ++slot) {
-        const VkDescriptorImageInfo image_info{w.sampler, w.eyes_view[slot],
+    for (int i = 0; i < 4; ++i) {
+        const int slot = i / 2, e = i % 2;
+        const VkDescriptorImageInfo image_info{w.sampler, w.eyes_view[slot][e],
                                                VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
         VkWriteDescriptorSet write{};
         write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
-        write.dstSet = w.set[slot];
+        write.dstSet = w.set[slot][e];
         write.dstBinding = 0;
         write.descriptorCount = 1;
         write.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
@@ -266,7 +282,8 @@ Result<WarpPass> create_warp_pass(DeviceContext& ctx, const Image eyes[2], uint3
     HMDNODE_VK_TRY(vkCreatePipelineLayout(ctx.device, &layout_info, nullptr, &layout),
                    "vkCreatePipelineLayout (warp)");
     w.layout = PipelineLayout(ctx.device, layout);
-    auto pipeline = create_warp_pipeline(ctx, w.layout, w.render_pass);
+    w.mono = channels_agree(mesh[0]) && channels_agree(mesh[1]);
+    auto pipeline = create_warp_pipeline(ctx, w.layout, w.render_pass, w.mono);
     if (!pipeline) return pipeline.error();
     w.pipeline = std::move(*pipeline);
 
@@ -307,8 +324,8 @@ void record_warp(VkCommandBuffer cmd, const WarpPass& w, int slot, const glm::ma
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, w.pipeline);
         vkCmdSetViewport(cmd, 0, 1, &viewport);
         vkCmdSetScissor(cmd, 0, 1, &area);
-        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, w.layout, 0, 1, &w.set[slot],
-                                0, nullptr);
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, w.layout, 0, 1,
+                                &w.set[slot][e], 0, nullptr);
         WarpConstants constants{reproject[e], float(e)};
         vkCmdPushConstants(cmd, w.layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT,
                            0, sizeof(constants), &constants);

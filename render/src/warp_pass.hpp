@@ -27,13 +27,16 @@ struct WarpPass {
     ImageView panel_view[2];
     RenderPass render_pass;
     Framebuffer framebuffer[2];
-    Sampler sampler;         // bilinear, black border
-    ImageView eyes_view[2];  // per slot: the eye buffers as a 2-layer array
+    Sampler sampler;  // bilinear, black border
+    // [slot][eye]: one 2D view per eye layer (llvmpipe's fast 8-bit filtering path takes 2D
+    // textures, not arrays).
+    ImageView eyes_view[2][2];
     DescriptorSetLayout set_layout;
     DescriptorPool pool;
-    VkDescriptorSet set[2] = {VK_NULL_HANDLE, VK_NULL_HANDLE};  // per slot
+    VkDescriptorSet set[2][2] = {};  // [slot][eye]
     PipelineLayout layout;
     Pipeline pipeline;
+    bool mono = false;  // the meshes have no chromatic aberration: one sample per pixel
     Buffer vertices[2], indices[2];
     uint32_t index_count[2] = {0, 0};
     Buffer readback;  // width * height * 4 bytes per eye, left first

@@ -149,7 +149,7 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         r.get(n, "distortion", &c.node.distortion);
         r.get(n, "headset", &headset);
         r.get(n, "mesh", &mesh);
-        if (mesh < 1 || mesh > 512) r.fail("node.mesh must be between 1 and 512");
+        if (mesh < 0 || mesh > 512) r.fail("node.mesh must be between 0 (automatic) and 512");
         c.node.mesh_cols = c.node.mesh_rows = mesh;
         if (!headset.empty()) {
             Result<HeadsetProfile> p = load_headset_profile(resolve(headset));

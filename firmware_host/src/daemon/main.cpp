@@ -121,7 +121,10 @@ int main(int argc, char** argv) {
         spdlog::error("{}", renderer.error().message);
         return 2;
     }
-    NodeRuntime node(*clock, **tracker, **display, **renderer, *scene, cfg->node);
+    // Pixels come back to the CPU only for the frames the mock display writes.
+    NodeConfig nc = cfg->node;
+    nc.read_back = nc.read_back && !dc.frames_dir.empty();
+    NodeRuntime node(*clock, **tracker, **display, **renderer, *scene, nc);
     if (Status st = node.start(); !st.ok()) {
         spdlog::error("{}", st.error().message);
         return 2;

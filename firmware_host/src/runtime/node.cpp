@@ -35,25 +35,6 @@ EyeFov grown(const EyeFov& f, double margin) {
                   f.tan_down - margin * h};
 }
 
-// The panel shows `fov` without distortion: tangents are linear in panel position, so one cell is
-// exact.
-DistortionMesh linear_mesh(const EyeFov& fov) {
-    DistortionMesh m;
-    m.cols = m.rows = 1;
-    for (int r = 0; r <= 1; ++r)
-        for (int c = 0; c <= 1; ++c) {
-            DistortionVertex v;
-            v.ndc = glm::vec2(-1.0f + 2.0f * float(c), -1.0f + 2.0f * float(r));
-            const glm::vec2 t(float(c ? fov.tan_right : fov.tan_left),
-                              float(r ? fov.tan_down : fov.tan_up));
-            v.tangent[0] = v.tangent[1] = v.tangent[2] = t;
-            m.vertices.push_back(v);
-            m.valid.push_back(1);
-        }
-    m.indices = {0, 1, 3, 0, 3, 2};
-    return m;
-}
-
 int64_t median_ns(std::vector<int64_t> v) {
     std::sort(v.begin(), v.end());
     return v.empty() ? 0 : v[v.size() / 2];
@@ -119,16 +100,25 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
     // panel's meshes map each panel point to the direction it shows.
     render_rig_ = config.rig;
     const double margin = config.warp ? config.warp_fov_margin : 0.0;
+    const DisplayInfo info = display.info();
+    int cols = config.mesh_cols, rows = config.mesh_rows;
+    if (config.distortion && (cols <= 0 || rows <= 0))
+        cols = rows = choose_mesh_cells(config.headset, info.eye_width, info.eye_height,
+                                        config.mesh_max_error_px);
     for (int e = 0; e < 2; ++e) {
         if (config.distortion) {
-            mesh_[e] = make_distortion_mesh(config.headset, e, config.mesh_cols, config.mesh_rows);
+            mesh_[e] = make_distortion_mesh(config.headset, e, cols, rows);
             render_rig_.eye[e] = mesh_render_fov(mesh_[e], margin);
         } else {
-            mesh_[e] = linear_mesh(config.rig.eye[e]);
+            // The panel shows the rig's field of view undistorted: tangents are linear in panel
+            // position, so one cell is exact.
+            HeadsetProfile flat;
+            flat.eye[e].model = LensModel::none;
+            flat.eye[e].fov = config.rig.eye[e];
+            mesh_[e] = make_distortion_mesh(flat, e, 1, 1);
             render_rig_.eye[e] = grown(config.rig.eye[e], margin);
         }
     }
-    const DisplayInfo info = display.info();
     pixels_per_radian_ = pixels_per_radian(render_rig_.eye[0], info.eye_height);
 }
 
@@ -355,11 +345,37 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
     const int64_t render_est = render_costs_.percentile(pc.percentile, info.period_ns / 2);
     const int64_t warp_est = warp_costs_.percentile(pc.percentile, info.period_ns / 10);
 
-    // 1. A new frame for the first vsync it can make, unless one is being rendered.
+    // A re-warp of the finished frame for `vsync`, presented; the open frame (if any) resumes on
+    // the next call.
+    auto rewarp = [&](int64_t vsync) -> Result<FrameOutcome> {
+        const int64_t wake = vsync - latch - (warp_est + margin_ns_);
+        if (Status st = warp_and_present(vsync, warp_est, &r); !st.ok()) return st.error();
+        r.kind = FrameKind::rewarp;
+        r.wake_ns = wake;
+        r.late = false;
+        r.triangles = 0;
+        r.render_ms = 0.0;
+        r.levels.assign(frame_levels_.begin(), frame_levels_.end());
+        r.eccentricity_deg.assign(frame_eccentricity_.begin(), frame_eccentricity_.end());
+        r.frame_cost_ms = ns_to_ms(clock_.now_ns() - wake);
+        fill_truth();
+        return FrameOutcome::rewarped;
+    };
+
+    // 1. A new frame for the first vsync it can make, unless one is being rendered. When it
+    // cannot make the first vsync a present can, that vsync gets the finished frame re-warped:
+    // before the new frame starts if that fits, else between its pieces (it starts at once).
     if (!open_) {
         const int64_t now = clock_.now_ns();
         const int64_t target = display_.free_vsync_ns(now + render_est + warp_est + margin_ns_);
         open_wake_ns_ = target - latch - (render_est + warp_est + margin_ns_);
+        if (config_.warp && has_frame_) {
+            const int64_t v_any = display_.free_vsync_ns(now + warp_est + margin_ns_);
+            if (v_any < target) {
+                if (v_any - latch <= open_wake_ns_) return rewarp(v_any);
+                open_wake_ns_ = now;
+            }
+        }
         clock_.sleep_until_ns(open_wake_ns_);
         drain_tracker();
         open_pose_ = predict(target + photon_offset);
@@ -392,22 +408,7 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
                 const double next = open_cursor_ < draw_triangles_.size()
                                         ? double(draw_triangles_[open_cursor_]) * per_triangle_ns
                                         : 0.0;
-                if (double(rewarp_wake - now) < next) {
-                    // Re-warp the finished frame for v_any now; the open one resumes afterwards.
-                    if (Status st = warp_and_present(v_any, warp_est, &r); !st.ok())
-                        return st.error();
-                    r.kind = FrameKind::rewarp;
-                    r.wake_ns = rewarp_wake;
-                    r.late = false;
-                    r.triangles = 0;
-                    r.render_ms = 0.0;
-                    r.levels.assign(frame_levels_.begin(), frame_levels_.end());
-                    r.eccentricity_deg.assign(frame_eccentricity_.begin(),
-                                              frame_eccentricity_.end());
-                    r.frame_cost_ms = ns_to_ms(clock_.now_ns() - rewarp_wake);
-                    fill_truth();
-                    return FrameOutcome::rewarped;
-                }
+                if (double(rewarp_wake - now) < next) return rewarp(v_any);
                 max_triangles = uint64_t(double(rewarp_wake - now) / per_triangle_ns);
             }
         }

@@ -172,7 +172,11 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     Result<std::unique_ptr<Renderer>> renderer = create_vulkan_renderer(rc);
     if (!renderer.ok()) return renderer.error();
 
-    NodeRuntime node(*clock, **tracker, **display, **renderer, *scene, opt.node);
+    // Pixels come back to the CPU only for the frames the mock display writes; a real display
+    // scans the panel image out itself.
+    NodeConfig nc = opt.node;
+    nc.read_back = nc.read_back && !dc.frames_dir.empty();
+    NodeRuntime node(*clock, **tracker, **display, **renderer, *scene, nc);
     if (Status st = node.start(); !st.ok()) return st.error();
     // The simulated clock's frame cost: given, or measured on this renderer now (the simulated
     // clock does not move while it is measured).
@@ -209,6 +213,8 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
 
     ReplayResult result;
     result.device_name = (*renderer)->device_name();
+    result.mesh_cols = node.mesh_cols();
+    result.mesh_rows = node.mesh_rows();
     for (const SceneObject& o : node.objects()) result.object_names.push_back(o.name);
     FrameRecord rec;
     // A capture's --duration: the frames whose wake-up falls within it (a trace's ends the trace).
@@ -307,7 +313,7 @@ nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& 
             {"prediction", opt.node.predict},
             {"warp", opt.node.warp},
             {"distortion", opt.node.distortion ? json(opt.node.headset.name) : json(nullptr)},
-            {"distortion_mesh", {opt.node.mesh_cols, opt.node.mesh_rows}},
+            {"distortion_mesh", {r.mesh_cols, r.mesh_rows}},
             {"objects", r.object_names},
             {"trace_samples", r.trace_samples},
             {"summary",

@@ -20,7 +20,7 @@ void add_replay_command(CLI::App& app) {
     auto no_warp = std::make_shared<bool>(false);
     auto no_distortion = std::make_shared<bool>(false);
     auto headset = std::make_shared<std::string>();
-    auto mesh = std::make_shared<int>(64);
+    auto mesh = std::make_shared<int>(0);
     auto frame_cost_ms = std::make_shared<double>(-1.0);
     auto warp_cost_ms = std::make_shared<double>(-1.0);
 
@@ -75,8 +75,10 @@ void add_replay_command(CLI::App& app) {
     c->add_option("--headset", *headset,
                   "Headset profile JSON for the lens (default: the built-in generic one; "
                   "data/headsets/valve-index.json for a Valve Index)");
-    c->add_option("--mesh", *mesh, "Distortion mesh cells per side (default 64)")
-        ->check(CLI::Range(1, 512));
+    c->add_option("--mesh", *mesh,
+                  "Distortion mesh cells per side (default 0: the coarsest mesh within 0.5 px of "
+                  "the lens model at this eye size)")
+        ->check(CLI::Range(0, 512));
     c->add_option("--frame-cost-ms", *frame_cost_ms,
                   "Simulated clock: a fixed render cost per frame instead of the model calibrated "
                   "on the renderer at start-up")

@@ -69,11 +69,13 @@ struct NodeConfig {
     // re-warped for a vsync that gets no new frame. Off: the frame is shown as rendered.
     bool warp = true;
     // Lens distortion and chromatic aberration correction from `headset` (a distortion mesh per
-    // eye of mesh_cols x mesh_rows cells). Off: the panel shows the rig's field of view
-    // undistorted.
+    // eye of mesh_cols x mesh_rows cells; 0: the coarsest mesh whose interpolation error stays
+    // within mesh_max_error_px at the panel's size, see choose_mesh_cells). Off: the panel shows
+    // the rig's field of view undistorted.
     bool distortion = true;
     HeadsetProfile headset = generic_headset_profile();
-    int mesh_cols = 64, mesh_rows = 64;
+    int mesh_cols = 0, mesh_rows = 0;
+    double mesh_max_error_px = 0.5;
     double warp_fov_margin = 0.1;  // the eye buffers cover this much more per side (fraction of
                                    // the panel's tangent span) so a late rotation finds pixels
     PacingConfig pacing;
@@ -192,6 +194,9 @@ class NodeRuntime {
     const NodeConfig& config() const { return config_; }
     // The field of view each eye buffer is rendered with (the lens's, grown for the warp).
     const StereoRig& render_rig() const { return render_rig_; }
+    // Cells per side of the distortion mesh in use (1 without distortion).
+    int mesh_cols() const { return mesh_[0].cols; }
+    int mesh_rows() const { return mesh_[0].rows; }
     const Renderer& renderer() const { return renderer_; }
     const PoseHistory& history() const { return history_; }
     // The last rendered frame (empty unless config.read_back).

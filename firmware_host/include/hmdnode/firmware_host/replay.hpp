@@ -80,6 +80,7 @@ struct ReplayResult {
     ReplaySummary summary;
     std::string device_name;
     size_t trace_samples = 0;
+    int mesh_cols = 0, mesh_rows = 0;  // the distortion mesh in use
 };
 
 Percentiles percentiles(std::vector<double> values);

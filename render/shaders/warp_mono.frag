@@ -1,0 +1,18 @@
+// Late warp (and distortion without chromatic aberration), fragment stage: when every colour
+// channel of the mesh shows the same direction, one bilinear sample serves all three (a third of
+// warp.frag's sampling cost on a software rasteriser).
+#version 450
+
+layout(set = 0, binding = 0) uniform sampler2D eye;  // this eye's rendered buffer
+
+layout(location = 1) in vec3 in_g;
+
+layout(location = 0) out vec4 out_color;
+
+void main() {
+    vec2 uv = in_g.xy / in_g.z * 0.5 + 0.5;
+    if (in_g.z <= 1e-6 || any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))))
+        out_color = vec4(0.0, 0.0, 0.0, 1.0);
+    else
+        out_color = vec4(textureLod(eye, uv, 0.0).rgb, 1.0);
+}
