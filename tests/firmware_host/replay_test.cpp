@@ -221,3 +221,27 @@ TEST(Replay, WritesAReportWithTheDocumentedFields) {
                 (f["photon_time_ns"].get<double>() - f["pose_sample_time_ns"].get<double>()) * 1e-6,
                 1e-9);
 }
+
+TEST(Replay, RecentreMovesA6DofTraceToTheDefaultHeadPosition) {
+    fs::path dir = temp_dir("recentre");
+    // A still head standing at the floor, 0.5 m to the side.
+    Trace t = yaw_trace(60, 0.5, 0.0);
+    for (TraceSample& s : t.samples) s.position = glm::dvec3(0.5, 0.0, 0.3);
+    ReplayOptions o = options(dir, t);
+    auto as_recorded = run_replay(o);
+    ASSERT_TRUE(as_recorded.ok()) << as_recorded.error().message;
+    EXPECT_NEAR(as_recorded->frames.back().shown_pose.position.y, 0.0, 1e-9);
+    o.recentre = true;
+    auto moved = run_replay(o);
+    ASSERT_TRUE(moved.ok()) << moved.error().message;
+    const glm::dvec3 p = moved->frames.back().shown_pose.position;
+    EXPECT_NEAR(glm::length(p - o.node.default_head_position), 0.0, 1e-9);
+    // The truth moved with it: a still head stays registered, position included.
+    EXPECT_LT(moved->summary.registration_error_deg.max, 1e-6);
+    // A trace without positions cannot be recentred.
+    ReplayOptions plain = options(dir, yaw_trace(60, 0.5, 0.0));
+    plain.recentre = true;
+    auto refused = run_replay(plain);
+    ASSERT_FALSE(refused.ok());
+    EXPECT_NE(refused.error().message.find("--recentre"), std::string::npos);
+}

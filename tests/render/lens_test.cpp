@@ -337,6 +337,33 @@ TEST(LensMesh, InterpolationErrorOfIndex64x64IsBelowBound) {
     EXPECT_LT(p99_px, 1.5);
 }
 
+// The runtime's default mesh: the coarsest whose error stays within 0.5 panel pixels. Prints the
+// error by mesh size (the table in docs/lens-distortion.md).
+TEST(LensMesh, ChosenMeshIsTheCoarsestWithinHalfAPixel) {
+    const HeadsetProfile profiles[] = {generic_headset_profile(), index_profile()};
+    for (const HeadsetProfile& p : profiles)
+        for (int w : {360, 1440}) {
+            const int h = w * 10 / 9;
+            const int chosen = choose_mesh_cells(p, w, h, 0.5);
+            for (int n : {8, 12, 16, 24, 32, 48, 64, 96, 128}) {
+                double max_px = 0.0, p99_px = 0.0;
+                for (int e = 0; e < 2; ++e) {
+                    const MeshError err =
+                        mesh_interpolation_error(p, e, make_distortion_mesh(p, e, n, n), w, h);
+                    max_px = std::max(max_px, err.max_px);
+                    p99_px = std::max(p99_px, err.p99_px);
+                }
+                std::cout << p.name << " " << w << "x" << h << " mesh " << n << ": max " << max_px
+                          << " px, p99 " << p99_px << " px" << (n == chosen ? "  <- chosen" : "")
+                          << "\n";
+                if (n == chosen) EXPECT_LE(max_px, 0.5);
+                if (n < chosen) EXPECT_GT(max_px, 0.5);
+            }
+        }
+    EXPECT_EQ(choose_mesh_cells(generic_headset_profile(), 360, 400, 0.5), 24);
+    EXPECT_EQ(choose_mesh_cells(index_profile(), 360, 400, 0.5), 48);
+}
+
 // --- the render FOV ---
 
 TEST(LensFov, RenderFovContainsEveryMeshTangent) {

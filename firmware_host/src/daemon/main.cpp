@@ -129,6 +129,15 @@ int main(int argc, char** argv) {
         spdlog::error("{}", st.error().message);
         return 2;
     }
+    // This renderer's costs seed the pacing estimates (and are the simulated clock's model).
+    if (Result<FrameCostModel> m = node.calibrate_frame_cost(); m.ok()) {
+        if (clock->is_simulated()) node.set_sim_cost(*m);
+        spdlog::info("frame cost: render {:.2f} ms + {:.3f} ms per 1k triangles, warp {:.2f} ms",
+                     ns_to_ms(m->base_ns), m->per_triangle_ns * 1e-3, ns_to_ms(m->warp_ns));
+    } else {
+        spdlog::error("{}", m.error().message);
+        return 2;
+    }
     spdlog::info(
         "hmdnoded: scene {} ({} objects), tracker {} {} ({} trace samples), {}x{} per eye at {} "
         "Hz, renderer {}",

@@ -228,6 +228,9 @@ Result<FrameCostModel> NodeRuntime::calibrate_frame_cost() {
                 Result<RenderStats> s = renderer_.render(views_for(head), draws_, out);
                 if (!s.ok()) return s.error();
                 t.push_back(steady_ns() - t0);
+                // On the system clock these are the first frames' estimates (the finest levels:
+                // an estimate on the safe side until real frames replace it).
+                if (!clock_.is_simulated() && !coarsest) render_costs_.push(t.back());
             }
         return median_ns(std::move(t));
     };
@@ -251,6 +254,7 @@ Result<FrameCostModel> NodeRuntime::calibrate_frame_cost() {
                 renderer_.warp(glm::dquat(1, 0, 0, 0), config_.read_back ? &frame_ : nullptr);
             if (!w.ok()) return w.error();
             if (i > 0) t.push_back(steady_ns() - t0);
+            if (i > 0 && !clock_.is_simulated()) warp_costs_.push(t.back());
         }
         model.warp_ns = median_ns(std::move(t));
     }
@@ -393,9 +397,11 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
     }
 
     // 2. Render it in pieces. Before a vsync that it cannot make, the finished frame is re-warped
-    // for that vsync between two pieces (one queue: a piece cannot be interrupted).
-    const double per_triangle_ns =
-        double(render_est) / double(std::max<uint64_t>(1, open_triangles_));
+    // for that vsync between two pieces (one queue: a piece cannot be interrupted). A piece's cost
+    // is estimated per draw item, not per triangle: on a software rasteriser the pixels an object
+    // covers cost more than its triangles; and a piece gets half the time left, for the estimate's
+    // error.
+    const double per_item_ns = double(render_est) / double(std::max<size_t>(1, draws_.size()));
     while (open_) {
         const int64_t now = clock_.now_ns();
         uint64_t max_triangles = UINT64_MAX;
@@ -405,11 +411,11 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
             const int64_t v_done = display_.free_vsync_ns(now + remaining + warp_est + margin_ns_);
             if (v_done > v_any) {
                 const int64_t rewarp_wake = v_any - latch - (warp_est + margin_ns_);
-                const double next = open_cursor_ < draw_triangles_.size()
-                                        ? double(draw_triangles_[open_cursor_]) * per_triangle_ns
-                                        : 0.0;
-                if (double(rewarp_wake - now) < next) return rewarp(v_any);
-                max_triangles = uint64_t(double(rewarp_wake - now) / per_triangle_ns);
+                const size_t fit = size_t(0.3 * double(rewarp_wake - now) / per_item_ns);
+                if (fit == 0 || open_cursor_ >= draws_.size()) return rewarp(v_any);
+                max_triangles = 0;
+                for (size_t i = open_cursor_; i < std::min(draws_.size(), open_cursor_ + fit); ++i)
+                    max_triangles += draw_triangles_[i];
             }
         }
         const int64_t piece_start = clock_.now_ns();

@@ -54,12 +54,50 @@ nlohmann::json percentiles_json(const Percentiles& p) {
             {"max", finite_or_null(p.max)}};
 }
 
+std::vector<VsyncSample> vsync_series(const std::vector<FrameRecord>& frames, int64_t period_ns,
+                                      const TruthFn& truth, double registration_distance_m) {
+    std::vector<VsyncSample> out;
+    if (frames.empty() || period_ns <= 0) return out;
+    const int64_t first = frames.front().vsync_ns, last = frames.back().vsync_ns;
+    out.reserve(size_t((last - first) / period_ns + 2));
+    size_t k = 0;
+    for (int64_t v = first; v <= last + period_ns / 2; v += period_ns) {
+        while (k + 1 < frames.size() && frames[k + 1].vsync_ns <= v + period_ns / 2) ++k;
+        const FrameRecord& f = frames[k];
+        const bool shown_now = std::llabs(f.vsync_ns - v) < period_ns / 2;
+        VsyncSample s;
+        s.vsync_ns = v;
+        s.shown = !shown_now                       ? VsyncShown::repeat
+                  : f.kind == FrameKind::new_frame ? VsyncShown::new_frame
+                                                   : VsyncShown::rewarp;
+        s.on_time = shown_now && f.on_time;
+        s.late = shown_now && f.late;
+        // A repeated frame ages, and is compared with the head where it is at this vsync.
+        const int64_t photon = v + (f.photon_time_ns - f.vsync_ns);
+        s.latency_ms = ns_to_ms(photon - f.pose_sample_time_ns);
+        s.registration_error_deg = std::numeric_limits<double>::quiet_NaN();
+        if (shown_now)
+            s.registration_error_deg = f.registration_error_deg;
+        else if (truth)
+            if (std::optional<TruthPose> t = truth(photon))
+                s.registration_error_deg =
+                    registration_error(f.shown_pose, *t, registration_distance_m);
+        out.push_back(s);
+    }
+    return out;
+}
+
 ReplaySummary summarize_presents(const std::vector<FrameRecord>& frames, int64_t period_ns,
                                  const TruthFn& truth, double registration_distance_m) {
+    return summarize_vsyncs(frames,
+                            vsync_series(frames, period_ns, truth, registration_distance_m));
+}
+
+ReplaySummary summarize_vsyncs(const std::vector<FrameRecord>& frames,
+                               const std::vector<VsyncSample>& vsyncs) {
     ReplaySummary s;
     s.frames = frames.size();
-    if (frames.empty() || period_ns <= 0) return s;
-    std::vector<double> lat, reg, ren, warp;
+    std::vector<double> ren, warp;
     double tri = 0.0;
     for (const FrameRecord& f : frames) {
         if (f.kind == FrameKind::new_frame) {
@@ -72,38 +110,28 @@ ReplaySummary summarize_presents(const std::vector<FrameRecord>& frames, int64_t
         }
         if (f.warp_ms > 0.0) warp.push_back(f.warp_ms);
     }
-    // Walk the vsyncs: the frame on screen at each is the last one shown at or before it.
-    const int64_t first = frames.front().vsync_ns, last = frames.back().vsync_ns;
-    size_t k = 0, good = 0, run = 0;
-    for (int64_t v = first; v <= last + period_ns / 2; v += period_ns) {
-        while (k + 1 < frames.size() && frames[k + 1].vsync_ns <= v + period_ns / 2) ++k;
-        const FrameRecord& f = frames[k];
-        const bool shown_now = std::llabs(f.vsync_ns - v) < period_ns / 2;
+    s.render_ms = percentiles(ren);
+    s.warp_ms = percentiles(warp);
+    s.triangles_mean = s.new_frames ? tri / double(s.new_frames) : 0.0;
+    if (vsyncs.empty()) return s;
+    std::vector<double> lat, reg;
+    size_t good = 0, run = 0;
+    for (const VsyncSample& v : vsyncs) {
         ++s.vsyncs;
-        if (shown_now && f.on_time) {
+        if (v.on_time) {
             ++good;
             run = 0;
         } else {
             s.longest_late_run = std::max(s.longest_late_run, ++run);
         }
-        const int64_t photon = v + (f.photon_time_ns - f.vsync_ns);
-        lat.push_back(ns_to_ms(photon - f.pose_sample_time_ns));
-        double error = std::numeric_limits<double>::quiet_NaN();
-        if (shown_now)
-            error = f.registration_error_deg;
-        else if (truth)
-            if (std::optional<TruthPose> t = truth(photon))
-                error = registration_error(f.shown_pose, *t, registration_distance_m);
-        reg.push_back(error);
+        lat.push_back(v.latency_ms);
+        reg.push_back(v.registration_error_deg);
     }
     s.missed_vsyncs = s.vsyncs - good;
     s.on_time_rate = double(good) / double(s.vsyncs);
     s.new_frames_per_vsync = double(s.new_frames) / double(s.vsyncs);
     s.latency_ms = percentiles(lat);
     s.registration_error_deg = percentiles(reg);
-    s.render_ms = percentiles(ren);
-    s.warp_ms = percentiles(warp);
-    s.triangles_mean = s.new_frames ? tri / double(s.new_frames) : 0.0;
     return s;
 }
 
@@ -182,7 +210,10 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     // clock does not move while it is measured).
     std::optional<FrameCostModel> cost_model;
     bool calibrated = false;
-    if (opt.simulated_clock) {
+    if (!opt.simulated_clock) {
+        // Seeds the pacing estimates with this renderer's measured costs.
+        if (Result<FrameCostModel> m = node.calibrate_frame_cost(); !m.ok()) return m.error();
+    } else {
         if (opt.frame_cost) {
             cost_model = *opt.frame_cost;
         } else {
@@ -244,8 +275,10 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     }
     result.trace_samples = (*tracker)->counters().samples_delivered;
 
-    result.summary = summarize_presents(result.frames, (*display)->info().period_ns, truth,
-                                        opt.node.registration_distance_m);
+    result.period_ns = (*display)->info().period_ns;
+    result.vsyncs =
+        vsync_series(result.frames, result.period_ns, truth, opt.node.registration_distance_m);
+    result.summary = summarize_vsyncs(result.frames, result.vsyncs);
     ReplaySummary& s = result.summary;
     s.frame_cost_model = cost_model;
     s.frame_cost_calibrated = calibrated;

@@ -165,8 +165,9 @@ class NodeRuntime {
 
     // Measures the renderer on this scene at start-up (after start(), before the first frame):
     // renders at the finest and at the coarsest levels from a few head poses and times the warp,
-    // and returns the model the simulated clock can use (medians; triangles of both eyes). Blocks
-    // for about 40 frames.
+    // and returns the model the simulated clock can use (medians; triangles of both eyes). On the
+    // system clock the measured costs also seed the pacing estimates, so the first frames are not
+    // paced on a guess. Blocks for about 40 frames.
     Result<FrameCostModel> calibrate_frame_cost();
     void set_sim_cost(const FrameCostModel& model) { config_.sim_cost = model; }
     void stop();

@@ -74,8 +74,32 @@ struct ReplaySummary {
     double wall_s = 0.0;      // wall time the replay took
 };
 
+enum class VsyncShown {
+    new_frame,  // a new frame presented for this vsync
+    rewarp,     // the previous frame re-warped for it
+    repeat,     // nothing presented for it: the panel shows the last frame again (a missed vsync)
+};
+
+// What one vsync showed: every vsync from the first present's to the last one's, the frame on
+// screen being the last one shown at or before it.
+struct VsyncSample {
+    int64_t vsync_ns = 0;
+    VsyncShown shown = VsyncShown::repeat;
+    bool on_time = false;     // a new or re-warped frame shown at the vsync it aimed at
+    bool late = false;        // a new frame shown after the vsync it was rendered for
+    double latency_ms = 0.0;  // mid-persistence photons of the panel centre - pose sample
+    double registration_error_deg = 0.0;  // NaN: no truth at that time
+};
+
+// The per-vsync series of a run's presents (period and truth as in the run; a null truth gives
+// NaN registration error at repeated vsyncs).
+std::vector<VsyncSample> vsync_series(const std::vector<FrameRecord>& frames, int64_t period_ns,
+                                      const TruthFn& truth, double registration_distance_m);
+
 struct ReplayResult {
     std::vector<FrameRecord> frames;
+    std::vector<VsyncSample> vsyncs;  // vsync_series of the frames against the trace
+    int64_t period_ns = 0;            // of the display
     std::vector<std::string> object_names;
     ReplaySummary summary;
     std::string device_name;
@@ -95,6 +119,9 @@ Result<ReplayResult> run_replay(const ReplayOptions& options);
 // The per-vsync summary of a run's presents (period and truth as in the run; truth may be null).
 ReplaySummary summarize_presents(const std::vector<FrameRecord>& frames, int64_t period_ns,
                                  const TruthFn& truth, double registration_distance_m);
+// The same from a series vsync_series made of the frames.
+ReplaySummary summarize_vsyncs(const std::vector<FrameRecord>& frames,
+                               const std::vector<VsyncSample>& vsyncs);
 
 // The JSON report (docs/formats.md).
 nlohmann::json replay_report_json(const ReplayOptions& options, const ReplayResult& result);

@@ -1,0 +1,159 @@
+// The compositor's targets on this machine: 60 s of the bundled real head trace (Corbillon et al.
+// 2018, user 1, from 20 s) resampled to a 1 kHz tracker, the demo room, 360x400 per eye at 90 Hz,
+// lavapipe, real clock: the node as it runs (prediction + late warp + distortion) side by side
+// with the warp off, and the same on the simulated clock with the cost model calibrated on this
+// renderer. Prints a markdown table beside the targets; `--write-docs` also puts it into
+// docs/latency.md between its bench markers.
+//
+// Usage: bench_latency_bench [seconds=60] [--write-docs]
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "hmdnode/core/atomic_file.hpp"
+#include "hmdnode/firmware_host/replay.hpp"
+
+using namespace hmdnode;
+
+namespace {
+
+struct Run {
+    std::string name;
+    ReplayResult result;
+};
+
+std::string fmt(const char* f, double v) {
+    char b[64];
+    std::snprintf(b, sizeof b, f, v);
+    return b;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    double seconds = 60.0;
+    bool write_docs = false;
+    for (int i = 1; i < argc; ++i) {
+        if (std::string(argv[i]) == "--write-docs")
+            write_docs = true;
+        else
+            seconds = std::atof(argv[i]);
+    }
+    ReplayOptions base;
+    base.scene = HMDNODE_BINARY_DIR "/data/demo_room.glb";
+    base.trace = HMDNODE_SOURCE_DIR "/data/traces/corbillon2018_user1.csv";
+    base.start_s = 20.0;
+    base.duration_s = seconds;
+    base.display.eye_width = 360;
+    base.display.eye_height = 400;
+    base.tracker.resample_hz = 1000.0;
+
+    struct Mode {
+        const char* name;
+        bool sim, warp;
+    };
+    const Mode modes[] = {{"real clock, warp on", false, true},
+                          {"real clock, warp off", false, false},
+                          {"sim clock (calibrated), warp on", true, true},
+                          {"sim clock (calibrated), warp off", true, false}};
+    std::vector<Run> runs;
+    std::optional<FrameCostModel> model;
+    for (const Mode& m : modes) {
+        ReplayOptions o = base;
+        o.simulated_clock = m.sim;
+        o.node.warp = m.warp;
+        if (m.sim && model) o.frame_cost = model;  // one calibration for both simulated runs
+        std::fprintf(stderr, "latency bench: %s, %.0f s...\n", m.name, seconds);
+        Result<ReplayResult> r = run_replay(o);
+        if (!r.ok()) {
+            std::fprintf(stderr, "latency bench: %s\n", r.error().message.c_str());
+            return 1;
+        }
+        if (m.sim && !model) model = r->summary.frame_cost_model;
+        runs.push_back(Run{m.name, std::move(*r)});
+    }
+
+    std::ostringstream t;
+    const ReplayResult& ref = runs[0].result;
+    t << "Measured by `build/release/bench/bench_latency_bench " << seconds
+      << " --write-docs` (renderer " << ref.device_name << ", distortion mesh " << ref.mesh_cols
+      << "x" << ref.mesh_rows << ", generic headset profile):\n\n";
+    t << "| figure | target | ";
+    for (const Run& r : runs) t << r.name << " | ";
+    t << "\n|---|---|";
+    for (size_t i = 0; i < runs.size(); ++i) t << "---|";
+    t << "\n";
+    auto row = [&](const char* label, const char* target, auto value) {
+        t << "| " << label << " | " << target << " | ";
+        for (const Run& r : runs) t << value(r.result.summary) << " | ";
+        t << "\n";
+    };
+    row("vsyncs on time (new or re-warped)", ">= 99 %",
+        [](const ReplaySummary& s) { return fmt("%.1f %%", 100.0 * s.on_time_rate); });
+    row("missed vsyncs / vsyncs", "", [](const ReplaySummary& s) {
+        return std::to_string(s.missed_vsyncs) + " / " + std::to_string(s.vsyncs);
+    });
+    row("longest run of missed vsyncs", "<= 3",
+        [](const ReplaySummary& s) { return std::to_string(s.longest_late_run); });
+    row("new frames per vsync, re-warps", "", [](const ReplaySummary& s) {
+        return fmt("%.2f", s.new_frames_per_vsync) + ", " + std::to_string(s.rewarps);
+    });
+    row("late frames", "", [](const ReplaySummary& s) { return std::to_string(s.late_frames); });
+    row("MTP p50 / p99 (ms)", "p99 <= 11.1", [](const ReplaySummary& s) {
+        return fmt("%.2f", s.latency_ms.p50) + " / " + fmt("%.2f", s.latency_ms.p99);
+    });
+    row("registration error p50 / p99 (deg)", "p99 <= 0.3 (sim: <= 0.2)",
+        [](const ReplaySummary& s) {
+            return fmt("%.3f", s.registration_error_deg.p50) + " / " +
+                   fmt("%.3f", s.registration_error_deg.p99);
+        });
+    row("render p50 / p99 (ms, measured)", "", [](const ReplaySummary& s) {
+        return fmt("%.2f", s.render_ms.p50) + " / " + fmt("%.2f", s.render_ms.p99);
+    });
+    row("warp + distortion pass p50 / p99 (ms, measured)", "<= 1.5", [](const ReplaySummary& s) {
+        return fmt("%.2f", s.warp_ms.p50) + " / " + fmt("%.2f", s.warp_ms.p99);
+    });
+    if (model) {
+        // The simulated clock's render cost at the real run's mean triangles against the real
+        // run's measured median (the calibration's check: within 20 %).
+        const ReplaySummary& real = runs[0].result.summary;
+        const double modelled = ns_to_ms(model->render_ns(uint64_t(real.triangles_mean)));
+        t << "\nSimulated clock's model, calibrated on the renderer at start-up: render "
+          << fmt("%.2f", ns_to_ms(model->base_ns)) << " ms + "
+          << fmt("%.3f", model->per_triangle_ns * 1e-3) << " ms per 1k triangles, warp "
+          << fmt("%.2f", ns_to_ms(model->warp_ns)) << " ms. At the real run's "
+          << fmt("%.0f", real.triangles_mean) << " triangles per frame it charges "
+          << fmt("%.2f", modelled) << " ms per render against " << fmt("%.2f", real.render_ms.p50)
+          << " ms measured (p50), "
+          << fmt("%+.0f %%", 100.0 * (modelled / real.render_ms.p50 - 1.0)) << "; warp "
+          << fmt("%.2f", ns_to_ms(model->warp_ns)) << " ms against "
+          << fmt("%.2f", real.warp_ms.p50) << " ms.\n";
+    }
+    const std::string table = t.str();
+    std::fputs(table.c_str(), stdout);
+
+    if (write_docs) {
+        const std::string path = HMDNODE_SOURCE_DIR "/docs/latency.md";
+        std::ifstream in(path);
+        std::stringstream ss;
+        ss << in.rdbuf();
+        std::string doc = ss.str();
+        const std::string open = "<!-- latency-bench-table -->",
+                          close = "<!-- /latency-bench-table -->";
+        const size_t a = doc.find(open), b = doc.find(close);
+        if (a == std::string::npos || b == std::string::npos || b < a) {
+            std::fprintf(stderr, "latency bench: %s has no bench markers\n", path.c_str());
+            return 1;
+        }
+        doc = doc.substr(0, a + open.size()) + "\n" + table + doc.substr(b);
+        if (Status s = write_file_atomically(path, doc); !s.ok()) {
+            std::fprintf(stderr, "latency bench: %s\n", s.error().message.c_str());
+            return 1;
+        }
+        std::fprintf(stderr, "latency bench: wrote the table into %s\n", path.c_str());
+    }
+    return 0;
+}

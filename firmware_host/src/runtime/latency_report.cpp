@@ -1,0 +1,406 @@
+// Per-vsync series, table, JSON report and SVG of `hmdnode latency` (latency_report.hpp). The
+// vsync walk is summarize_presents' (replay.cpp) so that the plots show what the summary counts.
+// Costs in the header; the SVG is built in one string (about 100 bytes per vsync and mode).
+#include "hmdnode/firmware_host/latency_report.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "hmdnode/core/time.hpp"
+
+namespace hmdnode {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// Fewer digits in the long series: 1e-4 of a millisecond or degree is below anything measured.
+nlohmann::json rounded(double v) {
+    return std::isfinite(v) ? nlohmann::json(std::round(v * 1e4) / 1e4) : nlohmann::json();
+}
+
+const char* shown_name(VsyncShown s) {
+    switch (s) {
+        case VsyncShown::new_frame:
+            return "new";
+        case VsyncShown::rewarp:
+            return "rewarp";
+        case VsyncShown::repeat:
+            return "repeat";
+    }
+    return "repeat";
+}
+
+std::string fmt(const char* f, double v) {
+    if (!std::isfinite(v)) return "n/a";
+    char b[64];
+    std::snprintf(b, sizeof b, f, v);
+    return b;
+}
+
+// XML text: & < > escaped.
+std::string xml_escape(const std::string& s) {
+    std::string o;
+    for (char c : s) {
+        if (c == '&')
+            o += "&amp;";
+        else if (c == '<')
+            o += "&lt;";
+        else if (c == '>')
+            o += "&gt;";
+        else if (c == '"')
+            o += "&quot;";
+        else
+            o += c;
+    }
+    return o;
+}
+
+// A 1-2-5 step giving about `count` intervals over [0, range].
+double nice_step(double range, int count) {
+    if (!(range > 0.0)) return 1.0;
+    const double raw = range / count, mag = std::pow(10.0, std::floor(std::log10(raw)));
+    for (double m : {1.0, 2.0, 5.0, 10.0})
+        if (raw <= m * mag) return m * mag;
+    return 10.0 * mag;
+}
+
+}  // namespace
+
+std::vector<LatencyMode> all_latency_modes() {
+    return {{"none", false, false},
+            {"predict", true, false},
+            {"warp", false, true},
+            {"predict+warp", true, true}};
+}
+
+Result<std::vector<LatencyMode>> parse_latency_modes(const std::string& list) {
+    const std::vector<LatencyMode> all = all_latency_modes();
+    if (list == "all") return all;
+    std::vector<LatencyMode> out;
+    std::stringstream ss(list);
+    std::string name;
+    while (std::getline(ss, name, ',')) {
+        auto it = std::find_if(all.begin(), all.end(),
+                               [&](const LatencyMode& m) { return m.name == name; });
+        if (it == all.end())
+            return make_error("--modes: unknown mode \"" + name +
+                              "\" (all, or a list of none, predict, warp, predict+warp)");
+        if (std::any_of(out.begin(), out.end(),
+                        [&](const LatencyMode& m) { return m.name == name; }))
+            return make_error("--modes: \"" + name + "\" given twice");
+        out.push_back(*it);
+    }
+    if (out.empty() || (!list.empty() && list.back() == ','))
+        return make_error(
+            "--modes: give all, or a comma-separated list of none, predict, warp, "
+            "predict+warp");
+    return out;
+}
+
+Percentiles series_latency_ms(const std::vector<VsyncSample>& series) {
+    std::vector<double> v;
+    v.reserve(series.size());
+    for (const VsyncSample& s : series) v.push_back(s.latency_ms);
+    return percentiles(std::move(v));
+}
+
+Percentiles series_registration_error_deg(const std::vector<VsyncSample>& series) {
+    std::vector<double> v;
+    v.reserve(series.size());
+    for (const VsyncSample& s : series) v.push_back(s.registration_error_deg);
+    return percentiles(std::move(v));
+}
+
+std::string latency_table(const std::vector<LatencyModeResult>& results) {
+    std::ostringstream out;
+    char b[128];
+    std::snprintf(b, sizeof b, "%-30s", "");
+    out << b;
+    for (const LatencyModeResult& r : results) {
+        std::snprintf(b, sizeof b, "%14s", r.mode.name.c_str());
+        out << b;
+    }
+    out << '\n';
+    auto row = [&](const char* label, auto value) {
+        std::snprintf(b, sizeof b, "%-30s", label);
+        out << b;
+        for (const LatencyModeResult& r : results) {
+            std::snprintf(b, sizeof b, "%14s", value(r).c_str());
+            out << b;
+        }
+        out << '\n';
+    };
+    auto pct_rows = [&](const char* what, const char* unit, const char* f,
+                        Percentiles ReplaySummary::*field) {
+        for (int i = 0; i < 4; ++i) {
+            static const char* names[] = {"p50", "p95", "p99", "max"};
+            std::string label = std::string(what) + " " + names[i] + " (" + unit + ")";
+            row(label.c_str(), [&](const LatencyModeResult& r) {
+                const Percentiles& p = r.summary.*field;
+                return fmt(f, i == 0 ? p.p50 : i == 1 ? p.p95 : i == 2 ? p.p99 : p.max);
+            });
+        }
+    };
+    pct_rows("MTP", "ms", "%.2f", &ReplaySummary::latency_ms);
+    pct_rows("registration error", "deg", "%.3f", &ReplaySummary::registration_error_deg);
+    row("on time (% of vsyncs)",
+        [](const LatencyModeResult& r) { return fmt("%.1f", 100.0 * r.summary.on_time_rate); });
+    row("vsyncs", [](const LatencyModeResult& r) { return std::to_string(r.summary.vsyncs); });
+    row("missed vsyncs",
+        [](const LatencyModeResult& r) { return std::to_string(r.summary.missed_vsyncs); });
+    row("late frames",
+        [](const LatencyModeResult& r) { return std::to_string(r.summary.late_frames); });
+    row("longest missed run (vsyncs)",
+        [](const LatencyModeResult& r) { return std::to_string(r.summary.longest_late_run); });
+    row("new frames / re-warps", [](const LatencyModeResult& r) {
+        return std::to_string(r.summary.new_frames) + "/" + std::to_string(r.summary.rewarps);
+    });
+    row("warp p50 (ms)",
+        [](const LatencyModeResult& r) { return fmt("%.2f", r.summary.warp_ms.p50); });
+    row("warp p99 (ms)",
+        [](const LatencyModeResult& r) { return fmt("%.2f", r.summary.warp_ms.p99); });
+    row("render p50 (ms)",
+        [](const LatencyModeResult& r) { return fmt("%.2f", r.summary.render_ms.p50); });
+    return out.str();
+}
+
+nlohmann::json latency_report_json(const nlohmann::json& options, const std::string& renderer,
+                                   const std::vector<LatencyModeResult>& results) {
+    using nlohmann::json;
+    json modes = json::array();
+    for (const LatencyModeResult& r : results) {
+        const ReplaySummary& s = r.summary;
+        json cost = nullptr;
+        if (s.frame_cost_model)
+            cost = {{"render_base", ns_to_ms(s.frame_cost_model->base_ns)},
+                    {"render_per_1k_triangles", s.frame_cost_model->per_triangle_ns * 1e-3},
+                    {"warp", ns_to_ms(s.frame_cost_model->warp_ns)},
+                    {"calibrated", s.frame_cost_calibrated}};
+        json t_ms = json::array(), lat = json::array(), reg = json::array(), shown = json::array(),
+             on_time = json::array();
+        const int64_t v0 = r.series.empty() ? 0 : r.series.front().vsync_ns;
+        for (const VsyncSample& v : r.series) {
+            t_ms.push_back(rounded(ns_to_ms(v.vsync_ns - v0)));
+            lat.push_back(rounded(v.latency_ms));
+            reg.push_back(rounded(v.registration_error_deg));
+            shown.push_back(shown_name(v.shown));
+            on_time.push_back(v.on_time);
+        }
+        modes.push_back({{"name", r.mode.name},
+                         {"prediction", r.mode.predict},
+                         {"warp", r.mode.warp},
+                         {"summary",
+                          {{"frames", s.frames},
+                           {"new_frames", s.new_frames},
+                           {"rewarps", s.rewarps},
+                           {"vsyncs", s.vsyncs},
+                           {"on_time_vsyncs", r.on_time_vsyncs},
+                           {"missed_vsyncs", s.missed_vsyncs},
+                           {"late_frames", s.late_frames},
+                           {"longest_late_run", s.longest_late_run},
+                           {"new_frames_per_vsync", s.new_frames_per_vsync},
+                           {"on_time_rate", s.on_time_rate},
+                           {"latency_ms", percentiles_json(s.latency_ms)},
+                           {"registration_error_deg", percentiles_json(s.registration_error_deg)},
+                           {"render_ms", percentiles_json(s.render_ms)},
+                           {"warp_ms", percentiles_json(s.warp_ms)},
+                           {"frame_cost_model_ms", cost},
+                           {"triangles_mean", s.triangles_mean},
+                           {"replayed_s", s.replayed_s},
+                           {"wall_s", s.wall_s}}},
+                         {"series",
+                          {{"vsync_period_ms", ns_to_ms(r.period_ns)},
+                           {"t_ms", std::move(t_ms)},
+                           {"latency_ms", std::move(lat)},
+                           {"registration_error_deg", std::move(reg)},
+                           {"shown", std::move(shown)},
+                           {"on_time", std::move(on_time)}}}});
+    }
+    return {{"format", "hmdnode-latency-report/1"},
+            {"options", options},
+            {"renderer", renderer},
+            {"modes", std::move(modes)}};
+}
+
+std::string latency_svg(const std::vector<LatencyModeResult>& results, const std::string& title,
+                        const std::string& subtitle) {
+    // Layout: a title line, then one row per mode: histogram (left), timeline (right).
+    const double width = 1200, row_h = 230, top = 56, left_x = 70, hist_w = 380, tl_x = 540,
+                 tl_w = 620, plot_h = 160;
+    const double height = top + row_h * double(results.size()) + 30;
+
+    // Shared axes: MTP range, error range, time range.
+    double lat_max = 0.0, err_max = 0.0, t_max = 0.0;
+    for (const LatencyModeResult& r : results) {
+        for (const VsyncSample& v : r.series) {
+            if (std::isfinite(v.latency_ms)) lat_max = std::max(lat_max, v.latency_ms);
+            if (std::isfinite(v.registration_error_deg))
+                err_max = std::max(err_max, v.registration_error_deg);
+        }
+        if (!r.series.empty())
+            t_max = std::max(t_max, ns_to_s(r.series.back().vsync_ns - r.series.front().vsync_ns));
+    }
+    const double bin = nice_step(lat_max, 40);
+    const int bins = std::max(1, int(std::ceil((lat_max + 1e-9) / bin)));
+    const double lat_axis = bin * bins;
+    // The histograms' percentage axis, shared too: the tallest bin of any mode.
+    auto histogram = [&](const LatencyModeResult& r, size_t* out_total) {
+        std::vector<size_t> counts(size_t(bins), 0);
+        *out_total = 0;
+        for (const VsyncSample& v : r.series) {
+            if (!std::isfinite(v.latency_ms)) continue;
+            counts[size_t(std::clamp(int(v.latency_ms / bin), 0, bins - 1))]++;
+            ++*out_total;
+        }
+        return counts;
+    };
+    double pct_max = 0.0;
+    for (const LatencyModeResult& r : results) {
+        size_t total = 0;
+        for (size_t c : histogram(r, &total))
+            pct_max = std::max(pct_max, 100.0 * double(c) / double(std::max<size_t>(total, 1)));
+    }
+    const double pct_step = nice_step(pct_max, 4);
+    const double pct_axis = std::max(pct_step, std::ceil(pct_max / pct_step - 1e-9) * pct_step);
+    const double err_step = nice_step(err_max, 4);
+    const double err_axis = std::max(err_step, std::ceil(err_max / err_step - 1e-9) * err_step);
+    const double t_step = nice_step(t_max, 8);
+    const double t_axis = std::max(t_step, std::ceil(t_max / t_step - 1e-9) * t_step);
+
+    std::ostringstream o;
+    o.setf(std::ios::fixed);
+    o.precision(1);
+    o << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << width << "\" height=\"" << height
+      << "\" viewBox=\"0 0 " << width << ' ' << height
+      << "\" font-family=\"sans-serif\" font-size=\"12\">\n";
+    o << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
+    o << "<text x=\"" << width / 2 << "\" y=\"20\" text-anchor=\"middle\" font-size=\"15\">"
+      << xml_escape(title) << "</text>\n";
+    o << "<text x=\"" << width / 2 << "\" y=\"38\" text-anchor=\"middle\" fill=\"#555\">"
+      << xml_escape(subtitle)
+      << "; left: motion-to-photon latency per displayed vsync; right: registration error at "
+         "each vsync (orange ticks: missed vsyncs)</text>\n";
+
+    auto text = [&](double x, double y, const std::string& s, const char* anchor = "middle",
+                    const char* extra = "") {
+        o << "<text x=\"" << x << "\" y=\"" << y << "\" text-anchor=\"" << anchor << "\"" << extra
+          << ">" << xml_escape(s) << "</text>\n";
+    };
+    auto line = [&](double x0, double y0, double x1, double y1, const char* stroke) {
+        o << "<line x1=\"" << x0 << "\" y1=\"" << y0 << "\" x2=\"" << x1 << "\" y2=\"" << y1
+          << "\" stroke=\"" << stroke << "\"/>\n";
+    };
+    auto num = [](double v) {
+        char b[32];
+        std::snprintf(b, sizeof b, "%g", std::round(v * 1e6) / 1e6);
+        return std::string(b);
+    };
+
+    for (size_t m = 0; m < results.size(); ++m) {
+        const LatencyModeResult& r = results[m];
+        const double y0 = top + row_h * double(m) + 30, y1 = y0 + plot_h;  // plot top, bottom
+        text(left_x - 60, y0 - 16,
+             r.mode.name + "  (prediction " + (r.mode.predict ? "on" : "off") + ", warp " +
+                 (r.mode.warp ? "on" : "off") + ")",
+             "start", " font-weight=\"bold\" font-size=\"13\"");
+
+        // Histogram of MTP, % of vsyncs per bin.
+        size_t total = 0;
+        const std::vector<size_t> counts = histogram(r, &total);
+        for (int i = 0; i < bins; ++i) {
+            if (counts[size_t(i)] == 0) continue;
+            const double pct = 100.0 * double(counts[size_t(i)]) / double(total);
+            const double h = plot_h * pct / pct_axis, bw = hist_w / bins;
+            o << "<rect x=\"" << left_x + bw * i << "\" y=\"" << y1 - h << "\" width=\""
+              << std::max(bw - 1.0, 0.5) << "\" height=\"" << h << "\" fill=\"#4a7ebb\"><title>"
+              << num(bin * i) << "-" << num(bin * (i + 1)) << " ms: " << counts[size_t(i)]
+              << " vsyncs</title></rect>\n";
+        }
+        line(left_x, y1, left_x + hist_w, y1, "black");
+        line(left_x, y0, left_x, y1, "black");
+        const double lat_step = nice_step(lat_axis, 8);
+        for (double v = 0.0; v <= lat_axis + 1e-9; v += lat_step) {
+            const double x = left_x + hist_w * v / lat_axis;
+            line(x, y1, x, y1 + 4, "black");
+            text(x, y1 + 16, num(v));
+        }
+        text(left_x + hist_w / 2, y1 + 32, "MTP latency (ms), bins of " + num(bin) + " ms");
+        for (double v = 0.0; v <= pct_axis + 1e-9; v += pct_step) {
+            const double y = y1 - plot_h * v / pct_axis;
+            line(left_x - 4, y, left_x, y, "black");
+            text(left_x - 6, y + 4, num(v), "end");
+        }
+        o << "<text transform=\"translate(" << left_x - 42 << ',' << (y0 + y1) / 2
+          << ") rotate(-90)\" text-anchor=\"middle\">% of vsyncs</text>\n";
+        const Percentiles& lp = r.summary.latency_ms;
+        for (auto [q, name, colour] :
+             {std::tuple{lp.p50, "p50", "#2a2"}, {lp.p99, "p99", "#c60"}}) {
+            if (!std::isfinite(q)) continue;
+            const double x = left_x + hist_w * std::min(q, lat_axis) / lat_axis;
+            o << "<line x1=\"" << x << "\" y1=\"" << y0 << "\" x2=\"" << x << "\" y2=\"" << y1
+              << "\" stroke=\"" << colour << "\" stroke-dasharray=\"4 3\"/>\n";
+        }
+        text(left_x + hist_w, y0 - 3,
+             "p50 " + fmt("%.1f", lp.p50) + " ms, p99 " + fmt("%.1f", lp.p99) + " ms", "end");
+
+        // Timeline of registration error.
+        line(tl_x, y1, tl_x + tl_w, y1, "black");
+        line(tl_x, y0, tl_x, y1, "black");
+        for (double v = 0.0; v <= t_axis + 1e-9; v += t_step) {
+            const double x = tl_x + tl_w * v / t_axis;
+            line(x, y1, x, y1 + 4, "black");
+            text(x, y1 + 16, num(v));
+        }
+        text(tl_x + tl_w / 2, y1 + 32, "time (s)");
+        for (double v = 0.0; v <= err_axis + 1e-9; v += err_step) {
+            const double y = y1 - plot_h * v / err_axis;
+            line(tl_x - 4, y, tl_x, y, "black");
+            if (v > 0) line(tl_x, y, tl_x + tl_w, y, "#ddd");
+            text(tl_x - 6, y + 4, num(v), "end");
+        }
+        o << "<text transform=\"translate(" << tl_x - 40 << ',' << (y0 + y1) / 2
+          << ") rotate(-90)\" text-anchor=\"middle\">error (deg)</text>\n";
+        if (!r.series.empty()) {
+            const int64_t v0 = r.series.front().vsync_ns;
+            o << "<path fill=\"none\" stroke=\"#1f3f7a\" stroke-width=\"1\" d=\"";
+            bool pen = false;
+            o.precision(2);
+            for (const VsyncSample& v : r.series) {
+                if (!std::isfinite(v.registration_error_deg)) {
+                    pen = false;
+                    continue;
+                }
+                const double x = tl_x + tl_w * ns_to_s(v.vsync_ns - v0) / t_axis;
+                const double y = y1 - plot_h * v.registration_error_deg / err_axis;
+                o << (pen ? 'L' : 'M') << x << ',' << y << ' ';
+                pen = true;
+            }
+            o << "\"/>\n";
+            o << "<path stroke=\"#f39c12\" d=\"";
+            for (const VsyncSample& v : r.series) {
+                if (v.on_time) continue;
+                const double x = tl_x + tl_w * ns_to_s(v.vsync_ns - v0) / t_axis;
+                o << 'M' << x << ',' << y1 - 1 << " v-5 ";
+            }
+            o << "\"/>\n";
+            o.precision(1);
+        }
+        const Percentiles& ep = r.summary.registration_error_deg;
+        text(tl_x + tl_w, y0 - 3,
+             "p50 " + fmt("%.2f", ep.p50) + " deg, p99 " + fmt("%.2f", ep.p99) + " deg, on time " +
+                 fmt("%.1f", 100.0 * r.summary.on_time_rate) + "% of " +
+                 std::to_string(r.summary.vsyncs) + " vsyncs",
+             "end");
+    }
+    o << "</svg>\n";
+    return o.str();
+}
+
+}  // namespace hmdnode
