@@ -53,18 +53,20 @@ int main(int argc, char** argv) {
 
     struct Mode {
         const char* name;
-        bool sim, warp;
+        bool sim, warp, distortion;
     };
-    const Mode modes[] = {{"real clock, warp on", false, true},
-                          {"real clock, warp off", false, false},
-                          {"sim clock (calibrated), warp on", true, true},
-                          {"sim clock (calibrated), warp off", true, false}};
+    const Mode modes[] = {{"real clock, warp on", false, true, true},
+                          {"real clock, warp off", false, false, true},
+                          {"real clock, warp on, no distortion", false, true, false},
+                          {"sim clock (calibrated), warp on", true, true, true},
+                          {"sim clock (calibrated), warp off", true, false, true}};
     std::vector<Run> runs;
     std::optional<FrameCostModel> model;
     for (const Mode& m : modes) {
         ReplayOptions o = base;
         o.simulated_clock = m.sim;
         o.node.warp = m.warp;
+        o.node.distortion = m.distortion;
         if (m.sim && model) o.frame_cost = model;  // one calibration for both simulated runs
         std::fprintf(stderr, "latency bench: %s, %.0f s...\n", m.name, seconds);
         Result<ReplayResult> r = run_replay(o);

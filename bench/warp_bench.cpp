@@ -136,21 +136,28 @@ int main(int argc, char** argv) {
             b.warp_ms.push_back(double(t2 - t1) * 1e-6);
             b.warp_only_ms.push_back(double(t3 - t2) * 1e-6);
         }
-    std::printf(
-        "late warp + distortion pass per stereo frame (record, GPU, read-back of both "
-        "eyes), %d interleaved rounds\n",
-        rounds);
-    std::printf("%-12s %11s %5s %9s %9s %12s %12s %11s %9s %8s\n", "profile", "eye", "mesh",
-                "warp p50", "warp p99", "no-rb p50", "no-rb p99", "scene p50", "target", "p50/tgt");
+    std::string out;
+    char line[512];
+    std::snprintf(line, sizeof line,
+                  "late warp + distortion pass per stereo frame (ms; record, GPU and read-back of "
+                  "both eyes, and without the read-back), %d interleaved rounds\n",
+                  rounds);
+    out += line;
+    std::snprintf(line, sizeof line, "%-12s %11s %5s %9s %9s %12s %12s %11s %9s %8s\n", "profile",
+                  "eye", "mesh", "warp p50", "warp p99", "no-rb p50", "no-rb p99", "scene p50",
+                  "target", "p50/tgt");
+    out += line;
     for (const Bench& b : benches) {
         const Config& c = b.config;
         const double target = 1.5 * double(c.w) * c.h / (360.0 * 400.0);
         char eye[32];
         std::snprintf(eye, sizeof eye, "%dx%d", c.w, c.h);
-        std::printf("%-12s %11s %5d %9.2f %9.2f %12.2f %12.2f %11.2f %9.2f %8.2f\n", c.profile, eye,
-                    c.mesh, quantile(b.warp_ms, 0.5), quantile(b.warp_ms, 0.99),
-                    quantile(b.warp_only_ms, 0.5), quantile(b.warp_only_ms, 0.99),
-                    quantile(b.scene_ms, 0.5), target, quantile(b.warp_only_ms, 0.5) / target);
+        std::snprintf(line, sizeof line,
+                      "%-12s %11s %5d %9.2f %9.2f %12.2f %12.2f %11.2f %9.2f %8.2f\n", c.profile,
+                      eye, c.mesh, quantile(b.warp_ms, 0.5), quantile(b.warp_ms, 0.99),
+                      quantile(b.warp_only_ms, 0.5), quantile(b.warp_only_ms, 0.99),
+                      quantile(b.scene_ms, 0.5), target, quantile(b.warp_only_ms, 0.5) / target);
+        out += line;
     }
     out += "device: " + device + "\n";
     out +=

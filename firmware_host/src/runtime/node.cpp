@@ -1,12 +1,15 @@
-// The frame loop (docs/latency.md). Per present:
-//  1. Pick the vsync: v_any, the first vsync a present can still make (free_vsync_ns of now + the
-//     warp estimate + margin: the display says which vsyncs earlier presents hold), and v_new, the
-//     first that a new frame can make (the render estimate on top). When they differ and the warp
-//     is on, the previous frame is re-warped for v_any, unless that would push the next new frame
-//     past v_new.
+// The frame loop (docs/latency.md; after Monado's compositor pacing, u_pacing_compositor.c).
+// One call = one present:
+//  1. Pick the vsync: v_new, the first vsync a new frame can make (the display's free_vsync_ns of
+//     now + render + warp estimates + margin: the display says which vsyncs earlier presents
+//     hold), and v_any, the first any present can make (the warp estimate alone). When they differ
+//     and the warp is on, v_any gets the finished frame re-warped: at once if that ends before
+//     the new frame must start, else the new frame starts now and is rendered in pieces with the
+//     re-warp between two of them.
 //  2. New frame: wake at v_new - latch - (render + warp estimates + margin), drain the tracker,
-//     predict the head pose at v_new's photon time, select LOD, render both eyes. When the render
-//     overran, retarget to the first vsync still reachable (the one it was meant for is missed).
+//     predict the head pose at v_new's photon time, select LOD, render both eyes (in pieces into
+//     the back eye buffers). A render that overran is retargeted to the first vsync still
+//     reachable (the one it was meant for is missed).
 //  3. Wake at target - latch - (warp estimate + margin), drain the tracker, predict again at the
 //     target's photon time, warp the eye buffers to that pose through the lens-distortion mesh,
 //     present; the display reports the vsync the frame landed on. A missed latch grows the
@@ -79,7 +82,8 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
       history_(config.history),
       selector_(0, config.lod),
       render_costs_(config.pacing.window),
-      warp_costs_(config.pacing.window) {
+      warp_costs_(config.pacing.window),
+      total_costs_(config.pacing.window) {
     objects_ = flatten_objects(scene);
     selector_ = LodSelector(objects_.size(), config.lod);
     level_errors_.resize(objects_.size());
@@ -228,9 +232,9 @@ Result<FrameCostModel> NodeRuntime::calibrate_frame_cost() {
                 Result<RenderStats> s = renderer_.render(views_for(head), draws_, out);
                 if (!s.ok()) return s.error();
                 t.push_back(steady_ns() - t0);
-                // On the system clock these are the first frames' estimates (the finest levels:
-                // an estimate on the safe side until real frames replace it).
-                if (!clock_.is_simulated() && !coarsest) render_costs_.push(t.back());
+                // On the system clock these are the first frames' estimates (the coarsest levels,
+                // what a moving head mostly sees, until real frames replace them).
+                if (!clock_.is_simulated() && coarsest) render_costs_.push(t.back());
             }
         return median_ns(std::move(t));
     };
@@ -261,7 +265,8 @@ Result<FrameCostModel> NodeRuntime::calibrate_frame_cost() {
     return model;
 }
 
-Status NodeRuntime::warp_and_present(int64_t target, int64_t warp_est, FrameRecord* rec) {
+Status NodeRuntime::warp_and_present(int64_t target, int64_t warp_est, FrameRecord* rec,
+                                     int64_t* warp_cost_ns) {
     const DisplayInfo info = display_.info();
     const PacingConfig& pc = config_.pacing;
     const int64_t photon_offset = display_.photon_offset_ns();
@@ -288,6 +293,7 @@ Status NodeRuntime::warp_and_present(int64_t target, int64_t warp_est, FrameReco
         if (clock_.is_simulated()) clock_.sleep_until_ns(warp_start + config_.sim_cost.warp_ns);
     }
     warp_costs_.push(clock_.now_ns() - warp_start);
+    if (warp_cost_ns) *warp_cost_ns = clock_.now_ns() - warp_start;
 
     Result<PresentResult> pr = display_.present(config_.read_back ? &frame_ : nullptr, target);
     if (!pr.ok()) return pr.error();
@@ -348,12 +354,15 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
 
     const int64_t render_est = render_costs_.percentile(pc.percentile, info.period_ns / 2);
     const int64_t warp_est = warp_costs_.percentile(pc.percentile, info.period_ns / 10);
+    // A new frame's render and warp together: the percentile of their sum, not the sum of their
+    // percentiles (a slow render rarely meets a slow warp).
+    const int64_t frame_est = total_costs_.percentile(pc.percentile, render_est + warp_est);
 
     // A re-warp of the finished frame for `vsync`, presented; the open frame (if any) resumes on
     // the next call.
     auto rewarp = [&](int64_t vsync) -> Result<FrameOutcome> {
         const int64_t wake = vsync - latch - (warp_est + margin_ns_);
-        if (Status st = warp_and_present(vsync, warp_est, &r); !st.ok()) return st.error();
+        if (Status st = warp_and_present(vsync, warp_est, &r, nullptr); !st.ok()) return st.error();
         r.kind = FrameKind::rewarp;
         r.wake_ns = wake;
         r.late = false;
@@ -371,8 +380,8 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
     // before the new frame starts if that fits, else between its pieces (it starts at once).
     if (!open_) {
         const int64_t now = clock_.now_ns();
-        const int64_t target = display_.free_vsync_ns(now + render_est + warp_est + margin_ns_);
-        open_wake_ns_ = target - latch - (render_est + warp_est + margin_ns_);
+        const int64_t target = display_.free_vsync_ns(now + frame_est + margin_ns_);
+        open_wake_ns_ = target - latch - (frame_est + margin_ns_);
         if (config_.warp && has_frame_) {
             const int64_t v_any = display_.free_vsync_ns(now + warp_est + margin_ns_);
             if (v_any < target) {
@@ -399,20 +408,29 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
     // 2. Render it in pieces. Before a vsync that it cannot make, the finished frame is re-warped
     // for that vsync between two pieces (one queue: a piece cannot be interrupted). A piece's cost
     // is estimated per draw item, not per triangle: on a software rasteriser the pixels an object
-    // covers cost more than its triangles; and a piece gets half the time left, for the estimate's
-    // error.
-    const double per_item_ns = double(render_est) / double(std::max<size_t>(1, draws_.size()));
+    // covers cost more than its triangles; and a piece gets a third of the time left, for the
+    // estimate's error (a piece also pays for loading the attachments).
+    // The render's share of the frame estimate the target was planned with.
+    const int64_t render_budget = frame_est > warp_est ? frame_est - warp_est : render_est;
+    const double per_item_ns = double(render_budget) / double(std::max<size_t>(1, draws_.size()));
     while (open_) {
         const int64_t now = clock_.now_ns();
         uint64_t max_triangles = UINT64_MAX;
         if (config_.warp && has_frame_) {
-            const int64_t remaining = std::max<int64_t>(0, render_est - open_render_ns_);
+            // The finished frame is re-warped for v_any when the open one, at its planned render
+            // cost, would not make it.
+            const int64_t remaining = std::max<int64_t>(0, render_budget - open_render_ns_);
             const int64_t v_any = display_.free_vsync_ns(now + warp_est + margin_ns_);
             const int64_t v_done = display_.free_vsync_ns(now + remaining + warp_est + margin_ns_);
             if (v_done > v_any) {
                 const int64_t rewarp_wake = v_any - latch - (warp_est + margin_ns_);
-                const size_t fit = size_t(0.3 * double(rewarp_wake - now) / per_item_ns);
-                if (fit == 0 || open_cursor_ >= draws_.size()) return rewarp(v_any);
+                const size_t fit =
+                    rewarp_wake > now ? size_t(0.3 * double(rewarp_wake - now) / per_item_ns) : 0;
+                // Progress: after a re-warp at least one piece, whatever the estimates say.
+                if ((fit == 0 && pieces_since_rewarp_ > 0) || open_cursor_ >= draws_.size()) {
+                    pieces_since_rewarp_ = 0;
+                    return rewarp(v_any);
+                }
                 max_triangles = 0;
                 for (size_t i = open_cursor_; i < std::min(draws_.size(), open_cursor_ + fit); ++i)
                     max_triangles += draw_triangles_[i];
@@ -437,6 +455,7 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
             clock_.sleep_until_ns(piece_start + cost);
         }
         open_cursor_ += items;
+        ++pieces_since_rewarp_;
         open_render_ns_ += clock_.now_ns() - piece_start;
         open_ = !*done;
     }
@@ -456,7 +475,9 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
     const int64_t after = clock_.now_ns();
     if (after + warp_est + margin_ns_ > target - latch)
         target = display_.free_vsync_ns(after + warp_est + margin_ns_);
-    if (Status st = warp_and_present(target, warp_est, &r); !st.ok()) return st.error();
+    int64_t warp_cost = 0;
+    if (Status st = warp_and_present(target, warp_est, &r, &warp_cost); !st.ok()) return st.error();
+    total_costs_.push(open_render_ns_ + warp_cost);
     r.kind = FrameKind::new_frame;
     r.wake_ns = open_wake_ns_;
     r.late = r.vsync_ns > frame_target_vsync_ns_;

@@ -212,7 +212,8 @@ class NodeRuntime {
     uint64_t select_and_sort(const Pose& head, FrameRecord* rec);
     // Warps the finished frame for `target` (sampling the newest pose first when the warp is on),
     // presents it and fills the record's present fields; adapts the margin.
-    Status warp_and_present(int64_t target, int64_t warp_est, FrameRecord* rec);
+    Status warp_and_present(int64_t target, int64_t warp_est, FrameRecord* rec,
+                            int64_t* warp_cost_ns);
     bool pass_enabled() const { return config_.warp || config_.distortion; }
 
     Clock& clock_;
@@ -232,14 +233,15 @@ class NodeRuntime {
     StereoImage frame_;
     StereoRig render_rig_;
     DistortionMesh mesh_[2];
-    CostWindow render_costs_, warp_costs_;
+    CostWindow render_costs_, warp_costs_, total_costs_;  // total: a new frame's render + warp
     int64_t margin_ns_ = 0;
     uint64_t present_index_ = 0, render_index_ = 0;
     int64_t last_shown_vsync_ns_ = INT64_MIN;
     // The frame being rendered in pieces, between which the finished one may be re-warped.
     bool open_ = false;
-    size_t open_cursor_ = 0;      // draws rendered so far
-    int64_t open_target_ns_ = 0;  // the vsync it is rendered for
+    size_t open_cursor_ = 0;       // draws rendered so far
+    int pieces_since_rewarp_ = 1;  // pieces of it rendered since the last re-warp
+    int64_t open_target_ns_ = 0;   // the vsync it is rendered for
     int64_t open_wake_ns_ = 0;
     int64_t open_render_ns_ = 0;   // node-clock time its pieces took
     double open_render_ms_ = 0.0;  // measured wall time of its pieces
