@@ -145,4 +145,9 @@ Result<ImageView> create_view(const DeviceContext& ctx, const Image& image, VkFo
                               VkImageAspectFlags aspect, const char* what, uint32_t base_layer = 0,
                               uint32_t layer_count = 0);
 
+// Records a copy of `layers` layers of a colour image (TRANSFER_SRC_OPTIMAL) into a host-visible
+// buffer, layer after layer, rows top to bottom, and the barrier that makes it visible to the host.
+void record_copy_to_host(VkCommandBuffer cmd, VkImage image, uint32_t width, uint32_t height,
+                         uint32_t layers, const Buffer& buffer);
+
 }  // namespace hmdnode::vk

@@ -415,26 +415,10 @@ void VulkanRenderer::record(size_t first, size_t last, bool read_back) {
         vkCmdEndRenderPass(cmd_);
     }
 
-    if (read_back) {
-        // Both layers in one region: the buffer holds layer 0 (left) then layer 1 (right), each
-        // width * height texels, rows top to bottom.
-        VkBufferImageCopy region{};
-        region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 2};
-        region.imageExtent = {targets_.width, targets_.height, 1};
-        vkCmdCopyImageToBuffer(cmd_, targets_.color[back_].get(),
-                               VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, targets_.readback.get(), 1,
-                               &region);
-        VkBufferMemoryBarrier to_host{};
-        to_host.sType = VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER;
-        to_host.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
-        to_host.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-        to_host.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-        to_host.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-        to_host.buffer = targets_.readback.get();
-        to_host.size = VK_WHOLE_SIZE;
-        vkCmdPipelineBarrier(cmd_, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 0,
-                             nullptr, 1, &to_host, 0, nullptr);
-    }
+    // Both layers: the buffer holds layer 0 (left) then layer 1 (right).
+    if (read_back)
+        vk::record_copy_to_host(cmd_, targets_.color[back_].get(), targets_.width, targets_.height,
+                                2, targets_.readback);
     vkEndCommandBuffer(cmd_);
 }
 

@@ -336,22 +336,7 @@ void record_warp(VkCommandBuffer cmd, const WarpPass& w, int slot, const glm::ma
         vkCmdDrawIndexed(cmd, w.index_count[e], 1, 0, 0, 0);
         vkCmdEndRenderPass(cmd);
     }
-    if (!read_back) return;
-    VkBufferImageCopy region{};
-    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 2};
-    region.imageExtent = {w.width, w.height, 1};
-    vkCmdCopyImageToBuffer(cmd, w.panel.get(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                           w.readback.get(), 1, &region);
-    VkBufferMemoryBarrier to_host{};
-    to_host.sType = VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER;
-    to_host.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
-    to_host.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-    to_host.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    to_host.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    to_host.buffer = w.readback.get();
-    to_host.size = VK_WHOLE_SIZE;
-    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 0,
-                         nullptr, 1, &to_host, 0, nullptr);
+    if (read_back) record_copy_to_host(cmd, w.panel.get(), w.width, w.height, 2, w.readback);
 }
 
 }  // namespace hmdnode::vk

@@ -177,12 +177,8 @@ nlohmann::json latency_report_json(const nlohmann::json& options, const std::str
     json modes = json::array();
     for (const LatencyModeResult& r : results) {
         const ReplaySummary& s = r.summary;
-        json cost = nullptr;
-        if (s.frame_cost_model)
-            cost = {{"render_base", ns_to_ms(s.frame_cost_model->base_ns)},
-                    {"render_per_1k_triangles", s.frame_cost_model->per_triangle_ns * 1e-3},
-                    {"warp", ns_to_ms(s.frame_cost_model->warp_ns)},
-                    {"calibrated", s.frame_cost_calibrated}};
+        json summary = replay_summary_json(s);
+        summary["on_time_vsyncs"] = r.on_time_vsyncs;
         json t_ms = json::array(), lat = json::array(), reg = json::array(), shown = json::array(),
              on_time = json::array();
         const int64_t v0 = r.series.empty() ? 0 : r.series.front().vsync_ns;
@@ -196,25 +192,7 @@ nlohmann::json latency_report_json(const nlohmann::json& options, const std::str
         modes.push_back({{"name", r.mode.name},
                          {"prediction", r.mode.predict},
                          {"warp", r.mode.warp},
-                         {"summary",
-                          {{"frames", s.frames},
-                           {"new_frames", s.new_frames},
-                           {"rewarps", s.rewarps},
-                           {"vsyncs", s.vsyncs},
-                           {"on_time_vsyncs", r.on_time_vsyncs},
-                           {"missed_vsyncs", s.missed_vsyncs},
-                           {"late_frames", s.late_frames},
-                           {"longest_late_run", s.longest_late_run},
-                           {"new_frames_per_vsync", s.new_frames_per_vsync},
-                           {"on_time_rate", s.on_time_rate},
-                           {"latency_ms", percentiles_json(s.latency_ms)},
-                           {"registration_error_deg", percentiles_json(s.registration_error_deg)},
-                           {"render_ms", percentiles_json(s.render_ms)},
-                           {"warp_ms", percentiles_json(s.warp_ms)},
-                           {"frame_cost_model_ms", cost},
-                           {"triangles_mean", s.triangles_mean},
-                           {"replayed_s", s.replayed_s},
-                           {"wall_s", s.wall_s}}},
+                         {"summary", summary},
                          {"series",
                           {{"vsync_period_ms", ns_to_ms(r.period_ns)},
                            {"t_ms", std::move(t_ms)},

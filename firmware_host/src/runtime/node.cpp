@@ -408,7 +408,7 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
     // 2. Render it in pieces. Before a vsync that it cannot make, the finished frame is re-warped
     // for that vsync between two pieces (one queue: a piece cannot be interrupted). A piece's cost
     // is estimated per draw item, not per triangle: on a software rasteriser the pixels an object
-    // covers cost more than its triangles; and a piece gets a third of the time left, for the
+    // covers cost more than its triangles; and a piece gets 60 % of the time left, for the
     // estimate's error (a piece also pays for loading the attachments).
     // The render's share of the frame estimate the target was planned with.
     const int64_t render_budget = frame_est > warp_est ? frame_est - warp_est : render_est;
@@ -450,8 +450,12 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
             uint64_t piece_triangles = 0;
             for (size_t i = open_cursor_; i < open_cursor_ + items; ++i)
                 piece_triangles += draw_triangles_[i];
-            int64_t cost = int64_t(config_.sim_cost.per_triangle_ns * double(piece_triangles));
-            if (open_cursor_ == 0) cost += config_.sim_cost.base_ns;
+            // The model's base (mostly fill) spread over the draw items, as pieces are sized.
+            const int64_t cost =
+                int64_t(config_.sim_cost.per_triangle_ns * double(piece_triangles)) +
+                (draws_.empty()
+                     ? config_.sim_cost.base_ns
+                     : config_.sim_cost.base_ns * int64_t(items) / int64_t(draws_.size()));
             clock_.sleep_until_ns(piece_start + cost);
         }
         open_cursor_ += items;

@@ -295,6 +295,34 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     return result;
 }
 
+nlohmann::json replay_summary_json(const ReplaySummary& s) {
+    using nlohmann::json;
+    json cost = nullptr;
+    if (s.frame_cost_model)
+        cost = {{"render_base", ns_to_ms(s.frame_cost_model->base_ns)},
+                {"render_per_1k_triangles", s.frame_cost_model->per_triangle_ns * 1e-3},
+                {"warp", ns_to_ms(s.frame_cost_model->warp_ns)},
+                {"calibrated", s.frame_cost_calibrated}};
+    return {{"frames", s.frames},
+            {"new_frames", s.new_frames},
+            {"rewarps", s.rewarps},
+            {"vsyncs", s.vsyncs},
+            {"missed_vsyncs", s.missed_vsyncs},
+            {"late_frames", s.late_frames},
+            {"longest_late_run", s.longest_late_run},
+            {"new_frames_per_vsync", s.new_frames_per_vsync},
+            {"latency_ms", percentiles_json(s.latency_ms)},
+            {"registration_error_deg", percentiles_json(s.registration_error_deg)},
+            {"render_ms", percentiles_json(s.render_ms)},
+            {"warp_ms",
+             {{"p50", finite_or_null(s.warp_ms.p50)}, {"p99", finite_or_null(s.warp_ms.p99)}}},
+            {"frame_cost_model_ms", cost},
+            {"on_time_rate", s.on_time_rate},
+            {"triangles_mean", s.triangles_mean},
+            {"replayed_s", s.replayed_s},
+            {"wall_s", s.wall_s}};
+}
+
 nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& r) {
     using nlohmann::json;
     json frames = json::array();
@@ -325,12 +353,6 @@ nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& 
                           {"frame_cost_ms", f.frame_cost_ms}});
     }
     const ReplaySummary& s = r.summary;
-    json cost = nullptr;
-    if (s.frame_cost_model)
-        cost = {{"render_base", ns_to_ms(s.frame_cost_model->base_ns)},
-                {"render_per_1k_triangles", s.frame_cost_model->per_triangle_ns * 1e-3},
-                {"warp", ns_to_ms(s.frame_cost_model->warp_ns)},
-                {"calibrated", s.frame_cost_calibrated}};
     return {{"format", "hmdnode-replay-report/2"},
             {"scene", opt.scene.string()},
             {"trace", opt.trace.string()},
@@ -349,25 +371,7 @@ nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& 
             {"distortion_mesh", {r.mesh_cols, r.mesh_rows}},
             {"objects", r.object_names},
             {"trace_samples", r.trace_samples},
-            {"summary",
-             {{"frames", s.frames},
-              {"new_frames", s.new_frames},
-              {"rewarps", s.rewarps},
-              {"vsyncs", s.vsyncs},
-              {"missed_vsyncs", s.missed_vsyncs},
-              {"late_frames", s.late_frames},
-              {"longest_late_run", s.longest_late_run},
-              {"new_frames_per_vsync", s.new_frames_per_vsync},
-              {"latency_ms", percentiles_json(s.latency_ms)},
-              {"registration_error_deg", percentiles_json(s.registration_error_deg)},
-              {"render_ms", percentiles_json(s.render_ms)},
-              {"warp_ms",
-               {{"p50", finite_or_null(s.warp_ms.p50)}, {"p99", finite_or_null(s.warp_ms.p99)}}},
-              {"frame_cost_model_ms", cost},
-              {"on_time_rate", s.on_time_rate},
-              {"triangles_mean", s.triangles_mean},
-              {"replayed_s", s.replayed_s},
-              {"wall_s", s.wall_s}}},
+            {"summary", replay_summary_json(s)},
             {"frames", frames}};
 }
 

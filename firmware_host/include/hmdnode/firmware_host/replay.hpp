@@ -123,6 +123,8 @@ ReplaySummary summarize_presents(const std::vector<FrameRecord>& frames, int64_t
 ReplaySummary summarize_vsyncs(const std::vector<FrameRecord>& frames,
                                const std::vector<VsyncSample>& vsyncs);
 
+// The report's `summary` object (docs/formats.md).
+nlohmann::json replay_summary_json(const ReplaySummary& summary);
 // The JSON report (docs/formats.md).
 nlohmann::json replay_report_json(const ReplayOptions& options, const ReplayResult& result);
 // A short table for people ("n/a" where a percentile is NaN).
