@@ -1,5 +1,5 @@
-// A bounding volume hierarchy over world-space triangles for the baker's rays: shadow rays now,
-// path tracing later (until the Embree path lands).
+// A bounding volume hierarchy over world-space triangles for the direct-light baker's shadow rays
+// (direct_bake.hpp); the path tracer traces through Embree instead.
 //
 // Threads: build on one thread; a built TriangleBvh is immutable, its queries may run on any
 // number of threads at once.

@@ -1,5 +1,6 @@
 // Direct-light baking into lightmaps (MOZ_lightmap + TEXCOORD_1) and vertex colours (COLOR_0):
-// the simple baker for now; the path tracer (Embree) that bakes global illumination comes later.
+// the first, direct-light-only baker, kept beside the path tracer (path_tracer.hpp, Embree) that
+// `hmdnode bake` uses for global illumination.
 //
 // Irradiance at a point p with unit normal n:
 //   E = sum over lights of  I * colour * max(0, n.l) * att / r^2 * V  +  pi * L_ambient

@@ -1,5 +1,5 @@
-// The head-tracker interface of the hardware abstraction layer. Backends (simulated replay, and
-// later hidapi / libusb / usbmon capture) implement it; the node runtime only sees this.
+// The head-tracker interface of the hardware abstraction layer. Backends (simulated replay,
+// hidapi, libusb, usbmon-capture replay) implement it; the node runtime only sees this.
 #pragma once
 
 #include <cstdint>

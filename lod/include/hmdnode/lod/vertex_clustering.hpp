@@ -1,5 +1,5 @@
-// Uniform-grid vertex clustering (Rossignac & Borrel 1993): the simple simplifier that makes LOD
-// chains for now; edge-collapse methods (QEM, Melax) come later, one per file.
+// Uniform-grid vertex clustering (Rossignac & Borrel 1993): the `grid` algorithm of `hmdnode lod`,
+// the fastest and coarsest; the edge-collapse methods (QEM, Melax, ...) have a file each.
 //
 // Pure functions over caller-owned data: no I/O, no threads, no globals.
 #pragma once
@@ -27,7 +27,7 @@ namespace hmdnode {
 // out_max_displacement_m (optional) receives the largest distance from an input vertex to the
 // representative of its cluster. It is a cheap proxy of the geometric error, in the primitive's
 // units: it bounds how far any input vertex moved, not the distance between the surfaces
-// (a later step measures the symmetric Hausdorff distance). It is at most the cell diagonal,
+// (lod_chain measures the symmetric Hausdorff distance afterwards). It is at most the cell diagonal,
 // sqrt(3) * cell_size.
 //
 // Requires cell_size > 0 and every index < in.positions.size().
