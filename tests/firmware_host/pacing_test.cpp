@@ -221,6 +221,14 @@ TEST(Pacing, VsyncsDuringASlowRenderGetTheFinishedFrameReWarped) {
     EXPECT_GT(plain.summary.latency_ms.p50, 20.0);
 }
 
+TEST(Pacing, ADearWarpDoesNotStarveNewFrames) {
+    // A warp pass dearer than half a period (llvmpipe at large panels) and a 14 ms render: re-warps
+    // fill vsyncs, but at most two interrupt one frame, so new frames keep coming.
+    const PacedRun r = run([](int) { return 14 * kNsPerMs; }, 7 * kNsPerMs, 3.0);
+    EXPECT_GT(r.summary.rewarps, 0u);
+    EXPECT_GT(r.summary.new_frames_per_vsync, 0.25);
+}
+
 TEST(Pacing, LateWarpCutsMotionToPhotonByTheRenderTime) {
     const PacedRun warped = run([](int) { return 6 * kNsPerMs; }, kNsPerMs, 2.0, true);
     const PacedRun plain = run([](int) { return 6 * kNsPerMs; }, kNsPerMs, 2.0, false);

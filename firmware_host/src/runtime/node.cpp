@@ -382,7 +382,8 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
         const int64_t now = clock_.now_ns();
         const int64_t target = display_.free_vsync_ns(now + frame_est + margin_ns_);
         open_wake_ns_ = target - latch - (frame_est + margin_ns_);
-        if (config_.warp && has_frame_) {
+        // (Never when a warp alone takes a period: nothing else would run.)
+        if (config_.warp && has_frame_ && warp_est < info.period_ns) {
             const int64_t v_any = display_.free_vsync_ns(now + warp_est + margin_ns_);
             if (v_any < target) {
                 if (v_any - latch <= open_wake_ns_) return rewarp(v_any);
@@ -399,6 +400,7 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
             return st.error();
         open_ = true;
         open_cursor_ = 0;
+        open_rewarps_ = 0;
         open_target_ns_ = target;
         open_render_ns_ = 0;
         open_render_ms_ = 0.0;
@@ -422,13 +424,18 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
             const int64_t remaining = std::max<int64_t>(0, render_budget - open_render_ns_);
             const int64_t v_any = display_.free_vsync_ns(now + warp_est + margin_ns_);
             const int64_t v_done = display_.free_vsync_ns(now + remaining + warp_est + margin_ns_);
-            if (v_done > v_any) {
+            // Re-warps may not starve the frame: while a warp leaves half of each period to the
+            // render they are unlimited; a dearer warp (llvmpipe at large panels) interrupts one
+            // frame at most twice.
+            const bool affordable = 2 * warp_est <= info.period_ns || open_rewarps_ < 2;
+            if (v_done > v_any && affordable) {
                 const int64_t rewarp_wake = v_any - latch - (warp_est + margin_ns_);
                 const size_t fit =
                     rewarp_wake > now ? size_t(0.3 * double(rewarp_wake - now) / per_item_ns) : 0;
                 // Progress: after a re-warp at least one piece, whatever the estimates say.
                 if ((fit == 0 && pieces_since_rewarp_ > 0) || open_cursor_ >= draws_.size()) {
                     pieces_since_rewarp_ = 0;
+                    ++open_rewarps_;
                     return rewarp(v_any);
                 }
                 max_triangles = 0;

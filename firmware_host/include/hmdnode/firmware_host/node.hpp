@@ -241,6 +241,7 @@ class NodeRuntime {
     bool open_ = false;
     size_t open_cursor_ = 0;       // draws rendered so far
     int pieces_since_rewarp_ = 1;  // pieces of it rendered since the last re-warp
+    int open_rewarps_ = 0;         // re-warps that interrupted it
     int64_t open_target_ns_ = 0;   // the vsync it is rendered for
     int64_t open_wake_ns_ = 0;
     int64_t open_render_ns_ = 0;   // node-clock time its pieces took
