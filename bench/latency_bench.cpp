@@ -8,12 +8,11 @@
 // Usage: bench_latency_bench [seconds=60] [--write-docs]
 #include <cstdio>
 #include <cstdlib>
-#include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
 
-#include "hmdnode/core/atomic_file.hpp"
+#include "doc_table.hpp"
 #include "hmdnode/firmware_host/replay.hpp"
 
 using namespace hmdnode;
@@ -34,14 +33,9 @@ std::string fmt(const char* f, double v) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    double seconds = 60.0;
-    bool write_docs = false;
-    for (int i = 1; i < argc; ++i) {
-        if (std::string(argv[i]) == "--write-docs")
-            write_docs = true;
-        else
-            seconds = std::atof(argv[i]);
-    }
+    const bool write_docs = bench::wants_docs(argc, argv);
+    const double seconds =
+        argc > 1 && std::string(argv[1]) != "--write-docs" ? std::atof(argv[1]) : 60.0;
     ReplayOptions base;
     base.scene = HMDNODE_BINARY_DIR "/data/demo_room.glb";
     base.trace = HMDNODE_SOURCE_DIR "/data/traces/corbillon2018_user1.csv";
@@ -138,24 +132,10 @@ int main(int argc, char** argv) {
     std::fputs(table.c_str(), stdout);
 
     if (write_docs) {
-        const std::string path = HMDNODE_SOURCE_DIR "/docs/latency.md";
-        std::ifstream in(path);
-        std::stringstream ss;
-        ss << in.rdbuf();
-        std::string doc = ss.str();
-        const std::string open = "<!-- latency-bench-table -->",
-                          close = "<!-- /latency-bench-table -->";
-        const size_t a = doc.find(open), b = doc.find(close);
-        if (a == std::string::npos || b == std::string::npos || b < a) {
-            std::fprintf(stderr, "latency bench: %s has no bench markers\n", path.c_str());
+        if (!bench::write_doc_table(HMDNODE_SOURCE_DIR "/docs/latency.md", "latency-bench-table",
+                                    table))
             return 1;
-        }
-        doc = doc.substr(0, a + open.size()) + "\n" + table + doc.substr(b);
-        if (Status s = write_file_atomically(path, doc); !s.ok()) {
-            std::fprintf(stderr, "latency bench: %s\n", s.error().message.c_str());
-            return 1;
-        }
-        std::fprintf(stderr, "latency bench: wrote the table into %s\n", path.c_str());
+        std::fprintf(stderr, "latency bench: wrote the table into docs/latency.md\n");
     }
     return 0;
 }

@@ -9,13 +9,11 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
-#include <fstream>
 #include <memory>
-#include <sstream>
 #include <string>
 #include <vector>
 
-#include "hmdnode/core/atomic_file.hpp"
+#include "doc_table.hpp"
 #include "hmdnode/core/gltf.hpp"
 #include "hmdnode/core/stereo.hpp"
 #include "hmdnode/render/lens.hpp"
@@ -39,14 +37,9 @@ int64_t now_ns() {
 }  // namespace
 
 int main(int argc, char** argv) {
-    int rounds = 200;
-    bool write_docs = false;
-    for (int i = 1; i < argc; ++i) {
-        if (std::string(argv[i]) == "--write-docs")
-            write_docs = true;
-        else
-            rounds = std::atoi(argv[i]);
-    }
+    const bool write_docs = bench::wants_docs(argc, argv);
+    const int rounds =
+        argc > 1 && std::string(argv[1]) != "--write-docs" ? std::atoi(argv[1]) : 200;
     Result<Scene> scene = load_gltf(HMDNODE_BINARY_DIR "/data/demo_room.glb");
     if (!scene.ok()) {
         std::fprintf(stderr, "warp bench: %s\n", scene.error().message.c_str());
@@ -164,23 +157,8 @@ int main(int argc, char** argv) {
         "target: 1.5 ms at 360x400 per eye (scaled by pixel count for other sizes), against "
         "no-rb p50; scene = the demo room at its coarsest levels, same run\n";
     std::fputs(out.c_str(), stdout);
-    if (write_docs) {
-        const std::string path = HMDNODE_SOURCE_DIR "/docs/latency.md";
-        std::ifstream in(path);
-        std::stringstream ss;
-        ss << in.rdbuf();
-        std::string doc = ss.str();
-        const std::string open = "<!-- warp-bench-table -->", close = "<!-- /warp-bench-table -->";
-        const size_t a = doc.find(open), b = doc.find(close);
-        if (a == std::string::npos || b == std::string::npos || b < a) {
-            std::fprintf(stderr, "warp bench: %s has no bench markers\n", path.c_str());
-            return 1;
-        }
-        doc = doc.substr(0, a + open.size()) + "\n```\n" + out + "```\n" + doc.substr(b);
-        if (Status st = write_file_atomically(path, doc); !st.ok()) {
-            std::fprintf(stderr, "warp bench: %s\n", st.error().message.c_str());
-            return 1;
-        }
-    }
+    if (write_docs && !bench::write_doc_table(HMDNODE_SOURCE_DIR "/docs/latency.md",
+                                              "warp-bench-table", "```\n" + out + "```\n"))
+        return 1;
     return 0;
 }

@@ -68,6 +68,8 @@ class VulkanRenderer final : public Renderer {
     Result<bool> run_piece(uint64_t max_triangles, bool read_back, int64_t* wait_ns,
                            size_t* items_rendered);
     void read_back(StereoImage& out_image) const;
+    // Resets `fence` and submits `cmd` with it; a lost device makes the renderer refuse later work.
+    Status submit(VkCommandBuffer cmd, VkFence fence, const char* what);
     // Waits for `fence`; on a timeout or lost device the renderer refuses all later work.
     Status wait(VkFence fence, const char* what);
 
@@ -220,6 +222,20 @@ Status VulkanRenderer::set_warp(int panel_width, int panel_height, const Distort
     return s;
 }
 
+Status VulkanRenderer::submit(VkCommandBuffer cmd, VkFence fence, const char* what) {
+    const std::string suffix = std::string(" (") + what + ")";
+    if (VkResult r = vkResetFences(ctx_->device, 1, &fence); r != VK_SUCCESS)
+        return vk::vk_error(("vkResetFences" + suffix).c_str(), r);
+    VkSubmitInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    info.commandBufferCount = 1;
+    info.pCommandBuffers = &cmd;
+    const VkResult r = vkQueueSubmit(ctx_->queue, 1, &info, fence);
+    if (r == VK_SUCCESS) return Status::success();
+    if (r == VK_ERROR_DEVICE_LOST) lost_ = vk::vk_error("vkQueueSubmit", r).message;
+    return vk::vk_error(("vkQueueSubmit" + suffix).c_str(), r);
+}
+
 Status VulkanRenderer::wait(VkFence fence, const char* what) {
     const VkResult r = vkWaitForFences(ctx_->device, 1, &fence, VK_TRUE, kFenceTimeoutNs);
     if (r == VK_SUCCESS) return Status::success();
@@ -270,16 +286,7 @@ Result<WarpStats> VulkanRenderer::warp(const glm::dquat& delta, StereoImage* out
     vk::record_warp(warp_cmd_, *warp_, front, reproject, out_panel != nullptr);
     vkEndCommandBuffer(warp_cmd_);
     const VkFence fence = warp_fence_;
-    HMDNODE_VK_TRY(vkResetFences(ctx_->device, 1, &fence), "vkResetFences (warp)");
-    VkSubmitInfo submit{};
-    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-    submit.commandBufferCount = 1;
-    submit.pCommandBuffers = &warp_cmd_;
-    VkResult r = vkQueueSubmit(ctx_->queue, 1, &submit, fence);
-    if (r != VK_SUCCESS) {
-        if (r == VK_ERROR_DEVICE_LOST) lost_ = vk::vk_error("vkQueueSubmit", r).message;
-        return vk::vk_error("vkQueueSubmit (warp)", r);
-    }
+    if (Status st = submit(warp_cmd_, fence, "warp"); !st) return st.error();
     const int64_t t1 = now_ns();
     if (Status s = wait(fence, "vkWaitForFences (warp)"); !s) return s.error();
     eyes_sampled_[front] = true;
@@ -460,16 +467,7 @@ Result<bool> VulkanRenderer::run_piece(uint64_t max_triangles, bool read_back, i
     const bool done = last == frame_items_.size();
     record(frame_cursor_, last, read_back && done);
     const VkFence fence = fence_;
-    HMDNODE_VK_TRY(vkResetFences(ctx_->device, 1, &fence), "vkResetFences");
-    VkSubmitInfo submit{};
-    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-    submit.commandBufferCount = 1;
-    submit.pCommandBuffers = &cmd_;
-    VkResult r = vkQueueSubmit(ctx_->queue, 1, &submit, fence);
-    if (r != VK_SUCCESS) {
-        if (r == VK_ERROR_DEVICE_LOST) lost_ = vk::vk_error("vkQueueSubmit", r).message;
-        return vk::vk_error("vkQueueSubmit (frame)", r);
-    }
+    if (Status st = submit(cmd_, fence, "frame"); !st) return st.error();
     const int64_t t0 = now_ns();
     if (Status s = wait(fence, "vkWaitForFences (frame)"); !s) return s.error();
     if (wait_ns) *wait_ns = now_ns() - t0;

@@ -356,8 +356,12 @@ TEST(LensMesh, ChosenMeshIsTheCoarsestWithinHalfAPixel) {
                 std::cout << p.name << " " << w << "x" << h << " mesh " << n << ": max " << max_px
                           << " px, p99 " << p99_px << " px" << (n == chosen ? "  <- chosen" : "")
                           << "\n";
-                if (n == chosen) EXPECT_LE(max_px, 0.5);
-                if (n < chosen) EXPECT_GT(max_px, 0.5);
+                if (n == chosen) {
+                    EXPECT_LE(max_px, 0.5);
+                }
+                if (n < chosen) {
+                    EXPECT_GT(max_px, 0.5);
+                }
             }
         }
     EXPECT_EQ(choose_mesh_cells(generic_headset_profile(), 360, 400, 0.5), 24);

@@ -65,22 +65,13 @@ StereoViews views_for(const glm::dquat& q, const EyeFov fov[2]) {
     return v;
 }
 
-// The panel shows `fov` undistorted: tangents linear in panel position (exact with one cell).
+// The panel shows `fov` undistorted: the lens model `none`, tangents linear in panel position
+// (exact with one cell).
 DistortionMesh linear_mesh(const EyeFov& fov) {
-    DistortionMesh m;
-    m.cols = m.rows = 1;
-    for (int r = 0; r <= 1; ++r)
-        for (int c = 0; c <= 1; ++c) {
-            DistortionVertex v;
-            v.ndc = glm::vec2(-1.0f + 2.0f * c, -1.0f + 2.0f * r);
-            const glm::vec2 t(float(c ? fov.tan_right : fov.tan_left),
-                              float(r ? fov.tan_down : fov.tan_up));
-            v.tangent[0] = v.tangent[1] = v.tangent[2] = t;
-            m.vertices.push_back(v);
-            m.valid.push_back(1);
-        }
-    m.indices = {0, 1, 3, 0, 3, 2};
-    return m;
+    HeadsetProfile flat;
+    flat.eye[0].model = LensModel::none;
+    flat.eye[0].fov = fov;
+    return make_distortion_mesh(flat, 0, 1, 1);
 }
 
 // Intensity-weighted centroid (pixels, centres at +0.5) of channel c above a threshold.

@@ -292,8 +292,9 @@ Status NodeRuntime::warp_and_present(int64_t target, int64_t warp_est, FrameReco
         warp_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
         if (clock_.is_simulated()) clock_.sleep_until_ns(warp_start + config_.sim_cost.warp_ns);
     }
-    warp_costs_.push(clock_.now_ns() - warp_start);
-    if (warp_cost_ns) *warp_cost_ns = clock_.now_ns() - warp_start;
+    const int64_t warp_cost = clock_.now_ns() - warp_start;
+    warp_costs_.push(warp_cost);
+    if (warp_cost_ns) *warp_cost_ns = warp_cost;
 
     Result<PresentResult> pr = display_.present(config_.read_back ? &frame_ : nullptr, target);
     if (!pr.ok()) return pr.error();
