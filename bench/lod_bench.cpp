@@ -6,7 +6,7 @@
 // time target, qem's time over meshopt_simplify's from interleaved pairs of runs.
 //
 // Usage: bench_lod_bench [MESH_DIR] [--out PREFIX] [--only a,b] [--samples N]
-//   MESH_DIR defaults to HMDNODE_SOURCE_DIR/../shared/data/meshes; writes PREFIX.json and
+//   MESH_DIR defaults to HMDNODE_SOURCE_DIR/data/meshes; writes PREFIX.json and
 //   PREFIX.svg (default ./lod_bench) and a markdown table on stdout, then the target line.
 #include <meshoptimizer.h>
 
@@ -205,7 +205,7 @@ std::string svg_plot(const std::vector<Row>& rows, const std::vector<std::string
 }  // namespace
 
 int main(int argc, char** argv) {
-    fs::path mesh_dir = fs::path(HMDNODE_SOURCE_DIR) / ".." / "shared" / "data" / "meshes";
+    fs::path mesh_dir = fs::path(HMDNODE_SOURCE_DIR) / "data" / "meshes";
     std::string prefix = "lod_bench";
     std::vector<std::string> only;
     MeshDistanceOptions distance;

@@ -1,8 +1,8 @@
 // Tracker pipeline costs at 1 kHz, side by side with the budget they must fit:
 //  1. decode + clock sync + fusion cost per sample (the real Vive capture's reports when the
-//     shared data is there, else synthetic ones), against the 1,000,000 ns a 1 kHz sample period
-//     gives -- and against the simplest possible baseline in the same run: a plain memcpy of the
-//     report (what any decoder at least costs);
+//     bundled capture in data/traces, else synthetic ones), against the 1,000,000 ns a 1 kHz sample
+//     period gives -- and against the simplest possible baseline in the same run: a plain memcpy of
+//     the report (what any decoder at least costs);
 //  2. sample-to-pose-history latency through the device tracker's reader thread and SPSC ring,
 //     on the system clock with the simulated reference tracker (t2's sim backend, 1 kHz, zero
 //     transport latency), median / p99 / max -- beside the same figure for the trace-replay
@@ -41,8 +41,7 @@ double pct(std::vector<double> v, double f) {
 
 std::vector<std::vector<uint8_t>> vive_reports() {
     std::vector<std::vector<uint8_t>> out;
-    const auto file =
-        std::filesystem::path(HMDNODE_SOURCE_DIR) / "../shared/data/traces/vive_cal.pcap.gz";
+    const auto file = std::filesystem::path(HMDNODE_SOURCE_DIR) / "data/traces/vive_cal.pcap.gz";
     if (auto cap = read_usbmon_capture(file); cap.ok()) {
         for (const UsbPacket& u : cap->packets)
             if (u.event == 'C' && u.transfer_type == 1 && !u.data.empty() &&

@@ -525,11 +525,12 @@ TEST(UvAtlas, RejectsNonFinitePositions) {
     EXPECT_NE(r.error().message.find("vertex 3"), std::string::npos) << r.error().message;
 }
 
-// The shared meshes (bunny, spot, fandisk), each scaled to a 1 m bounding-box diagonal, at 256
-// texels per metre: the figures docs/baking.md quotes, plus the same invariants as above.
+// The bundled meshes (data/meshes: bunny, spot, fandisk), each scaled to a 1 m bounding-box
+// diagonal, at 256 texels per metre: the figures docs/baking.md quotes, plus the same invariants as
+// above.
 TEST(UvAtlas, SharedMeshes) {
-    const std::filesystem::path dir = std::filesystem::path(HMDNODE_SHARED_DIR) / "data" / "meshes";
-    if (!std::filesystem::exists(dir / "spot.obj")) GTEST_SKIP() << "no shared meshes in " << dir;
+    const std::filesystem::path dir = std::filesystem::path(HMDNODE_SOURCE_DIR) / "data" / "meshes";
+    if (!std::filesystem::exists(dir / "spot.obj")) FAIL() << "no meshes in " << dir;
     for (const char* name : {"spot", "fandisk", "stanford-bunny"}) {
         auto mesh = load_obj(dir / (std::string(name) + ".obj"));
         ASSERT_TRUE(mesh.ok()) << mesh.error().message;

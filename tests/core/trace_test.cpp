@@ -1,6 +1,5 @@
 // The trace CSV (reader, writer, interpolation, figures) and the table importer, against small
-// hand-made tables, the Corbillon et al. 2018 excerpt in tests/data/traces and, when present, the
-// full recordings in ../shared/data/traces.
+// hand-made tables, the Corbillon et al. 2018 excerpt and the full recordings in tests/data/traces.
 #include "hmdnode/core/trace.hpp"
 
 #include <gtest/gtest.h>
@@ -22,7 +21,7 @@ namespace {
 namespace fs = std::filesystem;
 
 const fs::path kData = fs::path(HMDNODE_SOURCE_DIR) / "tests" / "data" / "traces";
-const fs::path kShared = fs::path(HMDNODE_SHARED_DIR) / "data" / "traces";
+const fs::path kShared = fs::path(HMDNODE_SOURCE_DIR) / "tests" / "data" / "traces";
 
 fs::path temp_dir() {
     fs::path dir = fs::path(HMDNODE_BINARY_DIR) / "test_tmp" / "trace";
@@ -384,8 +383,7 @@ TEST(TraceImport, corbillon_excerpt_with_auto_options) {
 TEST(TraceImport, full_corbillon_recordings_when_shared_data_is_present) {
     const fs::path user1 = kShared / "corbillon2018_user1_quaternion.txt";
     const fs::path user2 = kShared / "corbillon2018_user2_quaternion.txt";
-    if (!fs::exists(user1) || !fs::exists(user2))
-        GTEST_SKIP() << "shared data not present at " << kShared;
+    if (!fs::exists(user1) || !fs::exists(user2)) FAIL() << "recordings missing in " << kShared;
     check_corbillon_import(user1, {16053, 8123, 3, 242'004'395, 272'055'999'756});
     check_corbillon_import(user2, {17379, 8755, 4, 263'999'939, 296'854'995'728});
 }

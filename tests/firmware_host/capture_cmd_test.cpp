@@ -1,5 +1,5 @@
 // `hmdnode capture info` and `hmdnode replay --capture` as a user runs them, on the real Vive
-// capture in ../shared/data/traces (skipped when absent) and on bad input.
+// capture bundled in data/traces and on bad input.
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
@@ -25,14 +25,14 @@ fs::path temp_dir(const std::string& name) {
 
 const std::string kTool = HMDNODE_TOOL;
 const std::string kScene = HMDNODE_DEMO_SCENE;
-const fs::path kCapture = fs::path(HMDNODE_SHARED_DIR) / "data/traces/vive_cal.pcap.gz";
+const fs::path kCapture = fs::path(HMDNODE_SOURCE_DIR) / "data/traces/vive_cal.pcap.gz";
 
 bool has(const std::string& s, const std::string& part) {
     return s.find(part) != std::string::npos;
 }
 
 TEST(CaptureCmd, InfoSummarisesTheRealViveCapture) {
-    if (!fs::exists(kCapture)) GTEST_SKIP() << kCapture << " is absent";
+    ASSERT_TRUE(fs::exists(kCapture)) << kCapture << " is missing";
     CommandRun r = run(kTool + " capture info " + kCapture.string());
     ASSERT_EQ(r.code, 0) << r.output;
     EXPECT_TRUE(has(r.output, "link type 220")) << r.output;
@@ -59,7 +59,7 @@ TEST(CaptureCmd, InfoFailsOnMissingOrForeignFiles) {
 }
 
 TEST(CaptureCmd, ReplayRunsTheCaptureThroughTheNode) {
-    if (!fs::exists(kCapture)) GTEST_SKIP() << kCapture << " is absent";
+    ASSERT_TRUE(fs::exists(kCapture)) << kCapture << " is missing";
     const fs::path dir = temp_dir("replay");
     const fs::path report = dir / "report.json";
     CommandRun r = run(kTool + " replay --quiet --eye-width 32 --eye-height 32 --max-frames 120 " +
@@ -82,7 +82,7 @@ TEST(CaptureCmd, ReplayRunsTheCaptureThroughTheNode) {
 }
 
 TEST(CaptureCmd, ReplayStartAndDurationCountFromTheCapturesFirstSample) {
-    if (!fs::exists(kCapture)) GTEST_SKIP() << kCapture << " is absent";
+    ASSERT_TRUE(fs::exists(kCapture)) << kCapture << " is missing";
     const fs::path dir = temp_dir("start");
     const std::string base = kTool + " replay --quiet --eye-width 32 --eye-height 32 --scene " +
                              kScene + " --capture " + kCapture.string() + " --device 28de:2000";
@@ -130,7 +130,7 @@ TEST(CaptureCmd, ReplayStartAndDurationCountFromTheCapturesFirstSample) {
 }
 
 TEST(CaptureCmd, ReplayNamesTheDevicesWhenTheOneAskedForIsAbsent) {
-    if (!fs::exists(kCapture)) GTEST_SKIP() << kCapture << " is absent";
+    ASSERT_TRUE(fs::exists(kCapture)) << kCapture << " is missing";
     const fs::path dir = temp_dir("absent");
     CommandRun r =
         run(kTool + " replay --quiet --scene " + kScene + " --capture " + kCapture.string() +

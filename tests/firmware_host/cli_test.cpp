@@ -116,11 +116,11 @@ TEST(Cli, ImportsAndReplaysTheRawCorbillonTable) {
     EXPECT_FALSE(fs::exists(dir / "bad.csv"));
 }
 
-TEST(Cli, ReplaysBothFullRealTracesWhenSharedDataIsPresent) {
+TEST(Cli, ReplaysBothFullRealTraces) {
     for (const char* user : {"1", "2"}) {
-        const fs::path raw = fs::path(HMDNODE_SHARED_DIR) / "data/traces" /
+        const fs::path raw = fs::path(HMDNODE_SOURCE_DIR) / "tests/data/traces" /
                              (std::string("corbillon2018_user") + user + "_quaternion.txt");
-        if (!fs::exists(raw)) GTEST_SKIP() << raw << " not present";
+        ASSERT_TRUE(fs::exists(raw)) << raw << " is missing";
         fs::path dir = temp_dir(std::string("shared_") + user);
         CommandRun imp = run(kTool + " trace import --source-frame z-up-x-forward --from " +
                              raw.string() + " --to " + (dir / "t.csv").string());

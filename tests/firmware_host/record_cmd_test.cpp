@@ -121,7 +121,7 @@ TEST(RecordCmd, absent_hidapi_device_fails_clearly) {
     EXPECT_FALSE(fs::exists(dir / "a.pcap"));
 }
 
-const fs::path kViveCapture = fs::path(HMDNODE_SHARED_DIR) / "data/traces/vive_cal.pcap.gz";
+const fs::path kViveCapture = fs::path(HMDNODE_SOURCE_DIR) / "data/traces/vive_cal.pcap.gz";
 
 double angle_deg(const glm::dquat& a, const glm::dquat& b) {
     const glm::dquat d = glm::conjugate(a) * b;
@@ -129,7 +129,7 @@ double angle_deg(const glm::dquat& a, const glm::dquat& b) {
 }
 
 TEST(RecordCmd, vive_capture_to_trace_through_the_device_tracker) {
-    if (!fs::exists(kViveCapture)) GTEST_SKIP() << kViveCapture << " is absent";
+    ASSERT_TRUE(fs::exists(kViveCapture)) << kViveCapture << " is missing";
     const fs::path dir = temp_dir("vive");
     const fs::path csv = dir / "vive.csv";
     const ToolRun r = run("record --device 28de:2000 --backend capture --from " +

@@ -1,10 +1,10 @@
 #!/bin/sh
 # Builds each libFuzzer harness in tests/fuzz with clang++ -fsanitize=fuzzer,address,undefined
 # (with only the codec sources it needs) and runs it for FUZZ_SECONDS (default 6) seconds.
-# Usage: run.sh CLANGXX SOURCE_DIR WORK_DIR [SHARED_DIR]
+# Usage: run.sh CLANGXX SOURCE_DIR WORK_DIR [DATA_ROOT]   (DATA_ROOT/data/traces holds the Vive capture seed)
 # Exit 77 (CTest: skipped) when clang++ cannot link libFuzzer; says so on stderr.
 set -eu
-CXX="$1"; SRC="$2"; WORK="$3"; SHARED="${4:-$SRC/../shared}"
+CXX="$1"; SRC="$2"; WORK="$3"; SHARED="${4:-$SRC}"
 SECONDS_EACH="${FUZZ_SECONDS:-6}"
 mkdir -p "$WORK"
 FLAGS="-std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined \
@@ -37,7 +37,7 @@ build progressive_mesh_fuzz -I"$SRC/lod/include" -I"$SRC/lod/src" \
 build mesh_file_fuzz -I"$SRC/lod/include" "$SRC/lod/src/mesh_file.cpp" "$SRC/core/src/obj.cpp" \
   "$SRC/core/src/atomic_file.cpp" "$SRC/core/src/scene.cpp"
 
-# Seeds: a valid prefix of the real capture (plain and gzip'd) when the shared data is there.
+# Seeds: a valid prefix of the real capture (plain and gzip'd) (data/traces).
 mkdir -p "$WORK/corpus/usbmon_capture_fuzz" "$WORK/corpus/vive_imu_fuzz" \
   "$WORK/corpus/reference_protocol_fuzz" "$WORK/corpus/rift_imu_fuzz" \
   "$WORK/corpus/progressive_mesh_fuzz" "$WORK/corpus/mesh_file_fuzz"

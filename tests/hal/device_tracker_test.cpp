@@ -1,6 +1,6 @@
 // Device tracker over a loopback transport the test controls: reference-protocol reports at 1 kHz,
 // an unplug and replug mid-stream (simulated clock, and a short real-clock run), IMU-only fusion,
-// and the real Vive capture replayed at capture time (skipped when the shared data is absent).
+// and the real Vive capture replayed at capture time (bundled in data/traces).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -272,8 +272,8 @@ TEST(DeviceTracker, SimReferenceDeviceForThreeMinutesLosesNothingAndSurvivesARep
 
 TEST(DeviceTracker, ReplaysTheRealViveCaptureAtCaptureTime) {
     const std::filesystem::path file =
-        std::filesystem::path(HMDNODE_SHARED_DIR) / "data/traces/vive_cal.pcap.gz";
-    if (!std::filesystem::exists(file)) GTEST_SKIP() << file << " is absent";
+        std::filesystem::path(HMDNODE_SOURCE_DIR) / "data/traces/vive_cal.pcap.gz";
+    ASSERT_TRUE(std::filesystem::exists(file)) << file << " is missing";
     auto cap = read_usbmon_capture(file);
     ASSERT_TRUE(cap.ok()) << cap.error().message;
     CaptureSummary summary = summarize_capture(*cap);

@@ -1,5 +1,5 @@
 // The usbmon capture reader and capture backend, on synthetic pcap bytes (closed-form answers) and
-// on the real Vive capture in ../shared/data/traces (skipped when absent): ~1,000 unique samples
+// on the real Vive capture bundled in data/traces: ~1,000 unique samples
 // per second, no sequence gaps beyond the capture's own, |a| within 2 % of g while still, and a
 // fused orientation that stays still while the headset is still.
 #include <gtest/gtest.h>
@@ -129,8 +129,8 @@ TEST(UsbmonCapture, RejectsTruncatedAndForeignFiles) {
 
 TEST(UsbmonCapture, RealViveCaptureMeetsTheDoneWhenFigures) {
     const std::filesystem::path file =
-        std::filesystem::path(HMDNODE_SHARED_DIR) / "data/traces/vive_cal.pcap.gz";
-    if (!std::filesystem::exists(file)) GTEST_SKIP() << file << " is absent";
+        std::filesystem::path(HMDNODE_SOURCE_DIR) / "data/traces/vive_cal.pcap.gz";
+    ASSERT_TRUE(std::filesystem::exists(file)) << file << " is missing";
     auto cap = read_usbmon_capture(file);
     ASSERT_TRUE(cap.ok()) << cap.error().message;
     EXPECT_EQ(cap->link_type, 220);

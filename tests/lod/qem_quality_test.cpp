@@ -1,5 +1,5 @@
 // The error targets of `qem` (QEM with optimal placement) against meshopt_simplify, on the real
-// meshes of ../shared/data/meshes (skipped where they are absent, as in a clean clone): at 10 %
+// meshes bundled in data/meshes: at 10 %
 // and 1 % of the faces, mean surface distance at most 0.7x meshopt_simplify's and symmetric
 // Hausdorff distance no worse (Metro distances, lod/mesh_distance.hpp). Where meshopt_simplify
 // stops above the target (it keeps the spot's UV seams: 98 triangles for 59), qem is compared
@@ -23,7 +23,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const fs::path kMeshes = fs::path(HMDNODE_SHARED_DIR) / "data" / "meshes";
+const fs::path kMeshes = fs::path(HMDNODE_SOURCE_DIR) / "data" / "meshes";
 
 struct Case {
     const char* file;
@@ -39,7 +39,7 @@ class QemQuality : public testing::TestWithParam<Case> {};
 TEST_P(QemQuality, MeanAtMost07xAndHausdorffNoWorseThanMeshopt) {
     const Case c = GetParam();
     const fs::path path = kMeshes / c.file;
-    if (!fs::exists(path)) GTEST_SKIP() << "shared data not present at " << path;
+    if (!fs::exists(path)) FAIL() << path << " is missing";
     const Result<Mesh> mesh = load_obj(path);
     ASSERT_TRUE(mesh.ok()) << mesh.error().message;
     const Primitive& in = mesh->primitives.at(0);
