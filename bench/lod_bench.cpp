@@ -5,14 +5,17 @@
 // reached, mean and Hausdorff error (mesh_distance.hpp, % of the bounding-box diagonal); for the
 // time target, qem's time over meshopt_simplify's from interleaved pairs of runs.
 //
-// Usage: bench_lod_bench [MESH_DIR] [--out PREFIX] [--only a,b] [--samples N]
+// Usage: bench_lod_bench [MESH_DIR] [--out PREFIX] [--only a,b] [--samples N] [--write-docs]
 //   MESH_DIR defaults to HMDNODE_SOURCE_DIR/data/meshes; writes PREFIX.json and
-//   PREFIX.svg (default ./lod_bench) and a markdown table on stdout, then the target line.
+//   PREFIX.svg (default ./lod_bench) and a markdown table on stdout, then the target line;
+//   --write-docs also puts the tables into docs/lod-generation.md and the plot into
+//   docs/lod-generation-bench.svg.
 #include <meshoptimizer.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdarg>
 #include <cstdio>
 #include <filesystem>
 #include <functional>
@@ -23,6 +26,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "doc_table.hpp"
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/obj.hpp"
 #include "hmdnode/lod/mesh_distance.hpp"
@@ -204,7 +208,19 @@ std::string svg_plot(const std::vector<Row>& rows, const std::vector<std::string
 
 }  // namespace
 
+// printf into a string (the tables are printed and may be written into the docs).
+__attribute__((format(printf, 2, 3))) void appendf(std::string& out, const char* format, ...) {
+    char line[1024];
+    va_list args;
+    va_start(args, format);
+    std::vsnprintf(line, sizeof line, format, args);
+    va_end(args);
+    out += line;
+}
+
 int main(int argc, char** argv) {
+    const bool write_docs = bench::wants_docs(argc, argv);
+    std::string only_arg;
     fs::path mesh_dir = fs::path(HMDNODE_SOURCE_DIR) / "data" / "meshes";
     std::string prefix = "lod_bench";
     std::vector<std::string> only;
@@ -214,13 +230,17 @@ int main(int argc, char** argv) {
         if (a == "--out" && i + 1 < argc) {
             prefix = argv[++i];
         } else if (a == "--only" && i + 1 < argc) {
-            std::stringstream ss(argv[++i]);
+            only_arg = argv[++i];
+            std::stringstream ss(only_arg);
             for (std::string n; std::getline(ss, n, ',');) only.push_back(n);
         } else if (a == "--samples" && i + 1 < argc) {
             distance.samples = size_t(std::stoull(argv[++i]));
+        } else if (a == "--write-docs") {
+            continue;
         } else if (a == "--help" || a == "-h") {
-            std::printf("usage: %s [MESH_DIR] [--out PREFIX] [--only a,b] [--samples N]\n",
-                        argv[0]);
+            std::printf(
+                "usage: %s [MESH_DIR] [--out PREFIX] [--only a,b] [--samples N] [--write-docs]\n",
+                argv[0]);
             return 0;
         } else {
             mesh_dir = a;
@@ -343,50 +363,57 @@ int main(int argc, char** argv) {
         }
     }
 
-    // Markdown table.
-    std::printf(
+    // Markdown tables: printed, and with --write-docs also put into docs/lod-generation.md.
+    std::string out;
+    appendf(out, "Measured by `build/release/bench/bench_lod_bench%s --write-docs` (%s):\n\n",
+            only.empty() ? "" : (" --only " + only_arg).c_str(),
+            "one run; times are medians, see above; errors against the original");
+    appendf(
+        out,
         "| mesh | algorithm | target | triangles | time ms | mean %% diag | Hausdorff %% diag |\n");
-    std::printf("|---|---|---|---|---|---|---|\n");
+    appendf(out, "|---|---|---|---|---|---|---|\n");
     for (const Row& r : rows) {
         if (!r.failure.empty()) {
-            std::printf("| %s | %s | %.0f %% | - | - | failed: %s | |\n", r.mesh.c_str(),
-                        r.algorithm.c_str(), r.ratio * 100, r.failure.c_str());
+            appendf(out, "| %s | %s | %.0f %% | - | - | failed: %s | |\n", r.mesh.c_str(),
+                    r.algorithm.c_str(), r.ratio * 100, r.failure.c_str());
             continue;
         }
-        std::printf("| %s | %s | %.0f %% (%zu) | %zu | %s | %s | %s |\n", r.mesh.c_str(),
-                    r.algorithm.c_str(), r.ratio * 100, r.target, r.triangles,
-                    fixed(r.ms, r.ms < 10 ? 2 : 1).c_str(), fixed(r.mean_pct, 4).c_str(),
-                    fixed(r.hausdorff_pct, 3).c_str());
+        appendf(out, "| %s | %s | %.0f %% (%zu) | %zu | %s | %s | %s |\n", r.mesh.c_str(),
+                r.algorithm.c_str(), r.ratio * 100, r.target, r.triangles,
+                fixed(r.ms, r.ms < 10 ? 2 : 1).c_str(), fixed(r.mean_pct, 4).c_str(),
+                fixed(r.hausdorff_pct, 3).c_str());
     }
 
     // Target line: qem against meshopt_simplify.
-    std::printf("\nTarget: qem no slower than meshopt_simplify, mean <= 0.7x, Hausdorff <= 1.0x\n");
-    std::printf(
-        "(time: the table's medians; paired: median and quartiles of the ratios of\n"
-        "interleaved runs, the figure to compare with the target)\n");
-    std::printf(
-        "| mesh | ratio | time qem/meshopt | paired (p25-p75, pairs) | mean qem/meshopt | "
-        "Hausdorff qem/meshopt |\n");
-    std::printf("|---|---|---|---|---|---|\n");
+    appendf(out,
+            "\nTarget: qem no slower than meshopt_simplify, mean <= 0.7x, Hausdorff <= 1.0x\n");
+    appendf(out,
+            "(time: the table's medians; paired: median and quartiles of the ratios of\n"
+            "interleaved runs, the figure to compare with the target)\n");
+    appendf(out,
+            "| mesh | ratio | time qem/meshopt | paired (p25-p75, pairs) | mean qem/meshopt | "
+            "Hausdorff qem/meshopt |\n");
+    appendf(out, "|---|---|---|---|---|---|\n");
     for (const std::string& m : meshes)
         for (double ratio : ratios) {
             const Row* q = find(m, "qem", ratio);
             const Row* o = find(m, "meshopt_simplify", ratio);
             if (!q || !o) continue;
-            std::printf("| %s | %.0f %% | %.2f | %.2f (%.2f-%.2f, %d) | %.2f | %.2f |\n", m.c_str(),
-                        ratio * 100, o->ms > 0 ? q->ms / o->ms : 0.0, q->pair_ratio_median,
-                        q->pair_ratio_p25, q->pair_ratio_p75, q->pairs,
-                        o->mean_pct > 0 ? q->mean_pct / o->mean_pct : 0.0,
-                        o->hausdorff_pct > 0 ? q->hausdorff_pct / o->hausdorff_pct : 0.0);
+            appendf(out, "| %s | %.0f %% | %.2f | %.2f (%.2f-%.2f, %d) | %.2f | %.2f |\n",
+                    m.c_str(), ratio * 100, o->ms > 0 ? q->ms / o->ms : 0.0, q->pair_ratio_median,
+                    q->pair_ratio_p25, q->pair_ratio_p75, q->pairs,
+                    o->mean_pct > 0 ? q->mean_pct / o->mean_pct : 0.0,
+                    o->hausdorff_pct > 0 ? q->hausdorff_pct / o->hausdorff_pct : 0.0);
             for (const EqualCount& e : equal_counts) {
                 if (e.mesh != m || e.ratio != ratio) continue;
-                std::printf("| %s | %.0f %%, qem at meshopt's %zu faces | - | - | %.2f | %.2f |\n",
-                            m.c_str(), ratio * 100, o->triangles,
-                            o->mean_pct > 0 ? e.mean_pct / o->mean_pct : 0.0,
-                            o->hausdorff_pct > 0 ? e.hausdorff_pct / o->hausdorff_pct : 0.0);
+                appendf(out, "| %s | %.0f %%, qem at meshopt's %zu faces | - | - | %.2f | %.2f |\n",
+                        m.c_str(), ratio * 100, o->triangles,
+                        o->mean_pct > 0 ? e.mean_pct / o->mean_pct : 0.0,
+                        o->hausdorff_pct > 0 ? e.hausdorff_pct / o->hausdorff_pct : 0.0);
             }
         }
 
+    std::fputs(out.c_str(), stdout);
     nlohmann::json j = nlohmann::json::array();
     for (const Row& r : rows)
         j.push_back({{"mesh", r.mesh},
@@ -422,5 +449,18 @@ int main(int argc, char** argv) {
         }
     }
     std::fprintf(stderr, "wrote %s.json and %s.svg\n", prefix.c_str(), prefix.c_str());
+    if (write_docs) {
+        if (!bench::write_doc_table(HMDNODE_SOURCE_DIR "/docs/lod-generation.md", "lod-bench-table",
+                                    out))
+            return 1;
+        if (const Status s =
+                write_file_atomically(HMDNODE_SOURCE_DIR "/docs/lod-generation-bench.svg",
+                                      svg_plot(rows, meshes, algorithms));
+            !s.ok()) {
+            std::fprintf(stderr, "bench_lod_bench: %s\n", s.error().message.c_str());
+            return 1;
+        }
+        std::fprintf(stderr, "wrote docs/lod-generation.md and docs/lod-generation-bench.svg\n");
+    }
     return 0;
 }

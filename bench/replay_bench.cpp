@@ -2,14 +2,17 @@
 // figures of a small headless Vulkan benchmark on the same kind of machine (docs/DESIGN.md §9:
 // multiview, depth, a textured lightmap-like fetch x vertex colour; medians per stereo frame).
 //
-// Usage: bench_replay_bench [seconds_of_trace_per_run=4]
+// Usage: bench_replay_bench [seconds_of_trace_per_run=4] [--write-docs]   (--write-docs: also into
+// docs/benchmarks.md)
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <map>
+#include <string>
 #include <vector>
 
+#include "doc_table.hpp"
 #include "hmdnode/firmware_host/replay.hpp"
 
 using namespace hmdnode;
@@ -42,23 +45,17 @@ double reference_ms(const RefRow& r, double tri) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    const double seconds = argc > 1 ? std::atof(argv[1]) : 4.0;
+    const bool write_docs = bench::wants_docs(argc, argv);
+    const double seconds =
+        argc > 1 && std::string(argv[1]) != "--write-docs" ? std::atof(argv[1]) : 4.0;
     ReplayOptions base;
     base.scene = HMDNODE_BINARY_DIR "/data/demo_room.glb";
     base.trace = HMDNODE_SOURCE_DIR "/data/traces/corbillon2018_user1.csv";
     base.start_s = 20.0;
     base.duration_s = seconds;
 
-    std::printf(
-        "hmdnode replay benchmark: demo scene, Corbillon 2018 user 1 from t=20 s, %.1f s of trace "
-        "per run\n",
-        seconds);
-    std::printf(
-        "render time per stereo frame (median of the frames of one run; reference = DESIGN §9 at "
-        "the same triangles)\n");
-    std::printf("%-11s %10s %10s %10s %10s %8s %12s %10s\n", "eye", "new frames", "tri/frame",
-                "render p50", "render p95", "ref ms", "ours/ref", "replay fps");
-    std::string device;
+    std::string rows, device;
+    char line[512];
     for (const RefRow& r : kReference) {
         ReplayOptions o = base;
         o.display.eye_width = r.w;
@@ -71,14 +68,32 @@ int main(int argc, char** argv) {
         device = res->device_name;
         const ReplaySummary& s = res->summary;
         const double ref = reference_ms(r, s.triangles_mean);
-        std::printf("%4dx%-6d %10zu %10.0f %10.2f %10.2f %8.1f %12.2f %10.1f\n", r.w, r.h,
-                    s.new_frames, s.triangles_mean, s.render_ms.p50, s.render_ms.p95, ref,
-                    s.render_ms.p50 / ref, double(s.frames) / s.wall_s);
+        std::snprintf(line, sizeof line,
+                      "| %dx%d | %zu | %zu | %.0f | %.2f | %.2f | %.1f | %.2f | %.1f |\n", r.w, r.h,
+                      s.vsyncs, s.new_frames, s.triangles_mean, s.render_ms.p50, s.render_ms.p95,
+                      ref, s.render_ms.p50 / ref, double(s.frames) / s.wall_s);
+        rows += line;
     }
-    std::printf("device: %s\n", device.c_str());
-    std::printf(
-        "render = the scene pass alone (no read-back); replay fps = presents (new frames and\n"
-        "re-warps) per wall second on the simulated clock, the start-up calibration, warp +\n"
-        "distortion, tracking, LOD and pacing included.\n");
+    std::string out;
+    std::snprintf(line, sizeof line,
+                  "Measured by `build/release/bench/bench_replay_bench %g --write-docs` (renderer "
+                  "%s; demo scene, Corbillon 2018 user 1 from t = 20 s, %g s of trace per run, "
+                  "simulated clock with the frame-cost model calibrated at start-up):\n\n",
+                  seconds, device.c_str(), seconds);
+    out += line;
+    out +=
+        "| eye | vsyncs | new frames | triangles/frame | render p50 (ms) | render p95 (ms) | "
+        "reference (ms) | ours/ref | replay fps |\n"
+        "|---|---|---|---|---|---|---|---|---|\n";
+    out += rows;
+    out +=
+        "\nrender = the scene pass alone, both eyes, no read-back; reference = DESIGN.md §9's "
+        "table at the same triangle count (log-linear between its points); replay fps = presents "
+        "(new frames and re-warps) per wall second, the start-up calibration, warp + distortion, "
+        "tracking, LOD and pacing included.\n";
+    std::fputs(out.c_str(), stdout);
+    if (write_docs && !bench::write_doc_table(HMDNODE_SOURCE_DIR "/docs/benchmarks.md",
+                                              "replay-bench-table", out))
+        return 1;
     return 0;
 }
