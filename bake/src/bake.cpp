@@ -261,7 +261,7 @@ Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
             if (!done_meshes.insert(level.mesh).second) continue;
             // A coarse level's surface lies within its geometric error of level 0 (the traced
             // geometry), often inside it: its points are lifted by twice that error along the
-            // normal before tracing, as direct_bake skips shadow hits that close.
+            // normal before tracing, so that level 0 does not shadow them.
             const float lift = li == 0 ? 0.0f : float(2.0 * level.geometric_error_m);
             for (Primitive& prim : scene.meshes[level.mesh].primitives) {
                 if (has_lightmap(scene, prim) || prim.positions.empty()) continue;

@@ -22,8 +22,8 @@
 
 #include <stb_rect_pack.h>
 
-#include "hmdnode/bake/direct_bake.hpp"
 #include "hmdnode/bake/uv_atlas.hpp"
+#include "world_lights.hpp"
 
 namespace hmdnode {
 
@@ -295,7 +295,7 @@ Result<AtlasReport> build_uv_atlas_in(Scene& scene, const AtlasOptions& options)
     // World scale per mesh: the largest axis scale among the nodes using it.
     std::vector<double> mesh_scale(scene.meshes.size(), 0.0);
     {
-        const std::vector<glm::dmat4> world = node_world_matrices(scene);
+        const std::vector<glm::dmat4> world = detail::node_world_matrices(scene);
         for (size_t i = 0; i < scene.nodes.size(); ++i) {
             const int m = scene.nodes[i].mesh;
             if (m < 0 || size_t(m) >= scene.meshes.size()) continue;

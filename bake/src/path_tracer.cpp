@@ -25,7 +25,7 @@
 #include <thread>
 
 #include "embree_scene.hpp"
-#include "hmdnode/bake/direct_bake.hpp"
+#include "world_lights.hpp"
 
 namespace hmdnode {
 namespace {
@@ -134,7 +134,7 @@ struct PathTracer::Impl {
     std::vector<uint32_t> material;  // per triangle, index into mats
     std::vector<TriMaterial> mats;
     std::vector<LinearTexture> textures;
-    std::vector<WorldLight> lights;
+    std::vector<detail::WorldLight> lights;
     // Emitters: triangles with emission, chosen with probability ~ luminance x area.
     std::vector<uint32_t> emitters;
     std::vector<float> emitter_cdf;       // inclusive, last = 1
@@ -170,11 +170,11 @@ struct PathTracer::Impl {
         return out;
     }
 
-    // Punctual lights at p with normal n, shadowed (direct_bake.cpp's formula, Embree rays).
+    // Punctual lights at p with normal n, shadowed (the formula in world_lights.hpp, Embree rays).
     glm::vec3 punctual(const glm::vec3& p, const glm::vec3& n, uint64_t* rays) const {
         glm::vec3 e(0.0f);
         const glm::vec3 origin = p + n * offset(p);
-        for (const WorldLight& l : lights) {
+        for (const detail::WorldLight& l : lights) {
             glm::vec3 to_light;
             float falloff, t_max;
             if (l.type == Light::Type::Directional) {
@@ -342,7 +342,7 @@ Result<PathTracer> PathTracer::build(const Scene& scene, const PathTracerOptions
     const uint32_t default_mat = uint32_t(impl->mats.size());
     impl->mats.push_back(TriMaterial{});  // glTF default material: white... use 0.8 grey
 
-    impl->lights = world_lights(scene);
+    impl->lights = detail::world_lights(scene);
 
     bool first = true;
     for (const SceneObject& obj : flatten_objects(scene)) {

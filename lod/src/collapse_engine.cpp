@@ -67,17 +67,13 @@
 //   input stays manifold, closed input stays closed.
 //
 // Departure: the issue asks for the edge-collapse algorithms on OpenMesh's Decimater. Its generic
-// module and property machinery make ModQuadric take about 2.4 s on the bunny at 10 % (the
-// issue's figure for this machine); this engine does the same work with QEM on flat arrays, so
-// OpenMesh stays the baseline only (simplify_openmesh_quadric). Speed against meshopt_simplify,
-// in interleaved pairs on this 2-core machine (bench_lod_bench): the bunny, split over two
-// threads, 0.96-1.01 / 1.04-1.12 / 1.05-1.12x its time at 50 / 10 / 1 % (about 24-25 ms against
-// 25 at 10 % in quiet runs); on one thread about 1.5x (37-39 ms; 2.3-2.9x before the flat entry
-// lists with remapping, the simple-fan path and the scalar placement). The fandisk 0.87-0.89 /
-// 1.12-1.13 / 1.28-1.34x, the spot (under the split threshold) 1.27-1.39x. The set-up and first
-// pass take as long as meshopt_simplify's; the later passes about twice as long, for the work
-// it does not do (placement solve, link condition, flip checks on both endpoints, seams,
-// attributes; docs/simplification.md: commands, where the time goes).
+// module and property machinery make ModQuadric take seconds on the bunny; this engine does the
+// same work with QEM on flat arrays, so OpenMesh stays the baseline only
+// (simplify_openmesh_quadric). Against meshopt_simplify, the set-up and first pass cost about
+// the same and the later passes more, for the work it does not do (placement solve, link
+// condition, flip checks on both endpoints, seams, attributes). The measurements:
+// docs/simplification.md ("Measurements behind the engine's choices") and docs/lod-generation.md
+// (Benchmark).
 //
 // Cost: O(V + F) to build; QEM schedule O(E) per pass, a handful to a few dozen passes; greedy
 // schedule O(E log E) (each collapse re-evaluates O(valence^2) edges). Memory O(V + F + E): about
@@ -161,11 +157,11 @@ PmWedge lerp_wedge(const PmWedge& from, const PmWedge& to, float t, bool has_nor
 }
 
 // From this many input faces on, the pass schedule cuts the mesh in two regions and, on a machine
-// with a second core, starts a helper thread (its start costs tens of microseconds, a hand-over
-// about one while the other thread still spins, see two_way.hpp); it splits a pass in two while
-// at least kSplitGoal collapses are left to the next target. The fandisk (12 946 faces) gains;
-// the spot (5 856) gained little and its 1 % level came out worse (mean error 0.82x meshopt's
-// instead of 0.62x).
+// with a second core, starts a helper thread (a thread start per call and a hand-over per split
+// pass, see two_way.hpp); it splits a pass in two while at least kSplitGoal collapses are left to
+// the next target. The threshold lies between the test meshes: the fandisk (12 946 faces) gains,
+// the spot (5 856) gained little and its coarsest level lost accuracy (docs/simplification.md,
+// "Measurements behind the engine's choices").
 constexpr size_t kSplitFaces = 8192;
 constexpr size_t kSplitGoal = 2048;
 
@@ -417,8 +413,8 @@ class Engine {
     uint32_t region_start_ = 0;
     // Whether the walks prefetch (prefetch_list() and the others). note: under kSplitFaces the
     // work stays on one core and its arrays fit in that core's cache (about 1 MB for 8 192
-    // faces), so the prefetches only cost instructions: the spot 0.96-0.98x the time without
-    // them; the fandisk, split over two cores, 1.02-1.06x.
+    // faces), so the prefetches only cost instructions; above it they pay (measured:
+    // docs/simplification.md, "Measurements behind the engine's choices").
     bool prefetch_ = true;
     Scratch<uint8_t> region_class_;
     Scratch<uint64_t> boundary_;  // the candidates across the cut, in cost order
@@ -1506,9 +1502,9 @@ void Engine::sort_bucket(uint32_t b, uint32_t* counts) {
     const uint32_t begin = bucket_start_[b], end = bucket_start_[b + 1];
     if (end - begin <= kInsertionSortItems) {
         // note: a counting sort clears and sums all 2 048 counters whatever the bucket's size,
-        // and most buckets a pass reads hold a few items or none (the spot at 10 %: 3 044 of the
-        // 3 093 buckets of its 7 passes, 1 463 items in all). An insertion sort is stable too, so
-        // the order is the same (fandisk 10 % 0.96x the time, the spot 0.99x, the bunny 1.00x).
+        // and most buckets a pass reads hold a few items or none. An insertion sort is stable
+        // too, so the order is the same (measured: docs/simplification.md, "Measurements behind
+        // the engine's choices").
         for (uint32_t i = begin; i < end; ++i) {
             const uint64_t item = order_tmp_[i];
             const uint64_t digit = item >> 42;  // note: the high digit is the bucket's, equal

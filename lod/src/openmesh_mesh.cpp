@@ -402,9 +402,10 @@ HH find_halfedge(const OmMesh& mesh, VH from, VH to) {
     return mesh.find_halfedge(from, to);
 }
 
-// note: a cost depends on the two rings around an element, but re-costing two rings made FAD 3x
-// slower on the bunny for no visible change; apply() re-checks every collapse anyway, so a stale
-// cost only misorders, never breaks the mesh.
+// note: a cost depends on the two rings around an element, but re-costing two rings made FAD
+// several times slower for no visible change (docs/simplification.md, "Measurements behind the
+// engine's choices"); apply() re-checks every collapse anyway, so a stale cost only misorders,
+// never breaks the mesh.
 constexpr int kRings = 1;
 
 }  // namespace

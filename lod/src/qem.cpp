@@ -143,9 +143,9 @@ namespace {
 // The order of the collapses: the quadric error over W^0.75, W the face area the two quadrics sum
 // (1 without area). note: the plain sum of area-weighted squared distances (W^0) is cheapest where
 // the area is small, so small features went early and long faces then spanned where they had
-// been (the fandisk at 1 %: 1.7x meshopt_simplify's Hausdorff distance; the bunny at 30 %: 1.3x);
-// the mean squared distance (W^1) keeps them but spends mean error (the spot at 1 %: 0.91x
-// meshopt_simplify's mean against 0.62x); W^0.75 keeps most of both (docs/simplification.md).
+// been (a large Hausdorff distance at coarse levels); the mean squared distance (W^1) keeps them
+// but spends mean error; W^0.75 keeps most of both (the figures: docs/simplification.md,
+// "Measurements behind the engine's choices").
 double order_scale(double w) {
     return w > 0.0 ? 1.0 / std::sqrt(w * std::sqrt(w)) : 1.0;
 }

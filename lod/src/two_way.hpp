@@ -4,13 +4,13 @@
 // so the result is the same bit for bit with or without the helper. Half 1 goes to whichever
 // thread claims it first: a caller done with f(0) before the helper has started f(1) runs it
 // itself, so a helper that waits for its core (a busy machine: another process on it) costs at
-// most its own half, not a scheduler time slice per run() (the fandisk at 10 % took 320-356 ms
-// instead of about 6 so, with a compiler on the other core).
+// most its own half, not a scheduler time slice per run().
 //
-// Cost: one thread start per object (within about 100 us, on a core other than the caller's, see
-// start()); per run(), a few microseconds when the other thread is still spinning from the last
-// run (up to a millisecond, see wait_change()), else a wake-up from a futex (tens of microseconds
-// on this machine). Between runs the helper spins for up to that millisecond, on its own core.
+// Cost: one thread start per object (on a core other than the caller's, see start()); per run(),
+// a hand-over to a thread still spinning from the last run (it spins for up to a millisecond, see
+// wait_change()), else a wake-up from a futex. Between runs the helper spins for up to that
+// millisecond, on its own core. The measurements behind these choices: docs/simplification.md
+// ("Measurements behind the engine's choices").
 #pragma once
 
 #include <pthread.h>
@@ -46,7 +46,7 @@ class TwoWay {
     // f(int half) must not throw (an exception on the helper thread ends the process). f is copied
     // into this object first and both threads call the copy: a closure left on the caller's stack
     // shares cache lines with the caller's locals, which the caller writes while the helper reads
-    // the closure (a collect of the bunny's candidates ran 1.6x slower than on one thread so).
+    // the closure (false sharing: slower than one thread).
     // The same goes for what f captures by reference: capture by value what the loops read.
     template <class F>
     void run(const F& f) {
@@ -74,15 +74,13 @@ class TwoWay {
     }
 
   private:
-    // note: a new thread starts on its creator's core. With the other core idle (halted, as this
-    // 2-core VM's idle vCPU is), the scheduler took about 2.9 ms to move it there (median of 31
-    // starts after 25 ms asleep; 60 us when the other core was busy), and work started after an
-    // idle moment ran on one thread meanwhile (the fandisk at 10 %: 6.6 ms instead of 5.7). Started
-    // with an affinity that leaves out the caller's core of the moment, it ran within about
-    // 100 us. For short work the scheduler would also have left it there: every split would then
-    // run its halves one after the other on one core (the fandisk 1.5x slower). The caller is not
-    // pinned; no mask is set where the process may use one core only. Without a thread (none
-    // could be created) the work runs on the caller.
+    // note: a new thread starts on its creator's core. With the other core idle (halted, as a
+    // VM's idle vCPU is), the scheduler took milliseconds to move it there, and work started after
+    // an idle moment ran on one thread meanwhile. Started with an affinity that leaves out the
+    // caller's core of the moment, it starts promptly. For short work the scheduler would also have
+    // left it there: every split would then run its halves one after the other on one core. The
+    // caller is not pinned; no mask is set where the process may use one core only. Without a
+    // thread (none could be created) the work runs on the caller.
     void start() {
         pthread_attr_t attr;
         if (pthread_attr_init(&attr) != 0) return;
@@ -110,9 +108,9 @@ class TwoWay {
     }
 
     // Waits until a changes from old and returns the new value: spinning for up to kSpin first,
-    // then asleep on the futex. note: the next run usually comes within a millisecond, and a
-    // thread asleep on a futex took 50-60 microseconds to wake on this 2-core VM (its idle vCPU
-    // halts), several times the cost of short halves.
+    // then asleep on the futex. note: the next run usually comes within a millisecond, and waking
+    // a thread asleep on a futex (on a VM whose idle vCPU halts) costs several times a short
+    // half.
     static uint32_t wait_change(const std::atomic<uint32_t>& a, uint32_t old) {
         const auto start = std::chrono::steady_clock::now();
         for (uint32_t i = 1;; ++i) {

@@ -1,8 +1,10 @@
 // The Embree path tracer against closed-form answers: the furnace (closed box, albedo rho,
 // emission Le: radiance Le / (1 - rho) everywhere), a plane under a uniform sky (E = pi Ls), a
-// point light (E = I cos / r^2), and the Monte Carlo error falling as 1 / sqrt(N).
+// point light (E = I cos / r^2), KHR_lights_punctual's range window and spot cone, lights placed
+// by their nodes, and the Monte Carlo error falling as 1 / sqrt(N).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <vector>
@@ -148,6 +150,74 @@ TEST(PathTracer, PointLightOverPlaneAndItsShadow) {
     // Umbra: the occluder's shadow spans [-0.4, 0.4]^2 on the floor.
     for (float x : {0.0f, 0.3f, -0.35f})
         EXPECT_EQ(t->irradiance({x, 0, 0.1f}, {0, 1, 0}, rng).r, 0.0f);
+}
+
+// Punctual lights are placed by their node's world transform (through the parent chain) and
+// follow KHR_lights_punctual: range window max(0, 1 - (r / range)^4), spot cone
+// clamp((cos - cos_outer) / (cos_inner - cos_outer), 0, 1)^2, directional lights I * colour * cos.
+TEST(PathTracer, PunctualLightsPlacedByTheirNodesWithRangeAndCone) {
+    Material m;
+    m.base_color_factor = glm::vec4(0.0f, 0.0f, 0.0f, 1.0f);  // black: direct light only
+    Scene s = one_mesh_scene(m);
+    add_quad(s, {-4, 0, -4}, {0, 0, 8}, {8, 0, 0});  // floor, normal +y
+    // A point light 2 m above (0.3, -0.2) through a parent "mount" node and its child.
+    const glm::vec3 lamp(0.3f, 2.0f, -0.2f);
+    Node mount, child;
+    mount.translation = glm::dvec3(lamp.x, 0.0, lamp.z);
+    mount.children.push_back(2);
+    child.translation = glm::dvec3(0.0, lamp.y, 0.0);
+    s.nodes.push_back(mount);
+    s.nodes.push_back(child);
+    s.roots.push_back(1);
+    Light l;
+    l.intensity = 10.0f;
+    l.range = 4.0f;
+    l.node = 2;
+    s.lights.push_back(l);
+    Result<PathTracer> t = PathTracer::build(s, PathTracerOptions{});
+    ASSERT_TRUE(t.ok()) << t.error().message;
+    Pcg32 rng(7, 7);
+    for (float x : {0.3f, 1.0f, 2.5f, 3.9f}) {
+        const glm::vec3 p(x, 0, 0.1f);
+        const glm::vec3 d = lamp - p;
+        const float r = glm::length(d), q = r / l.range;
+        const float expected = 10.0f * (d.y / r) / (r * r) * std::max(0.0f, 1.0f - q * q * q * q);
+        EXPECT_NEAR(t->direct_irradiance(p, {0, 1, 0}, rng).r, expected, 1e-4f * expected + 1e-7f)
+            << x;
+    }
+
+    // The same light as a spot pointing straight down (a quarter turn about +X turns -Z to -Y):
+    // full inside the inner cone, nothing outside the outer one, the squared ramp between.
+    s.nodes[2].rotation = glm::angleAxis(glm::radians(-90.0), glm::dvec3(1, 0, 0));
+    s.lights[0].type = Light::Type::Spot;
+    s.lights[0].range = 0.0f;
+    s.lights[0].inner_cone_rad = 0.2f;
+    s.lights[0].outer_cone_rad = 0.6f;
+    t = PathTracer::build(s, PathTracerOptions{});
+    ASSERT_TRUE(t.ok()) << t.error().message;
+    for (float x : {0.3f, 0.5f, 0.9f, 1.2f, 2.0f}) {
+        const glm::vec3 p(x, 0, lamp.z);
+        const glm::vec3 d = lamp - p;
+        const float r = glm::length(d), cos_axis = d.y / r;
+        const float ramp =
+            std::clamp((cos_axis - std::cos(0.6f)) / (std::cos(0.2f) - std::cos(0.6f)), 0.0f, 1.0f);
+        const float expected = 10.0f * cos_axis / (r * r) * ramp * ramp;
+        EXPECT_NEAR(t->direct_irradiance(p, {0, 1, 0}, rng).r, expected, 1e-4f * expected + 1e-7f)
+            << x;
+    }
+
+    // A coloured directional light, pointed down by its node's rotation.
+    s.lights[0] = Light{};
+    s.lights[0].type = Light::Type::Directional;
+    s.lights[0].intensity = 2.0f;
+    s.lights[0].color = glm::vec3(1.0f, 0.5f, 0.25f);
+    s.lights[0].node = 2;
+    t = PathTracer::build(s, PathTracerOptions{});
+    ASSERT_TRUE(t.ok()) << t.error().message;
+    const glm::vec3 e = t->direct_irradiance({-1.0f, 0.0f, 1.5f}, {0, 1, 0}, rng);
+    EXPECT_NEAR(e.r, 2.0f, 1e-5f);
+    EXPECT_NEAR(e.g, 1.0f, 1e-5f);
+    EXPECT_NEAR(e.b, 0.5f, 1e-5f);
 }
 
 TEST(PathTracer, ErrorFallsAsInverseSqrtOfSamples) {

@@ -5,8 +5,8 @@
 #include <string>
 
 #include "hmdnode/core/gltf.hpp"
-#include "hmdnode/firmware_host/demo_scene.hpp"
 #include "tool/commands.hpp"
+#include "tool/demo_scene.hpp"
 
 namespace hmdnode::tool {
 namespace {

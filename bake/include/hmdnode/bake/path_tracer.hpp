@@ -3,9 +3,9 @@
 // Scene: every object of flatten_objects() at its level 0, in world space, one Embree triangle
 // geometry; per triangle its material's Lambertian albedo (base colour factor x base-colour
 // texture at uv0, bilinear, sRGB -> linear) and emission (emissive_factor, front side only unless
-// the material is double-sided). Lights: KHR_lights_punctual (point, spot, directional, with the
-// range window and cone of direct_bake.hpp), emissive triangles, a constant sky radiance for rays
-// that escape.
+// the material is double-sided). Lights: KHR_lights_punctual (point, spot, directional, with
+// the spec's range window max(0, min(1, 1 - (r / range)^4)) and spot cone falloff), emissive
+// triangles, a constant sky radiance for rays that escape.
 //
 // Estimators (one sample each; average many):
 //   irradiance(p, n):  E = integral of L_in cos over the hemisphere of n, with next-event

@@ -2,8 +2,12 @@
 // name (`hmdnode lod --algorithm NAME`). Each algorithm lives in its own file under lod/src/ that
 // opens with the paper it implements and its cost; lod/src/algorithms.hpp is the private table.
 //
-// Pure functions over caller-owned data: no I/O, no globals; `progress` is called on the calling
-// thread.
+// Functions over caller-owned data, no I/O; `progress` is called on the calling thread. Two things
+// live behind them: qem and curvature-qem start a helper thread per call on large inputs
+// (SimplifyOptions::threads), with a CPU affinity that leaves out the caller's core of the moment,
+// and join it before returning (lod/src/two_way.hpp); and the simplifiers' large working arrays
+// come from a thread_local cache that keeps up to 64 MiB per thread between calls for reuse, freed
+// when the thread ends (lod/src/scratch.hpp). Calls on different threads share no state.
 #pragma once
 
 #include <cstddef>

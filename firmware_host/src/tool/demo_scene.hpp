@@ -1,5 +1,6 @@
-// The bundled demo scene: a lit 6 m x 3 m x 6 m room with the Stanford bunny, Keenan Crane's spot
-// and a sphere on stands, LOD chains (vertex clustering) and a direct-light bake.
+// The bundled demo scene's generator (`hmdnode scene demo`, built into the hmdnode tool only): a
+// lit 6 m x 3 m x 6 m room with the Stanford bunny, Keenan Crane's spot and a sphere on stands, LOD
+// chains (QEM simplification) and a path-traced lightmap bake.
 // docs/demo-scene.md describes what is in it and how it is made.
 //
 // Threads: runs entirely on the calling thread. Deterministic: the same data gives the same bytes.

@@ -1,6 +1,7 @@
-// The demo scene generator (docs/demo-scene.md): room geometry with a packed lightmap atlas,
-// source meshes from OBJ, LOD chains by QEM with measured error, path-traced bake, .glb.
-#include "hmdnode/firmware_host/demo_scene.hpp"
+// The demo scene generator behind `hmdnode scene demo` (docs/demo-scene.md): room geometry with a
+// packed lightmap atlas, source meshes from OBJ, LOD chains by QEM with measured error,
+// path-traced bake, .glb. An offline tool step: the runtime library does not contain it.
+#include "tool/demo_scene.hpp"
 
 #include <algorithm>
 #include <chrono>
