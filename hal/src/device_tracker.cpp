@@ -13,8 +13,8 @@
 #include <thread>
 
 #include "hmdnode/hal/device_tracker.hpp"
-#include "hmdnode/hal/spsc_ring.hpp"
 #include "hmdnode/hal/usbmon_capture.hpp"
+#include "tracking/spsc_ring.hpp"
 
 namespace hmdnode {
 namespace {

@@ -9,7 +9,7 @@
 #include <thread>
 #include <vector>
 
-#include "hmdnode/hal/spsc_ring.hpp"
+#include "tracking/spsc_ring.hpp"
 
 namespace hmdnode {
 namespace {
