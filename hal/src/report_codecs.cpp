@@ -3,10 +3,10 @@
 // algorithms live in those files. O(1) per report.
 #include <cmath>
 
-#include "hmdnode/hal/clock_sync.hpp"
-#include "hmdnode/hal/device_tracker.hpp"
 #include "hmdnode/hal/reference_protocol.hpp"
 #include "hmdnode/hal/rift_imu.hpp"
+#include "hmdnode/hal/tracking/clock_sync.hpp"
+#include "hmdnode/hal/tracking/device_tracker.hpp"
 #include "hmdnode/hal/vive_imu.hpp"
 
 namespace hmdnode {

@@ -9,7 +9,7 @@
 #include <filesystem>
 #include <vector>
 
-#include "hmdnode/hal/imu_fusion.hpp"
+#include "hmdnode/hal/tracking/imu_fusion.hpp"
 #include "hmdnode/hal/usbmon_capture.hpp"
 #include "hmdnode/hal/vive_imu.hpp"
 

@@ -12,7 +12,7 @@
 #include <mutex>
 #include <thread>
 
-#include "hmdnode/hal/device_tracker.hpp"
+#include "hmdnode/hal/tracking/device_tracker.hpp"
 #include "hmdnode/hal/usbmon_capture.hpp"
 #include "tracking/spsc_ring.hpp"
 
