@@ -20,7 +20,7 @@
 
 #include "firmware_host/command_run.hpp"
 #include "hmdnode/core/trace.hpp"
-#include "hmdnode/hal/reference_protocol.hpp"
+#include "hmdnode/hal/codec/reference_protocol.hpp"
 #include "hmdnode/hal/usbmon_capture.hpp"
 
 namespace hmdnode {

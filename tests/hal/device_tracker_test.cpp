@@ -8,7 +8,7 @@
 #include <mutex>
 #include <thread>
 
-#include "hmdnode/hal/reference_protocol.hpp"
+#include "hmdnode/hal/codec/reference_protocol.hpp"
 #include "hmdnode/hal/sim_reference_device.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
 #include "hmdnode/hal/usbmon_capture.hpp"

@@ -36,7 +36,7 @@
 #include "hmdnode/core/pose.hpp"
 #include "hmdnode/core/time.hpp"
 #include "hmdnode/core/trace.hpp"
-#include "hmdnode/hal/reference_protocol.hpp"
+#include "hmdnode/hal/codec/reference_protocol.hpp"
 #include "hmdnode/hal/sim_reference_device.hpp"
 #include "hmdnode/hal/tracking/clock_sync.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
