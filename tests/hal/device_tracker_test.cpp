@@ -11,7 +11,7 @@
 #include "hmdnode/hal/codec/reference_protocol.hpp"
 #include "hmdnode/hal/sim_reference_device.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
-#include "hmdnode/hal/usbmon_capture.hpp"
+#include "hmdnode/hal/transport/usbmon_capture.hpp"
 
 namespace hmdnode {
 namespace {

@@ -11,7 +11,7 @@
 
 #include "hmdnode/hal/codec/vive_imu.hpp"
 #include "hmdnode/hal/tracking/imu_fusion.hpp"
-#include "hmdnode/hal/usbmon_capture.hpp"
+#include "hmdnode/hal/transport/usbmon_capture.hpp"
 
 namespace hmdnode {
 namespace {

@@ -18,7 +18,7 @@
 #include "hmdnode/hal/tracking/clock_sync.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
 #include "hmdnode/hal/tracking/imu_fusion.hpp"
-#include "hmdnode/hal/usbmon_capture.hpp"
+#include "hmdnode/hal/transport/usbmon_capture.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {

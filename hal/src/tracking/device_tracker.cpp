@@ -13,7 +13,7 @@
 #include <thread>
 
 #include "hmdnode/hal/tracking/device_tracker.hpp"
-#include "hmdnode/hal/usbmon_capture.hpp"
+#include "hmdnode/hal/transport/usbmon_capture.hpp"
 #include "tracking/spsc_ring.hpp"
 
 namespace hmdnode {
