@@ -9,7 +9,7 @@
 #include <thread>
 
 #include "hmdnode/hal/codec/reference_protocol.hpp"
-#include "hmdnode/hal/sim_reference_device.hpp"
+#include "hmdnode/hal/sim/sim_reference_device.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
 #include "hmdnode/hal/transport/usbmon_capture.hpp"
 

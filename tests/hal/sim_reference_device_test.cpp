@@ -7,7 +7,7 @@
 #include <cmath>
 
 #include "hmdnode/hal/codec/reference_protocol.hpp"
-#include "hmdnode/hal/sim_reference_device.hpp"
+#include "hmdnode/hal/sim/sim_reference_device.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
 
 namespace hmdnode {

@@ -29,7 +29,7 @@
 
 #include "hmdnode/hal/camera.hpp"
 #include "hmdnode/hal/codec/reference_protocol.hpp"
-#include "hmdnode/hal/sim_reference_device.hpp"
+#include "hmdnode/hal/sim/sim_reference_device.hpp"
 #include "hmdnode/hal/transport.hpp"
 
 namespace hmdnode {

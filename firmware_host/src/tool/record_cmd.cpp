@@ -37,7 +37,7 @@
 #include "hmdnode/core/time.hpp"
 #include "hmdnode/core/trace.hpp"
 #include "hmdnode/hal/codec/reference_protocol.hpp"
-#include "hmdnode/hal/sim_reference_device.hpp"
+#include "hmdnode/hal/sim/sim_reference_device.hpp"
 #include "hmdnode/hal/tracking/clock_sync.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
 #include "hmdnode/hal/transport.hpp"
