@@ -19,14 +19,14 @@
 #include <vector>
 
 #include "hmdnode/firmware_host/pose_history.hpp"
-#include "hmdnode/hal/clock_sync.hpp"
-#include "hmdnode/hal/device_tracker.hpp"
-#include "hmdnode/hal/imu_fusion.hpp"
-#include "hmdnode/hal/reference_protocol.hpp"
-#include "hmdnode/hal/sim_reference_device.hpp"
-#include "hmdnode/hal/sim_tracker.hpp"
-#include "hmdnode/hal/usbmon_capture.hpp"
-#include "hmdnode/hal/vive_imu.hpp"
+#include "hmdnode/hal/codec/reference_protocol.hpp"
+#include "hmdnode/hal/codec/vive_imu.hpp"
+#include "hmdnode/hal/sim/sim_reference_device.hpp"
+#include "hmdnode/hal/sim/sim_tracker.hpp"
+#include "hmdnode/hal/tracking/clock_sync.hpp"
+#include "hmdnode/hal/tracking/device_tracker.hpp"
+#include "hmdnode/hal/tracking/imu_fusion.hpp"
+#include "hmdnode/hal/transport/usbmon_capture.hpp"
 
 using namespace hmdnode;
 using Clk = std::chrono::steady_clock;

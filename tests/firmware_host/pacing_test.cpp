@@ -9,8 +9,8 @@
 
 #include "hmdnode/firmware_host/node.hpp"
 #include "hmdnode/firmware_host/replay.hpp"
-#include "hmdnode/hal/mock_display.hpp"
-#include "hmdnode/hal/sim_tracker.hpp"
+#include "hmdnode/hal/display/mock_display.hpp"
+#include "hmdnode/hal/sim/sim_tracker.hpp"
 
 using namespace hmdnode;
 

@@ -20,8 +20,8 @@
 
 #include "firmware_host/command_run.hpp"
 #include "hmdnode/core/trace.hpp"
-#include "hmdnode/hal/reference_protocol.hpp"
-#include "hmdnode/hal/usbmon_capture.hpp"
+#include "hmdnode/hal/codec/reference_protocol.hpp"
+#include "hmdnode/hal/transport/usbmon_capture.hpp"
 
 namespace hmdnode {
 namespace {

@@ -4,7 +4,7 @@
 #include <cstdlib>
 #include <span>
 
-#include "hmdnode/hal/reference_protocol.hpp"
+#include "hmdnode/hal/codec/reference_protocol.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     using namespace hmdnode::refproto;

@@ -6,7 +6,7 @@
 #include <cstdlib>
 #include <span>
 
-#include "hmdnode/hal/rift_imu.hpp"
+#include "hmdnode/hal/codec/rift_imu.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     using namespace hmdnode::rift;

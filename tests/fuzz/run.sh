@@ -23,10 +23,10 @@ build() {  # name, extra sources..., then -l flags
   echo "fuzz: building $name" >&2
   "$CXX" $FLAGS "$SRC/tests/fuzz/$name.cpp" "$@" -o "$WORK/$name"
 }
-build vive_imu_fuzz "$SRC/hal/src/vive_imu_codec.cpp"
-build rift_imu_fuzz "$SRC/hal/src/rift_imu_codec.cpp"
-build reference_protocol_fuzz "$SRC/hal/src/reference_protocol.cpp"
-build usbmon_capture_fuzz "$SRC/hal/src/usbmon_capture.cpp" -lpcap -lz
+build vive_imu_fuzz "$SRC/hal/src/codec/vive_imu_codec.cpp"
+build rift_imu_fuzz "$SRC/hal/src/codec/rift_imu_codec.cpp"
+build reference_protocol_fuzz "$SRC/hal/src/codec/reference_protocol.cpp"
+build usbmon_capture_fuzz "$SRC/hal/src/transport/usbmon_capture.cpp" -lpcap -lz
 # The .hmpm reader needs the collapse engine and its costs (refine); the harness stubs the two
 # symbols of simplify.cpp. The mesh-file reader needs core's OBJ reader; the harness stubs glTF.
 build progressive_mesh_fuzz -I"$SRC/lod/include" -I"$SRC/lod/src" \

@@ -5,7 +5,7 @@
 #include <memory>
 #include <span>
 
-#include "hmdnode/hal/usbmon_capture.hpp"
+#include "hmdnode/hal/transport/usbmon_capture.hpp"
 
 namespace hmdnode {
 // The one symbol of transport.cpp the capture backend needs (transport.cpp itself pulls in the

@@ -7,7 +7,7 @@
 #include <cstdlib>
 #include <span>
 
-#include "hmdnode/hal/vive_imu.hpp"
+#include "hmdnode/hal/codec/vive_imu.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     using namespace hmdnode::vive;

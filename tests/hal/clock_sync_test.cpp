@@ -6,7 +6,7 @@
 #include <cmath>
 #include <random>
 
-#include "hmdnode/hal/clock_sync.hpp"
+#include "hmdnode/hal/tracking/clock_sync.hpp"
 
 namespace hmdnode {
 namespace {

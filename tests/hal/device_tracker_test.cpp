@@ -8,10 +8,10 @@
 #include <mutex>
 #include <thread>
 
-#include "hmdnode/hal/device_tracker.hpp"
-#include "hmdnode/hal/reference_protocol.hpp"
-#include "hmdnode/hal/sim_reference_device.hpp"
-#include "hmdnode/hal/usbmon_capture.hpp"
+#include "hmdnode/hal/codec/reference_protocol.hpp"
+#include "hmdnode/hal/sim/sim_reference_device.hpp"
+#include "hmdnode/hal/tracking/device_tracker.hpp"
+#include "hmdnode/hal/transport/usbmon_capture.hpp"
 
 namespace hmdnode {
 namespace {

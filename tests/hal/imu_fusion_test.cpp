@@ -7,7 +7,7 @@
 #include <functional>
 #include <random>
 
-#include "hmdnode/hal/imu_fusion.hpp"
+#include "hmdnode/hal/tracking/imu_fusion.hpp"
 
 namespace hmdnode {
 namespace {

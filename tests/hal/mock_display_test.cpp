@@ -2,7 +2,7 @@
 
 #include <filesystem>
 
-#include "hmdnode/hal/mock_display.hpp"
+#include "hmdnode/hal/display/mock_display.hpp"
 
 using namespace hmdnode;
 

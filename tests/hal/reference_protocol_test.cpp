@@ -6,7 +6,7 @@
 #include <limits>
 #include <vector>
 
-#include "hmdnode/hal/reference_protocol.hpp"
+#include "hmdnode/hal/codec/reference_protocol.hpp"
 
 namespace hmdnode::refproto {
 namespace {

@@ -4,7 +4,7 @@
 
 #include <vector>
 
-#include "hmdnode/hal/rift_imu.hpp"
+#include "hmdnode/hal/codec/rift_imu.hpp"
 
 namespace hmdnode::rift {
 namespace {

@@ -6,9 +6,9 @@
 
 #include <cmath>
 
-#include "hmdnode/hal/device_tracker.hpp"
-#include "hmdnode/hal/reference_protocol.hpp"
-#include "hmdnode/hal/sim_reference_device.hpp"
+#include "hmdnode/hal/codec/reference_protocol.hpp"
+#include "hmdnode/hal/sim/sim_reference_device.hpp"
+#include "hmdnode/hal/tracking/device_tracker.hpp"
 
 namespace hmdnode {
 namespace {

@@ -3,7 +3,7 @@
 #include <glm/gtc/quaternion.hpp>
 #include <thread>
 
-#include "hmdnode/hal/sim_tracker.hpp"
+#include "hmdnode/hal/sim/sim_tracker.hpp"
 
 using namespace hmdnode;
 

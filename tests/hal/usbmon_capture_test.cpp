@@ -9,9 +9,9 @@
 #include <filesystem>
 #include <vector>
 
-#include "hmdnode/hal/imu_fusion.hpp"
-#include "hmdnode/hal/usbmon_capture.hpp"
-#include "hmdnode/hal/vive_imu.hpp"
+#include "hmdnode/hal/codec/vive_imu.hpp"
+#include "hmdnode/hal/tracking/imu_fusion.hpp"
+#include "hmdnode/hal/transport/usbmon_capture.hpp"
 
 namespace hmdnode {
 namespace {

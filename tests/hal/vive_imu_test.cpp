@@ -5,7 +5,7 @@
 #include <cmath>
 #include <vector>
 
-#include "hmdnode/hal/vive_imu.hpp"
+#include "hmdnode/hal/codec/vive_imu.hpp"
 
 namespace hmdnode::vive {
 namespace {

@@ -28,8 +28,8 @@
 #include <thread>
 
 #include "hmdnode/hal/camera.hpp"
-#include "hmdnode/hal/reference_protocol.hpp"
-#include "hmdnode/hal/sim_reference_device.hpp"
+#include "hmdnode/hal/codec/reference_protocol.hpp"
+#include "hmdnode/hal/sim/sim_reference_device.hpp"
 #include "hmdnode/hal/transport.hpp"
 
 namespace hmdnode {

@@ -19,8 +19,8 @@
 #include "hmdnode/core/trace.hpp"
 #include "hmdnode/firmware_host/node.hpp"
 #include "hmdnode/firmware_host/replay.hpp"
-#include "hmdnode/hal/device_tracker.hpp"
-#include "hmdnode/hal/sim_reference_device.hpp"
+#include "hmdnode/hal/sim/sim_reference_device.hpp"
+#include "hmdnode/hal/tracking/device_tracker.hpp"
 
 namespace {
 volatile std::sig_atomic_t g_stop = 0;

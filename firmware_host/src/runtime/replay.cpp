@@ -15,7 +15,7 @@
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/gltf.hpp"
 #include "hmdnode/core/trace.hpp"
-#include "hmdnode/hal/device_tracker.hpp"
+#include "hmdnode/hal/tracking/device_tracker.hpp"
 
 namespace hmdnode {
 

@@ -12,13 +12,13 @@
 #include <CLI/CLI.hpp>
 
 #include "hmdnode/core/time.hpp"
-#include "hmdnode/hal/clock_sync.hpp"
-#include "hmdnode/hal/device_tracker.hpp"
-#include "hmdnode/hal/imu_fusion.hpp"
-#include "hmdnode/hal/reference_protocol.hpp"
-#include "hmdnode/hal/rift_imu.hpp"
-#include "hmdnode/hal/usbmon_capture.hpp"
-#include "hmdnode/hal/vive_imu.hpp"
+#include "hmdnode/hal/codec/reference_protocol.hpp"
+#include "hmdnode/hal/codec/rift_imu.hpp"
+#include "hmdnode/hal/codec/vive_imu.hpp"
+#include "hmdnode/hal/tracking/clock_sync.hpp"
+#include "hmdnode/hal/tracking/device_tracker.hpp"
+#include "hmdnode/hal/tracking/imu_fusion.hpp"
+#include "hmdnode/hal/transport/usbmon_capture.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {

@@ -7,11 +7,11 @@
 // Two paths to the CSV. Reference-protocol devices (device-info feature report 0x10) are decoded
 // here, pose report by pose report. IMU-only devices (Vive/Index, Rift: make_codec_for) and
 // captures go through the DeviceTracker of live tracking (codec -> ClockSync -> Mahony fusion,
-// hal/include/hmdnode/hal/device_tracker.hpp); each delivered TrackerSample with an orientation
-// (fusion initialised) becomes a row. A live device's raw reports reach the pcap through a tee
-// transport wrapped around the backend's (the feature reports the codec reads become GET_REPORT
-// exchanges). A capture runs on a simulated clock advanced in 10 ms steps: deterministic, as fast
-// as it decodes.
+// hal/include/hmdnode/hal/tracking/device_tracker.hpp); each delivered TrackerSample with an
+// orientation (fusion initialised) becomes a row. A live device's raw reports reach the pcap
+// through a tee transport wrapped around the backend's (the feature reports the codec reads become
+// GET_REPORT exchanges). A capture runs on a simulated clock advanced in 10 ms steps:
+// deterministic, as fast as it decodes.
 //
 // The pcap is written by hand (pcap file format 2.4, 64-byte usbmon headers, host byte order):
 // it opens with a synthetic GET_DESCRIPTOR(DEVICE) exchange so readers learn the VID:PID from the
@@ -36,10 +36,10 @@
 #include "hmdnode/core/pose.hpp"
 #include "hmdnode/core/time.hpp"
 #include "hmdnode/core/trace.hpp"
-#include "hmdnode/hal/clock_sync.hpp"
-#include "hmdnode/hal/device_tracker.hpp"
-#include "hmdnode/hal/reference_protocol.hpp"
-#include "hmdnode/hal/sim_reference_device.hpp"
+#include "hmdnode/hal/codec/reference_protocol.hpp"
+#include "hmdnode/hal/sim/sim_reference_device.hpp"
+#include "hmdnode/hal/tracking/clock_sync.hpp"
+#include "hmdnode/hal/tracking/device_tracker.hpp"
 #include "hmdnode/hal/transport.hpp"
 #include "tool/commands.hpp"
 

@@ -16,8 +16,8 @@
 #include "hmdnode/core/result.hpp"
 #include "hmdnode/core/trace.hpp"
 #include "hmdnode/firmware_host/node.hpp"
-#include "hmdnode/hal/mock_display.hpp"
-#include "hmdnode/hal/sim_tracker.hpp"
+#include "hmdnode/hal/display/mock_display.hpp"
+#include "hmdnode/hal/sim/sim_tracker.hpp"
 #include "hmdnode/render/renderer.hpp"
 
 namespace hmdnode {

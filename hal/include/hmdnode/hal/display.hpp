@@ -2,7 +2,7 @@
 // finished stereo frame, and feedback on which vsync each present lands on (what a KMS page-flip
 // event or VK_GOOGLE_display_timing / VK_KHR_present_wait report on real hardware), so that pacing
 // never targets a vsync that an earlier frame already holds. Backend: the mock headset
-// (mock_display.hpp); direct-mode output (KMS, VK_KHR_display) is planned.
+// (display/mock_display.hpp); direct-mode output (KMS, VK_KHR_display) is planned.
 #pragma once
 
 #include <cstdint>

@@ -122,7 +122,8 @@ struct TransportBackendOptions {
 };
 
 // The backend called `name`: "hidapi" (hidraw) or "libusb". ("sim" devices are made by
-// create_sim_reference_backend, sim_reference_device.hpp; captures by t1's capture backend.)
+// create_sim_reference_backend, sim/sim_reference_device.hpp; captures by create_capture_backend,
+// transport/usbmon_capture.hpp.)
 Result<std::unique_ptr<TransportBackend>> create_transport_backend(
     const std::string& name, const TransportBackendOptions& options = {});
 Result<std::unique_ptr<TransportBackend>> create_hidapi_backend(

@@ -9,7 +9,7 @@
 // Departs from a real device: reports are produced lazily when a reader looks (equivalent, since
 // their content depends only on their measurement time); each open Transport gets its own copy
 // of the stream, as each open hidraw file does.
-#include "hmdnode/hal/sim_reference_device.hpp"
+#include "hmdnode/hal/sim/sim_reference_device.hpp"
 
 #include <algorithm>
 #include <climits>

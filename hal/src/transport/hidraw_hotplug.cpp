@@ -12,7 +12,7 @@
 
 #include <libudev.h>
 
-#include "hidapi_transport.hpp"
+#include "transport/hidapi_transport.hpp"
 
 namespace hmdnode {
 namespace detail {

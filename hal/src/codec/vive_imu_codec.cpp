@@ -7,7 +7,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "hmdnode/hal/vive_imu.hpp"
+#include "hmdnode/hal/codec/vive_imu.hpp"
 
 namespace hmdnode::vive {
 namespace {

@@ -6,7 +6,7 @@
 // Departures: samples are numbered by the running count (unwrapped from 16 bits) so repeats are
 // dropped and gaps counted; sample i's time is the report timestamp minus (n - 1 - i) ms, as
 // OpenHMD assumes a 1 kHz IMU.
-#include "hmdnode/hal/rift_imu.hpp"
+#include "hmdnode/hal/codec/rift_imu.hpp"
 
 #include <algorithm>
 

@@ -12,9 +12,9 @@
 #include <mutex>
 #include <thread>
 
-#include "hmdnode/hal/device_tracker.hpp"
-#include "hmdnode/hal/spsc_ring.hpp"
-#include "hmdnode/hal/usbmon_capture.hpp"
+#include "hmdnode/hal/tracking/device_tracker.hpp"
+#include "hmdnode/hal/transport/usbmon_capture.hpp"
+#include "tracking/spsc_ring.hpp"
 
 namespace hmdnode {
 namespace {

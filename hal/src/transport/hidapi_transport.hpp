@@ -1,4 +1,5 @@
-// Private to hal: pieces the hidapi backend shares with the hidraw hotplug monitor.
+// Private to hal: pieces the hidapi backend shares with the hidraw hotplug monitor and the libusb
+// backend.
 #pragma once
 
 #include <memory>

@@ -1,7 +1,7 @@
 // Simulated tracker: replays a trace (optionally resampled, with gaussian orientation noise and
 // arrival jitter) through the Tracker interface. All samples are generated at creation
 // (O(samples) time and memory); read() is O(samples delivered) and allocation-free.
-#include "hmdnode/hal/sim_tracker.hpp"
+#include "hmdnode/hal/sim/sim_tracker.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -9,7 +9,7 @@
 #include <thread>
 #include <vector>
 
-#include "hmdnode/hal/spsc_ring.hpp"
+#include "tracking/spsc_ring.hpp"
 
 namespace hmdnode {
 namespace {

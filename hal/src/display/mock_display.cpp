@@ -2,7 +2,7 @@
 // is shown at V when t <= V - latch margin and no earlier frame holds V, else at the first vsync
 // whose latch point is not before t and that is free (free_vsync_ns).
 // Photon time of the panel centre = vsync + scan-out of the middle row + half the persistence.
-#include "hmdnode/hal/mock_display.hpp"
+#include "hmdnode/hal/display/mock_display.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -5,7 +5,7 @@
 // Departures: the usbmon header is read in the capture's byte order (pcap_is_swapped), records
 // shorter than the header are an error rather than skipped, and VID:PID comes from any completed
 // GET_DESCRIPTOR(DEVICE) answer without matching its submission.
-#include "hmdnode/hal/usbmon_capture.hpp"
+#include "hmdnode/hal/transport/usbmon_capture.hpp"
 
 #include <pcap/pcap.h>
 #include <zlib.h>

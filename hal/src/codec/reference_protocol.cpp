@@ -4,7 +4,7 @@
 // Cost: O(report size) time per encode/decode, no memory beyond the returned report.
 // Departures: the NTP exchange is carried by two feature-report transfers (set, then get) rather
 // than one datagram each way, so the device's transmit stamp is taken when it answers the get.
-#include "hmdnode/hal/reference_protocol.hpp"
+#include "hmdnode/hal/codec/reference_protocol.hpp"
 
 #include <algorithm>
 #include <cassert>

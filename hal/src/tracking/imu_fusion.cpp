@@ -9,7 +9,7 @@
 // corrected rate small) the bias also relaxes toward the raw gyro with a time constant, which
 // observes the yaw-axis bias the gravity error cannot; (4) the integral uses the sample's dt,
 // clamped to max_dt_ns across gaps.
-#include "hmdnode/hal/imu_fusion.hpp"
+#include "hmdnode/hal/tracking/imu_fusion.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -28,7 +28,7 @@
 #include "hmdnode/core/result.hpp"
 #include "hmdnode/core/time.hpp"
 #include "hmdnode/core/trace.hpp"
-#include "hmdnode/hal/reference_protocol.hpp"
+#include "hmdnode/hal/codec/reference_protocol.hpp"
 #include "hmdnode/hal/transport.hpp"
 
 namespace hmdnode {

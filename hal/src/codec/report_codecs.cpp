@@ -3,11 +3,11 @@
 // algorithms live in those files. O(1) per report.
 #include <cmath>
 
-#include "hmdnode/hal/clock_sync.hpp"
-#include "hmdnode/hal/device_tracker.hpp"
-#include "hmdnode/hal/reference_protocol.hpp"
-#include "hmdnode/hal/rift_imu.hpp"
-#include "hmdnode/hal/vive_imu.hpp"
+#include "hmdnode/hal/codec/reference_protocol.hpp"
+#include "hmdnode/hal/codec/rift_imu.hpp"
+#include "hmdnode/hal/codec/vive_imu.hpp"
+#include "hmdnode/hal/tracking/clock_sync.hpp"
+#include "hmdnode/hal/tracking/device_tracker.hpp"
 
 namespace hmdnode {
 namespace {

@@ -21,7 +21,7 @@
 
 #include <libusb.h>
 
-#include "hidapi_transport.hpp"
+#include "transport/hidapi_transport.hpp"
 
 namespace hmdnode {
 namespace {

@@ -7,7 +7,7 @@
 // with 1 kHz samples each bucket's minimum is already close to the floor); the constant part of the
 // delay is unobservable and is left in unless config.fixed_latency_ns says it; a difference below
 // the floor by more than the jump threshold, or a whole bucket above it, resets the estimate.
-#include "hmdnode/hal/clock_sync.hpp"
+#include "hmdnode/hal/tracking/clock_sync.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -23,9 +23,9 @@
 
 #include "hmdnode/core/result.hpp"
 #include "hmdnode/core/time.hpp"
-#include "hmdnode/hal/clock_sync.hpp"
-#include "hmdnode/hal/imu_fusion.hpp"
 #include "hmdnode/hal/tracker.hpp"
+#include "hmdnode/hal/tracking/clock_sync.hpp"
+#include "hmdnode/hal/tracking/imu_fusion.hpp"
 #include "hmdnode/hal/transport.hpp"
 
 namespace hmdnode {

@@ -11,7 +11,7 @@
 
 #include <hidapi/hidapi.h>
 
-#include "hidapi_transport.hpp"
+#include "transport/hidapi_transport.hpp"
 
 namespace hmdnode {
 namespace detail {
