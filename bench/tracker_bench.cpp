@@ -62,7 +62,8 @@ std::vector<std::vector<uint8_t>> vive_reports() {
         auto b = vive::encode_imu_report(s);
         out.emplace_back(b.begin(), b.end());
     }
-    std::printf("decode input: 20000 synthetic Vive IMU reports (shared capture absent)\n");
+    std::printf(
+        "decode input: 20000 synthetic Vive IMU reports (data/traces/vive_cal.pcap.gz absent)\n");
     return out;
 }
 

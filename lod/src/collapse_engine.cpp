@@ -1305,7 +1305,7 @@ void Engine::drop_touched_candidates() {
     size_t kept = 0;
     for (const Candidate& c : candidates_) {
         candidates_[kept] = c;
-        kept += (touched_[c.from] != touched_pass_) & (touched_[c.to] != touched_pass_);
+        kept += size_t(touched_[c.from] != touched_pass_) & size_t(touched_[c.to] != touched_pass_);
     }
     candidates_.resize(kept);
 }

@@ -31,7 +31,7 @@ class ObjTest : public ::testing::Test {
     fs::path dir_;
 };
 
-TEST_F(ObjTest, reads_quad_with_uv_and_normals_and_triangulates_fan) {
+TEST_F(ObjTest, ReadsQuadWithUvAndNormalsAndTriangulatesFan) {
     fs::path p = write("quad.obj",
                        "# a unit quad\n"
                        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
@@ -55,7 +55,7 @@ TEST_F(ObjTest, reads_quad_with_uv_and_normals_and_triangulates_fan) {
     EXPECT_EQ(pr.material, -1);
 }
 
-TEST_F(ObjTest, accepts_every_corner_form_and_negative_indices) {
+TEST_F(ObjTest, AcceptsEveryCornerFormAndNegativeIndices) {
     fs::path p = write("forms.obj",
                        "v 0 0 0\nv 1 0 0\nv 0 1 0\n"
                        "vt 0.5 0.5\nvn 0 0 1\n"
@@ -75,7 +75,7 @@ TEST_F(ObjTest, accepts_every_corner_form_and_negative_indices) {
     EXPECT_EQ(pr.positions[pr.indices[10]], glm::vec3(1, 0, 0));
 }
 
-TEST_F(ObjTest, deduplicates_shared_corners) {
+TEST_F(ObjTest, DeduplicatesSharedCorners) {
     fs::path p = write("strip.obj",
                        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\n"
                        "f 1 2 3\nf 1 3 4\nf 2 5 3\n");
@@ -86,7 +86,7 @@ TEST_F(ObjTest, deduplicates_shared_corners) {
     EXPECT_TRUE(m->primitives[0].uv0.empty());
 }
 
-TEST_F(ObjTest, computes_area_weighted_normals_when_file_has_none) {
+TEST_F(ObjTest, ComputesAreaWeightedNormalsWhenFileHasNone) {
     // A fold: a big triangle facing +Z and a small one facing +X share the edge (0,0,0)-(0,1,0).
     fs::path p = write("fold.obj",
                        "v 0 0 0\nv 0 1 0\nv -3 0 0\nv 0 0 1\n"
@@ -104,7 +104,7 @@ TEST_F(ObjTest, computes_area_weighted_normals_when_file_has_none) {
     EXPECT_NEAR(pr.normals[pr.indices[4]].x, -1.0f, 1e-6);  // only on the small face
 }
 
-TEST_F(ObjTest, errors_name_file_and_line) {
+TEST_F(ObjTest, ErrorsNameFileAndLine) {
     struct Case {
         const char* text;
         const char* needle;
@@ -132,7 +132,7 @@ TEST_F(ObjTest, errors_name_file_and_line) {
     EXPECT_NE(missing.error().message.find("missing.obj"), std::string::npos);
 }
 
-TEST_F(ObjTest, loads_bundled_meshes) {
+TEST_F(ObjTest, LoadsBundledMeshes) {
     Result<Mesh> bunny = load_obj(fs::path(HMDNODE_SOURCE_DIR) / "data/meshes/stanford-bunny.obj");
     ASSERT_TRUE(bunny.ok()) << bunny.error().message;
     EXPECT_EQ(bunny->triangle_count(), 69451u);

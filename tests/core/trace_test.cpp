@@ -88,7 +88,7 @@ Trace make_full_trace() {
     return t;
 }
 
-TEST(TraceCsv, write_then_read_is_bit_exact) {
+TEST(TraceCsv, WriteThenReadIsBitExact) {
     const Trace in = make_full_trace();
     const fs::path path = temp_dir() / "round_trip.csv";
     ASSERT_TRUE(write_trace_csv(in, path).ok());
@@ -115,7 +115,7 @@ TEST(TraceCsv, write_then_read_is_bit_exact) {
     EXPECT_EQ(first->rfind("# hmdnode trace v1\n", 0), 0u);
 }
 
-TEST(TraceCsv, writes_only_the_groups_present) {
+TEST(TraceCsv, WritesOnlyTheGroupsPresent) {
     Trace t;
     t.samples.push_back({0, glm::dquat(1, 0, 0, 0), std::nullopt, std::nullopt, std::nullopt});
     t.samples.push_back({5, yaw_quat(0.1), std::nullopt, std::nullopt, std::nullopt});
@@ -126,7 +126,7 @@ TEST(TraceCsv, writes_only_the_groups_present) {
               "0.04997916927067833,0\n");
 }
 
-TEST(TraceCsv, writer_refuses_what_the_reader_would_reject) {
+TEST(TraceCsv, WriterRefusesWhatTheReaderWouldReject) {
     expect_error(format_trace_csv(Trace{}), {"no samples"});
     Trace t;
     t.samples.push_back({10, glm::dquat(1, 0, 0, 0), glm::dvec3(0), std::nullopt, std::nullopt});
@@ -150,7 +150,7 @@ TEST(TraceCsv, writer_refuses_what_the_reader_would_reject) {
     EXPECT_FALSE(fs::exists(path));
 }
 
-TEST(TraceCsv, reads_the_documented_example) {
+TEST(TraceCsv, ReadsTheDocumentedExample) {
     Result<Trace> t = read_trace_csv(kData / "small_trace.csv");
     ASSERT_TRUE(t.ok()) << t.error().message;
     ASSERT_EQ(t->samples.size(), 4u);
@@ -165,7 +165,7 @@ TEST(TraceCsv, reads_the_documented_example) {
     EXPECT_NEAR(angle_between_rad(s.orientation, yaw_quat(0.015)), 0.0, 1e-12);
 }
 
-TEST(TraceCsv, accepts_crlf_blank_lines_comments_and_any_column_order) {
+TEST(TraceCsv, AcceptsCrlfBlankLinesCommentsAndAnyColumnOrder) {
     const std::string text =
         "# hmdnode trace v1\r\n# first\r\n\r\nqx,time_ns,qz,qw,qy\r\n0,100,0,1,0\r\n  \r\n"
         "# between\rsamples\r\n0,200,0,0.5,0.8660254037844386\r\n";
@@ -180,7 +180,7 @@ TEST(TraceCsv, accepts_crlf_blank_lines_comments_and_any_column_order) {
     EXPECT_FALSE(t->samples[0].position);
 }
 
-TEST(TraceCsv, keeps_neighbours_in_one_hemisphere_and_normalises) {
+TEST(TraceCsv, KeepsNeighboursInOneHemisphereAndNormalises) {
     const std::string text = "time_ns,qw,qx,qy,qz\n0,1,0,0,0\n1,-0.99,0,-0.1,0\n2,1.05,0,0.2,0\n";
     Result<Trace> t = parse_trace_csv(text, "flip.csv");
     ASSERT_TRUE(t.ok()) << t.error().message;
@@ -189,21 +189,21 @@ TEST(TraceCsv, keeps_neighbours_in_one_hemisphere_and_normalises) {
     EXPECT_NEAR(glm::length(t->samples[2].orientation), 1.0, 1e-15);
 }
 
-TEST(TraceCsv, missing_required_column_names_file_line_and_column) {
+TEST(TraceCsv, MissingRequiredColumnNamesFileLineAndColumn) {
     expect_error(parse_trace_csv("# c\ntime_ns,qx,qy,qz\n0,0,0,0\n", "a.csv"), {"a.csv:2:", "qw"});
     expect_error(parse_trace_csv("qw,qx,qy,qz\n1,0,0,0\n", "a.csv"), {"a.csv:1:", "time_ns"});
     expect_error(parse_trace_csv("time_ns,qw,qx,qy,qz,px,py\n", "a.csv"),
                  {"a.csv:1:", "incomplete", "pz"});
 }
 
-TEST(TraceCsv, unknown_and_duplicate_columns_are_errors) {
+TEST(TraceCsv, UnknownAndDuplicateColumnsAreErrors) {
     expect_error(parse_trace_csv("time_ns,qw,qx,qy,qz,temp,qW\n", "u.csv"),
                  {"u.csv:1:", "'temp'", "'qW'", "unknown column"});
     expect_error(parse_trace_csv("time_ns,qw,qx,qy,qz,qw\n", "u.csv"),
                  {"u.csv:1:", "column 6 'qw'", "duplicate"});
 }
 
-TEST(TraceCsv, non_numeric_field_names_line_column_and_text) {
+TEST(TraceCsv, NonNumericFieldNamesLineColumnAndText) {
     expect_error(parse_trace_csv("time_ns,qw,qx,qy,qz\n0,1,0,0,0\n1,1,abc,0,0\n", "n.csv"),
                  {"n.csv:3:", "column 3 'qx'", "'abc'"});
     expect_error(parse_trace_csv("time_ns,qw,qx,qy,qz\n0,1,0,0,nan\n", "n.csv"),
@@ -214,21 +214,21 @@ TEST(TraceCsv, non_numeric_field_names_line_column_and_text) {
                  {"n.csv:2:", "column 3 'qx'", "not a number"});
 }
 
-TEST(TraceCsv, time_going_backwards_or_repeating_names_both_values) {
+TEST(TraceCsv, TimeGoingBackwardsOrRepeatingNamesBothValues) {
     expect_error(parse_trace_csv("time_ns,qw,qx,qy,qz\n500,1,0,0,0\n400,1,0,0,0\n", "b.csv"),
                  {"b.csv:3:", "column 1 'time_ns'", "time goes backwards", "400", "500"});
     expect_error(parse_trace_csv("time_ns,qw,qx,qy,qz\n500,1,0,0,0\n\n500,1,0,0,0\n", "b.csv"),
                  {"b.csv:4:", "column 1 'time_ns'", "repeated time 500", "line 2"});
 }
 
-TEST(TraceCsv, wrong_field_count_names_line_and_column) {
+TEST(TraceCsv, WrongFieldCountNamesLineAndColumn) {
     expect_error(parse_trace_csv("time_ns,qw,qx,qy,qz\n0,1,0,0\n", "f.csv"),
                  {"f.csv:2:", "found 4 fields", "column 5 'qz'", "missing"});
     expect_error(parse_trace_csv("time_ns,qw,qx,qy,qz\n0,1,0,0,0,7\n", "f.csv"),
                  {"f.csv:2:", "found 6 fields", "column 6", "extra"});
 }
 
-TEST(TraceCsv, bad_quaternion_names_line_and_columns) {
+TEST(TraceCsv, BadQuaternionNamesLineAndColumns) {
     expect_error(parse_trace_csv("time_ns,qw,qx,qy,qz\n0,0,0,0,0\n", "q.csv"),
                  {"q.csv:2:", "columns 2,3,4,5", "norm 0", "zero"});
     expect_error(parse_trace_csv("time_ns,qx,qy,qz,qw\n0,0,0,0,1.2\n", "q.csv"),
@@ -236,7 +236,7 @@ TEST(TraceCsv, bad_quaternion_names_line_and_columns) {
     EXPECT_TRUE(parse_trace_csv("time_ns,qw,qx,qy,qz\n0,1.09,0,0,0\n", "q.csv").ok());
 }
 
-TEST(TraceCsv, empty_trace_and_other_versions_are_errors) {
+TEST(TraceCsv, EmptyTraceAndOtherVersionsAreErrors) {
     expect_error(parse_trace_csv("# hmdnode trace v1\ntime_ns,qw,qx,qy,qz\n\n", "e.csv"),
                  {"e.csv:2:", "no samples"});
     expect_error(parse_trace_csv("", "e.csv"), {"e.csv", "no header"});
@@ -261,7 +261,7 @@ Trace two_sample_trace(bool flip_second) {
     return t;
 }
 
-TEST(TracePoseAt, slerps_at_the_midpoint_and_lerps_position) {
+TEST(TracePoseAt, SlerpsAtTheMidpointAndLerpsPosition) {
     for (bool flip : {false, true}) {
         const Trace t = two_sample_trace(flip);
         Pose p = t.pose_at(1'500'000'000);
@@ -278,7 +278,7 @@ TEST(TracePoseAt, slerps_at_the_midpoint_and_lerps_position) {
     }
 }
 
-TEST(TracePoseAt, clamps_at_the_ends_and_returns_samples_exactly) {
+TEST(TracePoseAt, ClampsAtTheEndsAndReturnsSamplesExactly) {
     const Trace t = two_sample_trace(false);
     Pose before = t.pose_at(0);
     EXPECT_EQ(before.orientation, t.samples[0].orientation);
@@ -292,7 +292,7 @@ TEST(TracePoseAt, clamps_at_the_ends_and_returns_samples_exactly) {
     EXPECT_EQ(t.pose_at(1'000'000'000).orientation, t.samples[0].orientation);
 }
 
-TEST(TracePoseAt, uses_gyro_for_angular_velocity_when_present) {
+TEST(TracePoseAt, UsesGyroForAngularVelocityWhenPresent) {
     Result<Trace> t = read_trace_csv(kData / "small_trace.csv");
     ASSERT_TRUE(t.ok());
     Pose p = t->pose_at(15'000'000);
@@ -302,7 +302,7 @@ TEST(TracePoseAt, uses_gyro_for_angular_velocity_when_present) {
     EXPECT_NEAR(p.position.z, -0.0015, 1e-15);
 }
 
-TEST(TraceStatsTest, figures_of_a_trace) {
+TEST(TraceStatsTest, FiguresOfATrace) {
     Trace t;
     const int64_t times[] = {0, 10, 20, 30, 250, 260};  // ms
     for (int i = 0; i < 6; ++i)
@@ -364,7 +364,7 @@ void check_corbillon_import(const fs::path& path, const CorbillonExpect& e) {
     EXPECT_EQ(back->samples.size(), t->samples.size());
 }
 
-TEST(TraceImport, corbillon_excerpt_with_auto_options) {
+TEST(TraceImport, CorbillonExcerptWithAutoOptions) {
     check_corbillon_import(kData / "corbillon2018_user1_head.txt",
                            {399, 228, 3, 242'004'395, 7'260'002'136});
     // Rows 2 and 3 of the source: the same orientation at new times, then a sign flip.
@@ -380,7 +380,7 @@ TEST(TraceImport, corbillon_excerpt_with_auto_options) {
     EXPECT_EQ(t->samples[2].orientation.x, -0.05501044054766731);
 }
 
-TEST(TraceImport, full_corbillon_recordings_when_shared_data_is_present) {
+TEST(TraceImport, FullCorbillonRecordingsBundledInTheRepository) {
     const fs::path user1 = kShared / "corbillon2018_user1_quaternion.txt";
     const fs::path user2 = kShared / "corbillon2018_user2_quaternion.txt";
     if (!fs::exists(user1) || !fs::exists(user2)) FAIL() << "recordings missing in " << kShared;
@@ -388,7 +388,7 @@ TEST(TraceImport, full_corbillon_recordings_when_shared_data_is_present) {
     check_corbillon_import(user2, {17379, 8755, 4, 263'999'939, 296'854'995'728});
 }
 
-TEST(TraceImport, messy_export_is_repaired_and_each_repair_counted) {
+TEST(TraceImport, MessyExportIsRepairedAndEachRepairCounted) {
     TraceImportReport rep;
     Result<Trace> t = import_trace_table(kData / "messy_export.csv", {}, &rep);
     ASSERT_TRUE(t.ok()) << t.error().message;
@@ -427,7 +427,7 @@ const char* const kTableSeconds =
     "12.05,0.9993908,0,0.0348995,0\n"
     "12.3,0.9986295,0,0.0523360,0\n";
 
-TEST(TraceImport, time_units_and_scales_give_the_same_nanoseconds) {
+TEST(TraceImport, TimeUnitsAndScalesGiveTheSameNanoseconds) {
     const int64_t want[] = {0, 16'666'700, 50'000'000, 300'000'000};
     auto times = [](const std::string& text, TraceImportOptions o) {
         TraceImportReport rep;
@@ -474,7 +474,7 @@ TEST(TraceImport, time_units_and_scales_give_the_same_nanoseconds) {
     expect_error(import_trace_text(kTableSeconds, "units.csv", bad, nullptr), {"time unit", "min"});
 }
 
-TEST(TraceImport, separators_are_detected) {
+TEST(TraceImport, SeparatorsAreDetected) {
     auto with = [](char sep) {
         std::string s = kTableSeconds;
         for (char& c : s)
@@ -504,7 +504,7 @@ TEST(TraceImport, separators_are_detected) {
     EXPECT_TRUE(import_trace_text(with(';'), "sep.txt", o, nullptr).ok());
 }
 
-TEST(TraceImport, xyzw_order_by_index_without_a_header) {
+TEST(TraceImport, XyzwOrderByIndexWithoutAHeader) {
     const std::string xyzw =
         "0.0,0,0.3826834323650898,0,0.9238795325112867,5\n"
         "0.1,0,0.7071067811865476,0,0.7071067811865476,5\n";
@@ -554,7 +554,7 @@ void expect_vec_near(const glm::dvec3& a, const glm::dvec3& b) {
     EXPECT_NEAR(glm::length(a - b), 0.0, 1e-12) << a.x << "," << a.y << "," << a.z;
 }
 
-TEST(TraceImport, euler_yaw_pitch_roll_convention) {
+TEST(TraceImport, EulerYawPitchRollConvention) {
     // Yaw +90: forward (-Z) turns to -X (a left turn); pitch +90 looks up; roll +90 tilts the top
     // of the head (+Y) to -X.
     expect_vec_near(forward_from_euler(90, 0, 0), glm::dvec3(-1, 0, 0));
@@ -576,7 +576,7 @@ TEST(TraceImport, euler_yaw_pitch_roll_convention) {
     EXPECT_NEAR(angle_between_rad(q, want), 0.0, 1e-12);
 }
 
-TEST(TraceImport, duplicate_times_keep_the_first_row) {
+TEST(TraceImport, DuplicateTimesKeepTheFirstRow) {
     const std::string text =
         "time_ms,w,x,y,z\n0,1,0,0,0\n10,1,0,0,0\n10,1,0,0,0\n10,0.9238795325112867,0,"
         "0.3826834323650898,0\n20,1,0,0,0\n";
@@ -590,7 +590,7 @@ TEST(TraceImport, duplicate_times_keep_the_first_row) {
     EXPECT_EQ(t->samples[1].orientation, glm::dquat(1, 0, 0, 0));
 }
 
-TEST(TraceImport, errors_name_line_and_column) {
+TEST(TraceImport, ErrorsNameLineAndColumn) {
     expect_error(import_trace_text("time,w,x,y,z\n0,1,0,0,0\n0.5,1,0,0,0\n0.4,1,0,0,0\n",
                                    "back.csv", {}, nullptr),
                  {"back.csv:4:", "column 1 'time'", "time goes backwards", "0.4", "0.5", "line 3"});
@@ -616,7 +616,7 @@ TEST(TraceImport, errors_name_line_and_column) {
                  {"missing_table.csv"});
 }
 
-TEST(TraceImport, explicit_header_lines_allow_text_in_unused_columns) {
+TEST(TraceImport, ExplicitHeaderLinesAllowTextInUnusedColumns) {
     const std::string text =
         "recorded 2024-05-01\nsecond preamble line\nframe\ttime\tqw\tqx\tqy\tqz\tlabel\n"
         "a\t0.0\t1\t0\t0\t0\tstart\nb\t0.1\t1\t0\t0\t0\twalk\n";

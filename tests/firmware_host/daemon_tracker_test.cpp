@@ -49,7 +49,7 @@ fs::path temp_dir(const std::string& name) {
     return hmdnode::test::fresh_temp_dir("hmdnode_daemon_tracker_test_" + name);
 }
 
-TEST(DaemonTracker, sim_device_drives_the_frame_loop_and_reports_its_status) {
+TEST(DaemonTracker, SimDeviceDrivesTheFrameLoopAndReportsItsStatus) {
     const fs::path dir = temp_dir("sim_device");
     nlohmann::json cfg = {
         {"scene", HMDNODE_DEMO_SCENE},
@@ -74,7 +74,7 @@ TEST(DaemonTracker, sim_device_drives_the_frame_loop_and_reports_its_status) {
     EXPECT_GE(t["samples"].get<int>(), 450);
 }
 
-TEST(DaemonTracker, bad_device_names_the_key) {
+TEST(DaemonTracker, BadDeviceNamesTheKey) {
     const fs::path dir = temp_dir("bad");
     std::ofstream(dir / "hmdnoded.json")
         << R"({"scene": "x.glb", "tracker": {"backend": "hidapi", "device": "28de-2000"}})";
@@ -93,7 +93,7 @@ TEST(DaemonTracker, bad_device_names_the_key) {
 // A real-clock daemon whose hidapi device is absent (1209:0001 is the reference tracker's id; no
 // such device is plugged into a test machine -- skipped where one is). Before the fix the frame
 // loop waited for the first sample without looking at signals.
-TEST(DaemonTracker, absent_device_is_waited_for_and_sigterm_stops_the_daemon) {
+TEST(DaemonTracker, AbsentDeviceIsWaitedForAndSigtermStopsTheDaemon) {
     const fs::path dir = temp_dir("absent");
     const fs::path status = dir / "status.json";
     const fs::path log = dir / "daemon.log";

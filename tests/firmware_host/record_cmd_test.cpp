@@ -49,7 +49,7 @@ fs::path temp_dir(const std::string& name) {
     return hmdnode::test::fresh_temp_dir("hmdnode_record_test_" + name);
 }
 
-TEST(RecordCmd, sim_device_trace_and_pcap_read_back) {
+TEST(RecordCmd, SimDeviceTraceAndPcapReadBack) {
     const fs::path dir = temp_dir("sim");
     const fs::path csv = dir / "rec.csv", pcap = dir / "rec.pcap";
     const ToolRun r =
@@ -102,7 +102,7 @@ TEST(RecordCmd, sim_device_trace_and_pcap_read_back) {
     }
 }
 
-TEST(RecordCmd, bad_device_text_names_it_and_writes_nothing) {
+TEST(RecordCmd, BadDeviceTextNamesItAndWritesNothing) {
     const fs::path dir = temp_dir("bad");
     const ToolRun r = run("record --device 12x9:0001 --backend sim --sim-clock --out " +
                           (dir / "a.csv").string());
@@ -111,7 +111,7 @@ TEST(RecordCmd, bad_device_text_names_it_and_writes_nothing) {
     EXPECT_FALSE(fs::exists(dir / "a.csv"));
 }
 
-TEST(RecordCmd, absent_hidapi_device_fails_clearly) {
+TEST(RecordCmd, AbsentHidapiDeviceFailsClearly) {
     const fs::path dir = temp_dir("absent");
     const ToolRun r = run("record --device 1209:fff7 --backend hidapi --duration 0.1 --capture " +
                           (dir / "a.pcap").string());
@@ -128,7 +128,7 @@ double angle_deg(const glm::dquat& a, const glm::dquat& b) {
     return 2.0 * std::acos(std::min(1.0, std::abs(d.w))) * 180.0 / M_PI;
 }
 
-TEST(RecordCmd, vive_capture_to_trace_through_the_device_tracker) {
+TEST(RecordCmd, ViveCaptureToTraceThroughTheDeviceTracker) {
     ASSERT_TRUE(fs::exists(kViveCapture)) << kViveCapture << " is missing";
     const fs::path dir = temp_dir("vive");
     const fs::path csv = dir / "vive.csv";
@@ -204,7 +204,7 @@ TEST(RecordCmd, vive_capture_to_trace_through_the_device_tracker) {
 
 // A reference-device recording's pcap, decoded again with --backend capture: the same poses
 // (to 1e-4 deg: acos near 1 resolves no finer).
-TEST(RecordCmd, reference_pcap_back_to_the_same_trace) {
+TEST(RecordCmd, ReferencePcapBackToTheSameTrace) {
     const fs::path dir = temp_dir("ref_roundtrip");
     const fs::path csv = dir / "rec.csv", pcap = dir / "rec.pcap", again = dir / "again.csv";
     ToolRun r = run("record --device 1209:0001 --backend sim --sim-clock --duration 1 --out " +
@@ -221,7 +221,7 @@ TEST(RecordCmd, reference_pcap_back_to_the_same_trace) {
         ASSERT_LT(angle_deg(a->samples[i].orientation, b->samples[i].orientation), 1e-4) << i;
 }
 
-TEST(RecordCmd, capture_errors_name_the_file_or_device_and_write_nothing) {
+TEST(RecordCmd, CaptureErrorsNameTheFileOrDeviceAndWriteNothing) {
     const fs::path dir = temp_dir("capture_errors");
     const fs::path csv = dir / "a.csv";
     ToolRun r = run("record --device 28de:2000 --backend capture --from " +
@@ -248,7 +248,7 @@ TEST(RecordCmd, capture_errors_name_the_file_or_device_and_write_nothing) {
     }
 }
 
-TEST(RecordCmd, needs_an_output) {
+TEST(RecordCmd, NeedsAnOutput) {
     const ToolRun r = run("record --device 1209:0001 --backend sim --sim-clock");
     EXPECT_EQ(r.status, 1);
     EXPECT_NE(r.output.find("--out"), std::string::npos) << r.output;

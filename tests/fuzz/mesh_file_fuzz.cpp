@@ -6,8 +6,7 @@
 // position.
 //
 // glTF (the "glTF" magic or a leading '{') is read by tinygltf through core's gltf.cpp, not by
-// these readers: such inputs are skipped and load_gltf is stubbed, so the harness needs only
-// mesh_file.cpp, core's obj.cpp, atomic_file.cpp and scene.cpp.
+// these readers: such inputs are skipped.
 #include <unistd.h>
 
 #include <cstdint>
@@ -18,12 +17,6 @@
 
 #include "hmdnode/core/gltf.hpp"
 #include "hmdnode/lod/mesh_file.hpp"
-
-namespace hmdnode {
-Result<Scene> load_gltf(const std::filesystem::path&) {
-    return make_error("glTF is not in the fuzz harness");
-}
-}  // namespace hmdnode
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     using namespace hmdnode;

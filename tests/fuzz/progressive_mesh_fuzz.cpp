@@ -3,10 +3,7 @@
 // (which trusts what the decoder checked) stays in bounds at the base, half-way and full counts,
 // with indices in range and the triangle count between base and full.
 //
-// Built from lod/src/progressive_mesh.cpp, collapse_engine.cpp, scratch.cpp and the four costs;
-// check_simplify_arguments and make_collapse_cost (lod/src/simplify.cpp, which pulls in every
-// algorithm and OpenMesh and Embree) are only used by build_progressive_mesh, never by the reader,
-// so they are stubbed here.
+// Linked to the lod library (tests/fuzz/CMakeLists.txt).
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
@@ -16,15 +13,6 @@
 
 #include "collapse_engine.hpp"
 #include "hmdnode/lod/progressive_mesh.hpp"
-
-namespace hmdnode::lod_detail {
-Status check_simplify_arguments(const Primitive&, std::string_view, std::span<const size_t>) {
-    return make_error("not in the fuzz harness");
-}
-std::unique_ptr<CollapseCost> make_collapse_cost(std::string_view) {
-    return nullptr;
-}
-}  // namespace hmdnode::lod_detail
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     using namespace hmdnode;

@@ -1,48 +1,44 @@
 #!/bin/sh
-# Builds each libFuzzer harness in tests/fuzz with clang++ -fsanitize=fuzzer,address,undefined
-# (with only the codec sources it needs) and runs it for FUZZ_SECONDS (default 6) seconds.
-# Usage: run.sh CLANGXX SOURCE_DIR WORK_DIR [DATA_ROOT]   (DATA_ROOT/data/traces holds the Vive capture seed)
-# Exit 77 (CTest: skipped) when clang++ cannot link libFuzzer; says so on stderr.
+# Configures and builds the fuzz build of this project (HMDNODE_FUZZ=ON, tests/fuzz/CMakeLists.txt:
+# one libFuzzer executable per tests/fuzz/*_fuzz.cpp, linked to the libraries' own CMake targets,
+# all compiled by clang++ with the fuzzer's coverage and -fsanitize=address,undefined) in
+# WORK_DIR/build, then runs each harness for FUZZ_SECONDS (default 6) seconds on its seeds.
+# Usage: run.sh CMAKE GENERATOR CLANGXX SOURCE_DIR WORK_DIR   (FUZZ_JOBS: build jobs, default 2)
+# Exit 77 (CTest: skipped) when clang++ cannot link libFuzzer; says so on stderr. A harness that
+# does not build, or finds a crash, fails the run.
 set -eu
-CXX="$1"; SRC="$2"; WORK="$3"; SHARED="${4:-$SRC}"
+CMAKE="$1"; GEN="$2"; CXX="$3"; SRC="$4"; WORK="$5"
 SECONDS_EACH="${FUZZ_SECONDS:-6}"
 mkdir -p "$WORK"
-FLAGS="-std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined \
-  -I$SRC/core/include -I$SRC/hal/include"
 
 printf '#include <cstdint>\n#include <cstddef>\nextern "C" int LLVMFuzzerTestOneInput(const uint8_t*, size_t) { return 0; }\n' \
   > "$WORK/probe.cpp"
-if ! "$CXX" $FLAGS "$WORK/probe.cpp" -o "$WORK/probe" 2> "$WORK/probe.log"; then
+if ! "$CXX" -fsanitize=fuzzer,address,undefined "$WORK/probe.cpp" -o "$WORK/probe" \
+     2> "$WORK/probe.log"; then
   echo "fuzz: SKIPPED -- $CXX cannot link libFuzzer (install clang and libfuzzer-14-dev):" >&2
   cat "$WORK/probe.log" >&2
   exit 77
 fi
 
-build() {  # name, extra sources..., then -l flags
-  name="$1"; shift
-  echo "fuzz: building $name" >&2
-  "$CXX" $FLAGS "$SRC/tests/fuzz/$name.cpp" "$@" -o "$WORK/$name"
-}
-build vive_imu_fuzz "$SRC/hal/src/codec/vive_imu_codec.cpp"
-build rift_imu_fuzz "$SRC/hal/src/codec/rift_imu_codec.cpp"
-build reference_protocol_fuzz "$SRC/hal/src/codec/reference_protocol.cpp"
-build usbmon_capture_fuzz "$SRC/hal/src/transport/usbmon_capture.cpp" -lpcap -lz
-# The .hmpm reader needs the collapse engine and its costs (refine); the harness stubs the two
-# symbols of simplify.cpp. The mesh-file reader needs core's OBJ reader; the harness stubs glTF.
-build progressive_mesh_fuzz -I"$SRC/lod/include" -I"$SRC/lod/src" \
-  "$SRC/lod/src/progressive_mesh.cpp" "$SRC/lod/src/collapse_engine.cpp" "$SRC/lod/src/qem.cpp" \
-  "$SRC/lod/src/curvature_qem.cpp" "$SRC/lod/src/formula1.cpp" "$SRC/lod/src/melax.cpp" \
-  "$SRC/lod/src/scratch.cpp" \
-  "$SRC/core/src/atomic_file.cpp"
-build mesh_file_fuzz -I"$SRC/lod/include" "$SRC/lod/src/mesh_file.cpp" "$SRC/core/src/obj.cpp" \
-  "$SRC/core/src/atomic_file.cpp" "$SRC/core/src/scene.cpp"
+# note: the C compiler beside clang++ (clang++-14 -> clang-14); the project is C++ but CMake
+# checks both, and gcc would not take the fuzz flags.
+CC_BESIDE=$(dirname "$CXX")/$(basename "$CXX" | sed 's/clang++/clang/')
+echo "fuzz: configuring and building the harnesses in $WORK/build" >&2
+if ! { "$CMAKE" -S "$SRC" -B "$WORK/build" -G "$GEN" -DCMAKE_BUILD_TYPE=Debug \
+         -DCMAKE_CXX_COMPILER="$CXX" -DCMAKE_C_COMPILER="$CC_BESIDE" -DHMDNODE_FUZZ=ON \
+         -DHMDNODE_BUILD_TESTS=OFF -DHMDNODE_BUILD_BENCH=OFF &&
+       "$CMAKE" --build "$WORK/build" --target hmdnode_fuzzers -j "${FUZZ_JOBS:-2}"; } \
+     > "$WORK/build.log" 2>&1; then
+  echo "fuzz: the fuzz build FAILED; see $WORK/build.log" >&2
+  tail -60 "$WORK/build.log" >&2
+  exit 1
+fi
+HARNESSES=$(for f in "$SRC"/tests/fuzz/*_fuzz.cpp; do basename "$f" .cpp; done)
+for f in $HARNESSES; do mkdir -p "$WORK/corpus/$f"; done
 
 # Seeds: a valid prefix of the real capture (plain and gzip'd) (data/traces).
-mkdir -p "$WORK/corpus/usbmon_capture_fuzz" "$WORK/corpus/vive_imu_fuzz" \
-  "$WORK/corpus/reference_protocol_fuzz" "$WORK/corpus/rift_imu_fuzz" \
-  "$WORK/corpus/progressive_mesh_fuzz" "$WORK/corpus/mesh_file_fuzz"
-if [ -f "$SHARED/data/traces/vive_cal.pcap.gz" ]; then
-  gzip -dc "$SHARED/data/traces/vive_cal.pcap.gz" 2>/dev/null | head -c 6000 \
+if [ -f "$SRC/data/traces/vive_cal.pcap.gz" ]; then
+  gzip -dc "$SRC/data/traces/vive_cal.pcap.gz" 2>/dev/null | head -c 6000 \
     > "$WORK/corpus/usbmon_capture_fuzz/seed.pcap" || true
   gzip -c "$WORK/corpus/usbmon_capture_fuzz/seed.pcap" > "$WORK/corpus/usbmon_capture_fuzz/seed.pcap.gz"
 fi
@@ -69,10 +65,9 @@ printf '0ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty flo
 printf '0OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n' > "$WORK/corpus/mesh_file_fuzz/seed.off"
 
 status=0
-for f in vive_imu_fuzz rift_imu_fuzz reference_protocol_fuzz usbmon_capture_fuzz \
-         progressive_mesh_fuzz mesh_file_fuzz; do
+for f in $HARNESSES; do
   echo "fuzz: running $f for ${SECONDS_EACH} s" >&2
-  if ! (cd "$WORK" && "./$f" -max_total_time="$SECONDS_EACH" -max_len=8192 -print_final_stats=1 \
+  if ! (cd "$WORK" && "build/tests/fuzz/$f" -max_total_time="$SECONDS_EACH" -max_len=8192 -print_final_stats=1 \
         "corpus/$f" > "$f.log" 2>&1); then
     echo "fuzz: $f FAILED; see $WORK/$f.log (crash input saved there)" >&2
     tail -40 "$WORK/$f.log" >&2

@@ -7,16 +7,6 @@
 
 #include "hmdnode/hal/transport/usbmon_capture.hpp"
 
-namespace hmdnode {
-// The one symbol of transport.cpp the capture backend needs (transport.cpp itself pulls in the
-// hidapi and libusb backends, which the harness does not build).
-bool DeviceFilter::matches(const DeviceId& id) const {
-    return (vendor_id == 0 || id.vendor_id == vendor_id) &&
-           (product_id == 0 || id.product_id == product_id) &&
-           (serial.empty() || id.serial == serial);
-}
-}  // namespace hmdnode
-
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     using namespace hmdnode;
     auto cap = parse_usbmon_capture(std::span<const uint8_t>(data, size));

@@ -7,7 +7,7 @@
 namespace hmdnode {
 namespace {
 
-TEST(SimCamera, frames_carry_the_pattern_and_exact_times) {
+TEST(SimCamera, FramesCarryThePatternAndExactTimes) {
     SimulatedClock clock(7 * kNsPerSecond);
     SimCameraConfig cfg;
     cfg.width = 64;
@@ -32,7 +32,7 @@ TEST(SimCamera, frames_carry_the_pattern_and_exact_times) {
     EXPECT_EQ(clock.now_ns(), 7 * kNsPerSecond + s_to_ns(89 / 30.0));
 }
 
-TEST(SimCamera, times_out_between_frames_and_does_yuyv) {
+TEST(SimCamera, TimesOutBetweenFramesAndDoesYuyv) {
     SimulatedClock clock(0);
     SimCameraConfig cfg;
     cfg.width = 8;
@@ -56,7 +56,7 @@ TEST(SimCamera, times_out_between_frames_and_does_yuyv) {
     EXPECT_EQ(fourcc_to_string(kFourccYuyv), "YUYV");
 }
 
-TEST(V4l2Camera, missing_device_is_a_clear_error_naming_it) {
+TEST(V4l2Camera, MissingDeviceIsAClearErrorNamingIt) {
     V4l2CameraConfig cfg;
     cfg.device = "/dev/video-hmdnode-missing";
     auto cam = open_v4l2_camera(cfg);
@@ -65,7 +65,7 @@ TEST(V4l2Camera, missing_device_is_a_clear_error_naming_it) {
     EXPECT_NE(cam.error().message.find("ENOENT"), std::string::npos) << cam.error().message;
 }
 
-TEST(V4l2Camera, a_file_that_is_not_a_camera_is_refused) {
+TEST(V4l2Camera, AFileThatIsNotACameraIsRefused) {
     V4l2CameraConfig cfg;
     cfg.device = "/dev/null";
     auto cam = open_v4l2_camera(cfg);

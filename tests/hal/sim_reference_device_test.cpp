@@ -36,7 +36,7 @@ refproto::PoseReport read_pose(Transport& t, int timeout_ms = 100, int64_t* arri
     return p.ok() ? *p : refproto::PoseReport{};
 }
 
-TEST(SimReferenceDevice, three_minutes_at_1khz_lose_no_sample) {
+TEST(SimReferenceDevice, ThreeMinutesAt1kHzLoseNoSample) {
     SimulatedClock clock(kBootNs);
     auto motion = sinusoidal_motion(30.0, 0.5);
     auto backend = create_sim_reference_backend(clock, {}, motion);
@@ -68,7 +68,7 @@ TEST(SimReferenceDevice, three_minutes_at_1khz_lose_no_sample) {
     EXPECT_EQ(clock.now_ns(), kBootNs + static_cast<int64_t>(n) * kNsPerMs + 500'000);
 }
 
-TEST(SimReferenceDevice, angular_velocity_is_in_the_head_frame) {
+TEST(SimReferenceDevice, AngularVelocityIsInTheHeadFrame) {
     SimulatedClock clock(kBootNs);
     auto motion = sinusoidal_motion(40.0, 1.0);
     auto backend = create_sim_reference_backend(clock, {}, motion);
@@ -83,7 +83,7 @@ TEST(SimReferenceDevice, angular_velocity_is_in_the_head_frame) {
     }
 }
 
-TEST(SimReferenceDevice, answers_device_info_and_rate_feature_reports) {
+TEST(SimReferenceDevice, AnswersDeviceInfoAndRateFeatureReports) {
     SimulatedClock clock(kBootNs);
     SimReferenceDeviceConfig cfg;
     cfg.serial = "UNIT-7";
@@ -123,7 +123,7 @@ TEST(SimReferenceDevice, answers_device_info_and_rate_feature_reports) {
     EXPECT_FALSE(t->write_output(std::vector<uint8_t>{0x20, 1}).ok());
 }
 
-TEST(SimReferenceDevice, time_sync_recovers_the_device_clock_offset) {
+TEST(SimReferenceDevice, TimeSyncRecoversTheDeviceClockOffset) {
     SimulatedClock clock(kBootNs);
     SimReferenceDeviceConfig cfg;
     cfg.device_clock_offset_us = 123'456'789;  // device clock at boot
@@ -150,7 +150,7 @@ TEST(SimReferenceDevice, time_sync_recovers_the_device_clock_offset) {
     EXPECT_EQ(e.round_trip_ns, 0);
 }
 
-TEST(SimReferenceDevice, device_clock_drifts_as_configured) {
+TEST(SimReferenceDevice, DeviceClockDriftsAsConfigured) {
     SimulatedClock clock(0);
     SimReferenceDeviceConfig cfg;
     cfg.device_clock_drift_ppm = 100.0;
@@ -164,7 +164,7 @@ TEST(SimReferenceDevice, device_clock_drifts_as_configured) {
     EXPECT_EQ(p.device_time_us, 100'010'000u);
 }
 
-TEST(SimReferenceDevice, a_slow_reader_loses_the_oldest_reports_and_they_are_counted) {
+TEST(SimReferenceDevice, ASlowReaderLosesTheOldestReportsAndTheyAreCounted) {
     SimulatedClock clock(kBootNs);
     SimReferenceDeviceConfig cfg;
     cfg.queue_capacity = 16;
@@ -177,7 +177,7 @@ TEST(SimReferenceDevice, a_slow_reader_loses_the_oldest_reports_and_they_are_cou
     EXPECT_EQ(first.sequence, 99u - 16u);
 }
 
-TEST(SimReferenceDevice, unplug_fails_the_transport_and_replug_resumes_within_a_second) {
+TEST(SimReferenceDevice, UnplugFailsTheTransportAndReplugResumesWithinASecond) {
     SimulatedClock clock(kBootNs);
     auto backend = create_sim_reference_backend(clock, {}, sinusoidal_motion());
     auto t = open_only(*backend);
@@ -207,7 +207,7 @@ TEST(SimReferenceDevice, unplug_fails_the_transport_and_replug_resumes_within_a_
     EXPECT_EQ(arrival - replug_ns, 1'500'000);
 }
 
-TEST(SimReferenceDevice, replug_without_reboot_shows_the_gap_in_sequence_numbers) {
+TEST(SimReferenceDevice, ReplugWithoutRebootShowsTheGapInSequenceNumbers) {
     SimulatedClock clock(kBootNs);
     auto backend = create_sim_reference_backend(clock, {}, sinusoidal_motion());
     auto t = open_only(*backend);
@@ -228,7 +228,7 @@ TEST(SimReferenceDevice, replug_without_reboot_shows_the_gap_in_sequence_numbers
     EXPECT_EQ(p.device_time_us - last.device_time_us, 251'000u);
 }
 
-TEST(SimReferenceDevice, plays_a_trace_as_motion) {
+TEST(SimReferenceDevice, PlaysATraceAsMotion) {
     auto trace = std::make_shared<Trace>();
     for (int i = 0; i <= 10; ++i) {
         TraceSample s;
@@ -250,7 +250,7 @@ TEST(SimReferenceDevice, plays_a_trace_as_motion) {
     }
 }
 
-TEST(SimReferenceDevice, real_clock_delivers_reports_as_they_come) {
+TEST(SimReferenceDevice, RealClockDeliversReportsAsTheyCome) {
     SystemClock clock;
     auto backend = create_sim_reference_backend(clock, {}, sinusoidal_motion());
     auto t = open_only(*backend);
@@ -286,7 +286,7 @@ TrackedSim track_sim(Clock& clock, SimReferenceDeviceConfig cfg = {}) {
     return t;
 }
 
-TEST(SimReferenceDeviceTracked, two_minutes_at_1khz_through_the_device_tracker_lose_nothing) {
+TEST(SimReferenceDeviceTracked, TwoMinutesAt1kHzThroughTheDeviceTrackerLoseNothing) {
     SimulatedClock clock(kBootNs);
     TrackedSim t = track_sim(clock);
     ASSERT_TRUE(t.tracker);
@@ -319,7 +319,7 @@ TEST(SimReferenceDeviceTracked, two_minutes_at_1khz_through_the_device_tracker_l
     EXPECT_EQ(t.tracker->counters().samples_dropped, 0u);
 }
 
-TEST(SimReferenceDeviceTracked, unplug_and_replug_resume_within_a_second_and_report_the_gap) {
+TEST(SimReferenceDeviceTracked, UnplugAndReplugResumeWithinASecondAndReportTheGap) {
     SimulatedClock clock(kBootNs);
     TrackedSim t = track_sim(clock);
     ASSERT_TRUE(t.tracker);

@@ -13,7 +13,7 @@
 namespace hmdnode {
 namespace {
 
-TEST(Transport, parses_vid_pid_in_hex) {
+TEST(Transport, ParsesVidPidInHex) {
     Result<DeviceFilter> f = parse_vid_pid(std::string_view("28de:2000"));
     ASSERT_TRUE(f.ok()) << f.error().message;
     EXPECT_EQ(f->vendor_id, 0x28de);
@@ -29,7 +29,7 @@ TEST(Transport, parses_vid_pid_in_hex) {
     EXPECT_EQ(format_vid_pid(0x1209, 0x1), "1209:0001");
 }
 
-TEST(Transport, rejects_malformed_vid_pid_naming_the_part) {
+TEST(Transport, RejectsMalformedVidPidNamingThePart) {
     Result<DeviceFilter> a = parse_vid_pid(std::string_view("28de2000"));
     ASSERT_FALSE(a.ok());
     EXPECT_NE(a.error().message.find("28de2000"), std::string::npos);
@@ -44,7 +44,7 @@ TEST(Transport, rejects_malformed_vid_pid_naming_the_part) {
     EXPECT_FALSE(parse_vid_pid(std::string_view(":2000")).ok());
 }
 
-TEST(Transport, filter_matches_zero_as_any) {
+TEST(Transport, FilterMatchesZeroAsAny) {
     DeviceId id;
     id.vendor_id = 0x28de;
     id.product_id = 0x2300;
@@ -57,7 +57,7 @@ TEST(Transport, filter_matches_zero_as_any) {
     EXPECT_FALSE((DeviceFilter{0x28de, 0x2300, "LHR-2"}.matches(id)));
 }
 
-TEST(Transport, hid_get_report_setup_packet_bytes) {
+TEST(Transport, HidGetReportSetupPacketBytes) {
     // GET_REPORT(feature 0x10), interface 2, 64 bytes: A1 01 | 10 03 | 02 00 | 40 00.
     const UsbSetupPacket s = hid_get_report_setup(HidReportType::feature, 0x10, 2, 64);
     EXPECT_EQ(s.request_type, 0xA1);
@@ -67,7 +67,7 @@ TEST(Transport, hid_get_report_setup_packet_bytes) {
     EXPECT_EQ(s.bytes(), want);
 }
 
-TEST(Transport, hid_set_report_setup_packet_bytes) {
+TEST(Transport, HidSetReportSetupPacketBytes) {
     // SET_REPORT(output 0x05), interface 0, 300 bytes: 21 09 | 05 02 | 00 00 | 2C 01.
     const UsbSetupPacket s = hid_set_report_setup(HidReportType::output, 0x05, 0, 300);
     const std::array<uint8_t, 8> want{0x21, 0x09, 0x05, 0x02, 0x00, 0x00, 0x2C, 0x01};
@@ -75,7 +75,7 @@ TEST(Transport, hid_set_report_setup_packet_bytes) {
     EXPECT_EQ(hid_set_report_setup(HidReportType::feature, 0x13, 1, 32).value, 0x0313);
 }
 
-TEST(Transport, unknown_backend_name_is_an_error) {
+TEST(Transport, UnknownBackendNameIsAnError) {
     auto b = create_transport_backend("bluetooth");
     ASSERT_FALSE(b.ok());
     EXPECT_NE(b.error().message.find("bluetooth"), std::string::npos);
@@ -85,7 +85,7 @@ TEST(Transport, unknown_backend_name_is_an_error) {
 constexpr uint16_t kAbsentVid = 0x1209;
 constexpr uint16_t kAbsentPid = 0xfff7;
 
-TEST(HidapiBackend, enumerating_an_absent_device_is_empty_not_an_error) {
+TEST(HidapiBackend, EnumeratingAnAbsentDeviceIsEmptyNotAnError) {
     auto b = create_hidapi_backend();
     ASSERT_TRUE(b.ok()) << b.error().message;
     EXPECT_EQ((*b)->name(), "hidapi");
@@ -94,7 +94,7 @@ TEST(HidapiBackend, enumerating_an_absent_device_is_empty_not_an_error) {
     EXPECT_TRUE(list->empty());
 }
 
-TEST(HidapiBackend, opening_a_missing_device_names_it) {
+TEST(HidapiBackend, OpeningAMissingDeviceNamesIt) {
     auto b = create_hidapi_backend();
     ASSERT_TRUE(b.ok()) << b.error().message;
     DeviceId id;
@@ -111,7 +111,7 @@ TEST(HidapiBackend, opening_a_missing_device_names_it) {
     EXPECT_NE(u.error().message.find("1209:fff7"), std::string::npos);
 }
 
-TEST(LibusbBackend, enumerating_and_opening_an_absent_device) {
+TEST(LibusbBackend, EnumeratingAndOpeningAnAbsentDevice) {
     auto b = create_libusb_backend();
     if (!b.ok()) {
         // note: libusb_init fails where no usbfs exists (containers); that must be said clearly.
@@ -139,7 +139,7 @@ TEST(LibusbBackend, enumerating_and_opening_an_absent_device) {
 namespace hmdnode {
 namespace {
 
-TEST(UdevRules, every_supported_device_has_group_access_and_nothing_is_world_writable) {
+TEST(UdevRules, EverySupportedDeviceHasGroupAccessAndNothingIsWorldWritable) {
     std::ifstream in(std::string(HMDNODE_SOURCE_DIR) + "/hal/udev/70-hmdnode.rules");
     ASSERT_TRUE(in) << "hal/udev/70-hmdnode.rules missing";
     std::set<std::string> hidraw, usb;

@@ -133,7 +133,7 @@ double sphere_error(const Primitive& p) {
 
 class Paper001 : public ::testing::TestWithParam<Algo> {};
 
-TEST_P(Paper001, sphere_reaches_targets_stays_closed_unflipped_and_error_falls_with_count) {
+TEST_P(Paper001, SphereReachesTargetsStaysClosedUnflippedAndErrorFallsWithCount) {
     const Algo& algo = GetParam();
     const Primitive in = icosphere(3);  // 1280 triangles
     ASSERT_EQ(in.triangle_count(), 1280u);
@@ -167,7 +167,7 @@ TEST_P(Paper001, sphere_reaches_targets_stays_closed_unflipped_and_error_falls_w
     EXPECT_LE(err[0], err[1] * 1.05) << algo.name;
 }
 
-TEST_P(Paper001, flat_grid_stays_flat_and_unflipped) {
+TEST_P(Paper001, FlatGridStaysFlatAndUnflipped) {
     const Algo& algo = GetParam();
     const Primitive in = flat_grid(16);  // 512 triangles
     const std::vector<size_t> targets = {256, 64};
@@ -193,7 +193,7 @@ INSTANTIATE_TEST_SUITE_P(All, Paper001, ::testing::ValuesIn(kAlgos), [](const au
 });
 
 // Locked borders: the 64 border vertices of a 16 x 16 grid all survive, where they are.
-TEST(Paper001Borders, locked_borders_keep_every_border_vertex) {
+TEST(Paper001Borders, LockedBordersKeepEveryBorderVertex) {
     const Primitive in = flat_grid(16);
     SimplifyOptions options;
     options.lock_borders = true;
@@ -212,7 +212,7 @@ TEST(Paper001Borders, locked_borders_keep_every_border_vertex) {
 
 // FAD removes flat-region vertices first and keeps the sharp ones: a cube with 4 x 4 faces
 // brought to 12 triangles is the cube, all 8 corners kept.
-TEST(Paper001Fad, cube_keeps_its_corners) {
+TEST(Paper001Fad, CubeKeepsItsCorners) {
     const Primitive in = subdivided_cube(4);  // 192 triangles
     for (size_t target : {48u, 12u}) {
         const std::vector<size_t> targets = {target};
@@ -242,7 +242,7 @@ TEST(Paper001Fad, cube_keeps_its_corners) {
 
 // FAD on a flat square grid: every inner vertex is flat and every border vertex but the four
 // corners lies on a straight border, so it goes down to the two triangles of the square.
-TEST(Paper001Fad, flat_grid_reduces_to_two_triangles) {
+TEST(Paper001Fad, FlatGridReducesToTwoTriangles) {
     const Primitive in = flat_grid(16);
     const std::vector<size_t> targets = {2};
     auto result = simplify_fad(in, targets, {});
@@ -257,7 +257,7 @@ TEST(Paper001Fad, flat_grid_reduces_to_two_triangles) {
 // A flat grid cut into two UV charts along x = 0.5 (split vertices there): uv is an affine map of
 // the position in each chart, so every output vertex must still satisfy its chart's map exactly
 // (a seam vertex may only slide along the seam, interpolation stays inside a chart).
-TEST(Paper001Seams, uv_seams_survive) {
+TEST(Paper001Seams, UvSeamsSurvive) {
     const int n = 16;
     Primitive in;
     auto uv_of = [](glm::vec3 p, int chart) {
@@ -306,7 +306,7 @@ TEST(Paper001Seams, uv_seams_survive) {
 // The OpenMesh conversion: split seam vertices weld into one OpenMesh vertex, and the round trip
 // gives back every triangle with the attributes of each corner exactly; a face OpenMesh refuses
 // (third face on an edge) and one with a repeated corner are counted, not added.
-TEST(Paper001Weld, round_trip_keeps_corners_and_counts_refused_faces) {
+TEST(Paper001Weld, RoundTripKeepsCornersAndCountsRefusedFaces) {
     Primitive in = flat_grid(2);  // 9 vertices, 8 triangles
     in.uv0.resize(in.positions.size());
     for (size_t i = 0; i < in.positions.size(); ++i) in.uv0[i] = glm::vec2(in.positions[i]);
@@ -347,7 +347,7 @@ TEST(Paper001Weld, round_trip_keeps_corners_and_counts_refused_faces) {
 
 // Non-manifold input (three faces on one edge) does not crash: the face OpenMesh refuses is left
 // out and the rest simplified.
-TEST(Paper001Robust, non_manifold_edge_is_survived) {
+TEST(Paper001Robust, NonManifoldEdgeIsSurvived) {
     Primitive in = flat_grid(8);
     uint32_t extra = uint32_t(in.positions.size());
     in.positions.push_back({0.0625f, 0.0f, 0.5f});

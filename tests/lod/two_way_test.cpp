@@ -2,7 +2,9 @@
 // on the helper thread, or on the caller when it is done with f(0) before the helper started f(1),
 // and returns only when both are done; without a helper both run on the caller, 0 then 1. Many
 // rounds in a row each see their own captures (the job is copied per round), runs after the helper
-// fell asleep still hand over, and the helper keeps off its caller's core.
+// fell asleep still hand over, and the helper's affinity leaves out its caller's core. Nothing
+// here depends on when a thread gets a core (a loaded 2-core CI box): the tests assert results,
+// and which thread ran a half only where the test itself forces it.
 #include <array>
 #include <atomic>
 #include <chrono>
@@ -21,28 +23,25 @@ namespace hmdnode::lod_detail {
 namespace {
 
 TEST(TwoWay, HelperRunsTheSecondHalfAndRunWaitsForIt) {
+    // note: the first half waits until the second has begun, so the caller cannot claim the
+    // second (it claims only after its own): the helper must run it, whenever it gets a core. No
+    // timing is asserted; the sums prove that both halves wrote before run() returned.
     TwoWay split(true);
     ASSERT_TRUE(split.has_helper());
     const std::thread::id caller = std::this_thread::get_id();
     std::array<std::thread::id, 2> ran_on{};
-    std::vector<uint64_t> sums(2000, 0);
-    int on_helper = 0;
+    std::vector<uint64_t> sums(400, 0);
     std::atomic<uint32_t> started{0};  // the last round whose second half began
-    for (uint32_t round = 0; round < 1000; ++round) {
+    for (uint32_t round = 0; round < 200; ++round) {
         uint64_t* out = sums.data() + 2 * round;
         std::thread::id* ids = ran_on.data();
         std::atomic<uint32_t>* began = &started;
         auto job = [out, ids, round, began](int half) {
             if (half == 1) {
-                began->store(round + 1, std::memory_order_relaxed);
+                began->store(round + 1, std::memory_order_release);
             } else {
-                // note: the caller gives the helper up to 20 ms to start the other half (else it
-                // runs it itself, after its own)
-                const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(20);
-                while (began->load(std::memory_order_relaxed) != round + 1 &&
-                       std::chrono::steady_clock::now() < until) {
+                while (began->load(std::memory_order_acquire) != round + 1)
                     std::this_thread::yield();
-                }
             }
             uint64_t s = 0;
             for (uint32_t i = 0; i < 2000; ++i) s += (round + 1) * (i + 1) + uint32_t(half);
@@ -55,11 +54,8 @@ TEST(TwoWay, HelperRunsTheSecondHalfAndRunWaitsForIt) {
         ASSERT_EQ(out[0], expect) << "round " << round;
         ASSERT_EQ(out[1], expect + 2000) << "round " << round;
         ASSERT_EQ(ran_on[0], caller) << "round " << round;
-        on_helper += ran_on[1] != caller;
+        ASSERT_NE(ran_on[1], caller) << "round " << round;
     }
-    // note: a helper that spins between rounds starts its half within microseconds (a loaded
-    // machine may keep it off its core for a while).
-    EXPECT_GT(on_helper, 500);
 }
 
 TEST(TwoWay, WithoutHelperBothHalvesRunOnTheCallerInOrder) {
@@ -91,29 +87,28 @@ TEST(TwoWay, RunsAfterTheHelperFellAsleep) {
     }
 }
 
-TEST(TwoWay, CallerRunsTheSecondHalfWhenTheHelperHasNotStartedIt) {
-    // note: after 3 ms the helper sleeps on its futex and takes tens of microseconds to wake; an
-    // empty first half ends long before, so the caller claims the second (once in 20 rounds at
-    // least). Each half still runs exactly once.
+TEST(TwoWay, EachHalfRunsExactlyOnceWhicheverThreadClaimsIt) {
+    // note: the caller claims the second half when the helper has not started it yet (after 3 ms
+    // the helper sleeps on its futex and takes tens of microseconds to wake, an empty first half
+    // ends long before); either thread may win, on a loaded machine either way. Whichever does,
+    // each half runs exactly once and both are done when run() returns.
     TwoWay split(true);
-    const std::thread::id caller = std::this_thread::get_id();
-    int on_caller = 0;
     for (int round = 1; round <= 20; ++round) {
-        std::this_thread::sleep_for(std::chrono::milliseconds(3));
+        if (round % 2 == 0) std::this_thread::sleep_for(std::chrono::milliseconds(3));
         std::array<std::atomic<int>, 2> calls{};
-        std::thread::id second;
+        std::array<int, 2> seen{};
         auto* c = &calls;
-        auto* id = &second;
-        auto job = [c, id](int half) {
+        int* out = seen.data();
+        auto job = [c, out, round](int half) {
             (*c)[half].fetch_add(1, std::memory_order_relaxed);
-            if (half == 1) *id = std::this_thread::get_id();
+            out[half] = round * 10 + half;
         };
         split.run(job);
         ASSERT_EQ(calls[0].load(), 1) << "round " << round;
         ASSERT_EQ(calls[1].load(), 1) << "round " << round;
-        on_caller += second == caller;
+        ASSERT_EQ(seen[0], round * 10) << "round " << round;
+        ASSERT_EQ(seen[1], round * 10 + 1) << "round " << round;
     }
-    EXPECT_GT(on_caller, 0);
 }
 
 #ifdef __linux__

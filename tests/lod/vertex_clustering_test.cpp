@@ -72,7 +72,7 @@ void expect_well_formed(const Primitive& in, const Primitive& out) {
     for (const glm::vec3& nn : out.normals) EXPECT_NEAR(glm::length(nn), 1.0f, 1e-4f);
 }
 
-TEST(VertexClustering, tiny_cells_keep_the_mesh) {
+TEST(VertexClustering, TinyCellsKeepTheMesh) {
     Primitive sq = tessellated_square(16);
     float disp = -1.0f;
     Primitive out = cluster_vertices(sq, 1e-3f, &disp);
@@ -82,7 +82,7 @@ TEST(VertexClustering, tiny_cells_keep_the_mesh) {
     expect_well_formed(sq, out);
 }
 
-TEST(VertexClustering, huge_cell_collapses_flat_square_within_cell_diagonal) {
+TEST(VertexClustering, HugeCellCollapsesFlatSquareWithinCellDiagonal) {
     Primitive sq = tessellated_square(64);  // 8192 triangles
     const float cell = 0.45f;               // 3 x 3 cells over the square
     float disp = -1.0f;
@@ -107,7 +107,7 @@ TEST(VertexClustering, huge_cell_collapses_flat_square_within_cell_diagonal) {
     EXPECT_LE(area, 1.0f + 1e-5f);
 }
 
-TEST(VertexClustering, cell_larger_than_mesh_leaves_nothing) {
+TEST(VertexClustering, CellLargerThanMeshLeavesNothing) {
     Primitive sq = tessellated_square(8);
     float disp = 0.0f;
     Primitive out = cluster_vertices(sq, 10.0f, &disp);
@@ -116,7 +116,7 @@ TEST(VertexClustering, cell_larger_than_mesh_leaves_nothing) {
     EXPECT_LE(disp, std::sqrt(2.0f));
 }
 
-TEST(VertexClustering, triangle_count_decreases_as_cells_grow_on_bunny) {
+TEST(VertexClustering, TriangleCountDecreasesAsCellsGrowOnBunny) {
     const Primitive& in = bunny();
     ASSERT_EQ(in.triangle_count(), 69451u);
     // Doubling cells from one origin nest the grids, so every coarser result is a re-clustering of
@@ -138,7 +138,7 @@ TEST(VertexClustering, triangle_count_decreases_as_cells_grow_on_bunny) {
     EXPECT_LT(previous, 500u);
 }
 
-TEST(VertexClustering, bisection_reaches_target_triangle_counts) {
+TEST(VertexClustering, BisectionReachesTargetTriangleCounts) {
     const Primitive& in = bunny();
     float previous_disp = 0.0f;
     for (size_t target : {16000u, 4000u, 1000u, 300u}) {

@@ -120,13 +120,13 @@ struct ScopedEnv {
     const char* name_;
 };
 
-TEST(VulkanRenderer, reports_a_device_name) {
+TEST(VulkanRenderer, ReportsADeviceName) {
     auto r = make_renderer(8, 8);
     ASSERT_TRUE(r);
     EXPECT_FALSE(r->device_name().empty());
 }
 
-TEST(VulkanRenderer, rejects_an_empty_eye_buffer) {
+TEST(VulkanRenderer, RejectsAnEmptyEyeBuffer) {
     RendererConfig config;
     config.eye_width = 0;
     auto r = create_vulkan_renderer(config);
@@ -134,7 +134,7 @@ TEST(VulkanRenderer, rejects_an_empty_eye_buffer) {
     EXPECT_NE(r.error().message.find("empty"), std::string::npos);
 }
 
-TEST(VulkanRenderer, device_choice_by_name_reports_what_it_rejected) {
+TEST(VulkanRenderer, DeviceChoiceByNameReportsWhatItRejected) {
     ScopedEnv env("HMDNODE_VK_DEVICE", "no-such-device-name");
     auto r = create_vulkan_renderer(RendererConfig{});
     ASSERT_FALSE(r.ok());
@@ -142,7 +142,7 @@ TEST(VulkanRenderer, device_choice_by_name_reports_what_it_rejected) {
         << r.error().message;
 }
 
-TEST(VulkanRenderer, clear_only_frame_returns_the_srgb_encoded_clear_colour) {
+TEST(VulkanRenderer, ClearOnlyFrameReturnsTheSrgbEncodedClearColour) {
     const glm::vec4 clear{0.2f, 0.5f, 0.05f, 1.0f};
     auto r = make_renderer(64, 48, clear);
     ASSERT_TRUE(r);
@@ -163,7 +163,7 @@ TEST(VulkanRenderer, clear_only_frame_returns_the_srgb_encoded_clear_colour) {
     EXPECT_EQ(no_image->readback_ns, 0);
 }
 
-TEST(VulkanRenderer, lightmapped_quad_is_albedo_times_irradiance_over_pi) {
+TEST(VulkanRenderer, LightmappedQuadIsAlbedoTimesIrradianceOverPi) {
     // Lightmap 4x1: texels 0-1 hold a, texels 2-3 hold b. uv1 points at the a half, uv0 at the b
     // half, so the result shows which set the material selects.
     const int a = 128, b = 40;
@@ -204,7 +204,7 @@ TEST(VulkanRenderer, lightmapped_quad_is_albedo_times_irradiance_over_pi) {
     }
 }
 
-TEST(VulkanRenderer, texture_used_as_base_colour_and_lightmap_is_decoded_once_each_way) {
+TEST(VulkanRenderer, TextureUsedAsBaseColourAndLightmapIsDecodedOnceEachWay) {
     // One texture, sRGB-decoded as base colour and read as linear UNORM as the lightmap.
     const int v = 180;
     Scene scene;
@@ -223,7 +223,7 @@ TEST(VulkanRenderer, texture_used_as_base_colour_and_lightmap_is_decoded_once_ea
     expect_uniform(img.eye[0], expected, expected, expected, 2, "both views");
 }
 
-TEST(VulkanRenderer, unlit_quad_shows_vertex_colour_times_base_colour_factor) {
+TEST(VulkanRenderer, UnlitQuadShowsVertexColourTimesBaseColourFactor) {
     Scene scene;
     scene.materials.push_back(flat({0.5f, 1.0f, 1.0f, 1.0f}));
     // Left half and right half of the view, each with one constant vertex colour; the right one
@@ -252,7 +252,7 @@ TEST(VulkanRenderer, unlit_quad_shows_vertex_colour_times_base_colour_factor) {
     expect_uniform(img.eye[1], 255, 255, 255, 0, "default material");
 }
 
-TEST(VulkanRenderer, emission_is_added_to_lit_and_unlit_surfaces) {
+TEST(VulkanRenderer, EmissionIsAddedToLitAndUnlitSurfaces) {
     // emissiveFactor adds emitted radiance after shading: on an unlit quad (left half) and on a
     // lightmapped one (right half, albedo 0.5, E = 1: albedo * E / pi).
     Scene scene;
@@ -279,7 +279,7 @@ TEST(VulkanRenderer, emission_is_added_to_lit_and_unlit_surfaces) {
     }
 }
 
-TEST(VulkanRenderer, base_colour_checker_maps_to_the_right_quadrants) {
+TEST(VulkanRenderer, BaseColourCheckerMapsToTheRightQuadrants) {
     // A 2x2 checker of cells, each cell 2x2 texels so linear filtering inside a cell is exact:
     // top-left red, top-right green, bottom-left blue, bottom-right grey (sRGB bytes).
     const uint8_t cells[2][2][3] = {{{200, 30, 60}, {20, 180, 40}},
@@ -313,7 +313,7 @@ TEST(VulkanRenderer, base_colour_checker_maps_to_the_right_quadrants) {
                 }
 }
 
-TEST(VulkanRenderer, nearer_quad_wins_whatever_the_draw_order) {
+TEST(VulkanRenderer, NearerQuadWinsWhateverTheDrawOrder) {
     Scene scene;
     scene.materials.push_back(flat({1, 0, 0, 1}));  // red, near
     scene.materials.push_back(flat({0, 0, 1, 1}));  // blue, far
@@ -338,7 +338,7 @@ TEST(VulkanRenderer, nearer_quad_wins_whatever_the_draw_order) {
     }
 }
 
-TEST(VulkanRenderer, counter_clockwise_glTF_faces_are_front_faces) {
+TEST(VulkanRenderer, CounterClockwiseGltfFacesAreFrontFaces) {
     Scene scene;
     scene.materials.push_back(flat({0, 1, 0, 1}, false));
     scene.materials.push_back(flat({0, 1, 0, 1}, true));
@@ -416,24 +416,24 @@ int check_ipd_disparity() {
     return stats.passes;
 }
 
-TEST(VulkanRenderer, multiview_eyes_are_shifted_by_the_ipd_disparity) {
+TEST(VulkanRenderer, MultiviewEyesAreShiftedByTheIpdDisparity) {
     const int passes = check_ipd_disparity();
     EXPECT_TRUE(passes == 1 || passes == 2) << passes;
 }
 
-TEST(VulkanRenderer, forced_multiview_draws_both_eyes_in_one_pass_with_their_own_views) {
+TEST(VulkanRenderer, ForcedMultiviewDrawsBothEyesInOnePassWithTheirOwnViews) {
     // The target needs no clipping, so even lavapipe's multiview (see vulkan_renderer.cpp) draws
     // it right: this exercises gl_ViewIndex on every device.
     ScopedEnv env("HMDNODE_VK_MULTIVIEW", "1");
     EXPECT_EQ(check_ipd_disparity(), 1);
 }
 
-TEST(VulkanRenderer, forced_per_eye_passes_draw_the_same_disparity) {
+TEST(VulkanRenderer, ForcedPerEyePassesDrawTheSameDisparity) {
     ScopedEnv env("HMDNODE_VK_MULTIVIEW", "0");
     EXPECT_EQ(check_ipd_disparity(), 2);
 }
 
-TEST(VulkanRenderer, geometry_crossing_the_image_edges_reaches_both_eyes) {
+TEST(VulkanRenderer, GeometryCrossingTheImageEdgesReachesBothEyes) {
     // A triangle far beyond the view on every side must be clipped, not lost, in both eyes.
     Scene scene;
     scene.materials.push_back(flat({1, 0.5f, 0, 1}, true));
@@ -451,7 +451,7 @@ TEST(VulkanRenderer, geometry_crossing_the_image_edges_reaches_both_eyes) {
         expect_uniform(img.eye[eye], 255, srgb8(0.5), 0, 1, "eye " + std::to_string(eye));
 }
 
-TEST(VulkanRenderer, asymmetric_typical_rig_projects_the_target_where_the_matrices_say) {
+TEST(VulkanRenderer, AsymmetricTypicalRigProjectsTheTargetWhereTheMatricesSay) {
     const int w = 96, h = 96;
     const StereoRig rig = StereoRig::typical();
     const double d = 0.8;
@@ -475,7 +475,7 @@ TEST(VulkanRenderer, asymmetric_typical_rig_projects_the_target_where_the_matric
     EXPECT_LT(centroid(img.eye[1]).x, 0.5 * w);
 }
 
-TEST(VulkanRenderer, zero_ipd_and_symmetric_fov_give_identical_eyes) {
+TEST(VulkanRenderer, ZeroIpdAndSymmetricFovGiveIdenticalEyes) {
     StereoRig rig;
     rig.ipd_m = 0.0;
     auto r = make_renderer(64, 64);
@@ -485,7 +485,7 @@ TEST(VulkanRenderer, zero_ipd_and_symmetric_fov_give_identical_eyes) {
     EXPECT_EQ(img.eye[0].pixels, img.eye[1].pixels);
 }
 
-TEST(VulkanRenderer, world_matrix_of_each_item_places_its_mesh) {
+TEST(VulkanRenderer, WorldMatrixOfEachItemPlacesItsMesh) {
     Scene scene;
     scene.materials.push_back(flat({1, 1, 1, 1}));
     scene.meshes.push_back(mesh_of(quad(-0.1f, -0.1f, 0.1f, 0.1f, 0.0f, 0)));
@@ -505,7 +505,7 @@ TEST(VulkanRenderer, world_matrix_of_each_item_places_its_mesh) {
     expect_pixel(img.eye[0], 16, 48, 0, 0, 0, 0, "empty");
 }
 
-TEST(VulkanRenderer, upload_replaces_the_scene_and_a_bad_scene_keeps_the_old_one) {
+TEST(VulkanRenderer, UploadReplacesTheSceneAndABadSceneKeepsTheOldOne) {
     auto r = make_renderer(16, 16);
     ASSERT_TRUE(r);
     const DrawItem item{0, glm::mat4(1.0f)};
@@ -533,7 +533,7 @@ TEST(VulkanRenderer, upload_replaces_the_scene_and_a_bad_scene_keeps_the_old_one
     EXPECT_FALSE(r->upload(bad_texture).ok());
 }
 
-TEST(VulkanRenderer, draw_item_with_unknown_mesh_is_an_error) {
+TEST(VulkanRenderer, DrawItemWithUnknownMeshIsAnError) {
     auto r = make_renderer(8, 8);
     ASSERT_TRUE(r);
     const DrawItem item{0, glm::mat4(1.0f)};
