@@ -21,8 +21,10 @@
 //   cost, costs within a relative 2^-13 keeping their previous order: a radix pass on the top 11
 //   bits, then counting or insertion sorts of only the buckets the pass reads) and applies them in
 //   order while neither endpoint was touched earlier in the pass, up to 1.5 times the cost of the
-//   k-th cheapest (k = collapses still needed) and, within 256 collapses of a target, up to 4 times
-//   the current cost of the cheapest candidate it had to skip; the next pass drops
+//   k-th cheapest (k = collapses still needed) or, where that made fewer than k/8 collapses (on
+//   piecewise-flat input most candidates cost zero and many fail the checks every pass), until it
+//   has made k/8; within 256 collapses of a target, up to 4 times the current cost of the
+//   cheapest candidate it had to skip; the next pass drops
 //   the candidates of touched positions and evaluates their edges again (prefetching what the
 //   evaluation reads a few positions ahead). Within a pass the order is greedy and every applied
 //   cost is exact (a QEM cost reads only its two quadrics); a collapse is checked in one walk of
@@ -425,7 +427,7 @@ class Engine {
     Scratch<uint8_t> simple_fan_;
     bool classify_simple_fan(Worker& w, uint32_t p);
     void classify_position(Worker& w, uint32_t p, Scratch<ConstraintEdge>& edges);
-    size_t collapses_ = 0, initial_faces_ = 0;
+    size_t collapses_ = 0, initial_faces_ = 0, passes_ = 0;
     size_t live_faces_ = 0;
     std::vector<VertexSplit> records_;
     // scratch, reused by every collapse
@@ -1383,19 +1385,25 @@ void Engine::run_batched(std::span<const size_t> targets, std::vector<Simplified
         const size_t goal = (live_faces_ - targets[ti] + 1) / 2;
         const double limit = sort_candidates(classes, goal);
         ++pass;
+        passes_ = pass;
+        // A pass goes past its limit until it has made an eighth of the collapses the target
+        // needs: candidates up to the limit that fail the checks stay in the list with their
+        // costs, and where they are most of those up to the goal-th (flat input, where many cost
+        // zero) the limit would allow a handful of collapses per O(E) pass.
+        const size_t min_done = std::max<size_t>(1, goal / 8);
         size_t done = 0;
         if (classes && goal >= kSplitGoal) {
             done = split_pass(pass, limit, targets[ti]);
             for (size_t i = 0; i < done; ++i) after_collapse(targets, levels, ti);
             done += boundary_pass(pass, targets, levels, ti);
-            if (done > 0) continue;
+            if (done >= min_done || ti == targets.size()) continue;
         }
         double skipped = std::numeric_limits<double>::infinity();
         for (size_t i = 0; i < n && ti < targets.size(); ++i) {
             if (i == sorted_) sort_rest();
             prefetch_ahead(order_.data(), i, n);
             const CollapseCandidate c = candidate_at(i).unpack();
-            if (c.cost > limit && done > 0) break;
+            if (c.cost > limit && done >= min_done) break;
             // note: close to a target (few collapses left), a candidate skipped because an
             // endpoint was touched may now cost less than the ones that follow, and going past
             // 4 times its cost would run ahead of it (a cube would lose a corner); far from a
@@ -1733,6 +1741,7 @@ Result<std::vector<SimplifiedLevel>> Engine::run(const Primitive& in,
         ++ti;
     }
     if (options_.progress) options_.progress(1.0);
+    if (options_.stats) *options_.stats = SimplifyStats{passes_, collapses_};
 
     if (log_) {
         ProgressiveMesh& pm = *log_;

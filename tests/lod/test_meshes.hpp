@@ -43,4 +43,26 @@ inline Primitive unit_icosphere(int levels) {
     return p;
 }
 
+// Each triangle split into 4 at its edges' midpoints (shared between neighbours), `levels` times,
+// the new vertices left on the flat triangles: piecewise-flat input, like a tessellated wall or
+// CAD part, where most collapses cost zero. Positions and indices only.
+inline Primitive subdivided_flat(Primitive p, int levels) {
+    for (int l = 0; l < levels; ++l) {
+        std::map<std::pair<uint32_t, uint32_t>, uint32_t> mid;
+        auto midpoint = [&](uint32_t a, uint32_t b) {
+            auto [it, added] = mid.emplace(std::minmax(a, b), uint32_t(p.positions.size()));
+            if (added) p.positions.push_back(0.5f * (p.positions[a] + p.positions[b]));
+            return it->second;
+        };
+        std::vector<uint32_t> next;
+        for (size_t i = 0; i < p.indices.size(); i += 3) {
+            const uint32_t a = p.indices[i], b = p.indices[i + 1], c = p.indices[i + 2];
+            const uint32_t ab = midpoint(a, b), bc = midpoint(b, c), ca = midpoint(c, a);
+            next.insert(next.end(), {a, ab, ca, b, bc, ab, c, ca, bc, ab, bc, ca});
+        }
+        p.indices = std::move(next);
+    }
+    return p;
+}
+
 }  // namespace hmdnode::test

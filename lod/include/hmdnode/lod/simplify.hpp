@@ -22,6 +22,12 @@
 
 namespace hmdnode {
 
+// What one simplify() call did, for callers that watch the engine (tests, benchmarks).
+struct SimplifyStats {
+    size_t passes = 0;     // qem, curvature-qem: passes of the pass schedule; 0 for the others
+    size_t collapses = 0;  // edge-collapse algorithms: collapses applied; 0 for the others
+};
+
 struct SimplifyOptions {
     // Open borders (edges with one face) keep their vertices where they are.
     bool lock_borders = false;
@@ -39,6 +45,9 @@ struct SimplifyOptions {
     // split their work in two halves, so the result is the same bit for bit either way). The
     // other algorithms run on the calling thread.
     unsigned threads = 0;
+    // Filled, when not null, by the edge-collapse algorithms (the figures of the last primitive
+    // simplified).
+    SimplifyStats* stats = nullptr;
 };
 
 struct SimplifiedLevel {
