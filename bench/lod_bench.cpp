@@ -5,7 +5,8 @@
 // reached, mean and Hausdorff error (mesh_distance.hpp, % of the bounding-box diagonal); for the
 // time target, qem's time over meshopt_simplify's from interleaved pairs of runs.
 //
-// Usage: bench_lod_bench [MESH_DIR] [--out PREFIX] [--only a,b] [--samples N] [--write-docs]
+// Usage: bench_lod_bench [MESH_DIR | MESH_FILE...] [--out PREFIX] [--only a,b] [--samples N]
+//                        [--write-docs]
 //   MESH_DIR defaults to HMDNODE_SOURCE_DIR/data/meshes; writes PREFIX.json and
 //   PREFIX.svg (default ./lod_bench) and a markdown table on stdout, then the target line;
 //   --write-docs also puts the tables into docs/lod-generation.md and the plot into
@@ -17,6 +18,7 @@
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
+#include <ctime>
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -30,7 +32,9 @@
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/obj.hpp"
 #include "hmdnode/lod/mesh_distance.hpp"
+#include "hmdnode/lod/mesh_file.hpp"
 #include "hmdnode/lod/simplify.hpp"
+#include "lod/test_meshes.hpp"
 
 namespace fs = std::filesystem;
 using namespace hmdnode;
@@ -47,9 +51,14 @@ struct Row {
     double mean_pct = 0.0, hausdorff_pct = 0.0;
     double reported_error = -1.0;  // meshoptimizer's own result_error (relative), or the estimate
     std::string failure;
-    // qem only: its time over meshopt_simplify's from interleaved pairs (paired_time_ratios()).
+    // qem only: its time over meshopt_simplify's from interleaved pairs (paired_time_ratios()),
+    // with its helper thread (as simplify() runs by default) and on one thread; and the process
+    // CPU time of the helper-thread runs over their wall time (2.0: both cores busy throughout).
     int pairs = 0;
     double pair_ratio_p25 = 0.0, pair_ratio_median = 0.0, pair_ratio_p75 = 0.0;
+    int pairs_1t = 0;
+    double pair_1t_p25 = 0.0, pair_1t_median = 0.0, pair_1t_p75 = 0.0;
+    double cpu_over_wall = 0.0;
 };
 
 double median(std::vector<double> v) {
@@ -95,27 +104,50 @@ double time_ms(const std::function<void()>& fn) {
     return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
 
+double cpu_ms() {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
+}
+
+struct Paired {
+    int pairs = 0;
+    double p25 = 0.0, median = 0.0, p75 = 0.0;
+    double a_cpu_over_wall = 0.0;  // process CPU time over wall time while `a` ran
+};
+
 // The time target's figure: `a` and `b` run in interleaved pairs (A B, then B A, and so on, so that
 // a drift of the machine's speed weighs on both alike), and the ratios a/b of the pairs give the
-// median and quartiles stored in `row`. note: on this shared 2-core VM the speed of both cores
-// changes by up to 1.5x within seconds; separate medians taken a minute apart (the table's) can
-// then differ by that much for the same code.
-void paired_time_ratios(const std::function<void()>& a, const std::function<void()>& b, int pairs,
-                        Row& row) {
+// median and quartiles. note: on a shared VM the speed of both cores changes by up to 1.5x within
+// seconds; separate medians taken a minute apart (the table's) can then differ by that much for
+// the same code.
+Paired paired_time_ratios(const std::function<void()>& a, const std::function<void()>& b,
+                          int pairs) {
     std::vector<double> ratios;
+    double a_wall = 0.0, a_cpu = 0.0;
+    auto run_a = [&] {
+        const double c0 = cpu_ms();
+        const double t = time_ms(a);
+        a_cpu += cpu_ms() - c0;
+        a_wall += t;
+        return t;
+    };
     for (int i = 0; i < pairs; ++i) {
         double ta, tb;
         if (i % 2 == 0) {
-            ta = time_ms(a), tb = time_ms(b);
+            ta = run_a(), tb = time_ms(b);
         } else {
-            tb = time_ms(b), ta = time_ms(a);
+            tb = time_ms(b), ta = run_a();
         }
         if (tb > 0.0) ratios.push_back(ta / tb);
     }
-    row.pairs = int(ratios.size());
-    row.pair_ratio_p25 = quantile(ratios, 0.25);
-    row.pair_ratio_median = quantile(ratios, 0.5);
-    row.pair_ratio_p75 = quantile(ratios, 0.75);
+    Paired p;
+    p.pairs = int(ratios.size());
+    p.p25 = quantile(ratios, 0.25);
+    p.median = quantile(ratios, 0.5);
+    p.p75 = quantile(ratios, 0.75);
+    p.a_cpu_over_wall = a_wall > 0.0 ? a_cpu / a_wall : 0.0;
+    return p;
 }
 
 std::string fixed(double v, int digits) {
@@ -222,6 +254,7 @@ int main(int argc, char** argv) {
     const bool write_docs = bench::wants_docs(argc, argv);
     std::string only_arg;
     fs::path mesh_dir = fs::path(HMDNODE_SOURCE_DIR) / "data" / "meshes";
+    std::vector<fs::path> mesh_files;  // mesh paths given as arguments: instead of the bundled set
     std::string prefix = "lod_bench";
     std::vector<std::string> only;
     MeshDistanceOptions distance;
@@ -239,15 +272,33 @@ int main(int argc, char** argv) {
             continue;
         } else if (a == "--help" || a == "-h") {
             std::printf(
-                "usage: %s [MESH_DIR] [--out PREFIX] [--only a,b] [--samples N] [--write-docs]\n",
+                "usage: %s [MESH_DIR | MESH_FILE...] [--out PREFIX] [--only a,b] [--samples N] "
+                "[--write-docs]\n",
                 argv[0]);
             return 0;
-        } else {
+        } else if (fs::is_directory(a)) {
             mesh_dir = a;
+        } else {
+            mesh_files.push_back(a);
         }
     }
-    const std::vector<std::pair<std::string, std::string>> files = {
-        {"bunny", "stanford-bunny.obj"}, {"fandisk", "fandisk.obj"}, {"spot", "spot.obj"}};
+    // (name, file, flat splits): the bundled meshes, and the bunny with each triangle split into 4
+    // on its own plane (piecewise-flat input, like tessellated walls and CAD parts: most
+    // collapses cost zero there), or the files given.
+    struct Input {
+        std::string name;
+        fs::path file;
+        int splits = 0;
+    };
+    std::vector<Input> files;
+    if (mesh_files.empty()) {
+        files = {{"bunny", mesh_dir / "stanford-bunny.obj"},
+                 {"fandisk", mesh_dir / "fandisk.obj"},
+                 {"spot", mesh_dir / "spot.obj"},
+                 {"bunny-split", mesh_dir / "stanford-bunny.obj", 1}};
+    } else {
+        for (const fs::path& f : mesh_files) files.push_back({f.stem().string(), f});
+    }
     const double ratios[] = {0.5, 0.1, 0.01};
 
     std::vector<std::string> algorithms;
@@ -274,18 +325,45 @@ int main(int argc, char** argv) {
         double mean_pct, hausdorff_pct;
     };
     std::vector<EqualCount> equal_counts;
-    for (const auto& [name, file] : files) {
-        Result<Mesh> mesh = load_obj(mesh_dir / file);
-        if (!mesh.ok()) {
-            std::fprintf(stderr, "skipping %s: %s\n", name.c_str(), mesh.error().message.c_str());
-            continue;
+    for (const Input& input : files) {
+        const std::string& name = input.name;
+        // note: OBJ through load_obj, as the bundled meshes always were; PLY, OFF and glTF through
+        // load_mesh_file (the first primitive of the first mesh).
+        Primitive in;
+        if (input.file.extension() == ".obj") {
+            Result<Mesh> mesh = load_obj(input.file);
+            if (!mesh.ok()) {
+                std::fprintf(stderr, "bench_lod_bench: %s\n", mesh.error().message.c_str());
+                return 1;
+            }
+            in = std::move(mesh->primitives[0]);
+        } else {
+            Result<Scene> scene = load_mesh_file(input.file);
+            if (!scene.ok()) {
+                std::fprintf(stderr, "bench_lod_bench: %s\n", scene.error().message.c_str());
+                return 1;
+            }
+            if (scene->meshes.empty() || scene->meshes[0].primitives.empty()) {
+                std::fprintf(stderr, "bench_lod_bench: %s: no mesh\n", input.file.c_str());
+                return 1;
+            }
+            in = std::move(scene->meshes[0].primitives[0]);
         }
         meshes.push_back(name);
-        const Primitive& in = mesh->primitives[0];
+        if (input.splits > 0) {  // positions and indices only: the split makes no attributes
+            Primitive base;
+            base.positions = std::move(in.positions);
+            base.indices = std::move(in.indices);
+            in = test::subdivided_flat(std::move(base), input.splits);
+        }
         const size_t count = in.triangle_count();
         std::fprintf(stderr, "%s: %zu triangles, %zu vertices\n", name.c_str(), count,
                      in.positions.size());
         for (const std::string& algo : algorithms) {
+            // note: on the split mesh (four times the bunny's faces) only qem and meshoptimizer's
+            // two unless named: the other algorithms take minutes there.
+            if (input.splits > 0 && only.empty() && algo != "qem" && algo.rfind("meshopt_", 0) != 0)
+                continue;
             for (double ratio : ratios) {
                 Row row;
                 row.mesh = name;
@@ -349,10 +427,19 @@ int main(int argc, char** argv) {
             const size_t qem_targets[] = {q->target};
             std::vector<uint32_t> dst(in.indices.size());
             float result_error = 0.0f;
-            paired_time_ratios(
-                [&] { (void)simplify(in, "qem", qem_targets); },
-                [&] { (void)run_meshopt_simplify(in, o->target, dst, result_error); },
-                std::clamp(int(1500.0 / std::max(1e-3, q->ms + o->ms)), 7, 31), *q);
+            const int pairs = std::clamp(int(1500.0 / std::max(1e-3, q->ms + o->ms)), 7, 31);
+            auto meshopt = [&] { (void)run_meshopt_simplify(in, o->target, dst, result_error); };
+            const Paired helper =
+                paired_time_ratios([&] { (void)simplify(in, "qem", qem_targets); }, meshopt, pairs);
+            SimplifyOptions one_thread;
+            one_thread.threads = 1;
+            const Paired single = paired_time_ratios(
+                [&] { (void)simplify(in, "qem", qem_targets, one_thread); }, meshopt, pairs);
+            q->pairs = helper.pairs, q->pair_ratio_p25 = helper.p25;
+            q->pair_ratio_median = helper.median, q->pair_ratio_p75 = helper.p75;
+            q->cpu_over_wall = helper.a_cpu_over_wall;
+            q->pairs_1t = single.pairs, q->pair_1t_p25 = single.p25;
+            q->pair_1t_median = single.median, q->pair_1t_p75 = single.p75;
             if (o->triangles <= o->target) continue;
             const size_t targets[] = {o->triangles};
             const Result<std::vector<SimplifiedLevel>> r = simplify(in, "qem", targets);
@@ -388,25 +475,33 @@ int main(int argc, char** argv) {
     appendf(out,
             "\nTarget: qem no slower than meshopt_simplify, mean <= 0.7x, Hausdorff <= 1.0x\n");
     appendf(out,
-            "(time: the table's medians; paired: median and quartiles of the ratios of\n"
-            "interleaved runs, the figure to compare with the target)\n");
+            "(time: the table's medians; paired: median and quartiles of the ratios of "
+            "interleaved runs, the figure to compare with the target, on one thread and with "
+            "simplify()'s helper thread (the default); CPU/wall: the process's CPU time over wall "
+            "time during the helper-thread runs, 2.0 = both cores busy throughout; meshopt "
+            "runs on one thread)\n\n");
     appendf(out,
-            "| mesh | ratio | time qem/meshopt | paired (p25-p75, pairs) | mean qem/meshopt | "
-            "Hausdorff qem/meshopt |\n");
-    appendf(out, "|---|---|---|---|---|---|\n");
+            "| mesh | ratio | time qem/meshopt | paired, one thread (p25-p75) | paired, helper "
+            "(p25-p75) | CPU/wall | mean qem/meshopt | Hausdorff qem/meshopt |\n");
+    appendf(out, "|---|---|---|---|---|---|---|---|\n");
     for (const std::string& m : meshes)
         for (double ratio : ratios) {
             const Row* q = find(m, "qem", ratio);
             const Row* o = find(m, "meshopt_simplify", ratio);
             if (!q || !o) continue;
-            appendf(out, "| %s | %.0f %% | %.2f | %.2f (%.2f-%.2f, %d) | %.2f | %.2f |\n",
-                    m.c_str(), ratio * 100, o->ms > 0 ? q->ms / o->ms : 0.0, q->pair_ratio_median,
-                    q->pair_ratio_p25, q->pair_ratio_p75, q->pairs,
+            appendf(out,
+                    "| %s | %.0f %% | %.2f | %.2f (%.2f-%.2f) | %.2f (%.2f-%.2f) | %.2f | %.2f | "
+                    "%.2f |\n",
+                    m.c_str(), ratio * 100, o->ms > 0 ? q->ms / o->ms : 0.0, q->pair_1t_median,
+                    q->pair_1t_p25, q->pair_1t_p75, q->pair_ratio_median, q->pair_ratio_p25,
+                    q->pair_ratio_p75, q->cpu_over_wall,
                     o->mean_pct > 0 ? q->mean_pct / o->mean_pct : 0.0,
                     o->hausdorff_pct > 0 ? q->hausdorff_pct / o->hausdorff_pct : 0.0);
             for (const EqualCount& e : equal_counts) {
                 if (e.mesh != m || e.ratio != ratio) continue;
-                appendf(out, "| %s | %.0f %%, qem at meshopt's %zu faces | - | - | %.2f | %.2f |\n",
+                appendf(out,
+                        "| %s | %.0f %%, qem at meshopt's %zu faces | - | - | - | - | %.2f | "
+                        "%.2f |\n",
                         m.c_str(), ratio * 100, o->triangles,
                         o->mean_pct > 0 ? e.mean_pct / o->mean_pct : 0.0,
                         o->hausdorff_pct > 0 ? e.hausdorff_pct / o->hausdorff_pct : 0.0);
@@ -433,7 +528,12 @@ int main(int argc, char** argv) {
         j[i]["paired_time_ratio"] = {{"pairs", rows[i].pairs},
                                      {"p25", rows[i].pair_ratio_p25},
                                      {"median", rows[i].pair_ratio_median},
-                                     {"p75", rows[i].pair_ratio_p75}};
+                                     {"p75", rows[i].pair_ratio_p75},
+                                     {"cpu_over_wall", rows[i].cpu_over_wall}};
+        j[i]["paired_time_ratio_one_thread"] = {{"pairs", rows[i].pairs_1t},
+                                                {"p25", rows[i].pair_1t_p25},
+                                                {"median", rows[i].pair_1t_median},
+                                                {"p75", rows[i].pair_1t_p75}};
     }
     std::fflush(stdout);  // the tables first, then what was written, in that order on a terminal
     const std::filesystem::path dir = std::filesystem::path(prefix).parent_path();
