@@ -4,9 +4,11 @@
 #pragma once
 
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <thread>
 
 #include "hmdnode/core/atomic_file.hpp"
 
@@ -17,6 +19,41 @@ inline bool wants_docs(int argc, char** argv) {
     for (int i = 1; i < argc; ++i)
         if (std::string(argv[i]) == "--write-docs") return true;
     return false;
+}
+
+// `arg` relative to the source tree when it lies inside it, so a command quoted in the docs reads
+// the same on every checkout.
+inline std::string in_tree(const std::string& arg) {
+    const std::string root = HMDNODE_SOURCE_DIR "/";
+    return arg.rfind(root, 0) == 0 ? arg.substr(root.size()) : arg;
+}
+
+// "optimised build" or "unoptimised build", as the compiler saw this bench.
+inline const char* build_kind() {
+#if defined(__OPTIMIZE__)
+    return "optimised build";
+#else
+    return "unoptimised build";
+#endif
+}
+
+// What the bench can read about the machine it runs on: the CPU's model name (/proc/cpuinfo), its
+// hardware threads and the 1-minute load average now, e.g. "Intel Xeon ..., 2 hardware threads,
+// 1-minute load average 3.1 at the start".
+inline std::string machine_facts() {
+    std::string model = "unknown CPU";
+    std::ifstream in("/proc/cpuinfo");
+    for (std::string l; std::getline(in, l);)
+        if (l.rfind("model name", 0) == 0 && l.find(':') != std::string::npos) {
+            model = l.substr(l.find(':') + 1);
+            model.erase(0, model.find_first_not_of(" \t"));
+            break;
+        }
+    double load[3] = {0.0, 0.0, 0.0};
+    char load_text[32] = "unknown";
+    if (getloadavg(load, 3) == 3) std::snprintf(load_text, sizeof load_text, "%.1f", load[0]);
+    return model + ", " + std::to_string(std::thread::hardware_concurrency()) +
+           " hardware threads, 1-minute load average " + load_text + " at the start";
 }
 
 // Replaces the marked block of `path` with `text`; prints why and returns false when it cannot.

@@ -8,16 +8,19 @@
 //     transport latency), median / p99 / max -- beside the same figure for the trace-replay
 //     sim_tracker, whose reader thread only sleeps and pushes (the ring alone).
 //
-// Usage: bench_tracker_bench [seconds=3]
+// Usage: bench_tracker_bench [seconds=3] [--write-docs]
+//   (--write-docs: also into docs/tracking.md)
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <string>
 #include <thread>
 #include <vector>
 
+#include "doc_table.hpp"
 #include "hmdnode/firmware_host/pose_history.hpp"
 #include "hmdnode/hal/codec/reference_protocol.hpp"
 #include "hmdnode/hal/codec/vive_imu.hpp"
@@ -33,6 +36,15 @@ using Clk = std::chrono::steady_clock;
 
 namespace {
 
+std::string out;  // what the bench prints, and writes into the docs with --write-docs
+
+template <typename... Args>
+void appendf(const char* fmt, Args... args) {
+    char line[512];
+    std::snprintf(line, sizeof line, fmt, args...);
+    out += line;
+}
+
 double pct(std::vector<double> v, double f) {
     if (v.empty()) return 0.0;
     std::sort(v.begin(), v.end());
@@ -40,16 +52,16 @@ double pct(std::vector<double> v, double f) {
 }
 
 std::vector<std::vector<uint8_t>> vive_reports() {
-    std::vector<std::vector<uint8_t>> out;
+    std::vector<std::vector<uint8_t>> reports;
     const auto file = std::filesystem::path(HMDNODE_SOURCE_DIR) / "data/traces/vive_cal.pcap.gz";
     if (auto cap = read_usbmon_capture(file); cap.ok()) {
         for (const UsbPacket& u : cap->packets)
             if (u.event == 'C' && u.transfer_type == 1 && !u.data.empty() &&
                 u.data[0] == vive::kImuReportId)
-                out.push_back(u.data);
-        std::printf("decode input: %zu Vive IMU reports from %s\n", out.size(),
-                    file.string().c_str());
-        return out;
+                reports.push_back(u.data);
+        appendf("decode input: %zu Vive IMU reports from %s\n", reports.size(),
+                bench::in_tree(file.string()).c_str());
+        return reports;
     }
     for (uint32_t k = 0; k < 20000; ++k) {
         std::array<vive::RawSlot, 3> s{};
@@ -60,11 +72,11 @@ std::vector<std::vector<uint8_t>> vive_reports() {
             s[j].gyro = {3, -2, 1};
         }
         auto b = vive::encode_imu_report(s);
-        out.emplace_back(b.begin(), b.end());
+        reports.emplace_back(b.begin(), b.end());
     }
-    std::printf(
+    appendf(
         "decode input: 20000 synthetic Vive IMU reports (data/traces/vive_cal.pcap.gz absent)\n");
-    return out;
+    return reports;
 }
 
 void bench_decode() {
@@ -109,11 +121,11 @@ void bench_decode() {
         const double ns = std::chrono::duration<double, std::nano>(Clk::now() - t0).count();
         (pass == 0 ? decode_ns : full_ns) = ns / double(samples);
     }
-    std::printf("\n1. cost per sample (ns; %llu samples x %d runs)       hmdnode    reference\n",
-                (unsigned long long)(samples / reps), reps);
-    std::printf("   memcpy of the report (per report)               %9.1f\n", copy_ns);
-    std::printf("   Vive decode                                     %9.1f\n", decode_ns);
-    std::printf(
+    appendf("\n1. cost per sample (ns; %llu samples x %d runs)       hmdnode    reference\n",
+            (unsigned long long)(samples / reps), reps);
+    appendf("   memcpy of the report (per report)               %9.1f\n", copy_ns);
+    appendf("   Vive decode                                     %9.1f\n", decode_ns);
+    appendf(
         "   decode + clock sync + Mahony fusion             %9.1f    1000000 (1 kHz "
         "period): %.4f %% of a core\n",
         full_ns, full_ns / 1e4);
@@ -178,22 +190,42 @@ void bench_latency(double seconds) {
     const Lat b = consume(**st, clock, seconds);
     (*st)->stop();
 
-    std::printf("\n2. sample arrival -> pose history (us, 1 kHz, %.0f s, 50 us polling)\n",
-                seconds);
-    std::printf("                                 samples  dropped   median      p99      max\n");
-    std::printf("   device tracker (sim ref dev)  %7llu  %7llu  %7.1f  %7.1f  %7.1f\n",
-                (unsigned long long)a.samples, (unsigned long long)a.dropped, pct(a.us, 0.5),
-                pct(a.us, 0.99), pct(a.us, 1.0));
-    std::printf("   reference: sim_tracker ring   %7llu  %7llu  %7.1f  %7.1f  %7.1f\n",
-                (unsigned long long)b.samples, (unsigned long long)b.dropped, pct(b.us, 0.5),
-                pct(b.us, 0.99), pct(b.us, 1.0));
+    appendf("\n2. sample arrival -> pose history (us, 1 kHz, %.0f s, 50 us polling)\n", seconds);
+    appendf("                                 samples  dropped   median      p99      max\n");
+    appendf("   device tracker (sim ref dev)  %7llu  %7llu  %7.1f  %7.1f  %7.1f\n",
+            (unsigned long long)a.samples, (unsigned long long)a.dropped, pct(a.us, 0.5),
+            pct(a.us, 0.99), pct(a.us, 1.0));
+    appendf("   reference: sim_tracker ring   %7llu  %7llu  %7.1f  %7.1f  %7.1f\n",
+            (unsigned long long)b.samples, (unsigned long long)b.dropped, pct(b.us, 0.5),
+            pct(b.us, 0.99), pct(b.us, 1.0));
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-    const double seconds = argc > 1 ? std::atof(argv[1]) : 3.0;
+    const bool write_docs = bench::wants_docs(argc, argv);
+    std::string seconds_arg;
+    for (int i = 1; i < argc; ++i)
+        if (std::string(argv[i]) != "--write-docs" && seconds_arg.empty()) seconds_arg = argv[i];
+    const double parsed = seconds_arg.empty() ? 3.0 : std::atof(seconds_arg.c_str());
+    const double seconds = parsed > 0 ? parsed : 3.0;
+    std::string command = "build/release/bench/bench_tracker_bench";
+    if (!seconds_arg.empty()) {
+        command += ' ';
+        command += seconds_arg;
+    }
+    if (write_docs) command += " --write-docs";
+    out = "Measured by `" + command + "` (" + bench::build_kind() + "; " + bench::machine_facts() +
+          "; 1. on one thread, 2. a reader thread per tracker and the polling thread):\n\n```\n";
     bench_decode();
-    bench_latency(seconds > 0 ? seconds : 3.0);
+    bench_latency(seconds);
+    out += "```\n";
+    std::fputs(out.c_str(), stdout);
+    if (write_docs) {
+        if (!bench::write_doc_table(HMDNODE_SOURCE_DIR "/docs/tracking.md", "tracker-bench-table",
+                                    out))
+            return 1;
+        std::fprintf(stderr, "tracker bench: wrote the table into docs/tracking.md\n");
+    }
     return 0;
 }

@@ -1,5 +1,6 @@
 // Scene pipelines: shader modules from the embedded SPIR-V, layouts and the two cull modes.
-// Cost: pipeline compilation at creation (a few ms on lavapipe); nothing per frame.
+// Cost: pipeline compilation at creation (docs/DESIGN.md §9 has its figure on lavapipe); nothing
+// per frame.
 #include "scene_pipeline.hpp"
 
 #include <cstddef>

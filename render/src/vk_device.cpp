@@ -1,5 +1,6 @@
 // Instance creation and physical-device choice for the headless renderer. Cost: one driver load
-// and device enumeration at start (tens of milliseconds on lavapipe); nothing on the frame path.
+// and device enumeration at start (docs/DESIGN.md §9 has its figure on lavapipe); nothing on the
+// frame path.
 #include "vk_device.hpp"
 
 #include <algorithm>

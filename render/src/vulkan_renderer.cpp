@@ -6,8 +6,8 @@
 // note: Mesa 22.3 lavapipe loses every triangle that needs x/y clipping from view 1 of a multiview
 // pass (the right eye misses all geometry crossing the image edges). create() therefore renders a
 // probe frame with such a triangle; when the eyes differ, it falls back to per-eye mode: one
-// ordinary pass per eye layer, same shaders (view_base push constant). On lavapipe this costs
-// about the same, since llvmpipe repeats the vertex work per view anyway.
+// ordinary pass per eye layer, same shaders (view_base push constant). On lavapipe it loses
+// little, since llvmpipe repeats the vertex work per view anyway (docs/DESIGN.md §9).
 // HMDNODE_VK_MULTIVIEW=1 forces multiview without the probe, =0 forces per-eye passes.
 #include <chrono>
 #include <cstddef>

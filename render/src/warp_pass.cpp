@@ -24,8 +24,9 @@ const uint32_t kWarpMonoFrag[] =
 
 // note: the pass reads the sRGB eye buffers through UNORM views and writes a UNORM panel, so it
 // filters the encoded values and neither decodes nor encodes sRGB: on llvmpipe the per-texel sRGB
-// decode of 12 texels and the encode of each pixel cost several times the rest of the pass. The
-// bytes are the same sRGB-encoded pixels; only the bilinear weights act on encoded values.
+// decode of 12 texels and the encode of each pixel outweighed the rest of the pass (docs/DESIGN.md
+// §9 has the figure). The bytes are the same sRGB-encoded pixels; only the bilinear weights act
+// on encoded values.
 constexpr VkFormat kPanelFormat = VK_FORMAT_R8G8B8A8_UNORM;
 constexpr VkFormat kEyeSampleFormat = VK_FORMAT_R8G8B8A8_UNORM;
 
