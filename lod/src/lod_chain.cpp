@@ -8,7 +8,9 @@
 // edge-collapse algorithm) brackets the count where the measured error crosses the bound, then
 // bisection on the count (at most 10 steps, to 2 % of the count) finds the coarsest level found
 // under it. The error is not monotonic in the count, so this is the coarsest level *found*, not a
-// proven optimum.
+// proven optimum. The search measures with search_samples; the level found is measured again with
+// the full sample count (the figure reported) and, while that is above the bound, replaced by one
+// with 2 %, 4 %, 8 %, ... more triangles, so the level written holds the bound as reported.
 //
 // Material boundaries: a mesh's primitives (one material each) are simplified one by one, and
 // the positions two of them share are locked (SimplifyOptions::locked_positions): both sides keep
@@ -172,9 +174,20 @@ MeasuredLevel measure(BuiltLevel built, const Soup& base, const MeshDistanceOpti
     return m;
 }
 
+// The error bound of --error, in metres or in % of the diagonal, compared in the unit it was given
+// in (the figure the report prints).
+struct ErrorBound {
+    double value = 0.0;
+    bool pct = false;
+    bool holds(const MeshDistance& d) const {
+        return (pct ? d.hausdorff_pct() : d.hausdorff) <= value;
+    }
+    std::string text() const { return pct ? cat(value, " %") : cat(value, " m"); }
+};
+
 // The coarsest level whose Hausdorff error is at most `bound`, or nothing.
 Result<std::vector<MeasuredLevel>> search_error(const Mesh& mesh, size_t mesh_index,
-                                                const Soup& base, double bound,
+                                                const Soup& base, const ErrorBound& bound,
                                                 const LodChainOptions& options,
                                                 std::vector<std::string>& notes,
                                                 const std::function<void(double)>& progress) {
@@ -199,7 +212,7 @@ Result<std::vector<MeasuredLevel>> search_error(const Mesh& mesh, size_t mesh_in
     for (size_t k = 0; k < ladder.size(); ++k) {
         MeasuredLevel m = measure(std::move((*built)[k]), base, quick);
         report(0.3 + 0.2 * double(k + 1) / double(ladder.size()));
-        if (m.distance.hausdorff <= bound) {
+        if (bound.holds(m.distance)) {
             pass = std::move(m);
         } else {
             fail_count = ladder[k];
@@ -215,7 +228,7 @@ Result<std::vector<MeasuredLevel>> search_error(const Mesh& mesh, size_t mesh_in
             build_levels(mesh, mesh_index, {mid}, options, nullptr);
         if (!one.ok()) return one.error();
         MeasuredLevel m = measure(std::move((*one)[0]), base, quick);
-        if (m.distance.hausdorff <= bound) {
+        if (bound.holds(m.distance)) {
             pass = std::move(m);
             pass_count = mid;
         } else {
@@ -225,12 +238,38 @@ Result<std::vector<MeasuredLevel>> search_error(const Mesh& mesh, size_t mesh_in
     }
     if (!pass) {
         notes.push_back(cat("mesh \"", mesh.name, "\": no level below ", count,
-                            " triangles has a Hausdorff error <= ", bound, " m; no level added"));
+                            " triangles has a Hausdorff error <= ", bound.text(),
+                            "; no level added"));
         return std::vector<MeasuredLevel>{};
     }
-    // The final figure with the full sample count.
+    // The final figure with the full sample count. The search measured with fewer samples, which
+    // can miss the farthest point: a level that passed there may not pass here. Step back to more
+    // triangles (2 % more, then twice the step each time) until the reported figure holds the
+    // bound.
+    MeasuredLevel final_level = measure(std::move(pass->built), base, options.distance);
+    for (int back = 0; !bound.holds(final_level.distance); ++back) {
+        const size_t was = pass_count;
+        const double step = std::ceil(double(was) * 0.02 * std::ldexp(1.0, back));
+        pass_count = was + std::max<size_t>(1, size_t(step));
+        if (pass_count >= count) {
+            notes.push_back(cat("mesh \"", mesh.name, "\": no level below ", count,
+                                " triangles has a Hausdorff error <= ", bound.text(),
+                                " measured with ", options.distance.samples,
+                                " samples; no level added"));
+            return std::vector<MeasuredLevel>{};
+        }
+        notes.push_back(
+            cat("mesh \"", mesh.name, "\": the level for ", was, " triangles measures ",
+                bound.pct ? final_level.distance.hausdorff_pct() : final_level.distance.hausdorff,
+                bound.pct ? " %" : " m", " with ", options.distance.samples, " samples, above ",
+                bound.text(), "; trying ", pass_count));
+        Result<std::vector<BuiltLevel>> one =
+            build_levels(mesh, mesh_index, {pass_count}, options, nullptr);
+        if (!one.ok()) return one.error();
+        final_level = measure(std::move((*one)[0]), base, options.distance);
+    }
     std::vector<MeasuredLevel> out;
-    out.push_back(measure(std::move(pass->built), base, options.distance));
+    out.push_back(std::move(final_level));
     report(1.0);
     return out;
 }
@@ -373,9 +412,9 @@ Result<LodChainReport> generate_lod_chains(Scene& scene, const LodChainOptions& 
         const double diag = bounding_box_diagonal(base.view());
         std::vector<MeasuredLevel> levels;
         if (options.targets.max_error_m >= 0.0 || options.targets.max_error_pct >= 0.0) {
-            const double bound = options.targets.max_error_m >= 0.0
-                                     ? options.targets.max_error_m
-                                     : options.targets.max_error_pct * diag / 100.0;
+            const ErrorBound bound = options.targets.max_error_m >= 0.0
+                                         ? ErrorBound{options.targets.max_error_m, false}
+                                         : ErrorBound{options.targets.max_error_pct, true};
             Result<std::vector<MeasuredLevel>> r =
                 search_error(mesh, size_t(mi), base, bound, options, report.notes, progress);
             if (!r.ok()) return r.error();

@@ -31,6 +31,9 @@ struct LodTargets {
     // One level: the coarsest whose measured Hausdorff error is at most this, in metres of the
     // mesh's space (or in % of its bounding-box diagonal). Found by bisection on the triangle
     // count; the error need not be monotonic in the count, so it is the coarsest level found.
+    // The level found is measured again with LodChainOptions::distance (the figure reported) and,
+    // while that is above the bound, replaced by one with more triangles: the level written
+    // always holds the bound with its reported error.
     double max_error_m = -1.0;
     double max_error_pct = -1.0;
     // A level every `step` triangles (T - step, T - 2 step, ...) down to the smallest target of
