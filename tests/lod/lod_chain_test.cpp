@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "hmdnode/core/gltf.hpp"
+#include "hmdnode/lod/progressive_mesh.hpp"
 #include "lod/test_meshes.hpp"
 
 namespace hmdnode {
@@ -290,6 +291,63 @@ TEST(LodChain, ErrorTargetHoldsTheBoundWithTheReportedError) {
             EXPECT_EQ(level.geometric_error_m, r->levels[1].hausdorff_m);
         }
     }
+}
+
+// With `progressive`, each simplified primitive's progressive mesh comes from the run that made
+// its levels: refine() at each level's count gives that level's primitive exactly, and the base
+// is the last level.
+void expect_progressive_matches_levels(Scene& s, const LodChainOptions& o, size_t primitives) {
+    Result<LodChainReport> r = generate_lod_chains(s, o);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    ASSERT_EQ(r->progressive.size(), primitives);
+    ASSERT_GE(r->levels.size(), 2u);
+    for (const PrimitiveProgressiveMesh& p : r->progressive) {
+        SCOPED_TRACE("primitive " + std::to_string(p.primitive));
+        EXPECT_EQ(p.mesh, 0);
+        EXPECT_EQ(p.primitives, primitives);
+        for (size_t k = 1; k < r->levels.size(); ++k) {
+            const Primitive& want = s.meshes[size_t(r->levels[k].mesh)].primitives.at(p.primitive);
+            const Primitive got = refine(p.pm, want.triangle_count());
+            EXPECT_EQ(got.indices, want.indices) << "level " << k;
+            EXPECT_EQ(got.positions, want.positions) << "level " << k;
+            EXPECT_EQ(got.normals, want.normals) << "level " << k;
+            if (k + 1 == r->levels.size()) {
+                EXPECT_EQ(p.pm.base_triangles(), want.triangle_count());
+            }
+        }
+    }
+}
+
+TEST(LodChain, ProgressiveMeshesComeFromTheRunThatMadeTheLevels) {
+    {
+        SCOPED_TRACE("ratios, two primitives");
+        Scene s;
+        s.meshes.push_back(two_material_sphere(3));
+        Node n;
+        n.mesh = 0;
+        s.nodes.push_back(n);
+        s.roots.push_back(0);
+        LodChainOptions o = fast_options();
+        o.targets.ratios = {0.5, 0.2, 0.05};
+        o.progressive = true;
+        expect_progressive_matches_levels(s, o, 2);
+    }
+    for (double pct : {0.3, 3.0}) {
+        // 3 %: a level of the halving ladder (recorded further down, then rebased); 0.3 %: one
+        // of the bisection.
+        SCOPED_TRACE("error " + std::to_string(pct));
+        Scene s = sphere_scene(4);
+        LodChainOptions o = fast_options();
+        o.targets.max_error_pct = pct;
+        o.progressive = true;
+        expect_progressive_matches_levels(s, o, 1);
+    }
+    // Not for an algorithm that is no edge collapse.
+    Scene s = sphere_scene(2);
+    LodChainOptions o = fast_options("vt");
+    o.targets.ratios = {0.5};
+    o.progressive = true;
+    EXPECT_FALSE(generate_lod_chains(s, o).ok());
 }
 
 TEST(LodChain, StepWritesALevelEveryNFaces) {

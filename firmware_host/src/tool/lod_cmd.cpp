@@ -1,8 +1,9 @@
 // `hmdnode lod`: LOD chains for every mesh of a glTF, .glb, OBJ, PLY or OFF file, written as a
 // .glb with MSFT_lod and each level's measured error (extras.geometric_error). Input is checked
 // and repaired first (lod/mesh_repair.hpp). With --progressive, also the progressive mesh
-// (lod/progressive_mesh.hpp, Hoppe 1996) of each mesh, based at its smallest level; `hmdnode pm`
-// (pm_cmd.cpp) reads those back. Formats and figures: docs/lod-generation.md.
+// (lod/progressive_mesh.hpp, Hoppe 1996) of each mesh, based at its smallest level and recorded by
+// the same simplification run as the levels; `hmdnode pm` (pm_cmd.cpp) reads those back.
+// Formats and figures: docs/lod-generation.md.
 #include <unistd.h>
 
 #include <algorithm>
@@ -89,73 +90,19 @@ std::string file_safe(const std::string& name) {
     return out;
 }
 
-// The progressive meshes of every primitive of the meshes `report` made chains for (in `source`,
-// the scene as given to generate_lod_chains), based at each mesh's last (smallest) level. Each is
-// built with the same per-primitive targets as the chain (primitive_targets()): the batched
-// collapse order of qem and curvature-qem depends on the targets, so only then does refine() give
-// back the chain's levels exactly.
-// One file: `out` itself;
-// several: `out` less ".hmpm", then ".<mesh>" (".<mesh>.p<k>" for a mesh of several primitives)
-// and ".hmpm".
-Result<std::vector<ProgressiveOut>> build_progressive(const Scene& source,
-                                                      const LodChainReport& report,
-                                                      const LodChainOptions& options,
-                                                      const std::string& out,
-                                                      std::vector<std::string>& notes) {
-    // The chain's meshes, in the order generate_lod_chains reports them.
-    std::set<int> alternates;
-    for (const Node& n : source.nodes)
-        for (int id : n.lod_ids) alternates.insert(id);
-    std::vector<int> meshes;
-    for (size_t i = 0; i < source.nodes.size(); ++i) {
-        const Node& n = source.nodes[i];
-        if (n.mesh < 0 || size_t(n.mesh) >= source.meshes.size() || alternates.count(int(i)))
-            continue;
-        if (std::find(meshes.begin(), meshes.end(), n.mesh) == meshes.end())
-            meshes.push_back(n.mesh);
-    }
-    // Per mesh, the targets of its levels, decreasing.
-    std::vector<std::vector<size_t>> targets;
-    for (const LodLevelReport& l : report.levels) {
-        if (l.level == 0)
-            targets.emplace_back();
-        else if (!targets.empty())
-            targets.back().push_back(l.target > 0 ? l.target : l.triangles);
-    }
-    if (targets.size() != meshes.size())
-        return make_error("progressive: " + std::to_string(targets.size()) + " chains for " +
-                          std::to_string(meshes.size()) + " meshes");
+// The files of the progressive meshes generate_lod_chains recorded (LodChainReport::progressive,
+// from the run that made each primitive's levels). One file: `out` itself; several: `out` less
+// ".hmpm", then ".<mesh>" (".<mesh>.p<k>" for a mesh of several primitives) and ".hmpm".
+std::vector<ProgressiveOut> progressive_outputs(std::vector<PrimitiveProgressiveMesh>&& pms,
+                                                const std::string& out) {
     std::vector<ProgressiveOut> result;
-    for (size_t g = 0; g < meshes.size(); ++g) {
-        const Mesh& mesh = source.meshes[size_t(meshes[g])];
-        if (targets[g].empty()) {
-            notes.push_back("mesh \"" + mesh.name + "\" has no level: no progressive mesh");
-            continue;
-        }
-        const std::vector<glm::vec3> boundary = material_boundary_positions(mesh);
-        for (size_t p = 0; p < mesh.primitives.size(); ++p) {
-            const Primitive& prim = mesh.primitives[p];
-            const std::vector<size_t> list = primitive_targets(mesh, p, targets[g]);
-            if (list.empty()) {
-                notes.push_back("mesh \"" + mesh.name + "\" primitive " + std::to_string(p) +
-                                " is not simplified: no progressive mesh");
-                continue;
-            }
-            SimplifyOptions so = options.simplify;
-            so.progress = nullptr;
-            so.locked_positions.insert(so.locked_positions.end(), boundary.begin(), boundary.end());
-            Result<ProgressiveMeshBuild> b =
-                build_progressive_mesh(prim, options.algorithm, std::span<const size_t>(list), so);
-            if (!b.ok())
-                return make_error("progressive mesh of mesh \"" + mesh.name + "\" primitive " +
-                                  std::to_string(p) + ": " + b.error().message);
-            ProgressiveOut o;
-            o.mesh_name = mesh.name.empty() ? "mesh" + std::to_string(meshes[g]) : mesh.name;
-            if (mesh.primitives.size() > 1) o.mesh_name += ".p" + std::to_string(p);
-            o.primitive = p;
-            o.pm = std::move(b->mesh);
-            result.push_back(std::move(o));
-        }
+    for (PrimitiveProgressiveMesh& p : pms) {
+        ProgressiveOut o;
+        o.mesh_name = p.mesh_name.empty() ? "mesh" + std::to_string(p.mesh) : p.mesh_name;
+        if (p.primitives > 1) o.mesh_name += ".p" + std::to_string(p.primitive);
+        o.primitive = p.primitive;
+        o.pm = std::move(p.pm);
+        result.push_back(std::move(o));
     }
     if (result.size() == 1) {
         result[0].path = out;
@@ -224,6 +171,7 @@ void run_lod(const LodArgs& args) {
     options.simplify.seed = args.seed;
     options.distance.samples = args.samples;
     options.distance.seed = args.seed;
+    options.progressive = !args.progressive.empty();
 
     Result<Scene> scene = load_mesh_file(args.in);
     if (!scene.ok()) return fail(scene.error().message + "; nothing written");
@@ -233,21 +181,13 @@ void run_lod(const LodArgs& args) {
     for (const std::string& m : repair.messages)
         std::fprintf(stderr, "hmdnode lod: warning: %s\n", m.c_str());
 
-    Scene source;  // as repaired, before the chains: the progressive meshes' input
-    if (!args.progressive.empty()) source = *scene;
-
     ProgressBar bar(!args.no_progress);
     options.progress = [&bar](double f) { bar.update(f); };
     Result<LodChainReport> report = generate_lod_chains(*scene, options);
     bar.finish();
     if (!report.ok()) return fail(report.error().message + "; nothing written");
-    std::vector<ProgressiveOut> progressive;
-    if (!args.progressive.empty()) {
-        Result<std::vector<ProgressiveOut>> pms =
-            build_progressive(source, *report, options, args.progressive, report->notes);
-        if (!pms.ok()) return fail(pms.error().message + "; nothing written");
-        progressive = std::move(pms).value();
-    }
+    std::vector<ProgressiveOut> progressive =
+        progressive_outputs(std::move(report->progressive), args.progressive);
     for (const std::string& n : report->notes)
         std::fprintf(stderr, "hmdnode lod: note: %s\n", n.c_str());
 
