@@ -8,7 +8,9 @@
 // edge-collapse algorithm) brackets the count where the measured error crosses the bound, then
 // bisection on the count (at most 10 steps, to 2 % of the count) finds the coarsest level found
 // under it. The error is not monotonic in the count, so this is the coarsest level *found*, not a
-// proven optimum.
+// proven optimum. The search measures with search_samples; the level found is measured again with
+// the full sample count (the figure reported) and, while that is above the bound, replaced by one
+// with 2 %, 4 %, 8 %, ... more triangles, so the level written holds the bound as reported.
 //
 // Material boundaries: a mesh's primitives (one material each) are simplified one by one, and
 // the positions two of them share are locked (SimplifyOptions::locked_positions): both sides keep
@@ -28,6 +30,7 @@
 #include <set>
 
 #include "hmdnode/core/str_cat.hpp"
+#include "hmdnode/lod/progressive_mesh.hpp"
 #include "position_set.hpp"
 
 namespace hmdnode {
@@ -66,17 +69,22 @@ struct BuiltLevel {
 // Simplifies every primitive of `mesh` to its share of each mesh-wide target (strictly
 // decreasing, each below the mesh's count): a primitive's share is proportional to its count,
 // at least 1; a primitive whose share is not below its own count (or its previous level's) is
-// carried over unchanged.
+// carried over unchanged. `logs`, when given, receives per primitive the progressive mesh of the
+// run that made its levels (build_progressive_mesh, the same run as simplify()'s), or nothing for a
+// primitive carried over.
+using PrimitiveLogs = std::vector<std::optional<ProgressiveMesh>>;
 Result<std::vector<BuiltLevel>> build_levels(const Mesh& mesh, size_t mesh_index,
                                              const std::vector<size_t>& targets,
                                              const LodChainOptions& options,
-                                             const std::function<void(double)>& progress) {
+                                             const std::function<void(double)>& progress,
+                                             PrimitiveLogs* logs = nullptr) {
     const size_t total = mesh.triangle_count();
     std::vector<BuiltLevel> levels(targets.size());
     for (size_t k = 0; k < targets.size(); ++k) {
         levels[k].target = targets[k];
         levels[k].primitives.resize(mesh.primitives.size());
     }
+    if (logs) logs->assign(mesh.primitives.size(), std::nullopt);
     size_t done = 0;
     SimplifyOptions base = options.simplify;
     const std::vector<glm::vec3> boundary = material_boundary_positions(mesh);
@@ -94,8 +102,19 @@ Result<std::vector<BuiltLevel>> build_levels(const Mesh& mesh, size_t mesh_index
                 if (progress) progress((double(done) + f * double(count)) / double(total));
             };
             const Clock::time_point t0 = Clock::now();
-            Result<std::vector<SimplifiedLevel>> r =
-                simplify(prim, options.algorithm, std::span<const size_t>(list), so);
+            Result<std::vector<SimplifiedLevel>> r = make_error("");
+            if (logs) {
+                Result<ProgressiveMeshBuild> b = build_progressive_mesh(
+                    prim, options.algorithm, std::span<const size_t>(list), so);
+                if (b.ok()) {
+                    (*logs)[p] = std::move(b->mesh);
+                    r = std::move(b->levels);
+                } else {
+                    r = b.error();
+                }
+            } else {
+                r = simplify(prim, options.algorithm, std::span<const size_t>(list), so);
+            }
             elapsed = ms_since(t0);
             if (!r.ok())
                 return make_error(cat("mesh ", mesh_index, " \"", mesh.name, "\" primitive ", p,
@@ -172,12 +191,25 @@ MeasuredLevel measure(BuiltLevel built, const Soup& base, const MeshDistanceOpti
     return m;
 }
 
-// The coarsest level whose Hausdorff error is at most `bound`, or nothing.
+// The error bound of --error, in metres or in % of the diagonal, compared in the unit it was given
+// in (the figure the report prints).
+struct ErrorBound {
+    double value = 0.0;
+    bool pct = false;
+    bool holds(const MeshDistance& d) const {
+        return (pct ? d.hausdorff_pct() : d.hausdorff) <= value;
+    }
+    std::string text() const { return pct ? cat(value, " %") : cat(value, " m"); }
+};
+
+// The coarsest level whose Hausdorff error is at most `bound`, or nothing. `logs`, when given,
+// receives the progressive meshes of the run that made that level, based at it.
 Result<std::vector<MeasuredLevel>> search_error(const Mesh& mesh, size_t mesh_index,
-                                                const Soup& base, double bound,
+                                                const Soup& base, const ErrorBound& bound,
                                                 const LodChainOptions& options,
                                                 std::vector<std::string>& notes,
-                                                const std::function<void(double)>& progress) {
+                                                const std::function<void(double)>& progress,
+                                                PrimitiveLogs* logs) {
     const size_t count = mesh.triangle_count();
     MeshDistanceOptions quick = options.distance;
     quick.samples = std::min(options.search_samples, options.distance.samples);
@@ -190,8 +222,10 @@ Result<std::vector<MeasuredLevel>> search_error(const Mesh& mesh, size_t mesh_in
     auto report = [&](double f) {
         if (progress) progress(f);
     };
-    Result<std::vector<BuiltLevel>> built =
-        build_levels(mesh, mesh_index, ladder, options, [&](double f) { report(0.3 * f); });
+    PrimitiveLogs run_logs, pass_logs;  // the last run's, the one that made `pass`
+    PrimitiveLogs* run_log = logs ? &run_logs : nullptr;
+    Result<std::vector<BuiltLevel>> built = build_levels(
+        mesh, mesh_index, ladder, options, [&](double f) { report(0.3 * f); }, run_log);
     if (!built.ok()) return built.error();
     // Bracket: pass = finest failing's finer neighbour.
     std::optional<MeasuredLevel> pass;
@@ -199,25 +233,27 @@ Result<std::vector<MeasuredLevel>> search_error(const Mesh& mesh, size_t mesh_in
     for (size_t k = 0; k < ladder.size(); ++k) {
         MeasuredLevel m = measure(std::move((*built)[k]), base, quick);
         report(0.3 + 0.2 * double(k + 1) / double(ladder.size()));
-        if (m.distance.hausdorff <= bound) {
+        if (bound.holds(m.distance)) {
             pass = std::move(m);
         } else {
             fail_count = ladder[k];
             break;
         }
     }
+    if (logs && pass) pass_logs = std::move(run_logs);
     size_t pass_count = pass ? pass->built.target : count;
     for (int it = 0; it < 10 && fail_count > 0 && pass_count > fail_count + 1; ++it) {
         if (double(pass_count - fail_count) <= 0.02 * double(pass_count)) break;
         const size_t mid = size_t(std::llround(std::sqrt(double(pass_count) * double(fail_count))));
         if (mid <= fail_count || mid >= pass_count) break;
         Result<std::vector<BuiltLevel>> one =
-            build_levels(mesh, mesh_index, {mid}, options, nullptr);
+            build_levels(mesh, mesh_index, {mid}, options, nullptr, run_log);
         if (!one.ok()) return one.error();
         MeasuredLevel m = measure(std::move((*one)[0]), base, quick);
-        if (m.distance.hausdorff <= bound) {
+        if (bound.holds(m.distance)) {
             pass = std::move(m);
             pass_count = mid;
+            if (logs) pass_logs = std::move(run_logs);
         } else {
             fail_count = mid;
         }
@@ -225,12 +261,52 @@ Result<std::vector<MeasuredLevel>> search_error(const Mesh& mesh, size_t mesh_in
     }
     if (!pass) {
         notes.push_back(cat("mesh \"", mesh.name, "\": no level below ", count,
-                            " triangles has a Hausdorff error <= ", bound, " m; no level added"));
+                            " triangles has a Hausdorff error <= ", bound.text(),
+                            "; no level added"));
         return std::vector<MeasuredLevel>{};
     }
-    // The final figure with the full sample count.
+    // The final figure with the full sample count. The search measured with fewer samples, which
+    // can miss the farthest point: a level that passed there may not pass here. Step back to more
+    // triangles (2 % more, then twice the step each time) until the reported figure holds the
+    // bound.
+    MeasuredLevel final_level = measure(std::move(pass->built), base, options.distance);
+    for (int back = 0; !bound.holds(final_level.distance); ++back) {
+        const size_t was = pass_count;
+        const double step = std::ceil(double(was) * 0.02 * std::ldexp(1.0, back));
+        pass_count = was + std::max<size_t>(1, size_t(step));
+        if (pass_count >= count) {
+            notes.push_back(cat("mesh \"", mesh.name, "\": no level below ", count,
+                                " triangles has a Hausdorff error <= ", bound.text(),
+                                " measured with ", options.distance.samples,
+                                " samples; no level added"));
+            return std::vector<MeasuredLevel>{};
+        }
+        notes.push_back(
+            cat("mesh \"", mesh.name, "\": the level for ", was, " triangles measures ",
+                bound.pct ? final_level.distance.hausdorff_pct() : final_level.distance.hausdorff,
+                bound.pct ? " %" : " m", " with ", options.distance.samples, " samples, above ",
+                bound.text(), "; trying ", pass_count));
+        Result<std::vector<BuiltLevel>> one =
+            build_levels(mesh, mesh_index, {pass_count}, options, nullptr, run_log);
+        if (!one.ok()) return one.error();
+        final_level = measure(std::move((*one)[0]), base, options.distance);
+        if (logs) pass_logs = std::move(run_logs);
+    }
+    if (logs) {
+        // A level from the ladder was recorded past it, down to the ladder's last count.
+        // A primitive the level leaves as it is has none.
+        for (size_t p = 0; p < pass_logs.size(); ++p) {
+            if (!pass_logs[p]) continue;
+            if (primitive_targets(mesh, p, {final_level.built.target}).empty())
+                pass_logs[p].reset();
+            else
+                pass_logs[p] = rebase_progressive_mesh(
+                    *pass_logs[p], final_level.built.primitives[p].triangle_count());
+        }
+        *logs = std::move(pass_logs);
+    }
     std::vector<MeasuredLevel> out;
-    out.push_back(measure(std::move(pass->built), base, options.distance));
+    out.push_back(std::move(final_level));
     report(1.0);
     return out;
 }
@@ -320,6 +396,9 @@ Result<LodChainReport> generate_lod_chains(Scene& scene, const LodChainOptions& 
     if (options.targets.step > 0 && !algo->edge_collapse)
         return make_error(
             cat("--step needs an edge-collapse algorithm; \"", algo->name, "\" is not one"));
+    if (options.progressive && !algo->edge_collapse)
+        return make_error(cat("progressive meshes need an edge-collapse algorithm; \"", algo->name,
+                              "\" is not one"));
 
     Scene out = scene;
     LodChainReport report;
@@ -372,12 +451,14 @@ Result<LodChainReport> generate_lod_chains(Scene& scene, const LodChainOptions& 
         const Soup base = soup_of(mesh.primitives);
         const double diag = bounding_box_diagonal(base.view());
         std::vector<MeasuredLevel> levels;
+        PrimitiveLogs logs;
+        PrimitiveLogs* log = options.progressive ? &logs : nullptr;
         if (options.targets.max_error_m >= 0.0 || options.targets.max_error_pct >= 0.0) {
-            const double bound = options.targets.max_error_m >= 0.0
-                                     ? options.targets.max_error_m
-                                     : options.targets.max_error_pct * diag / 100.0;
+            const ErrorBound bound = options.targets.max_error_m >= 0.0
+                                         ? ErrorBound{options.targets.max_error_m, false}
+                                         : ErrorBound{options.targets.max_error_pct, true};
             Result<std::vector<MeasuredLevel>> r =
-                search_error(mesh, size_t(mi), base, bound, options, report.notes, progress);
+                search_error(mesh, size_t(mi), base, bound, options, report.notes, progress, log);
             if (!r.ok()) return r.error();
             levels = std::move(r).value();
         } else {
@@ -385,7 +466,7 @@ Result<LodChainReport> generate_lod_chains(Scene& scene, const LodChainOptions& 
                 count_targets(options.targets, count, mesh, options.max_levels, report.notes);
             if (!targets.ok()) return targets.error();
             Result<std::vector<BuiltLevel>> built = build_levels(
-                mesh, size_t(mi), *targets, options, [&](double f) { progress(0.6 * f); });
+                mesh, size_t(mi), *targets, options, [&](double f) { progress(0.6 * f); }, log);
             if (!built.ok()) return built.error();
             for (size_t k = 0; k < built->size(); ++k) {
                 levels.push_back(measure(std::move((*built)[k]), base, options.distance));
@@ -411,6 +492,22 @@ Result<LodChainReport> generate_lod_chains(Scene& scene, const LodChainOptions& 
                 useful.push_back(std::move(lvl));
             }
             levels = std::move(useful);
+        }
+        if (options.progressive && levels.empty()) {
+            report.notes.push_back(
+                cat("mesh \"", mesh.name, "\" has no level: no progressive mesh"));
+        } else if (options.progressive) {
+            // Based at the run's last target: the last level, or, where the last levels were
+            // dropped for not shrinking, the same mesh as the last level kept.
+            for (size_t p = 0; p < mesh.primitives.size(); ++p) {
+                if (p >= logs.size() || !logs[p]) {
+                    report.notes.push_back(cat("mesh \"", mesh.name, "\" primitive ", p,
+                                               " is not simplified: no progressive mesh"));
+                    continue;
+                }
+                report.progressive.push_back(
+                    {mi, mesh.name, p, mesh.primitives.size(), std::move(*logs[p])});
+            }
         }
         Chain& chain = chains[size_t(mi)];
         chain.diameter = diag;

@@ -15,28 +15,25 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstring>
 #include <unordered_map>
 #include <unordered_set>
 
 #include "hmdnode/core/str_cat.hpp"
+#include "position_set.hpp"
 
 namespace hmdnode {
 namespace {
 
+// Positions as simplify() welds them: bit for bit, -0 as +0 (position_set.hpp). A bitwise
+// compare alone would keep -0 and +0 apart here while the engine welds them into one, and an edge
+// this pass sees as two could then reach the engine as one edge with three faces.
+using PositionKey = lod_detail::PositionSet::Key;
 struct PositionHash {
-    size_t operator()(const glm::vec3& p) const {
-        uint32_t b[3];
-        std::memcpy(b, &p, sizeof b);
+    size_t operator()(const PositionKey& b) const {
         uint64_t h = b[0] * 0x9E3779B97F4A7C15ull;
         h ^= (h >> 29) + b[1] * 0xBF58476D1CE4E5B9ull;
         h ^= (h >> 31) + b[2] * 0x94D049BB133111EBull;
         return size_t(h ^ (h >> 32));
-    }
-};
-struct PositionEq {
-    bool operator()(const glm::vec3& a, const glm::vec3& b) const {
-        return std::memcmp(&a, &b, sizeof a) == 0;
     }
 };
 
@@ -92,13 +89,14 @@ Result<Primitive> repair_primitive(const Primitive& in, std::string_view label,
                                   p.y, ", ", p.z, ")"));
     }
 
-    // Weld bit-identical positions.
+    // Weld bit-identical positions (-0 as +0).
     std::vector<uint32_t> weld(n);
     {
-        std::unordered_map<glm::vec3, uint32_t, PositionHash, PositionEq> first;
+        std::unordered_map<PositionKey, uint32_t, PositionHash> first;
         first.reserve(n);
         for (size_t v = 0; v < n; ++v)
-            weld[v] = first.emplace(in.positions[v], uint32_t(v)).first->second;
+            weld[v] = first.emplace(lod_detail::PositionSet::key(in.positions[v]), uint32_t(v))
+                          .first->second;
     }
 
     const size_t faces = in.indices.size() / 3;

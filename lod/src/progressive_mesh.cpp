@@ -329,6 +329,46 @@ Primitive refine(const ProgressiveMesh& pm, size_t triangles) {
                                          pm.material);
 }
 
+ProgressiveMesh rebase_progressive_mesh(const ProgressiveMesh& pm, size_t triangles) {
+    size_t live = pm.base_faces.size(), applied = 0;
+    while (applied < pm.splits.size() && live + pm.splits[applied].faces.size() <= triangles)
+        live += pm.splits[applied++].faces.size();
+    if (applied == 0) return pm;
+    // The state after `applied` splits, as refine() builds it, plus what is alive.
+    std::vector<PmVertex> positions(pm.position_count);
+    std::vector<uint8_t> position_alive(pm.position_count, 0);
+    std::vector<PmWedge> wedges(pm.wedge_count);
+    std::vector<uint8_t> wedge_alive(pm.wedge_count, 0);
+    std::vector<PmFace> faces(pm.face_count);
+    std::vector<uint8_t> face_alive(pm.face_count, 0);
+    for (const PmVertex& v : pm.base_positions) positions[v.id] = v, position_alive[v.id] = 1;
+    for (const PmWedge& w : pm.base_wedges) wedges[w.id] = w, wedge_alive[w.id] = 1;
+    for (const PmFace& f : pm.base_faces) faces[f.id] = f, face_alive[f.id] = 1;
+    for (size_t i = 0; i < applied; ++i) {
+        const VertexSplit& s = pm.splits[i];
+        positions[s.removed.id] = s.removed, position_alive[s.removed.id] = 1;
+        positions[s.kept].position = s.kept_position;
+        for (const PmWedge& w : s.removed_wedges) wedges[w.id] = w, wedge_alive[w.id] = 1;
+        for (const PmWedge& w : s.kept_wedges) wedges[w.id] = w;
+        for (const PmFace& f : s.faces) faces[f.id] = f, face_alive[f.id] = 1;
+        for (const PmCorner& c : s.corners) faces[c.corner / 3].wedges[c.corner % 3] = c.wedge;
+    }
+    ProgressiveMesh out;
+    out.has_normals = pm.has_normals, out.has_uv0 = pm.has_uv0, out.has_uv1 = pm.has_uv1;
+    out.has_colors = pm.has_colors;
+    out.material = pm.material;
+    out.position_count = pm.position_count, out.wedge_count = pm.wedge_count;
+    out.face_count = pm.face_count;
+    for (uint32_t i = 0; i < pm.position_count; ++i)
+        if (position_alive[i]) out.base_positions.push_back(positions[i]);
+    for (uint32_t i = 0; i < pm.wedge_count; ++i)
+        if (wedge_alive[i]) out.base_wedges.push_back(wedges[i]);
+    for (uint32_t i = 0; i < pm.face_count; ++i)
+        if (face_alive[i]) out.base_faces.push_back(faces[i]);
+    out.splits.assign(pm.splits.begin() + std::ptrdiff_t(applied), pm.splits.end());
+    return out;
+}
+
 std::vector<uint8_t> encode_progressive_mesh(const ProgressiveMesh& pm) {
     Writer w;
     for (char c : kMagic) w.bytes.push_back(uint8_t(c));

@@ -159,5 +159,19 @@ TEST(MeshRepair, SceneErrorLeavesSceneUnchanged) {
     EXPECT_EQ(s.meshes[0].primitives[0].triangle_count(), 2u);
 }
 
+TEST(MeshRepair, WeldsNegativeZeroLikePositiveZero) {
+    // Three faces on the edge (0,0,0)-(1,0,0); the third names its end at (-0,0,0). simplify()
+    // welds -0 and +0 into one position, so repair must see a third face there and drop it.
+    Primitive p;
+    p.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {-0.0f, 0, 0}};
+    p.indices = {0, 1, 2, 1, 0, 3, 5, 1, 4};
+    ASSERT_TRUE(std::signbit(p.positions[5].x));
+    RepairReport report;
+    Result<Primitive> r = repair_primitive(p, "z", report);
+    ASSERT_TRUE(r.ok());
+    EXPECT_EQ(report.non_manifold_faces, 1u);
+    EXPECT_EQ(r->triangle_count(), 2u);
+}
+
 }  // namespace
 }  // namespace hmdnode

@@ -129,6 +129,35 @@ TEST(ProgressiveMesh, RefineToAnyCountEqualsSimplifyForThatCount) {
     }
 }
 
+// Rebased at a snapshot, the progressive mesh is the same mesh from there on: its base is that
+// snapshot, every finer count refines as before, and it survives the file round trip.
+TEST(ProgressiveMesh, RebaseStartsAtASnapshotAndRefinesAsBefore) {
+    const Primitive in = seamed_bumpy_grid(16);  // 512 triangles
+    const size_t targets[] = {400, 250, 100, 30};
+    for (const char* algorithm : {"qem", "melax"}) {
+        Result<ProgressiveMeshBuild> built = build_progressive_mesh(in, algorithm, targets);
+        ASSERT_TRUE(built.ok()) << built.error().message;
+        const size_t at = built->levels[2].primitive.triangle_count();
+        const ProgressiveMesh rebased = rebase_progressive_mesh(built->mesh, at);
+        EXPECT_EQ(rebased.base_triangles(), at);
+        EXPECT_EQ(rebased.full_triangles(), in.triangle_count());
+        EXPECT_LT(rebased.splits.size(), built->mesh.splits.size());
+        Result<ProgressiveMesh> back = decode_progressive_mesh(encode_progressive_mesh(rebased));
+        ASSERT_TRUE(back.ok()) << back.error().message;
+        for (const ProgressiveMesh* pm : {&rebased, static_cast<const ProgressiveMesh*>(&*back)}) {
+            expect_same(refine(*pm, 1), built->levels[2].primitive,
+                        std::string(algorithm) + " base");
+            for (size_t l = 0; l < 3; ++l)
+                expect_same(refine(*pm, targets[l]), built->levels[l].primitive,
+                            std::string(algorithm) + " level " + std::to_string(l));
+            expect_same(refine(*pm, in.triangle_count()), in, std::string(algorithm) + " full");
+        }
+        // At or below the base: the same mesh.
+        EXPECT_EQ(encode_progressive_mesh(rebase_progressive_mesh(built->mesh, 1)),
+                  encode_progressive_mesh(built->mesh));
+    }
+}
+
 TEST(ProgressiveMesh, FileWriteAndRead) {
     const Primitive in = seamed_bumpy_grid(8);
     const size_t targets[] = {40};

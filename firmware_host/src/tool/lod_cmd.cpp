@@ -1,16 +1,22 @@
 // `hmdnode lod`: LOD chains for every mesh of a glTF, .glb, OBJ, PLY or OFF file, written as a
 // .glb with MSFT_lod and each level's measured error (extras.geometric_error). Input is checked
 // and repaired first (lod/mesh_repair.hpp). With --progressive, also the progressive mesh
-// (lod/progressive_mesh.hpp, Hoppe 1996) of each mesh, based at its smallest level; `hmdnode pm`
-// (pm_cmd.cpp) reads those back. Formats and figures: docs/lod-generation.md.
+// (lod/progressive_mesh.hpp, Hoppe 1996) of each mesh, based at its smallest level and recorded by
+// the same simplification run as the levels; `hmdnode pm` (pm_cmd.cpp) reads those back. All or
+// nothing: every output path is checked first and the outputs are written only once all are made.
+// Formats and figures: docs/lod-generation.md.
 #include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <set>
 #include <span>
@@ -89,73 +95,19 @@ std::string file_safe(const std::string& name) {
     return out;
 }
 
-// The progressive meshes of every primitive of the meshes `report` made chains for (in `source`,
-// the scene as given to generate_lod_chains), based at each mesh's last (smallest) level. Each is
-// built with the same per-primitive targets as the chain (primitive_targets()): the batched
-// collapse order of qem and curvature-qem depends on the targets, so only then does refine() give
-// back the chain's levels exactly.
-// One file: `out` itself;
-// several: `out` less ".hmpm", then ".<mesh>" (".<mesh>.p<k>" for a mesh of several primitives)
-// and ".hmpm".
-Result<std::vector<ProgressiveOut>> build_progressive(const Scene& source,
-                                                      const LodChainReport& report,
-                                                      const LodChainOptions& options,
-                                                      const std::string& out,
-                                                      std::vector<std::string>& notes) {
-    // The chain's meshes, in the order generate_lod_chains reports them.
-    std::set<int> alternates;
-    for (const Node& n : source.nodes)
-        for (int id : n.lod_ids) alternates.insert(id);
-    std::vector<int> meshes;
-    for (size_t i = 0; i < source.nodes.size(); ++i) {
-        const Node& n = source.nodes[i];
-        if (n.mesh < 0 || size_t(n.mesh) >= source.meshes.size() || alternates.count(int(i)))
-            continue;
-        if (std::find(meshes.begin(), meshes.end(), n.mesh) == meshes.end())
-            meshes.push_back(n.mesh);
-    }
-    // Per mesh, the targets of its levels, decreasing.
-    std::vector<std::vector<size_t>> targets;
-    for (const LodLevelReport& l : report.levels) {
-        if (l.level == 0)
-            targets.emplace_back();
-        else if (!targets.empty())
-            targets.back().push_back(l.target > 0 ? l.target : l.triangles);
-    }
-    if (targets.size() != meshes.size())
-        return make_error("progressive: " + std::to_string(targets.size()) + " chains for " +
-                          std::to_string(meshes.size()) + " meshes");
+// The files of the progressive meshes generate_lod_chains recorded (LodChainReport::progressive,
+// from the run that made each primitive's levels). One file: `out` itself; several: `out` less
+// ".hmpm", then ".<mesh>" (".<mesh>.p<k>" for a mesh of several primitives) and ".hmpm".
+std::vector<ProgressiveOut> progressive_outputs(std::vector<PrimitiveProgressiveMesh>&& pms,
+                                                const std::string& out) {
     std::vector<ProgressiveOut> result;
-    for (size_t g = 0; g < meshes.size(); ++g) {
-        const Mesh& mesh = source.meshes[size_t(meshes[g])];
-        if (targets[g].empty()) {
-            notes.push_back("mesh \"" + mesh.name + "\" has no level: no progressive mesh");
-            continue;
-        }
-        const std::vector<glm::vec3> boundary = material_boundary_positions(mesh);
-        for (size_t p = 0; p < mesh.primitives.size(); ++p) {
-            const Primitive& prim = mesh.primitives[p];
-            const std::vector<size_t> list = primitive_targets(mesh, p, targets[g]);
-            if (list.empty()) {
-                notes.push_back("mesh \"" + mesh.name + "\" primitive " + std::to_string(p) +
-                                " is not simplified: no progressive mesh");
-                continue;
-            }
-            SimplifyOptions so = options.simplify;
-            so.progress = nullptr;
-            so.locked_positions.insert(so.locked_positions.end(), boundary.begin(), boundary.end());
-            Result<ProgressiveMeshBuild> b =
-                build_progressive_mesh(prim, options.algorithm, std::span<const size_t>(list), so);
-            if (!b.ok())
-                return make_error("progressive mesh of mesh \"" + mesh.name + "\" primitive " +
-                                  std::to_string(p) + ": " + b.error().message);
-            ProgressiveOut o;
-            o.mesh_name = mesh.name.empty() ? "mesh" + std::to_string(meshes[g]) : mesh.name;
-            if (mesh.primitives.size() > 1) o.mesh_name += ".p" + std::to_string(p);
-            o.primitive = p;
-            o.pm = std::move(b->mesh);
-            result.push_back(std::move(o));
-        }
+    for (PrimitiveProgressiveMesh& p : pms) {
+        ProgressiveOut o;
+        o.mesh_name = p.mesh_name.empty() ? "mesh" + std::to_string(p.mesh) : p.mesh_name;
+        if (p.primitives > 1) o.mesh_name += ".p" + std::to_string(p.primitive);
+        o.primitive = p.primitive;
+        o.pm = std::move(p.pm);
+        result.push_back(std::move(o));
     }
     if (result.size() == 1) {
         result[0].path = out;
@@ -174,11 +126,102 @@ Result<std::vector<ProgressiveOut>> build_progressive(const Scene& source,
     return result;
 }
 
+// Whether `path` can be written as write_file_atomically writes it: its directory exists and takes
+// a new file, and the path is not a directory. Empty when fine. Checked for every output before
+// the work starts, so that a bad path fails the command before anything is made.
+std::string check_output(const std::string& path, const char* what) {
+    const std::filesystem::path p(path);
+    const std::filesystem::path dir = p.parent_path().empty() ? "." : p.parent_path();
+    std::error_code ec;
+    if (p.filename().empty() || std::filesystem::is_directory(p, ec))
+        return std::string(what) + " " + path + ": is a directory";
+    if (!std::filesystem::is_directory(dir, ec))
+        return std::string(what) + " " + path + ": directory " + dir.string() + " does not exist";
+    std::string tmpl = (dir / ("." + p.filename().string() + ".check.XXXXXX")).string();
+    const int fd = mkstemp(tmpl.data());
+    if (fd < 0)
+        return std::string(what) + " " + path + ": cannot create a file in " + dir.string() + ": " +
+               std::strerror(errno);
+    ::close(fd);
+    ::unlink(tmpl.c_str());
+    return {};
+}
+
+// The outputs, written one by one only once all are made; when one fails, the ones this run wrote
+// before it are removed again, so that a failed command leaves no output behind.
+class Outputs {
+  public:
+    Status write(const std::string& path, const std::function<Status()>& writer) {
+        Status s = writer();
+        if (!s.ok()) {
+            std::error_code ec;
+            for (const std::string& w : written_) std::filesystem::remove(w, ec);
+            written_.clear();
+            return s;
+        }
+        written_.push_back(path);
+        return {};
+    }
+
+  private:
+    std::vector<std::string> written_;
+};
+
 void list_algorithms() {
     std::printf("%-18s %-13s %s\n", "algorithm", "edge collapse", "summary (source)");
     for (const AlgorithmInfo& a : simplification_algorithms())
         std::printf("%-18s %-13s %s (%s)\n", a.name.c_str(), a.edge_collapse ? "yes" : "no",
                     a.summary.c_str(), a.source.c_str());
+}
+
+// The --report JSON. Throws what nlohmann::json throws (invalid UTF-8 in a name).
+std::string report_json(const LodArgs& args, const LodChainOptions& options,
+                        const RepairReport& repair, const LodChainReport& report,
+                        const std::vector<ProgressiveOut>& progressive, double total_ms) {
+    nlohmann::json j;
+    j["input"] = args.in;
+    j["output"] = args.out;
+    j["algorithm"] = args.algorithm;
+    j["targets"] = {{"ratios", options.targets.ratios},
+                    {"triangles", options.targets.triangles},
+                    {"max_error_m", options.targets.max_error_m},
+                    {"max_error_pct", options.targets.max_error_pct},
+                    {"step", options.targets.step}};
+    j["lock_borders"] = args.lock_borders;
+    j["samples"] = args.samples;
+    j["repair"] = {{"degenerate_faces", repair.degenerate_faces},
+                   {"duplicate_faces", repair.duplicate_faces},
+                   {"non_manifold_faces", repair.non_manifold_faces},
+                   {"reoriented_faces", repair.reoriented_faces},
+                   {"unreferenced_vertices", repair.unreferenced_vertices},
+                   {"messages", repair.messages}};
+    nlohmann::json levels = nlohmann::json::array();
+    for (const LodLevelReport& l : report.levels)
+        levels.push_back({{"mesh", l.mesh},
+                          {"mesh_name", l.mesh_name},
+                          {"level", l.level},
+                          {"triangles", l.triangles},
+                          {"target", l.target},
+                          {"error_m", l.hausdorff_m},
+                          {"error_pct_diag", l.hausdorff_pct},
+                          {"mean_m", l.mean_m},
+                          {"mean_pct_diag", l.mean_pct},
+                          {"estimated_error", l.estimated_error},
+                          {"simplify_ms", l.simplify_ms},
+                          {"measure_ms", l.measure_ms}});
+    j["levels"] = std::move(levels);
+    j["notes"] = report.notes;
+    nlohmann::json pms = nlohmann::json::array();
+    for (const ProgressiveOut& p : progressive)
+        pms.push_back({{"file", p.path},
+                       {"mesh_name", p.mesh_name},
+                       {"primitive", p.primitive},
+                       {"base_triangles", p.pm.base_triangles()},
+                       {"full_triangles", p.pm.full_triangles()},
+                       {"vertex_splits", p.pm.splits.size()}});
+    j["progressive"] = std::move(pms);
+    j["total_ms"] = total_ms;
+    return j.dump(2) + "\n";
 }
 
 void run_lod(const LodArgs& args) {
@@ -224,6 +267,25 @@ void run_lod(const LodArgs& args) {
     options.simplify.seed = args.seed;
     options.distance.samples = args.samples;
     options.distance.seed = args.seed;
+    options.progressive = !args.progressive.empty();
+
+    // Every output checked before the work. The progressive meshes' names are known only after
+    // it (one file per mesh); they go to the directory of --progressive, checked here.
+    std::vector<std::string> paths = {args.out}, flags = {"--out"};
+    if (!args.report.empty()) paths.push_back(args.report), flags.push_back("--report");
+    if (!args.progressive.empty())
+        paths.push_back(args.progressive), flags.push_back("--progressive");
+    for (size_t i = 0; i < paths.size(); ++i) {
+        if (std::string e = check_output(paths[i], flags[i].c_str()); !e.empty())
+            return fail(e + "; nothing written");
+        for (size_t k = 0; k < i; ++k) {
+            std::error_code ec;
+            if (std::filesystem::weakly_canonical(paths[i], ec) ==
+                std::filesystem::weakly_canonical(paths[k], ec))
+                return fail("--out, --report and --progressive name the same file " + paths[i] +
+                            "; nothing written");
+        }
+    }
 
     Result<Scene> scene = load_mesh_file(args.in);
     if (!scene.ok()) return fail(scene.error().message + "; nothing written");
@@ -233,35 +295,40 @@ void run_lod(const LodArgs& args) {
     for (const std::string& m : repair.messages)
         std::fprintf(stderr, "hmdnode lod: warning: %s\n", m.c_str());
 
-    Scene source;  // as repaired, before the chains: the progressive meshes' input
-    if (!args.progressive.empty()) source = *scene;
-
     ProgressBar bar(!args.no_progress);
     options.progress = [&bar](double f) { bar.update(f); };
     Result<LodChainReport> report = generate_lod_chains(*scene, options);
     bar.finish();
     if (!report.ok()) return fail(report.error().message + "; nothing written");
-    std::vector<ProgressiveOut> progressive;
-    if (!args.progressive.empty()) {
-        Result<std::vector<ProgressiveOut>> pms =
-            build_progressive(source, *report, options, args.progressive, report->notes);
-        if (!pms.ok()) return fail(pms.error().message + "; nothing written");
-        progressive = std::move(pms).value();
-    }
+    std::vector<ProgressiveOut> progressive =
+        progressive_outputs(std::move(report->progressive), args.progressive);
     for (const std::string& n : report->notes)
         std::fprintf(stderr, "hmdnode lod: note: %s\n", n.c_str());
+    for (const ProgressiveOut& p : progressive)
+        if (std::error_code ec; std::filesystem::is_directory(p.path, ec))
+            return fail("--progressive " + p.path + ": is a directory; nothing written");
 
-    if (Status s = save_glb(*scene, args.out); !s.ok())
-        return fail(s.error().message + "; nothing written");
-    // Each file is written atomically; on a failure the ones already written go again.
-    for (size_t i = 0; i < progressive.size(); ++i) {
-        if (Status s = write_progressive_mesh(progressive[i].path, progressive[i].pm); !s.ok()) {
-            std::error_code ec;
-            std::filesystem::remove(args.out, ec);
-            for (size_t k = 0; k < i; ++k) std::filesystem::remove(progressive[k].path, ec);
-            return fail(s.error().message + "; nothing written");
+    // The report's text is made before anything is written (its serialisation can fail too).
+    std::string report_text;
+    const double total_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    if (!args.report.empty()) {
+        try {
+            report_text = report_json(args, options, repair, *report, progressive, total_ms);
+        } catch (const std::exception& e) {
+            return fail("--report " + args.report + ": " + e.what() + "; nothing written");
         }
     }
+    // Each file is written atomically; when one fails, those written before it are removed.
+    Outputs outputs;
+    Status written = outputs.write(args.out, [&] { return save_glb(*scene, args.out); });
+    for (size_t i = 0; written.ok() && i < progressive.size(); ++i)
+        written = outputs.write(progressive[i].path, [&] {
+            return write_progressive_mesh(progressive[i].path, progressive[i].pm);
+        });
+    if (written.ok() && !args.report.empty())
+        written = outputs.write(args.report,
+                                [&] { return write_file_atomically(args.report, report_text); });
+    if (!written.ok()) return fail(written.error().message + "; nothing written");
 
     std::printf("%-24s %5s %10s %12s %9s %9s %10s %10s\n", "mesh", "level", "triangles", "error m",
                 "error %", "mean %", "simplify ms", "measure ms");
@@ -269,7 +336,6 @@ void run_lod(const LodArgs& args) {
         std::printf("%-24s %5d %10zu %12.6g %9.4f %9.4f %10.1f %10.1f\n", l.mesh_name.c_str(),
                     l.level, l.triangles, l.hausdorff_m, l.hausdorff_pct, l.mean_pct, l.simplify_ms,
                     l.measure_ms);
-    const double total_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     std::printf("wrote %s: %zu meshes, %zu nodes with chains (%s, %.0f ms)\n", args.out.c_str(),
                 report->meshes, report->nodes, args.algorithm.c_str(), total_ms);
     for (const ProgressiveOut& p : progressive)
@@ -278,54 +344,6 @@ void run_lod(const LodArgs& args) {
             "vertex splits\n",
             p.path.c_str(), p.mesh_name.c_str(), p.pm.base_triangles(), p.pm.full_triangles(),
             p.pm.splits.size());
-
-    if (!args.report.empty()) {
-        nlohmann::json j;
-        j["input"] = args.in;
-        j["output"] = args.out;
-        j["algorithm"] = args.algorithm;
-        j["targets"] = {{"ratios", options.targets.ratios},
-                        {"triangles", options.targets.triangles},
-                        {"max_error_m", options.targets.max_error_m},
-                        {"max_error_pct", options.targets.max_error_pct},
-                        {"step", options.targets.step}};
-        j["lock_borders"] = args.lock_borders;
-        j["samples"] = args.samples;
-        j["repair"] = {{"degenerate_faces", repair.degenerate_faces},
-                       {"duplicate_faces", repair.duplicate_faces},
-                       {"non_manifold_faces", repair.non_manifold_faces},
-                       {"reoriented_faces", repair.reoriented_faces},
-                       {"unreferenced_vertices", repair.unreferenced_vertices},
-                       {"messages", repair.messages}};
-        nlohmann::json levels = nlohmann::json::array();
-        for (const LodLevelReport& l : report->levels)
-            levels.push_back({{"mesh", l.mesh},
-                              {"mesh_name", l.mesh_name},
-                              {"level", l.level},
-                              {"triangles", l.triangles},
-                              {"target", l.target},
-                              {"error_m", l.hausdorff_m},
-                              {"error_pct_diag", l.hausdorff_pct},
-                              {"mean_m", l.mean_m},
-                              {"mean_pct_diag", l.mean_pct},
-                              {"estimated_error", l.estimated_error},
-                              {"simplify_ms", l.simplify_ms},
-                              {"measure_ms", l.measure_ms}});
-        j["levels"] = std::move(levels);
-        j["notes"] = report->notes;
-        nlohmann::json pms = nlohmann::json::array();
-        for (const ProgressiveOut& p : progressive)
-            pms.push_back({{"file", p.path},
-                           {"mesh_name", p.mesh_name},
-                           {"primitive", p.primitive},
-                           {"base_triangles", p.pm.base_triangles()},
-                           {"full_triangles", p.pm.full_triangles()},
-                           {"vertex_splits", p.pm.splits.size()}});
-        j["progressive"] = std::move(pms);
-        j["total_ms"] = total_ms;
-        if (Status s = write_file_atomically(args.report, j.dump(2) + "\n"); !s.ok())
-            return fail(s.error().message);
-    }
 }
 
 void add_lod_command(CLI::App& app) {
@@ -344,15 +362,17 @@ void add_lod_command(CLI::App& app) {
         lod->add_option("--triangles", args->triangles, "Triangle counts per mesh, decreasing")
             ->delimiter(',');
     auto* error = lod->add_option("--error", args->error,
-                                  "One level: the coarsest with Hausdorff error <= E metres "
-                                  "(or E% of the bounding-box diagonal)");
+                                  "One level: the coarsest found whose measured Hausdorff error "
+                                  "is <= E metres (or E% of the bounding-box diagonal)");
     ratios->excludes(tris)->excludes(error);
     tris->excludes(error);
     lod->add_option("--step", args->step,
                     "A level every N triangles (edge-collapse algorithms; down to the smallest "
                     "ratio or count, else to one triangle)");
     lod->add_flag("--lock-borders", args->lock_borders, "Keep open-border vertices in place");
-    lod->add_option("--report", args->report, "Write the table of levels as JSON here");
+    lod->add_option("--report", args->report,
+                    "Write the table of levels as JSON here (all outputs are written only when "
+                    "all can be)");
     lod->add_option("--samples", args->samples,
                     "Surface samples per direction for the error measurement")
         ->capture_default_str();

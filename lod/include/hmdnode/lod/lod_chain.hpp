@@ -16,6 +16,7 @@
 #include "hmdnode/core/result.hpp"
 #include "hmdnode/core/scene.hpp"
 #include "hmdnode/lod/mesh_distance.hpp"
+#include "hmdnode/lod/progressive_mesh.hpp"
 #include "hmdnode/lod/simplify.hpp"
 
 namespace hmdnode {
@@ -31,6 +32,9 @@ struct LodTargets {
     // One level: the coarsest whose measured Hausdorff error is at most this, in metres of the
     // mesh's space (or in % of its bounding-box diagonal). Found by bisection on the triangle
     // count; the error need not be monotonic in the count, so it is the coarsest level found.
+    // The level found is measured again with LodChainOptions::distance (the figure reported) and,
+    // while that is above the bound, replaced by one with more triangles: the level written
+    // always holds the bound with its reported error.
     double max_error_m = -1.0;
     double max_error_pct = -1.0;
     // A level every `step` triangles (T - step, T - 2 step, ...) down to the smallest target of
@@ -50,6 +54,9 @@ struct LodChainOptions {
     double screen_tolerance = 1e-3;
     // At most this many levels per mesh (guards --step).
     size_t max_levels = 256;
+    // Also the progressive mesh of every simplified primitive (LodChainReport::progressive), taken
+    // from the simplify() run that made its levels (no second run). Edge-collapse algorithms only.
+    bool progressive = false;
     // Overall fraction done, 0..1, on the calling thread.
     std::function<void(double)> progress;
 };
@@ -70,11 +77,24 @@ struct LodLevelReport {
     double measure_ms = 0.0;
 };
 
+// The progressive mesh of one primitive of a mesh given a chain, based at the primitive's part of
+// the mesh's last (smallest) level: refine() gives back each level's primitive exactly.
+struct PrimitiveProgressiveMesh {
+    int mesh = -1;  // index in the input scene
+    std::string mesh_name;
+    size_t primitive = 0;
+    size_t primitives = 0;  // the mesh's primitive count
+    ProgressiveMesh pm;
+};
+
 struct LodChainReport {
     std::vector<LodLevelReport> levels;  // per mesh, level 0 first
     std::vector<std::string> notes;      // skipped targets, unreachable errors, ...
     size_t meshes = 0;                   // meshes given chains
     size_t nodes = 0;                    // nodes given chains
+    // With LodChainOptions::progressive: per mesh in the order of `levels`, its primitives in
+    // order; a mesh without a level or a primitive left as it is has none (said in `notes`).
+    std::vector<PrimitiveProgressiveMesh> progressive;
 };
 
 // For every node with a mesh that is not itself an MSFT_lod alternate: replaces any chain it has
@@ -85,21 +105,19 @@ struct LodChainReport {
 // error in geometric_error_m (level 0 gets 0). A level with no fewer triangles than the level
 // before it is dropped (with a note). Old alternate nodes and meshes no node uses any more are
 // removed (node and mesh indices are renumbered). On an error the scene is unchanged. Errors:
-// unknown algorithm, bad targets, --step with a non-edge-collapse algorithm, a simplify() failure
-// (naming the mesh and primitive).
+// unknown algorithm, bad targets, --step or progressive with a non-edge-collapse algorithm, a
+// simplify() failure (naming the mesh and primitive).
 Result<LodChainReport> generate_lod_chains(Scene& scene, const LodChainOptions& options);
 
 // The positions (bit for bit, +0 == -0) that more than one primitive of `mesh` uses: its material
-// boundaries. generate_lod_chains locks them (SimplifyOptions::locked_positions); so does the
-// progressive-mesh output of `hmdnode lod`, so that both make the same levels.
+// boundaries. generate_lod_chains locks them (SimplifyOptions::locked_positions).
 std::vector<glm::vec3> material_boundary_positions(const Mesh& mesh);
 
 // The targets primitive `primitive` of `mesh` is simplified to for the mesh-wide `targets`
 // (strictly decreasing): its share of each, in proportion to its triangle count, at least 1, kept
 // while below its count and its previous share. which[k] (when given) is the index in the result
 // of the level that serves targets[k], or -1 where the primitive stays as it is.
-// generate_lod_chains simplifies each primitive so, and so does the progressive-mesh output of
-// `hmdnode lod` (the pass order of qem depends on the targets).
+// generate_lod_chains simplifies each primitive so.
 std::vector<size_t> primitive_targets(const Mesh& mesh, size_t primitive,
                                       const std::vector<size_t>& targets,
                                       std::vector<int>* which = nullptr);

@@ -38,8 +38,8 @@ struct RepairReport {
 // index named), an attribute array whose size is neither 0 nor positions.size(), nothing left
 // after the repairs.
 //
-// Repaired, in this order, on the connectivity of positions welded where they are bit-identical
-// (how simplify() sees the mesh, so seams of split vertices are no borders here):
+// Repaired, in this order, on the connectivity of positions welded where they are bit-identical,
+// -0 taken as +0 (how simplify() sees the mesh, so seams of split vertices are no borders here):
 // 1. degenerate faces (two corners at the same position, or area below 1e-12 of the squared
 //    longest edge): dropped;
 // 2. duplicate faces (the same three welded corners, any order or orientation): the later ones

@@ -95,6 +95,12 @@ Result<ProgressiveMeshBuild> build_progressive_mesh(const Primitive& in, std::st
 // live faces in id order, exactly as simplify() orders its output.
 Primitive refine(const ProgressiveMesh& pm, size_t triangles);
 
+// The same progressive mesh based at refine(pm, triangles): the splits that keep the count
+// <= `triangles` are applied to the base and dropped. refine() of the result gives the same
+// primitive as refine() of `pm` for every count from the new base's on. For a mesh recorded past
+// the level it is meant to start from (generate_lod_chains' search by error).
+ProgressiveMesh rebase_progressive_mesh(const ProgressiveMesh& pm, size_t triangles);
+
 // The binary file (little-endian, docs/simplification.md).
 std::vector<uint8_t> encode_progressive_mesh(const ProgressiveMesh& pm);
 // Rejects a wrong magic or version, truncation, ids out of range and splits inconsistent with the
