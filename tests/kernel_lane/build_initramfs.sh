@@ -2,7 +2,7 @@
 # Builds the real-kernel lane's initramfs (uncompressed newc cpio): busybox, the kernel modules of
 # uhid/hid-generic and vivid (with their dependencies, in load order, from the same kernel as
 # the image qemu boots), the lane program with its shared libraries, and an /init that loads the
-# modules, runs the program and powers off. docs/hardware.md; ../shared/docs/KERNEL_LANE.md.
+# modules, runs the program and powers off. docs/hardware.md.
 #
 # usage: build_initramfs.sh LANE_BINARY OUT.cpio KVER
 set -eu

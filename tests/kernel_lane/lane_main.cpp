@@ -1,4 +1,4 @@
-// The real-kernel lane's guest program (docs/hardware.md, ../shared/docs/KERNEL_LANE.md). Run as
+// The real-kernel lane's guest program (docs/hardware.md). Run as
 // root inside a qemu guest with uhid, hid-generic and vivid loaded, it proves against the kernel's
 // own drivers:
 //   1. the simulated reference tracker's firmware (SimReferenceFirmware) becomes a HID device

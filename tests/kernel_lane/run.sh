@@ -2,7 +2,7 @@
 # Runs the real-kernel lane: boots Debian's own kernel in qemu (TCG, no KVM: a nested guest hangs)
 # with the lane's initramfs and turns the guest's result marker into the exit status.
 # 0 = pass, 1 = fail, 77 = skipped (no qemu, kernel image, busybox-static, cpio or modprobe: the
-# reason is printed). docs/hardware.md; ../shared/docs/KERNEL_LANE.md.
+# reason is printed). docs/hardware.md.
 #
 # usage: run.sh LANE_BINARY [WORK_DIR]
 set -u
