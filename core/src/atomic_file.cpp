@@ -47,6 +47,23 @@ Status write_file_atomically(const std::filesystem::path& path, std::string_view
     return {};
 }
 
+Status check_output_file(const std::filesystem::path& path) {
+    const std::filesystem::path dir = path.parent_path().empty() ? "." : path.parent_path();
+    std::error_code ec;
+    if (path.filename().empty() || std::filesystem::is_directory(path, ec))
+        return make_error(path.string() + ": is a directory");
+    if (!std::filesystem::is_directory(dir, ec))
+        return make_error(path.string() + ": directory " + dir.string() + " does not exist");
+    std::string tmpl = (dir / ("." + path.filename().string() + ".check.XXXXXX")).string();
+    const int fd = mkstemp(tmpl.data());
+    if (fd < 0)
+        return make_error(path.string() + ": cannot create a file in " + dir.string() + ": " +
+                          std::strerror(errno));
+    ::close(fd);
+    ::unlink(tmpl.c_str());
+    return {};
+}
+
 Result<std::string> read_file(const std::filesystem::path& path) {
     std::ifstream in(path, std::ios::binary);
     if (!in) return make_error(path.string() + ": cannot open: " + std::strerror(errno));

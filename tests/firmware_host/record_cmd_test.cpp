@@ -230,12 +230,13 @@ TEST(RecordCmd, CaptureErrorsNameTheFileOrDeviceAndWriteNothing) {
     EXPECT_NE(r.output.find((dir / "missing.pcap.gz").string()), std::string::npos) << r.output;
     EXPECT_FALSE(fs::exists(csv));
 
+    // Options that do not go together are usage errors: exit 2.
     r = run("record --device 28de:2000 --backend capture --out " + csv.string());
-    EXPECT_EQ(r.status, 1);
+    EXPECT_EQ(r.status, 2);
     EXPECT_NE(r.output.find("--from"), std::string::npos) << r.output;
 
     r = run("record --device 28de:2000 --from x.pcap --out " + csv.string());
-    EXPECT_EQ(r.status, 1);
+    EXPECT_EQ(r.status, 2);
     EXPECT_NE(r.output.find("--backend capture"), std::string::npos) << r.output;
     EXPECT_FALSE(fs::exists(csv));
 
@@ -250,7 +251,7 @@ TEST(RecordCmd, CaptureErrorsNameTheFileOrDeviceAndWriteNothing) {
 
 TEST(RecordCmd, NeedsAnOutput) {
     const ToolRun r = run("record --device 1209:0001 --backend sim --sim-clock");
-    EXPECT_EQ(r.status, 1);
+    EXPECT_EQ(r.status, 2);
     EXPECT_NE(r.output.find("--out"), std::string::npos) << r.output;
 }
 

@@ -114,11 +114,33 @@ TEST(UsbmonCapture, ParsesSyntheticCaptureAndReplaysInterruptIn) {
     EXPECT_FALSE(end->has_value());
 }
 
-TEST(UsbmonCapture, RejectsTruncatedAndForeignFiles) {
+// A recording cut short (a crash, a full disk) keeps its whole records, with a warning naming the
+// byte offset of the cut one: the file header is 24 bytes, each record 16 + its captured bytes.
+TEST(UsbmonCapture, KeepsTheWholeRecordsOfATruncatedFile) {
     PcapWriter w;
     w.packet(1000, 1, 'C', 1, 0x81, 1, {0x20, 1, 2});
-    std::vector<uint8_t> cut(w.bytes.begin(), w.bytes.end() - 10);
-    EXPECT_FALSE(parse_usbmon_capture(cut).ok());
+    const size_t second = w.bytes.size();
+    w.packet(2000, 2, 'C', 1, 0x81, 1, {0x20, 2, 2});
+    for (size_t cut_at : {w.bytes.size() - 10, second + 5}) {  // in the data, in the header
+        std::vector<uint8_t> cut(w.bytes.begin(), w.bytes.begin() + long(cut_at));
+        auto r = parse_usbmon_capture(cut);
+        ASSERT_TRUE(r.ok()) << r.error().message;
+        ASSERT_EQ(r->packets.size(), 1u);
+        EXPECT_EQ(r->packets[0].urb_id, 1u);
+        ASSERT_EQ(r->warnings.size(), 1u);
+        EXPECT_NE(r->warnings[0].find("record 1 at byte " + std::to_string(second)),
+                  std::string::npos)
+            << r->warnings[0];
+    }
+    auto whole = parse_usbmon_capture(w.bytes);
+    ASSERT_TRUE(whole.ok());
+    EXPECT_EQ(whole->packets.size(), 2u);
+    EXPECT_TRUE(whole->warnings.empty());
+}
+
+TEST(UsbmonCapture, RejectsForeignFiles) {
+    PcapWriter w;
+    w.packet(1000, 1, 'C', 1, 0x81, 1, {0x20, 1, 2});
     std::vector<uint8_t> eth = w.bytes;
     eth[20] = 1;  // DLT_EN10MB
     auto r = parse_usbmon_capture(eth);

@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "hmdnode/core/atomic_file.hpp"
+#include "hmdnode/firmware_host/replay.hpp"
 
 namespace hmdnode {
 namespace {
@@ -54,6 +55,8 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
     } catch (const json::parse_error& e) {
         return make_error(path.string() + ": not valid JSON at byte " + std::to_string(e.byte) +
                           ": " + e.what());
+    } catch (const json::exception& e) {  // note: a number too large for a double (1e999)
+        return make_error(path.string() + ": not valid JSON: " + e.what());
     }
     Reader r{path.string(), ""};
     DaemonConfig c;
@@ -115,6 +118,13 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         if (!trace.empty()) c.trace = resolve(trace);
         c.tracker.latency_ns = int64_t(latency_us * 1000.0);
         c.tracker.jitter_ns = int64_t(jitter_us * 1000.0);
+        if (!(c.tracker.resample_hz >= 0.0 && c.tracker.resample_hz <= kMaxResampleHz))
+            r.fail("tracker.resample_hz must be between 0 (as recorded) and " +
+                   std::to_string(int(kMaxResampleHz)) + " Hz");
+        if (!(c.tracker.noise_deg >= 0.0 && c.tracker.noise_deg <= 180.0))
+            r.fail("tracker.noise_deg must be between 0 and 180");
+        if (latency_us < 0.0 || jitter_us < 0.0)
+            r.fail("tracker.latency_us and tracker.jitter_us must be >= 0");
     }
     json d = j.value("display", json::object());
     if (r.check_keys(d, "display",
@@ -133,6 +143,10 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
             r.fail("display.type \"" + type +
                    "\" is not available in this build (available: mock)");
         c.display.persistence_ns = ms_to_ns(persistence_ms);
+        if (persistence_ms < 0.0) r.fail("display.persistence_ms must be >= 0");
+        if (c.display.refresh_hz > 0.0)
+            if (Status st = check_persistence(c.display); !st.ok())
+                r.fail("display.persistence_ms " + st.error().message);
         if (!frames_dir.empty()) c.display.frames_dir = resolve(frames_dir);
     }
     json n = j.value("node", json::object());
@@ -149,6 +163,7 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         r.get(n, "distortion", &c.node.distortion);
         r.get(n, "headset", &headset);
         r.get(n, "mesh", &mesh);
+        if (c.node.lod.tolerance_px < 0.0) r.fail("node.lod_tolerance_px must be >= 0");
         if (mesh < 0 || mesh > 512) r.fail("node.mesh must be between 0 (automatic) and 512");
         c.node.mesh_cols = c.node.mesh_rows = mesh;
         if (!headset.empty()) {

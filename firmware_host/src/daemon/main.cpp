@@ -21,6 +21,7 @@
 #include "hmdnode/firmware_host/replay.hpp"
 #include "hmdnode/hal/sim/sim_reference_device.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
+#include "tool/cli_checks.hpp"
 
 namespace {
 volatile std::sig_atomic_t g_stop = 0;
@@ -37,7 +38,9 @@ int main(int argc, char** argv) {
     app.add_option("-c,--config", config_path, "Config file (JSON)");
     app.add_option("--max-frames", max_frames,
                    "Exit after this many frames (0: run until signalled)");
-    CLI11_PARSE(app, argc, argv);
+    tool::refuse_non_finite_numbers(app);
+    // --help exits 0; a usage error exits 2 like a bad config, so the unit does not restart.
+    if (std::optional<int> code = tool::parse_command_line(app, argc, argv)) return *code;
 
     Result<DaemonConfig> cfg = load_daemon_config(config_path);
     if (!cfg.ok()) {

@@ -135,8 +135,43 @@ ReplaySummary summarize_vsyncs(const std::vector<FrameRecord>& frames,
     return s;
 }
 
+Status check_persistence(const MockDisplayConfig& display) {
+    const double period_ms = 1e3 / display.refresh_hz;
+    if (!(ns_to_ms(display.persistence_ns) <= period_ms)) {
+        char msg[160];
+        std::snprintf(msg, sizeof msg,
+                      "%.3f ms is longer than the refresh period (%.3f ms at %g Hz)",
+                      ns_to_ms(display.persistence_ns), period_ms, display.refresh_hz);
+        return make_error(msg);
+    }
+    return {};
+}
+
+Status check_replay_options(const ReplayOptions& opt) {
+    if (!opt.report.empty())
+        if (Status st = check_output_file(opt.report); !st.ok())
+            return make_error("report " + st.error().message);
+    if (Status st = check_persistence(opt.display); !st.ok())
+        return make_error("display persistence " + st.error().message);
+    const SimTrackerConfig& t = opt.tracker;
+    if (!(t.resample_hz >= 0.0 && t.resample_hz <= kMaxResampleHz))
+        return make_error("tracker resample rate " + std::to_string(t.resample_hz) +
+                          " Hz is not between 0 and " + std::to_string(int(kMaxResampleHz)));
+    if (!(t.noise_deg >= 0.0 && t.noise_deg <= 180.0))
+        return make_error("tracker noise " + std::to_string(t.noise_deg) +
+                          " deg is not between 0 and 180");
+    if (!(opt.node.lod.tolerance_px >= 0.0) || !std::isfinite(opt.node.lod.tolerance_px))
+        return make_error("LOD tolerance " + std::to_string(opt.node.lod.tolerance_px) +
+                          " px must be a finite number >= 0");
+    if (!(opt.start_s >= 0.0 && opt.duration_s >= 0.0) || !std::isfinite(opt.start_s) ||
+        !std::isfinite(opt.duration_s))
+        return make_error("start and duration must be finite and >= 0");
+    return {};
+}
+
 Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     const auto wall0 = std::chrono::steady_clock::now();
+    if (Status st = check_replay_options(opt); !st.ok()) return st.error();
     Result<Scene> scene = load_gltf(opt.scene);
     if (!scene.ok()) return scene.error();
     std::shared_ptr<const Trace> trace;  // none for a capture: no truth to compare with

@@ -20,6 +20,7 @@
 #include "hmdnode/bake/bake.hpp"
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/gltf.hpp"
+#include "tool/cli_checks.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
@@ -42,17 +43,26 @@ void fail(const std::string& message) {
     set_exit_code(1);
 }
 
+// A bad option value: the usage-error status.
+void usage_error(const std::string& message) {
+    std::fprintf(stderr, "hmdnode bake: error: %s\n", message.c_str());
+    set_exit_code(2);
+}
+
 void run_bake(const BakeArgs& args) {
     const auto t0 = std::chrono::steady_clock::now();
     if (!args.sky.empty() && args.sky.size() != 3)
-        return fail("--sky needs three values R,G,B (got " + std::to_string(args.sky.size()) + ")");
+        return usage_error("--sky needs three values R,G,B (got " +
+                           std::to_string(args.sky.size()) + ")");
     for (float v : args.sky)
-        if (!(v >= 0.0f)) return fail("--sky values must be finite and >= 0");
-    if (args.samples < 1) return fail("--samples must be >= 1");
-    if (args.bounces < 0) return fail("--bounces must be >= 0");
-    if (args.texels_per_metre < 0.0) return fail("--texels-per-metre must be > 0");
+        if (!(v >= 0.0f)) return usage_error("--sky values must be finite and >= 0");
+    if (args.samples < 1) return usage_error("--samples must be >= 1");
+    if (args.bounces < 0) return usage_error("--bounces must be >= 0");
+    if (args.texels_per_metre < 0.0) return usage_error("--texels-per-metre must be >= 0");
     if (!(args.intensity_percentile > 0.0 && args.intensity_percentile <= 1.0))
-        return fail("--intensity-percentile must be in (0, 1]");
+        return usage_error("--intensity-percentile must be in (0, 1]");
+    if (!check_outputs("hmdnode bake", {{"--out", args.out}, {"--report", args.report}}))
+        return set_exit_code(1);
 
     Result<Scene> loaded = load_gltf(args.in);
     if (!loaded) return fail(loaded.error().message);

@@ -124,6 +124,8 @@ void run_info(const std::string& file, const std::string& device) {
         set_exit_code(1);
         return;
     }
+    for (const std::string& w : cap->warnings)
+        std::fprintf(stderr, "hmdnode capture info: warning: %s\n", w.c_str());
     CaptureSummary s = summarize_capture(*cap);
     const std::string sidecar = file + ".usbdevs";
     if (std::filesystem::exists(sidecar)) {

@@ -55,6 +55,12 @@ void fail(const std::string& message) {
     set_exit_code(1);
 }
 
+// A bad or missing option, or options that do not go together: the usage-error status.
+void usage_error(const std::string& message) {
+    std::fprintf(stderr, "hmdnode lod: %s\n", message.c_str());
+    set_exit_code(2);
+}
+
 // A bar redrawn in place on a terminal; nothing when stderr is not one (logs, pipes, tests).
 class ProgressBar {
   public:
@@ -126,24 +132,11 @@ std::vector<ProgressiveOut> progressive_outputs(std::vector<PrimitiveProgressive
     return result;
 }
 
-// Whether `path` can be written as write_file_atomically writes it: its directory exists and takes
-// a new file, and the path is not a directory. Empty when fine. Checked for every output before
-// the work starts, so that a bad path fails the command before anything is made.
+// Every output is checked before the work starts (core's check_output_file), so that a bad path
+// fails the command before anything is made. Empty when fine.
 std::string check_output(const std::string& path, const char* what) {
-    const std::filesystem::path p(path);
-    const std::filesystem::path dir = p.parent_path().empty() ? "." : p.parent_path();
-    std::error_code ec;
-    if (p.filename().empty() || std::filesystem::is_directory(p, ec))
-        return std::string(what) + " " + path + ": is a directory";
-    if (!std::filesystem::is_directory(dir, ec))
-        return std::string(what) + " " + path + ": directory " + dir.string() + " does not exist";
-    std::string tmpl = (dir / ("." + p.filename().string() + ".check.XXXXXX")).string();
-    const int fd = mkstemp(tmpl.data());
-    if (fd < 0)
-        return std::string(what) + " " + path + ": cannot create a file in " + dir.string() + ": " +
-               std::strerror(errno);
-    ::close(fd);
-    ::unlink(tmpl.c_str());
+    if (Status st = check_output_file(path); !st.ok())
+        return std::string(what) + " " + st.error().message;
     return {};
 }
 
@@ -231,7 +224,7 @@ void run_lod(const LodArgs& args) {
         list_algorithms();
         return;
     }
-    if (args.in.empty() || args.out.empty()) return fail("--in and --out are required");
+    if (args.in.empty() || args.out.empty()) return usage_error("--in and --out are required");
 
     LodChainOptions options;
     options.algorithm = args.algorithm;
@@ -245,24 +238,25 @@ void run_lod(const LodArgs& args) {
         char* end = nullptr;
         const double v = std::strtod(e.c_str(), &end);
         if (e.empty() || *end || !(v > 0.0) || !std::isfinite(v))
-            return fail("--error \"" + args.error +
-                        "\": give a positive number of metres, or a percentage of the "
-                        "bounding-box diagonal like 0.5%");
+            return usage_error("--error \"" + args.error +
+                               "\": give a positive number of metres, or a percentage of the "
+                               "bounding-box diagonal like 0.5%");
         (pct ? options.targets.max_error_pct : options.targets.max_error_m) = v;
     }
     if (options.targets.ratios.empty() && options.targets.triangles.empty() &&
         options.targets.max_error_m < 0 && options.targets.max_error_pct < 0 &&
         options.targets.step == 0)
         options.targets.ratios = {0.5, 0.1, 0.01};
-    if (std::string e = check_lod_targets(options.targets); !e.empty()) return fail(e);
+    if (std::string e = check_lod_targets(options.targets); !e.empty()) return usage_error(e);
     const AlgorithmInfo* algo = find_simplification_algorithm(args.algorithm);
-    if (!algo) return fail("unknown algorithm \"" + args.algorithm + "\" (see --list-algorithms)");
+    if (!algo)
+        return usage_error("unknown algorithm \"" + args.algorithm + "\" (see --list-algorithms)");
     if (args.step > 0 && !algo->edge_collapse)
-        return fail("--step needs an edge-collapse algorithm; \"" + args.algorithm +
-                    "\" is not one (see --list-algorithms)");
+        return usage_error("--step needs an edge-collapse algorithm; \"" + args.algorithm +
+                           "\" is not one (see --list-algorithms)");
     if (!args.progressive.empty() && !algo->edge_collapse)
-        return fail("--progressive needs an edge-collapse algorithm; \"" + args.algorithm +
-                    "\" is not one (see --list-algorithms)");
+        return usage_error("--progressive needs an edge-collapse algorithm; \"" + args.algorithm +
+                           "\" is not one (see --list-algorithms)");
     options.simplify.lock_borders = args.lock_borders;
     options.simplify.seed = args.seed;
     options.distance.samples = args.samples;

@@ -3,17 +3,15 @@
 
 #include <CLI/CLI.hpp>
 
+#include "tool/cli_checks.hpp"
 #include "tool/commands.hpp"
 
 int main(int argc, char** argv) {
     CLI::App app{"hmdnode: the tools of the hmdnode head-mounted display rendering node"};
     app.require_subcommand(1);
     hmdnode::tool::register_commands(app);
-    try {
-        app.parse(argc, argv);
-    } catch (const CLI::ParseError& e) {
-        // --help and --version exit 0; every usage error (unknown option, bad value) exits 2.
-        return app.exit(e) == 0 ? 0 : 2;
-    }
+    hmdnode::tool::refuse_non_finite_numbers(app);
+    // --help and --version exit 0; every usage error (unknown option, bad value) exits 2.
+    if (std::optional<int> code = hmdnode::tool::parse_command_line(app, argc, argv)) return *code;
     return hmdnode::tool::exit_code();
 }

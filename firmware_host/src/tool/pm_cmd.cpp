@@ -18,6 +18,7 @@
 #include "hmdnode/core/gltf.hpp"
 #include "hmdnode/lod/mesh_file.hpp"
 #include "hmdnode/lod/progressive_mesh.hpp"
+#include "tool/cli_checks.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
@@ -32,6 +33,12 @@ struct PmArgs {
 void fail(const std::string& message) {
     std::fprintf(stderr, "hmdnode pm: %s\n", message.c_str());
     set_exit_code(1);
+}
+
+// A bad or missing option: the usage-error status.
+void usage_error(const std::string& message) {
+    std::fprintf(stderr, "hmdnode pm: %s\n", message.c_str());
+    set_exit_code(2);
 }
 
 std::string attribute_list(const ProgressiveMesh& pm) {
@@ -82,12 +89,14 @@ std::string obj_text(const Primitive& p, const std::string& source) {
 }
 
 void run_refine(const PmArgs& args) {
-    if (args.in.empty() || args.out.empty()) return fail("refine: --in and --out are required");
+    if (args.in.empty() || args.out.empty())
+        return usage_error("refine: --in and --out are required");
     std::string ext = std::filesystem::path(args.out).extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(),
                    [](unsigned char c) { return char(std::tolower(c)); });
     if (ext != ".glb" && ext != ".obj")
-        return fail("refine: --out \"" + args.out + "\" must end in .glb or .obj");
+        return usage_error("refine: --out \"" + args.out + "\" must end in .glb or .obj");
+    if (!check_outputs("hmdnode pm refine", {{"--out", args.out}})) return set_exit_code(1);
     Result<ProgressiveMesh> pm = read_progressive_mesh(args.in);
     if (!pm.ok()) return fail(pm.error().message + "; nothing written");
     Primitive prim = refine(*pm, args.triangles);

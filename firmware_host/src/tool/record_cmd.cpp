@@ -41,6 +41,7 @@
 #include "hmdnode/hal/tracking/clock_sync.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
 #include "hmdnode/hal/transport.hpp"
+#include "tool/cli_checks.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
@@ -175,6 +176,12 @@ int64_t realtime_minus_monotonic_ns() {
 void fail(const std::string& message) {
     std::fprintf(stderr, "hmdnode record: %s\n", message.c_str());
     set_exit_code(1);
+}
+
+// A bad or missing option, or options that do not go together: the usage-error status.
+void usage_error(const std::string& message) {
+    std::fprintf(stderr, "hmdnode record: %s\n", message.c_str());
+    set_exit_code(2);
 }
 
 // A transport that hands everything through and writes each input report, and each feature
@@ -397,9 +404,9 @@ bool is_imu_device(uint16_t vid, uint16_t pid) {
 
 // --backend capture --from FILE: the capture's device through the device tracker, simulated clock.
 void run_record_capture(const RecordArgs& args, const DeviceFilter& filter) {
-    if (args.from.empty()) return fail("--backend capture needs --from FILE.pcap[.gz]");
+    if (args.from.empty()) return usage_error("--backend capture needs --from FILE.pcap[.gz]");
     if (!args.capture.empty())
-        return fail("--capture with --backend capture: the input is a capture already");
+        return usage_error("--capture with --backend capture: the input is a capture already");
     std::error_code ec;
     if (!std::filesystem::is_regular_file(args.from, ec))
         return fail("--from " + args.from + ": no such file");
@@ -451,14 +458,17 @@ void run_record_imu(const RecordArgs& args, DeviceFilter filter,
 
 void run_record(const RecordArgs& args) {
     if (args.out.empty() && args.capture.empty())
-        return fail("nothing to write: give --out FILE.csv and/or --capture FILE.pcap");
+        return usage_error("nothing to write: give --out FILE.csv and/or --capture FILE.pcap");
     Result<DeviceFilter> filter = parse_vid_pid(std::string_view(args.device));
-    if (!filter.ok()) return fail("--device: " + filter.error().message);
+    if (!filter.ok()) return usage_error("--device: " + filter.error().message);
     if (!args.from.empty() && args.backend != "capture")
-        return fail("--from needs --backend capture");
+        return usage_error("--from needs --backend capture");
+    if (!check_outputs("hmdnode record", {{"--out", args.out}, {"--capture", args.capture}}))
+        return set_exit_code(1);
     if (args.backend == "capture") return run_record_capture(args, *filter);
     if (args.sim_clock && args.backend != "sim")
-        return fail("--sim-clock needs --backend sim (a real device runs on the real clock)");
+        return usage_error(
+            "--sim-clock needs --backend sim (a real device runs on the real clock)");
 
     SystemClock system_clock;
     SimulatedClock sim_clock(kNsPerSecond);

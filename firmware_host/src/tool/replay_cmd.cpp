@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "hmdnode/firmware_host/replay.hpp"
+#include "tool/cli_checks.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
@@ -57,17 +58,22 @@ void add_replay_command(CLI::App& app) {
         ->check(CLI::Range(0.0, 0.1));
     c->add_flag("--no-prediction", *no_predict,
                 "Render the newest sample's pose instead of predicting");
+    // note: the resampled trace is made up front (SimTracker), so the rate is bounded by what a
+    // tracker delivers (4 kHz is twice the fastest IMU report rate of docs/hardware.md's devices).
     c->add_option("--resample", opt->tracker.resample_hz,
-                  "Resample the trace at this rate (Hz; 0: as recorded)");
+                  "Resample the trace at this rate (Hz, at most 4000; 0: as recorded)")
+        ->check(CLI::Range(0.0, kMaxResampleHz));
     c->add_option("--noise-deg", opt->tracker.noise_deg,
-                  "Gaussian orientation noise (deg, std dev)");
+                  "Gaussian orientation noise (deg, std dev)")
+        ->check(CLI::Range(0.0, 180.0));
     c->add_option("--latency-us", *latency_us, "Tracker transport latency (us)")
         ->check(CLI::NonNegativeNumber);
     c->add_option("--jitter-us", *jitter_us, "Tracker arrival jitter (us, uniform)")
         ->check(CLI::NonNegativeNumber);
     c->add_option("--seed", opt->tracker.seed, "Seed for noise and jitter");
     c->add_option("--lod-tolerance-px", opt->node.lod.tolerance_px,
-                  "LOD pixel tolerance at the gaze point");
+                  "LOD pixel tolerance at the gaze point")
+        ->check(CLI::NonNegativeNumber);
     c->add_flag("--no-warp", *no_warp,
                 "No late warp: show each frame as rendered (a missed vsync repeats the old one)");
     c->add_flag("--no-distortion", *no_distortion,
@@ -135,6 +141,12 @@ void add_replay_command(CLI::App& app) {
         }
         o.display.frames_dir = *frames_dir;
         o.display.persistence_ns = ms_to_ns(*persistence_ms);
+        if (Status st = check_persistence(o.display); !st.ok()) {
+            std::fprintf(stderr, "hmdnode replay: error: --persistence-ms %s\n",
+                         st.error().message.c_str());
+            set_exit_code(2);
+            return;
+        }
         o.node.predict = !*no_predict;
         o.tracker.latency_ns = int64_t(*latency_us * 1000.0);
         o.tracker.jitter_ns = int64_t(*jitter_us * 1000.0);

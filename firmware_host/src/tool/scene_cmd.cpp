@@ -5,6 +5,7 @@
 #include <string>
 
 #include "hmdnode/core/gltf.hpp"
+#include "tool/cli_checks.hpp"
 #include "tool/commands.hpp"
 #include "tool/demo_scene.hpp"
 
@@ -88,6 +89,7 @@ void add_scene_command(CLI::App& app) {
         ->required();
     demo->add_option("--out", *out, "Scene to write (.glb)")->required();
     demo->callback([=] {
+        if (!check_outputs("hmdnode scene demo", {{"--out", *out}})) return set_exit_code(1);
         std::string summary;
         Status st = build_demo_scene(*data_dir, *out, &summary);
         if (!st) {

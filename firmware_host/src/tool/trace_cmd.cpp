@@ -9,6 +9,7 @@
 
 #include "hmdnode/core/time.hpp"
 #include "hmdnode/core/trace.hpp"
+#include "tool/cli_checks.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
@@ -33,6 +34,7 @@ std::string fmt(const char* format, double v) {
 }
 
 void run_import(const ImportArgs& args) {
+    if (!check_outputs("hmdnode trace import", {{"--to", args.to}})) return set_exit_code(1);
     TraceImportOptions options = args.options;
     options.rebase_time = !args.keep_time;
     options.euler_degrees = !args.euler_radians;

@@ -8,6 +8,7 @@
 // is deterministic; that path may allocate (replay only).
 #include <algorithm>
 #include <atomic>
+#include <cstdio>
 #include <deque>
 #include <mutex>
 #include <thread>
@@ -312,6 +313,8 @@ Result<std::unique_ptr<DeviceTracker>> create_capture_tracker(const std::filesys
     if (!filter) return filter.error();
     auto cap = read_usbmon_capture(file);
     if (!cap) return cap.error();
+    // note: a truncated capture replays its whole records; the reader's warning names the cut.
+    for (const std::string& w : cap->warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     CaptureSummary summary = summarize_capture(*cap);
     const std::filesystem::path sidecar = file.string() + ".usbdevs";
     if (std::filesystem::exists(sidecar)) {

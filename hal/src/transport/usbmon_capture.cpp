@@ -4,7 +4,9 @@
 // Cost: O(file) time; memory O(inflated file) while parsing plus the packets kept.
 // Departures: the usbmon header is read in the capture's byte order (pcap_is_swapped), records
 // shorter than the header are an error rather than skipped, and VID:PID comes from any completed
-// GET_DESCRIPTOR(DEVICE) answer without matching its submission.
+// GET_DESCRIPTOR(DEVICE) answer without matching its submission. A file cut short (its last record
+// or its gzip stream truncated) keeps the whole records before the cut, with a warning naming the
+// byte offset of the cut record (of the inflated stream for a .gz).
 #include "hmdnode/hal/transport/usbmon_capture.hpp"
 
 #include <pcap/pcap.h>
@@ -22,7 +24,8 @@ namespace {
 constexpr int kDltUsbLinux = 189;
 constexpr int kDltUsbLinuxMmapped = 220;
 
-Result<std::vector<uint8_t>> gunzip(std::span<const uint8_t> in) {
+// The inflated bytes; a stream cut short gives what it inflated to and sets *truncated.
+Result<std::vector<uint8_t>> gunzip(std::span<const uint8_t> in, bool* truncated) {
     z_stream zs{};
     if (inflateInit2(&zs, 15 + 32) != Z_OK) return make_error("gzip: inflateInit failed");
     std::vector<uint8_t> out;
@@ -50,8 +53,7 @@ Result<std::vector<uint8_t>> gunzip(std::span<const uint8_t> in) {
     }
     const size_t n = zs.total_out;
     inflateEnd(&zs);
-    if (rc != Z_STREAM_END)
-        return make_error("gzip: truncated stream after " + std::to_string(n) + " bytes");
+    *truncated = rc != Z_STREAM_END;
     out.resize(n);
     return out;
 }
@@ -73,11 +75,16 @@ T rd(const uint8_t* p, bool swapped) {
 
 Result<UsbCapture> parse_usbmon_capture(std::span<const uint8_t> bytes) {
     std::vector<uint8_t> inflated;
+    std::vector<std::string> warnings;
     if (bytes.size() >= 2 && bytes[0] == 0x1f && bytes[1] == 0x8b) {
-        auto r = gunzip(bytes);
+        bool truncated = false;
+        auto r = gunzip(bytes, &truncated);
         if (!r) return r.error();
         inflated = std::move(*r);
         bytes = inflated;
+        if (truncated)
+            warnings.push_back("gzip: truncated stream, " + std::to_string(bytes.size()) +
+                               " bytes inflated");
     }
     if (bytes.size() < 24)
         return make_error("pcap: " + std::to_string(bytes.size()) +
@@ -102,14 +109,28 @@ Result<UsbCapture> parse_usbmon_capture(std::span<const uint8_t> bytes) {
                           " is not usbmon (189 DLT_USB_LINUX or 220 DLT_USB_LINUX_MMAPPED)");
     const size_t header = cap.link_type == kDltUsbLinux ? 48 : 64;
     const bool sw = pcap_is_swapped(p) != 0;
+    cap.warnings = std::move(warnings);
     size_t index = 0;
+    size_t offset = 24;  // of the record being read: the file header, then 16 + caplen a record
     while (true) {
         pcap_pkthdr* h = nullptr;
         const u_char* d = nullptr;
         const int rc = pcap_next_ex(p, &h, &d);
         if (rc == PCAP_ERROR_BREAK) break;  // end of file
-        if (rc != 1)
-            return make_error("pcap: record " + std::to_string(index) + ": " + pcap_geterr(p));
+        if (rc != 1) {
+            const std::string why = pcap_geterr(p);
+            // libpcap: "truncated dump file; tried to read N header/captured bytes, only got M".
+            if (why.find("truncated") != std::string::npos) {
+                cap.warnings.push_back(
+                    "pcap: record " + std::to_string(index) + " at byte " + std::to_string(offset) +
+                    " is cut short (" + std::to_string(bytes.size() - offset) + " of its bytes " +
+                    "present); kept the " + std::to_string(index) + " records before it");
+                break;
+            }
+            return make_error("pcap: record " + std::to_string(index) + " at byte " +
+                              std::to_string(offset) + ": " + why);
+        }
+        offset += 16 + h->caplen;
         if (h->caplen < header)
             return make_error("pcap: record " + std::to_string(index) + ": " +
                               std::to_string(h->caplen) + " bytes, shorter than the " +
@@ -140,6 +161,7 @@ Result<UsbCapture> read_usbmon_capture(const std::filesystem::path& path) {
                                std::istreambuf_iterator<char>());
     auto r = parse_usbmon_capture(bytes);
     if (!r) return make_error(path.string() + ": " + r.error().message);
+    for (std::string& w : r->warnings) w = path.string() + ": " + w;
     return r;
 }
 

@@ -112,6 +112,19 @@ Percentiles percentiles(std::vector<double> values);
 // NaN).
 nlohmann::json percentiles_json(const Percentiles& p);
 
+// The highest rate the simulated tracker resamples a trace at (Hz): the resampled trace is made
+// up front, so an absurd rate would exhaust memory; 4 kHz is twice the fastest IMU report rate
+// of the devices in docs/hardware.md.
+inline constexpr double kMaxResampleHz = 4000.0;
+
+// A panel lit longer than its refresh period is not a panel: the error gives both figures.
+Status check_persistence(const MockDisplayConfig& display);
+
+// The options' values checked before any work (run_replay's first step): the report path can be
+// written (core's check_output_file), the persistence fits the period, the tracker's rate, noise,
+// latency and jitter and the LOD tolerance are finite and in range. The error names the field.
+Status check_replay_options(const ReplayOptions& options);
+
 // Runs the whole replay and, if options.report is set, writes the JSON report atomically. Fails
 // (and writes no report) on a bad scene or trace, or a renderer/display error.
 Result<ReplayResult> run_replay(const ReplayOptions& options);

@@ -40,11 +40,15 @@ struct UsbPacket {
 struct UsbCapture {
     int link_type = 0;
     std::vector<UsbPacket> packets;  // in file order
+    // What was read past: a file cut short (a recording stopped by a crash or a full disk) keeps
+    // its whole records, with a warning naming the byte offset where the cut record starts.
+    std::vector<std::string> warnings;
 };
 
-// Reads a pcap (or gzip'd pcap) held in memory. Errors name the byte offset of the bad record.
+// Reads a pcap (or gzip'd pcap) held in memory. Errors name the byte offset of the bad record; a
+// truncated last record (or gzip stream) is a warning, the records before it kept.
 Result<UsbCapture> parse_usbmon_capture(std::span<const uint8_t> file_bytes);
-// Reads a file; ".gz" or the gzip magic means gzip. Errors name the file.
+// Reads a file; ".gz" or the gzip magic means gzip. Errors and warnings name the file.
 Result<UsbCapture> read_usbmon_capture(const std::filesystem::path& path);
 
 struct CaptureEndpointSummary {
