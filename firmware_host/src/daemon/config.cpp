@@ -66,12 +66,16 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
     };
 
     if (!r.check_keys(j, "",
-                      {"scene", "clock", "max_frames", "tracker", "display", "node", "status"}))
+                      {"scene", "clock", "max_frames", "tracker", "display", "node", "status",
+                       "realtime_priority"}))
         return make_error(r.error);
     std::string scene, clock = "real";
     r.get(j, "scene", &scene);
     r.get(j, "clock", &clock);
     r.get(j, "max_frames", &c.max_frames);
+    r.get(j, "realtime_priority", &c.realtime_priority);
+    if (c.realtime_priority < 0 || c.realtime_priority > 99)
+        r.fail("\"realtime_priority\" must be between 0 (none) and 99");
     if (scene.empty()) r.fail("\"scene\" is required");
     c.scene = resolve(scene);
     if (clock != "real" && clock != "sim") r.fail("\"clock\" must be \"real\" or \"sim\"");

@@ -28,6 +28,10 @@ struct DaemonConfig {
     NodeConfig node;
     std::filesystem::path status_path;  // empty: none
     double status_every_s = 5.0;
+    // SCHED_FIFO priority of the frame loop's thread (1-99; 0: the default policy). Threads it
+    // creates later start with the default policy (SCHED_RESET_ON_FORK); the renderer's worker
+    // threads are created before it is raised.
+    int realtime_priority = 0;
 };
 
 // Relative paths in the file are relative to the file's directory.

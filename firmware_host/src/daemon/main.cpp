@@ -3,8 +3,20 @@
 // logged and skipped; a tracker with no sample yet -- an absent device -- renders nothing and is
 // waited for between frames, so a signal still stops the daemon; the end of a replayed trace
 // restarts it when `loop` is set), and writes a status JSON file periodically.
+//
+// Under systemd (Type=notify, docs/daemon.md "Running as a service"): READY=1 once the first frame
+// is presented; WATCHDOG=1 from the frame loop itself, at most every half WatchdogSec and only when
+// frames were presented since the last one (a loop stuck in the renderer, or every frame failing,
+// stops it and systemd restarts the service); STATUS= with the window's figures; while waiting for
+// a tracker before the first frame, EXTEND_TIMEOUT_USEC= keeps the start from timing out as long
+// as the loop keeps its pace.
+#include <sched.h>
+
+#include <cerrno>
+#include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <memory>
 #include <string>
 #include <vector>
@@ -14,6 +26,7 @@
 #include <nlohmann/json.hpp>
 
 #include "daemon/config.hpp"
+#include "daemon/sd_notify.hpp"
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/gltf.hpp"
 #include "hmdnode/core/trace.hpp"
@@ -41,6 +54,8 @@ int main(int argc, char** argv) {
     tool::refuse_non_finite_numbers(app);
     // --help exits 0; a usage error exits 2 like a bad config, so the unit does not restart.
     if (std::optional<int> code = tool::parse_command_line(app, argc, argv)) return *code;
+    // note: first, before any thread exists: it unsets NOTIFY_SOCKET and WATCHDOG_*.
+    SystemdNotifier notifier;
 
     Result<DaemonConfig> cfg = load_daemon_config(config_path);
     if (!cfg.ok()) {
@@ -151,6 +166,26 @@ int main(int argc, char** argv) {
         trace ? trace->samples.size() : 0, dc.eye_width, dc.eye_height, dc.refresh_hz,
         (*renderer)->device_name());
 
+    // The frame loop's thread only (this one): the renderer's worker threads exist already and
+    // keep the default policy; threads created from here on start with it (reset on fork).
+    if (cfg->realtime_priority > 0) {
+        sched_param sp{};
+        sp.sched_priority = cfg->realtime_priority;
+        if (sched_setscheduler(0, SCHED_FIFO | SCHED_RESET_ON_FORK, &sp) == 0)
+            spdlog::info("frame loop thread: SCHED_FIFO priority {}", cfg->realtime_priority);
+        else
+            spdlog::warn(
+                "frame loop thread: SCHED_FIFO priority {} refused ({}); running at the "
+                "default policy (the unit's LimitRTPRIO= allows it)",
+                cfg->realtime_priority, std::strerror(errno));
+    }
+    // systemd: readiness after the first presented frame, the watchdog from the loop's progress.
+    using WallClock = std::chrono::steady_clock;
+    const auto pet_every = std::chrono::microseconds(notifier.watchdog_usec() / 2);
+    auto next_pet = WallClock::now() + pet_every;
+    uint64_t frames_at_pet = 0;
+    bool ready = false;
+
     // Status window: the frames since the last status write.
     std::vector<double> lat, reg, render_ms, warp_ms;
     // Honest accounting (docs/latency.md): every vsync without a new or re-warped frame on time is
@@ -200,9 +235,19 @@ int main(int argc, char** argv) {
                                                   cfg->tracker_device.product_id),
                              cfg->tracker_backend, last_error.empty() ? "" : ": ", last_error);
                 next_wait_log = clock->now_ns() + 5 * kNsPerSecond;
+                // The loop keeps its pace without a pose: not a hung start.
+                if (!ready)
+                    notifier.notify("EXTEND_TIMEOUT_USEC=15000000\nSTATUS=waiting for tracker " +
+                                    cfg->tracker_backend +
+                                    (last_error.empty() ? "" : ": " + last_error));
             }
         } else {
             ++frames;
+            if (!ready) {
+                ready = true;
+                notifier.notify("READY=1\nSTATUS=running: first frame presented");
+                spdlog::info("ready: first frame presented");
+            }
             ++window_frames;
             window_on_time += rec.on_time;
             window_vsyncs += 1 + size_t(window_frames > 1 ? rec.missed_vsyncs_before : 0);
@@ -253,6 +298,15 @@ int main(int argc, char** argv) {
             if (!cfg->status_path.empty())
                 if (Status ws = write_file_atomically(cfg->status_path, s.dump(1)); !ws.ok())
                     spdlog::warn("{}", ws.error().message);
+            notifier.notify(fmt::format(
+                "STATUS=frames {}, on time {}, MTP p50 {:.1f} ms p99 {:.1f} ms, render p50 {:.1f} "
+                "ms, errors {}{}",
+                frames,
+                window_vsyncs
+                    ? fmt::format("{:.1f}%", 100.0 * double(window_on_time) / double(window_vsyncs))
+                    : std::string("n/a"),
+                p.p50, p.p99, percentiles(render_ms).p50, errors,
+                node.has_pose() ? "" : ", no pose yet"));
             if (window_vsyncs)
                 spdlog::info(
                     "frames {} vsyncs on time {:.1f}% ({} missed, {} re-warped) latency p50 {:.1f} "
@@ -265,7 +319,16 @@ int main(int argc, char** argv) {
             window_frames = window_on_time = window_vsyncs = window_late = window_rewarps = 0;
             next_status = clock->now_ns() + s_to_ns(cfg->status_every_s);
         }
+        // The watchdog: only when frames were presented since the last pet.
+        if (ready && pet_every.count() > 0 && WallClock::now() >= next_pet) {
+            if (frames > frames_at_pet) {
+                notifier.notify("WATCHDOG=1");
+                frames_at_pet = frames;
+            }
+            next_pet = WallClock::now() + pet_every;
+        }
     }
+    notifier.notify("STOPPING=1");
     node.stop();
     spdlog::info("hmdnoded: stopped after {} frames ({} failed)", frames, errors);
     return 0;

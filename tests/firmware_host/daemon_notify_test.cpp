@@ -1,0 +1,239 @@
+// hmdnoded under systemd's notification protocol (docs/daemon.md, "Running as a service"): the
+// test binds the unix datagram socket systemd would ($NOTIFY_SOCKET) and asks for a watchdog
+// ($WATCHDOG_USEC). READY=1 comes once the first frame is presented, WATCHDOG=1 keeps coming while
+// frames are presented, STOPPING=1 at the end; a tracker that never delivers gets no READY=1 and
+// no WATCHDOG=1, only EXTEND_TIMEOUT_USEC= with a STATUS= that says what it waits for.
+#include <gtest/gtest.h>
+
+#include <fcntl.h>
+#include <poll.h>
+#include <sched.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include "firmware_host/command_run.hpp"
+
+extern char** environ;
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// A bound AF_UNIX datagram socket at `path`, as systemd's notify socket.
+class NotifySocket {
+  public:
+    explicit NotifySocket(const fs::path& path) : path_(path) {
+        fd_ = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+        sockaddr_un a{};
+        a.sun_family = AF_UNIX;
+        std::strncpy(a.sun_path, path.c_str(), sizeof a.sun_path - 1);
+        bound_ = ::bind(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
+    }
+    ~NotifySocket() { ::close(fd_); }
+    bool bound() const { return bound_; }
+    // The next datagram within timeout_ms, or empty.
+    std::string receive(int timeout_ms) {
+        pollfd p{fd_, POLLIN, 0};
+        if (::poll(&p, 1, timeout_ms) <= 0) return {};
+        char buf[4096];
+        const ssize_t n = ::recv(fd_, buf, sizeof buf, 0);
+        return n > 0 ? std::string(buf, size_t(n)) : std::string();
+    }
+
+  private:
+    fs::path path_;
+    int fd_ = -1;
+    bool bound_ = false;
+};
+
+// Starts hmdnoded with the notify environment, its output to `log`.
+pid_t spawn_daemon(const fs::path& config, const fs::path& sock, const std::string& max_frames,
+                   const fs::path& log) {
+    std::vector<std::string> env;
+    for (char** e = environ; *e; ++e) env.emplace_back(*e);
+    env.push_back("NOTIFY_SOCKET=" + sock.string());
+    env.push_back("WATCHDOG_USEC=100000");  // a pet at most every 50 ms
+    std::vector<char*> envp;
+    for (std::string& e : env) envp.push_back(e.data());
+    envp.push_back(nullptr);
+    std::vector<std::string> args = {HMDNODE_DAEMON, "--config", config.string()};
+    if (!max_frames.empty()) args.insert(args.end(), {"--max-frames", max_frames});
+    std::vector<char*> argv;
+    for (std::string& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_adddup2(&fa, 1, 2);
+    pid_t pid = -1;
+    if (posix_spawn(&pid, HMDNODE_DAEMON, &fa, nullptr, argv.data(), envp.data()) != 0) pid = -1;
+    posix_spawn_file_actions_destroy(&fa);
+    return pid;
+}
+
+int wait_exit(pid_t pid) {
+    int st = 0;
+    ::waitpid(pid, &st, 0);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+std::string read_text(const fs::path& p) {
+    std::ifstream in(p);
+    return std::string((std::istreambuf_iterator<char>(in)), {});
+}
+
+bool starts_with(const std::string& s, const std::string& prefix) {
+    return s.rfind(prefix, 0) == 0;
+}
+
+}  // namespace
+
+TEST(DaemonNotify, ReadyAfterTheFirstFrameThenTheWatchdogWhileFramesAreShown) {
+    const fs::path dir = hmdnode::test::fresh_temp_dir("hmdnode_daemon_notify_ready");
+    NotifySocket sock(dir / "notify");
+    ASSERT_TRUE(sock.bound());
+    // The real clock (the watchdog is paced by wall time): 90 frames at 90 Hz, about a second.
+    const nlohmann::json cfg = {
+        {"scene", HMDNODE_DEMO_SCENE},
+        {"clock", "real"},
+        {"tracker",
+         {{"backend", "sim-trace"},
+          {"trace", HMDNODE_SOURCE_DIR "/data/traces/corbillon2018_user1.csv"}}},
+        {"display", {{"eye_width", 32}, {"eye_height", 32}}},
+        {"status", {{"every_s", 0.25}}}};
+    std::ofstream(dir / "hmdnoded.json") << cfg.dump(1);
+    const pid_t pid = spawn_daemon(dir / "hmdnoded.json", dir / "notify", "90", dir / "log");
+    ASSERT_GT(pid, 0);
+    std::vector<std::string> messages;
+    for (std::string m; !(m = sock.receive(30000)).empty();) {
+        messages.push_back(m);
+        if (m == "STOPPING=1") break;
+    }
+    const int code = wait_exit(pid);
+    const std::string log = read_text(dir / "log");
+    ASSERT_EQ(code, 0) << log;
+    ASSERT_FALSE(messages.empty()) << log;
+    // READY=1 first (nothing before the first frame), with its STATUS=.
+    EXPECT_EQ(messages.front(), "READY=1\nSTATUS=running: first frame presented") << log;
+    EXPECT_LT(log.find("frame cost:"), log.find("ready: first frame presented")) << log;
+    size_t pets = 0, statuses = 0;
+    for (size_t i = 1; i < messages.size(); ++i) {
+        pets += messages[i] == "WATCHDOG=1";
+        if (starts_with(messages[i], "STATUS=frames ")) {
+            ++statuses;
+            EXPECT_NE(messages[i].find("on time"), std::string::npos) << messages[i];
+            EXPECT_NE(messages[i].find("MTP p50"), std::string::npos) << messages[i];
+        }
+        EXPECT_EQ(messages[i].find("READY=1"), std::string::npos) << "READY=1 twice";
+    }
+    // About a second of frames, a pet at most every 50 ms: some, not one.
+    EXPECT_GE(pets, 3u) << log;
+    EXPECT_GE(statuses, 1u) << log;
+    EXPECT_EQ(messages.back(), "STOPPING=1");
+}
+
+TEST(DaemonNotify, NoReadinessAndNoWatchdogWithoutFrames) {
+    const fs::path dir = hmdnode::test::fresh_temp_dir("hmdnode_daemon_notify_waiting");
+    NotifySocket sock(dir / "notify");
+    ASSERT_TRUE(sock.bound());
+    // A device that is not plugged in: the loop keeps its pace, presenting nothing.
+    const nlohmann::json cfg = {{"scene", HMDNODE_DEMO_SCENE},
+                                {"clock", "real"},
+                                {"tracker", {{"backend", "hidapi"}, {"device", "1209:fff7"}}},
+                                {"display", {{"eye_width", 32}, {"eye_height", 32}}},
+                                {"status", {{"every_s", 0.25}}}};
+    std::ofstream(dir / "hmdnoded.json") << cfg.dump(1);
+    const pid_t pid = spawn_daemon(dir / "hmdnoded.json", dir / "notify", "", dir / "log");
+    ASSERT_GT(pid, 0);
+    std::vector<std::string> messages;
+    // The first EXTEND_TIMEOUT_USEC, then half a second more (ten watchdog periods) of waiting.
+    for (std::string m; !(m = sock.receive(30000)).empty();) {
+        messages.push_back(m);
+        if (starts_with(m, "EXTEND_TIMEOUT_USEC=")) break;
+    }
+    // note: STATUS= keeps coming every window, so the half second is counted, not waited for.
+    const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(500);
+    while (std::chrono::steady_clock::now() < until)
+        if (std::string m = sock.receive(50); !m.empty()) messages.push_back(m);
+    ::kill(pid, SIGTERM);
+    for (std::string m; !(m = sock.receive(10000)).empty();) {
+        messages.push_back(m);
+        if (m == "STOPPING=1") break;
+    }
+    const int code = wait_exit(pid);
+    const std::string log = read_text(dir / "log");
+    EXPECT_EQ(code, 0) << log;
+    ASSERT_FALSE(messages.empty()) << log;
+    EXPECT_TRUE(starts_with(messages.front(),
+                            "EXTEND_TIMEOUT_USEC=15000000\nSTATUS=waiting for tracker hidapi"))
+        << messages.front();
+    for (const std::string& m : messages) {
+        EXPECT_EQ(m.find("READY=1"), std::string::npos) << m;
+        EXPECT_NE(m, "WATCHDOG=1");
+    }
+    EXPECT_EQ(messages.back(), "STOPPING=1");
+}
+
+// realtime_priority raises the frame loop's thread alone: the renderer's worker threads (Mesa's
+// llvmpipe-N, created before it) and every other thread keep the default policy. Skipped where
+// the priority is refused (no CAP_SYS_NICE and no RLIMIT_RTPRIO).
+TEST(DaemonNotify, RealtimePriorityIsTheFrameLoopThreadsAlone) {
+    const fs::path dir = hmdnode::test::fresh_temp_dir("hmdnode_daemon_notify_rt");
+    NotifySocket sock(dir / "notify");
+    ASSERT_TRUE(sock.bound());
+    const nlohmann::json cfg = {
+        {"scene", HMDNODE_DEMO_SCENE},
+        {"clock", "real"},
+        {"realtime_priority", 1},
+        {"tracker",
+         {{"backend", "sim-trace"},
+          {"trace", HMDNODE_SOURCE_DIR "/data/traces/corbillon2018_user1.csv"}}},
+        {"display", {{"eye_width", 32}, {"eye_height", 32}}}};
+    std::ofstream(dir / "hmdnoded.json") << cfg.dump(1);
+    const pid_t pid = spawn_daemon(dir / "hmdnoded.json", dir / "notify", "", dir / "log");
+    ASSERT_GT(pid, 0);
+    std::string ready;
+    for (std::string m; ready.empty() && !(m = sock.receive(30000)).empty();)
+        if (starts_with(m, "READY=1")) ready = m;
+    // The threads while the loop runs: (tid, name, policy).
+    struct Thread {
+        pid_t tid;
+        std::string name;
+        int policy;
+    };
+    std::vector<Thread> threads;
+    for (const auto& t : fs::directory_iterator("/proc/" + std::to_string(pid) + "/task")) {
+        const pid_t tid = pid_t(std::stol(t.path().filename().string()));
+        std::string name = read_text(t.path() / "comm");
+        while (!name.empty() && name.back() == '\n') name.pop_back();
+        threads.push_back({tid, name, sched_getscheduler(tid) & ~SCHED_RESET_ON_FORK});
+    }
+    ::kill(pid, SIGTERM);
+    const int code = wait_exit(pid);
+    const std::string log = read_text(dir / "log");
+    ASSERT_EQ(code, 0) << log;
+    ASSERT_FALSE(ready.empty()) << log;
+    if (log.find("refused") != std::string::npos) GTEST_SKIP() << "SCHED_FIFO refused here";
+    ASSERT_NE(log.find("frame loop thread: SCHED_FIFO priority 1"), std::string::npos) << log;
+    for (const Thread& t : threads) {
+        if (t.tid == pid) {
+            EXPECT_EQ(t.policy, SCHED_FIFO) << "the frame loop's thread";
+        } else {
+            EXPECT_NE(t.policy, SCHED_FIFO) << t.name << " (" << t.tid << ")";
+        }
+    }
+    EXPECT_GE(threads.size(), 2u);  // lavapipe: llvmpipe-0, llvmpipe-1, ... beside the loop
+}
