@@ -52,6 +52,13 @@ class NotifySocket {
         const ssize_t n = ::recv(fd_, buf, sizeof buf, 0);
         return n > 0 ? std::string(buf, size_t(n)) : std::string();
     }
+    // Appends every datagram up to STOPPING=1 (or 30 s of silence: the daemon died).
+    void receive_until_stopping(std::vector<std::string>* messages) {
+        for (std::string m; !(m = receive(30000)).empty();) {
+            messages->push_back(m);
+            if (m == "STOPPING=1") break;
+        }
+    }
 
   private:
     fs::path path_;
@@ -99,29 +106,30 @@ bool starts_with(const std::string& s, const std::string& prefix) {
     return s.rfind(prefix, 0) == 0;
 }
 
+// The bundled trace on the real clock (the watchdog is paced by wall time), 32x32 per eye.
+nlohmann::json trace_config() {
+    return {{"scene", HMDNODE_DEMO_SCENE},
+            {"clock", "real"},
+            {"tracker",
+             {{"backend", "sim-trace"},
+              {"trace", HMDNODE_SOURCE_DIR "/data/traces/corbillon2018_user1.csv"}}},
+            {"display", {{"eye_width", 32}, {"eye_height", 32}}}};
+}
+
 }  // namespace
 
 TEST(DaemonNotify, ReadyAfterTheFirstFrameThenTheWatchdogWhileFramesAreShown) {
     const fs::path dir = hmdnode::test::fresh_temp_dir("hmdnode_daemon_notify_ready");
     NotifySocket sock(dir / "notify");
     ASSERT_TRUE(sock.bound());
-    // The real clock (the watchdog is paced by wall time): 90 frames at 90 Hz, about a second.
-    const nlohmann::json cfg = {
-        {"scene", HMDNODE_DEMO_SCENE},
-        {"clock", "real"},
-        {"tracker",
-         {{"backend", "sim-trace"},
-          {"trace", HMDNODE_SOURCE_DIR "/data/traces/corbillon2018_user1.csv"}}},
-        {"display", {{"eye_width", 32}, {"eye_height", 32}}},
-        {"status", {{"every_s", 0.25}}}};
+    // 90 frames at 90 Hz: about a second.
+    nlohmann::json cfg = trace_config();
+    cfg["status"] = {{"every_s", 0.25}};
     std::ofstream(dir / "hmdnoded.json") << cfg.dump(1);
     const pid_t pid = spawn_daemon(dir / "hmdnoded.json", dir / "notify", "90", dir / "log");
     ASSERT_GT(pid, 0);
     std::vector<std::string> messages;
-    for (std::string m; !(m = sock.receive(30000)).empty();) {
-        messages.push_back(m);
-        if (m == "STOPPING=1") break;
-    }
+    sock.receive_until_stopping(&messages);
     const int code = wait_exit(pid);
     const std::string log = read_text(dir / "log");
     ASSERT_EQ(code, 0) << log;
@@ -169,10 +177,7 @@ TEST(DaemonNotify, NoReadinessAndNoWatchdogWithoutFrames) {
     while (std::chrono::steady_clock::now() < until)
         if (std::string m = sock.receive(50); !m.empty()) messages.push_back(m);
     ::kill(pid, SIGTERM);
-    for (std::string m; !(m = sock.receive(10000)).empty();) {
-        messages.push_back(m);
-        if (m == "STOPPING=1") break;
-    }
+    sock.receive_until_stopping(&messages);
     const int code = wait_exit(pid);
     const std::string log = read_text(dir / "log");
     EXPECT_EQ(code, 0) << log;
@@ -194,14 +199,8 @@ TEST(DaemonNotify, RealtimePriorityIsTheFrameLoopThreadsAlone) {
     const fs::path dir = hmdnode::test::fresh_temp_dir("hmdnode_daemon_notify_rt");
     NotifySocket sock(dir / "notify");
     ASSERT_TRUE(sock.bound());
-    const nlohmann::json cfg = {
-        {"scene", HMDNODE_DEMO_SCENE},
-        {"clock", "real"},
-        {"realtime_priority", 1},
-        {"tracker",
-         {{"backend", "sim-trace"},
-          {"trace", HMDNODE_SOURCE_DIR "/data/traces/corbillon2018_user1.csv"}}},
-        {"display", {{"eye_width", 32}, {"eye_height", 32}}}};
+    nlohmann::json cfg = trace_config();
+    cfg["realtime_priority"] = 1;
     std::ofstream(dir / "hmdnoded.json") << cfg.dump(1);
     const pid_t pid = spawn_daemon(dir / "hmdnoded.json", dir / "notify", "", dir / "log");
     ASSERT_GT(pid, 0);
