@@ -33,24 +33,40 @@ namespace {
 namespace fs = std::filesystem;
 
 // A bound AF_UNIX datagram socket at `path`, as systemd's notify socket.
+// A unix socket of `type` at `path`: bound (`bind`) or connected to it.
+int unix_socket(int type, const fs::path& path, bool bind, bool* ok) {
+    const int fd = ::socket(AF_UNIX, type | SOCK_CLOEXEC, 0);
+    sockaddr_un a{};
+    a.sun_family = AF_UNIX;
+    std::strncpy(a.sun_path, path.c_str(), sizeof a.sun_path - 1);
+    const sockaddr* sa = reinterpret_cast<sockaddr*>(&a);
+    *ok = (bind ? ::bind(fd, sa, sizeof a) : ::connect(fd, sa, sizeof a)) == 0;
+    return fd;
+}
+
+// What arrives on `fd` within timeout_ms ("" when nothing, or closed).
+std::string receive_from(int fd, int timeout_ms) {
+    pollfd p{fd, POLLIN, 0};
+    if (::poll(&p, 1, timeout_ms) <= 0) return {};
+    char buf[4096];
+    const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+    return n > 0 ? std::string(buf, size_t(n)) : std::string();
+}
+
 class NotifySocket {
   public:
-    explicit NotifySocket(const fs::path& path) : path_(path) {
-        fd_ = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-        sockaddr_un a{};
-        a.sun_family = AF_UNIX;
-        std::strncpy(a.sun_path, path.c_str(), sizeof a.sun_path - 1);
-        bound_ = ::bind(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
+    explicit NotifySocket(const fs::path& path) {
+        fd_ = unix_socket(SOCK_DGRAM, path, true, &bound_);
     }
     ~NotifySocket() { ::close(fd_); }
     bool bound() const { return bound_; }
     // The next datagram within timeout_ms, or empty.
-    std::string receive(int timeout_ms) {
-        pollfd p{fd_, POLLIN, 0};
-        if (::poll(&p, 1, timeout_ms) <= 0) return {};
-        char buf[4096];
-        const ssize_t n = ::recv(fd_, buf, sizeof buf, 0);
-        return n > 0 ? std::string(buf, size_t(n)) : std::string();
+    std::string receive(int timeout_ms) { return receive_from(fd_, timeout_ms); }
+    // The READY=1 datagram (empty after 30 s of silence: the daemon died).
+    std::string wait_ready() {
+        for (std::string m; !(m = receive(30000)).empty();)
+            if (m.rfind("READY=1", 0) == 0) return m;
+        return {};
     }
     // Appends every datagram up to STOPPING=1 (or 30 s of silence: the daemon died).
     void receive_until_stopping(std::vector<std::string>* messages) {
@@ -61,7 +77,6 @@ class NotifySocket {
     }
 
   private:
-    fs::path path_;
     int fd_ = -1;
     bool bound_ = false;
 };
@@ -116,6 +131,13 @@ nlohmann::json trace_config() {
             {"display", {{"eye_width", 32}, {"eye_height", 32}}}};
 }
 
+// Writes `cfg` to dir/hmdnoded.json and starts the daemon on it (notify socket dir/notify, output
+// to dir/log).
+pid_t start_daemon(const fs::path& dir, const nlohmann::json& cfg, const std::string& max_frames) {
+    std::ofstream(dir / "hmdnoded.json") << cfg.dump(1);
+    return spawn_daemon(dir / "hmdnoded.json", dir / "notify", max_frames, dir / "log");
+}
+
 }  // namespace
 
 TEST(DaemonNotify, ReadyAfterTheFirstFrameThenTheWatchdogWhileFramesAreShown) {
@@ -125,8 +147,7 @@ TEST(DaemonNotify, ReadyAfterTheFirstFrameThenTheWatchdogWhileFramesAreShown) {
     // 90 frames at 90 Hz: about a second.
     nlohmann::json cfg = trace_config();
     cfg["status"] = {{"every_s", 0.25}};
-    std::ofstream(dir / "hmdnoded.json") << cfg.dump(1);
-    const pid_t pid = spawn_daemon(dir / "hmdnoded.json", dir / "notify", "90", dir / "log");
+    const pid_t pid = start_daemon(dir, cfg, "90");
     ASSERT_GT(pid, 0);
     std::vector<std::string> messages;
     sock.receive_until_stopping(&messages);
@@ -163,8 +184,7 @@ TEST(DaemonNotify, NoReadinessAndNoWatchdogWithoutFrames) {
                                 {"tracker", {{"backend", "hidapi"}, {"device", "1209:fff7"}}},
                                 {"display", {{"eye_width", 32}, {"eye_height", 32}}},
                                 {"status", {{"every_s", 0.25}}}};
-    std::ofstream(dir / "hmdnoded.json") << cfg.dump(1);
-    const pid_t pid = spawn_daemon(dir / "hmdnoded.json", dir / "notify", "", dir / "log");
+    const pid_t pid = start_daemon(dir, cfg, "");
     ASSERT_GT(pid, 0);
     std::vector<std::string> messages;
     // The first EXTEND_TIMEOUT_USEC, then half a second more (ten watchdog periods) of waiting.
@@ -201,12 +221,9 @@ TEST(DaemonNotify, RealtimePriorityIsTheFrameLoopThreadsAlone) {
     ASSERT_TRUE(sock.bound());
     nlohmann::json cfg = trace_config();
     cfg["realtime_priority"] = 1;
-    std::ofstream(dir / "hmdnoded.json") << cfg.dump(1);
-    const pid_t pid = spawn_daemon(dir / "hmdnoded.json", dir / "notify", "", dir / "log");
+    const pid_t pid = start_daemon(dir, cfg, "");
     ASSERT_GT(pid, 0);
-    std::string ready;
-    for (std::string m; ready.empty() && !(m = sock.receive(30000)).empty();)
-        if (starts_with(m, "READY=1")) ready = m;
+    const std::string ready = sock.wait_ready();
     // The threads while the loop runs: (tid, name, policy).
     struct Thread {
         pid_t tid;
@@ -235,4 +252,108 @@ TEST(DaemonNotify, RealtimePriorityIsTheFrameLoopThreadsAlone) {
         }
     }
     EXPECT_GE(threads.size(), 2u);  // lavapipe: llvmpipe-0, llvmpipe-1, ... beside the loop
+}
+
+namespace {
+
+// A raw client of the control socket: send bytes, read one reply line ("" when closed).
+class RawClient {
+  public:
+    explicit RawClient(const fs::path& path) {
+        fd_ = unix_socket(SOCK_STREAM, path, false, &connected_);
+    }
+    ~RawClient() { ::close(fd_); }
+    bool connected() const { return connected_; }
+    void send(const std::string& bytes) {
+        (void)::send(fd_, bytes.data(), bytes.size(), MSG_NOSIGNAL);
+    }
+    std::string reply_line() {
+        std::string in;
+        while (in.find('\n') == std::string::npos) {
+            const std::string more = receive_from(fd_, 10000);
+            if (more.empty()) return in;
+            in += more;
+        }
+        return in.substr(0, in.find('\n'));
+    }
+
+  private:
+    int fd_ = -1;
+    bool connected_ = false;
+};
+
+hmdnode::test::CommandRun ctl(const fs::path& sock, const std::string& args) {
+    return hmdnode::test::run(std::string(HMDNODE_TOOL) + " ctl --socket " + sock.string() + " " +
+                              args);
+}
+
+nlohmann::json ctl_json(const fs::path& sock, const std::string& args) {
+    const hmdnode::test::CommandRun r = ctl(sock, args);
+    EXPECT_EQ(r.code, 0) << args << ": " << r.output;
+    return nlohmann::json::parse(r.output, nullptr, false);
+}
+
+}  // namespace
+
+// The control socket: status, metrics, set, pause/resume through `hmdnode ctl`; a malformed
+// command gets an error reply, an oversized one an error reply and the connection closed, and
+// neither disturbs the frame loop, which goes on presenting frames.
+TEST(DaemonControl, CommandsAnswerAndBadOnesDoNotDisturbTheLoop) {
+    const fs::path dir = hmdnode::test::fresh_temp_dir("hmdnode_daemon_control");
+    NotifySocket notify(dir / "notify");
+    ASSERT_TRUE(notify.bound());
+    nlohmann::json cfg = trace_config();
+    cfg["control"] = {{"path", (dir / "control").string()}};
+    const pid_t pid = start_daemon(dir, cfg, "");
+    ASSERT_GT(pid, 0);
+    const std::string ready = notify.wait_ready();
+    ASSERT_FALSE(ready.empty()) << read_text(dir / "log");
+    const fs::path sock = dir / "control";
+    EXPECT_EQ(fs::status(sock).permissions() & fs::perms::all,
+              fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read |
+                  fs::perms::group_write);
+
+    nlohmann::json st = ctl_json(sock, "status");
+    EXPECT_TRUE(st["ready"].get<bool>()) << st;
+    EXPECT_GE(st["frames"].get<int>(), 1) << st;
+    const hmdnode::test::CommandRun m = ctl(sock, "metrics");
+    EXPECT_EQ(m.code, 0) << m.output;
+    for (const char* part :
+         {"# TYPE hmdnode_frames_total counter\nhmdnode_frames_total ",
+          "hmdnode_missed_vsyncs_total ", "hmdnode_motion_to_photon_seconds_bucket{le=\"+Inf\"} ",
+          "hmdnode_render_seconds_count ", "hmdnode_triangles "})
+        EXPECT_NE(m.output.find(part), std::string::npos) << part << "\n" << m.output;
+
+    // Bad commands: replies, and the loop goes on.
+    RawClient bad(sock);
+    ASSERT_TRUE(bad.connected());
+    bad.send("{not json\n");
+    EXPECT_NE(bad.reply_line().find("\"ok\":false"), std::string::npos);
+    bad.send("{\"cmd\":\"no-such\"}\n");
+    EXPECT_NE(bad.reply_line().find("unknown command"), std::string::npos);
+    bad.send(std::string(10000, 'x'));
+    EXPECT_NE(bad.reply_line().find("longer than 4096 bytes"), std::string::npos);
+    EXPECT_EQ(bad.reply_line(), "") << "the connection is closed";
+    const int before = ctl_json(sock, "status")["frames"].get<int>();
+    int after = before;
+    for (int i = 0; i < 200 && after <= before; ++i)
+        after = ctl_json(sock, "status")["frames"].get<int>();
+    EXPECT_GT(after, before) << "the frame loop stopped";
+
+    // Settings and pause.
+    EXPECT_EQ(ctl(sock, "set predict false").code, 0);
+    EXPECT_FALSE(ctl_json(sock, "status")["predict"].get<bool>());
+    EXPECT_EQ(ctl(sock, "set lod_tolerance_px -1").code, 1);
+    EXPECT_EQ(ctl(sock, "pause").code, 0);
+    EXPECT_TRUE(ctl_json(sock, "status")["paused"].get<bool>());
+    EXPECT_EQ(ctl(sock, "resume").code, 0);
+    EXPECT_FALSE(ctl_json(sock, "status")["paused"].get<bool>());
+
+    ::kill(pid, SIGTERM);
+    EXPECT_EQ(wait_exit(pid), 0) << read_text(dir / "log");
+    EXPECT_FALSE(fs::exists(sock)) << "the socket is removed on exit";
+    // No daemon: an error naming the socket, exit 1.
+    const hmdnode::test::CommandRun gone = ctl(sock, "status");
+    EXPECT_EQ(gone.code, 1);
+    EXPECT_NE(gone.output.find(sock.string()), std::string::npos) << gone.output;
 }

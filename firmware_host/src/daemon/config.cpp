@@ -1,5 +1,7 @@
 #include "daemon/config.hpp"
 
+#include <cstdlib>
+#include <cstring>
 #include <set>
 
 #include <nlohmann/json.hpp>
@@ -67,7 +69,7 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
 
     if (!r.check_keys(j, "",
                       {"scene", "clock", "max_frames", "tracker", "display", "node", "status",
-                       "realtime_priority"}))
+                       "realtime_priority", "control"}))
         return make_error(r.error);
     std::string scene, clock = "real";
     r.get(j, "scene", &scene);
@@ -185,6 +187,14 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         r.get(s, "every_s", &c.status_every_s);
         if (!sp.empty()) c.status_path = resolve(sp);
         if (!(c.status_every_s > 0.0)) r.fail("status.every_s must be > 0");
+    }
+    if (const char* rd = std::getenv("RUNTIME_DIRECTORY"); rd && *rd && !std::strchr(rd, ':'))
+        c.control_path = std::filesystem::path(rd) / "control";
+    json ctl = j.value("control", json::object());
+    if (r.check_keys(ctl, "control", {"path"}) && ctl.contains("path")) {
+        std::string cp;
+        r.get(ctl, "path", &cp);
+        c.control_path = cp.empty() ? std::filesystem::path() : resolve(cp);
     }
     if (!r.error.empty()) return make_error(r.error);
     return c;

@@ -32,6 +32,9 @@ struct DaemonConfig {
     // creates later start with the default policy (SCHED_RESET_ON_FORK); the renderer's worker
     // threads are created before it is raised.
     int realtime_priority = 0;
+    // The control socket (docs/daemon.md): "control": {"path": ...}; absent: $RUNTIME_DIRECTORY/
+    // control when systemd gives a runtime directory, else none; "" : none.
+    std::filesystem::path control_path;
 };
 
 // Relative paths in the file are relative to the file's directory.

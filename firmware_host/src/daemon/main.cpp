@@ -18,6 +18,7 @@
 #include <cstdio>
 #include <cstring>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -26,10 +27,12 @@
 #include <nlohmann/json.hpp>
 
 #include "daemon/config.hpp"
+#include "daemon/metrics.hpp"
 #include "daemon/sd_notify.hpp"
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/gltf.hpp"
 #include "hmdnode/core/trace.hpp"
+#include "hmdnode/firmware_host/control_socket.hpp"
 #include "hmdnode/firmware_host/node.hpp"
 #include "hmdnode/firmware_host/replay.hpp"
 #include "hmdnode/hal/sim/sim_reference_device.hpp"
@@ -201,7 +204,77 @@ int main(int argc, char** argv) {
     for (std::vector<double>* v : {&lat, &render_ms, &warp_ms})
         v->reserve(size_t(cfg->status_every_s * dc.refresh_hz * 2.0) + 16);
     FrameRecord rec;
+
+    // The control socket, served between frames (docs/daemon.md, "Control socket").
+    DaemonMetrics metrics;
+    metrics.last_levels.reserve(node.objects().size());
+    nlohmann::json last_window;  // the last status window, as the status file has it
+    bool paused = false;
+    std::unique_ptr<ControlServer> control;
+    if (!cfg->control_path.empty()) {
+        auto handler = [&](const nlohmann::json& c) -> nlohmann::json {
+            const std::string cmd = c["cmd"].get<std::string>();
+            if (cmd == "status")
+                return {{"ok", true},
+                        {"frames", frames},
+                        {"errors", errors},
+                        {"ready", ready},
+                        {"paused", paused},
+                        {"has_pose", node.has_pose()},
+                        {"predict", node.config().predict},
+                        {"lod_tolerance_px", node.config().lod.tolerance_px},
+                        {"window", last_window}};
+            if (cmd == "metrics") {
+                std::optional<DeviceTrackerStatus> ts;
+                if (device_tracker) ts = device_tracker->status();
+                return {{"ok", true}, {"metrics", metrics.prometheus(ts ? &*ts : nullptr)}};
+            }
+            if (cmd == "pause" || cmd == "resume") {
+                paused = cmd == "pause";
+                spdlog::info("control: {}", cmd);
+                return {{"ok", true}, {"paused", paused}};
+            }
+            if (cmd == "set") {
+                const std::string key = c.value("key", "");
+                const nlohmann::json v = c.value("value", nlohmann::json());
+                if (key == "predict" && v.is_boolean()) {
+                    node.set_predict(v.get<bool>());
+                } else if (key == "lod_tolerance_px" && v.is_number()) {
+                    if (Status st = node.set_lod_tolerance_px(v.get<double>()); !st.ok())
+                        return {{"ok", false}, {"error", st.error().message}};
+                } else {
+                    return {{"ok", false},
+                            {"error",
+                             "set: give \"key\": \"predict\" with a boolean value, or "
+                             "\"lod_tolerance_px\" with a number >= 0"}};
+                }
+                spdlog::info("control: set {} {}", key, v.dump());
+                return {{"ok", true}, {"key", key}, {"value", v}};
+            }
+            return {
+                {"ok", false},
+                {"error", "unknown command \"" + cmd + "\" (status, metrics, pause, resume, set)"}};
+        };
+        Result<std::unique_ptr<ControlServer>> cs = ControlServer::open(cfg->control_path, handler);
+        if (!cs.ok()) {
+            spdlog::error("{}", cs.error().message);
+            return 2;
+        }
+        control = std::move(*cs);
+        spdlog::info("control socket: {}", cfg->control_path.string());
+    }
+
     while (!g_stop && (cfg->max_frames <= 0 || int64_t(frames) < cfg->max_frames)) {
+        if (control) control->serve();
+        if (paused) {
+            // Paused on purpose: the loop is alive, so the watchdog is petted; no frame is made.
+            clock->sleep_until_ns(clock->now_ns() + (*display)->info().period_ns);
+            if (ready && pet_every.count() > 0 && WallClock::now() >= next_pet) {
+                notifier.notify("WATCHDOG=1");
+                next_pet = WallClock::now() + pet_every;
+            }
+            continue;
+        }
         if (node.tracker_finished()) {
             if (!cfg->loop) {
                 spdlog::info("trace finished");
@@ -219,12 +292,14 @@ int main(int argc, char** argv) {
         if (!fr.ok()) {
             // A failure of the world: log it, count it, keep running.
             ++errors;
+            ++metrics.errors;
             spdlog::warn("frame {} failed: {}", frames, fr.error().message);
             clock->sleep_until_ns(clock->now_ns() + (*display)->info().period_ns);
             continue;
         }
         if (*fr == FrameOutcome::no_pose_yet) {
             ++no_pose_frames;
+            ++metrics.no_pose_frames;
             if (clock->now_ns() >= next_wait_log) {
                 std::string last_error;
                 if (device_tracker) last_error = device_tracker->status().last_error;
@@ -243,6 +318,7 @@ int main(int argc, char** argv) {
             }
         } else {
             ++frames;
+            metrics.add_frame(rec, frames == 1);
             if (!ready) {
                 ready = true;
                 notifier.notify("READY=1\nSTATUS=running: first frame presented");
@@ -295,6 +371,7 @@ int main(int argc, char** argv) {
                 if (!ts.connected && node.has_pose())  // before: the waiting line says it
                     spdlog::warn("tracker disconnected ({}); holding the last pose", ts.last_error);
             }
+            last_window = s;
             if (!cfg->status_path.empty())
                 if (Status ws = write_file_atomically(cfg->status_path, s.dump(1)); !ws.ok())
                     spdlog::warn("{}", ws.error().message);

@@ -22,6 +22,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 
 namespace hmdnode {
 namespace {
@@ -208,6 +209,14 @@ uint64_t NodeRuntime::select_and_sort(const Pose& head, FrameRecord* rec) {
         draw_triangles_.push_back(l.triangles);
     }
     return triangles;
+}
+
+Status NodeRuntime::set_lod_tolerance_px(double tolerance_px) {
+    if (!(tolerance_px >= 0.0) || !std::isfinite(tolerance_px))
+        return make_error("LOD tolerance must be a finite number >= 0 (pixels)");
+    config_.lod.tolerance_px = tolerance_px;
+    selector_ = LodSelector(objects_.size(), config_.lod);
+    return {};
 }
 
 Result<FrameCostModel> NodeRuntime::calibrate_frame_cost() {

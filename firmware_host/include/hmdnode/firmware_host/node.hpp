@@ -170,6 +170,10 @@ class NodeRuntime {
     // paced on a guess. Blocks for about 40 frames.
     Result<FrameCostModel> calibrate_frame_cost();
     void set_sim_cost(const FrameCostModel& model) { config_.sim_cost = model; }
+    // Run-time settings (the daemon's control socket), between frames: prediction on or off; the
+    // LOD pixel tolerance at the gaze point (>= 0; the selector starts anew, its hysteresis too).
+    void set_predict(bool predict) { config_.predict = predict; }
+    Status set_lod_tolerance_px(double tolerance_px);
     void stop();
 
     // Runs one present: waits for its wake-up time, then renders a new frame (or re-warps the
