@@ -331,6 +331,8 @@ TEST(DaemonControl, CommandsAnswerAndBadOnesDoNotDisturbTheLoop) {
     EXPECT_NE(bad.reply_line().find("\"ok\":false"), std::string::npos);
     bad.send("{\"cmd\":\"no-such\"}\n");
     EXPECT_NE(bad.reply_line().find("unknown command"), std::string::npos);
+    bad.send("{\"cmd\":\"set\",\"key\":5,\"value\":[]}\n");  // fields of the wrong type
+    EXPECT_NE(bad.reply_line().find("\"ok\":false"), std::string::npos);
     bad.send(std::string(10000, 'x'));
     EXPECT_NE(bad.reply_line().find("longer than 4096 bytes"), std::string::npos);
     EXPECT_EQ(bad.reply_line(), "") << "the connection is closed";

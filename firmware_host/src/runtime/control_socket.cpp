@@ -9,6 +9,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <exception>
 
 namespace hmdnode {
 namespace {
@@ -95,7 +96,11 @@ void ControlServer::serve() {
                 reply(c, {{"ok", false},
                           {"error", "not a command: give one JSON object with \"cmd\" a line"}});
             else
-                reply(c, handler_(cmd));
+                try {
+                    reply(c, handler_(cmd));
+                } catch (const std::exception& e) {  // a field of the wrong type, say
+                    reply(c, {{"ok", false}, {"error", std::string("bad command: ") + e.what()}});
+                }
         }
         if (!close_it && c.in.size() > kMaxLine) {
             reply(c, {{"ok", false}, {"error", "command longer than 4096 bytes"}});
