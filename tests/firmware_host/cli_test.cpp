@@ -159,6 +159,9 @@ TEST(Daemon, RunsTheFrameLoopFromAConfigFileAndWritesStatus) {
     nlohmann::json s = nlohmann::json::parse(in);
     EXPECT_GE(s["frames"].get<int>(), 45);
     EXPECT_EQ(s["errors"].get<int>(), 0);
+    EXPECT_GT(s["time_unix_s"].get<double>(), 1.7e9);  // written after 2023
+    EXPECT_GT(s["triangles"].get<int>(), 0);
+    EXPECT_GE(s["lod_switches"].get<int>(), 0);
     EXPECT_NE(r.output.find("stopped after 120 frames"), std::string::npos) << r.output;
 }
 

@@ -339,6 +339,9 @@ int main(int argc, char** argv) {
             // A window without frames (no pose yet) has no rate or latencies: null.
             Percentiles p = percentiles(lat);
             nlohmann::json s = {
+                {"time_unix_s",
+                 std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
+                     .count()},
                 {"frames", frames},
                 {"errors", errors},
                 {"has_pose", node.has_pose()},
@@ -353,7 +356,9 @@ int main(int argc, char** argv) {
                                : nlohmann::json()},
                 {"latency_ms", percentiles_json(p)},
                 {"render_ms", percentiles_json(percentiles(render_ms))},
-                {"warp_ms", percentiles_json(percentiles(warp_ms))}};
+                {"warp_ms", percentiles_json(percentiles(warp_ms))},
+                {"triangles", metrics.triangles},
+                {"lod_switches", metrics.lod_switches}};
             if (device_tracker) {
                 // Recovery figures: a replug shows as a disconnect and the gap it left.
                 const DeviceTrackerStatus ts = device_tracker->status();
