@@ -359,3 +359,51 @@ TEST(DaemonControl, CommandsAnswerAndBadOnesDoNotDisturbTheLoop) {
     EXPECT_EQ(gone.code, 1);
     EXPECT_NE(gone.output.find(sock.string()), std::string::npos) << gone.output;
 }
+
+// SIGHUP at a frame boundary: a good new config's prediction and LOD tolerance apply without
+// stopping the loop (RELOADING=1, then READY=1); a bad one is logged and the running config kept.
+TEST(DaemonControl, HangupReloadsTheConfigAndABadOneKeepsTheRunningOne) {
+    const fs::path dir = hmdnode::test::fresh_temp_dir("hmdnode_daemon_reload");
+    NotifySocket notify(dir / "notify");
+    ASSERT_TRUE(notify.bound());
+    nlohmann::json cfg = trace_config();
+    cfg["control"] = {{"path", (dir / "control").string()}};
+    const pid_t pid = start_daemon(dir, cfg, "");
+    ASSERT_GT(pid, 0);
+    ASSERT_FALSE(notify.wait_ready().empty()) << read_text(dir / "log");
+    const fs::path sock = dir / "control";
+
+    cfg["node"] = {{"predict", false}, {"lod_tolerance_px", 3.0}};
+    cfg["scene"] = HMDNODE_SOURCE_DIR "/no-such-scene.glb";  // needs a restart: named, not loaded
+    std::ofstream(dir / "hmdnoded.json") << cfg.dump(1);
+    ::kill(pid, SIGHUP);
+    std::string m;
+    while (!(m = notify.receive(30000)).empty() && m != "RELOADING=1") {
+    }
+    EXPECT_EQ(m, "RELOADING=1");
+    EXPECT_EQ(notify.wait_ready(), "READY=1");
+    nlohmann::json st = ctl_json(sock, "status");
+    EXPECT_FALSE(st["predict"].get<bool>()) << st;
+    EXPECT_DOUBLE_EQ(st["lod_tolerance_px"].get<double>(), 3.0) << st;
+    EXPECT_NE(read_text(dir / "log").find("needs a restart to change: scene"), std::string::npos)
+        << read_text(dir / "log");
+
+    std::ofstream(dir / "hmdnoded.json") << R"({"scene": "x.glb", "nonsense": 1})";
+    ::kill(pid, SIGHUP);
+    while (!(m = notify.receive(30000)).empty() && m != "RELOADING=1") {
+    }
+    EXPECT_EQ(notify.wait_ready(), "READY=1");
+    st = ctl_json(sock, "status");
+    EXPECT_DOUBLE_EQ(st["lod_tolerance_px"].get<double>(), 3.0) << "the running config is kept";
+    const int before = st["frames"].get<int>();
+    int after = before;
+    for (int i = 0; i < 200 && after <= before; ++i)
+        after = ctl_json(sock, "status")["frames"].get<int>();
+    EXPECT_GT(after, before) << "the frame loop stopped";
+    ::kill(pid, SIGTERM);
+    EXPECT_EQ(wait_exit(pid), 0);
+    const std::string log = read_text(dir / "log");
+    EXPECT_NE(log.find("reload: "), std::string::npos);
+    EXPECT_NE(log.find("unknown key \"nonsense\"; keeping the running config"), std::string::npos)
+        << log;
+}

@@ -9,7 +9,8 @@
 // frames were presented since the last one (a loop stuck in the renderer, or every frame failing,
 // stops it and systemd restarts the service); STATUS= with the window's figures; while waiting for
 // a tracker before the first frame, EXTEND_TIMEOUT_USEC= keeps the start from timing out as long
-// as the loop keeps its pace.
+// as the loop keeps its pace. SIGHUP reloads the config at a frame boundary (RELOADING=1); the
+// control socket, when configured, is served between frames.
 #include <sched.h>
 
 #include <cerrno>
@@ -41,8 +42,12 @@
 
 namespace {
 volatile std::sig_atomic_t g_stop = 0;
+volatile std::sig_atomic_t g_reload = 0;
 void on_signal(int) {
     g_stop = 1;
+}
+void on_hangup(int) {
+    g_reload = 1;
 }
 }  // namespace
 
@@ -68,6 +73,7 @@ int main(int argc, char** argv) {
     if (max_frames > 0) cfg->max_frames = max_frames;
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
+    std::signal(SIGHUP, on_hangup);
 
     Result<Scene> scene = load_gltf(cfg->scene);
     if (!scene.ok()) {
@@ -266,6 +272,43 @@ int main(int argc, char** argv) {
 
     while (!g_stop && (cfg->max_frames <= 0 || int64_t(frames) < cfg->max_frames)) {
         if (control) control->serve();
+        if (g_reload) {
+            // SIGHUP, at a frame boundary: the new config is read and checked whole; a bad one
+            // keeps the running config. What can change without a restart is applied.
+            g_reload = 0;
+            notifier.notify("RELOADING=1");
+            Result<DaemonConfig> next = load_daemon_config(config_path);
+            if (!next.ok()) {
+                spdlog::error("reload: {}; keeping the running config", next.error().message);
+            } else {
+                node.set_predict(next->node.predict);
+                (void)node.set_lod_tolerance_px(next->node.lod.tolerance_px);  // checked: >= 0
+                cfg->status_path = next->status_path;
+                cfg->status_every_s = next->status_every_s;
+                std::string restart;
+                auto needs_restart = [&restart](const char* what) {
+                    restart += (restart.empty() ? "" : ", ") + std::string(what);
+                };
+                if (next->scene != cfg->scene) needs_restart("scene");
+                if (next->simulated_clock != cfg->simulated_clock) needs_restart("clock");
+                if (next->tracker_backend != cfg->tracker_backend || next->trace != cfg->trace ||
+                    !(next->tracker_device.vendor_id == cfg->tracker_device.vendor_id &&
+                      next->tracker_device.product_id == cfg->tracker_device.product_id &&
+                      next->tracker_device.serial == cfg->tracker_device.serial))
+                    needs_restart("tracker");
+                if (next->display.eye_width != cfg->display.eye_width ||
+                    next->display.eye_height != cfg->display.eye_height ||
+                    next->display.refresh_hz != cfg->display.refresh_hz)
+                    needs_restart("display");
+                if (next->node.warp != cfg->node.warp ||
+                    next->node.distortion != cfg->node.distortion)
+                    needs_restart("node.warp/distortion");
+                if (next->control_path != cfg->control_path) needs_restart("control");
+                spdlog::info("reload: applied predict, lod_tolerance_px, status{}{}",
+                             restart.empty() ? "" : "; needs a restart to change: ", restart);
+            }
+            notifier.notify(ready ? "READY=1" : "STATUS=reloaded, waiting for the first frame");
+        }
         if (paused) {
             // Paused on purpose: the loop is alive, so the watchdog is petted; no frame is made.
             clock->sleep_until_ns(clock->now_ns() + (*display)->info().period_ns);
