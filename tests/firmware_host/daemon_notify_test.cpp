@@ -20,6 +20,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -293,22 +294,53 @@ nlohmann::json ctl_json(const fs::path& sock, const std::string& args) {
     return nlohmann::json::parse(r.output, nullptr, false);
 }
 
+// A daemon on trace_config() with a control socket (dir/control), started and ready; SIGTERM at
+// the end unless the test stopped it.
+class DaemonControl : public ::testing::Test {
+  protected:
+    void SetUp() override {
+        dir = hmdnode::test::fresh_temp_dir(
+            std::string("hmdnode_daemon_control_") +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+        notify = std::make_unique<NotifySocket>(dir / "notify");
+        ASSERT_TRUE(notify->bound());
+        sock = dir / "control";
+        cfg = trace_config();
+        cfg["control"] = {{"path", sock.string()}};
+        pid = start_daemon(dir, cfg, "");
+        ASSERT_GT(pid, 0);
+        ASSERT_FALSE(notify->wait_ready().empty()) << read_text(dir / "log");
+    }
+    void TearDown() override {
+        if (pid > 0) stop();
+    }
+    int stop() {
+        ::kill(pid, SIGTERM);
+        const int code = wait_exit(pid);
+        pid = -1;
+        return code;
+    }
+    // The loop presents frames: the status's count grows.
+    void expect_frames_progress() {
+        const int before = ctl_json(sock, "status")["frames"].get<int>();
+        int after = before;
+        for (int i = 0; i < 200 && after <= before; ++i)
+            after = ctl_json(sock, "status")["frames"].get<int>();
+        EXPECT_GT(after, before) << "the frame loop stopped";
+    }
+
+    fs::path dir, sock;
+    std::unique_ptr<NotifySocket> notify;
+    nlohmann::json cfg;
+    pid_t pid = -1;
+};
+
 }  // namespace
 
 // The control socket: status, metrics, set, pause/resume through `hmdnode ctl`; a malformed
 // command gets an error reply, an oversized one an error reply and the connection closed, and
 // neither disturbs the frame loop, which goes on presenting frames.
-TEST(DaemonControl, CommandsAnswerAndBadOnesDoNotDisturbTheLoop) {
-    const fs::path dir = hmdnode::test::fresh_temp_dir("hmdnode_daemon_control");
-    NotifySocket notify(dir / "notify");
-    ASSERT_TRUE(notify.bound());
-    nlohmann::json cfg = trace_config();
-    cfg["control"] = {{"path", (dir / "control").string()}};
-    const pid_t pid = start_daemon(dir, cfg, "");
-    ASSERT_GT(pid, 0);
-    const std::string ready = notify.wait_ready();
-    ASSERT_FALSE(ready.empty()) << read_text(dir / "log");
-    const fs::path sock = dir / "control";
+TEST_F(DaemonControl, CommandsAnswerAndBadOnesDoNotDisturbTheLoop) {
     EXPECT_EQ(fs::status(sock).permissions() & fs::perms::all,
               fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read |
                   fs::perms::group_write);
@@ -336,11 +368,7 @@ TEST(DaemonControl, CommandsAnswerAndBadOnesDoNotDisturbTheLoop) {
     bad.send(std::string(10000, 'x'));
     EXPECT_NE(bad.reply_line().find("longer than 4096 bytes"), std::string::npos);
     EXPECT_EQ(bad.reply_line(), "") << "the connection is closed";
-    const int before = ctl_json(sock, "status")["frames"].get<int>();
-    int after = before;
-    for (int i = 0; i < 200 && after <= before; ++i)
-        after = ctl_json(sock, "status")["frames"].get<int>();
-    EXPECT_GT(after, before) << "the frame loop stopped";
+    expect_frames_progress();
 
     // Settings and pause.
     EXPECT_EQ(ctl(sock, "set predict false").code, 0);
@@ -351,8 +379,7 @@ TEST(DaemonControl, CommandsAnswerAndBadOnesDoNotDisturbTheLoop) {
     EXPECT_EQ(ctl(sock, "resume").code, 0);
     EXPECT_FALSE(ctl_json(sock, "status")["paused"].get<bool>());
 
-    ::kill(pid, SIGTERM);
-    EXPECT_EQ(wait_exit(pid), 0) << read_text(dir / "log");
+    EXPECT_EQ(stop(), 0) << read_text(dir / "log");
     EXPECT_FALSE(fs::exists(sock)) << "the socket is removed on exit";
     // No daemon: an error naming the socket, exit 1.
     const hmdnode::test::CommandRun gone = ctl(sock, "status");
@@ -362,26 +389,16 @@ TEST(DaemonControl, CommandsAnswerAndBadOnesDoNotDisturbTheLoop) {
 
 // SIGHUP at a frame boundary: a good new config's prediction and LOD tolerance apply without
 // stopping the loop (RELOADING=1, then READY=1); a bad one is logged and the running config kept.
-TEST(DaemonControl, HangupReloadsTheConfigAndABadOneKeepsTheRunningOne) {
-    const fs::path dir = hmdnode::test::fresh_temp_dir("hmdnode_daemon_reload");
-    NotifySocket notify(dir / "notify");
-    ASSERT_TRUE(notify.bound());
-    nlohmann::json cfg = trace_config();
-    cfg["control"] = {{"path", (dir / "control").string()}};
-    const pid_t pid = start_daemon(dir, cfg, "");
-    ASSERT_GT(pid, 0);
-    ASSERT_FALSE(notify.wait_ready().empty()) << read_text(dir / "log");
-    const fs::path sock = dir / "control";
-
+TEST_F(DaemonControl, HangupReloadsTheConfigAndABadOneKeepsTheRunningOne) {
     cfg["node"] = {{"predict", false}, {"lod_tolerance_px", 3.0}};
     cfg["scene"] = HMDNODE_SOURCE_DIR "/no-such-scene.glb";  // needs a restart: named, not loaded
     std::ofstream(dir / "hmdnoded.json") << cfg.dump(1);
     ::kill(pid, SIGHUP);
     std::string m;
-    while (!(m = notify.receive(30000)).empty() && m != "RELOADING=1") {
+    while (!(m = notify->receive(30000)).empty() && m != "RELOADING=1") {
     }
     EXPECT_EQ(m, "RELOADING=1");
-    EXPECT_EQ(notify.wait_ready(), "READY=1");
+    EXPECT_EQ(notify->wait_ready(), "READY=1");
     nlohmann::json st = ctl_json(sock, "status");
     EXPECT_FALSE(st["predict"].get<bool>()) << st;
     EXPECT_DOUBLE_EQ(st["lod_tolerance_px"].get<double>(), 3.0) << st;
@@ -390,18 +407,13 @@ TEST(DaemonControl, HangupReloadsTheConfigAndABadOneKeepsTheRunningOne) {
 
     std::ofstream(dir / "hmdnoded.json") << R"({"scene": "x.glb", "nonsense": 1})";
     ::kill(pid, SIGHUP);
-    while (!(m = notify.receive(30000)).empty() && m != "RELOADING=1") {
+    while (!(m = notify->receive(30000)).empty() && m != "RELOADING=1") {
     }
-    EXPECT_EQ(notify.wait_ready(), "READY=1");
+    EXPECT_EQ(notify->wait_ready(), "READY=1");
     st = ctl_json(sock, "status");
     EXPECT_DOUBLE_EQ(st["lod_tolerance_px"].get<double>(), 3.0) << "the running config is kept";
-    const int before = st["frames"].get<int>();
-    int after = before;
-    for (int i = 0; i < 200 && after <= before; ++i)
-        after = ctl_json(sock, "status")["frames"].get<int>();
-    EXPECT_GT(after, before) << "the frame loop stopped";
-    ::kill(pid, SIGTERM);
-    EXPECT_EQ(wait_exit(pid), 0);
+    expect_frames_progress();
+    EXPECT_EQ(stop(), 0);
     const std::string log = read_text(dir / "log");
     EXPECT_NE(log.find("reload: "), std::string::npos);
     EXPECT_NE(log.find("unknown key \"nonsense\"; keeping the running config"), std::string::npos)
