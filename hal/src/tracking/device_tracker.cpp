@@ -161,7 +161,7 @@ class DeviceTrackerImpl final : public DeviceTracker {
                 t.orientation = d.orientation;
                 t.gyro = d.gyro;
             } else if (d.gyro && d.accel) {
-                fusion_.update(d.device_time_ns, *d.gyro, *d.accel);
+                fusion_.update(d.device_time_ns, *d.gyro, *d.accel, d.imu_flags);
                 t.has_orientation = fusion_.initialized();
                 t.orientation = fusion_.orientation();
                 t.gyro = fusion_.angular_velocity();

@@ -41,6 +41,7 @@ struct DeviceSample {
     std::optional<glm::dvec3> position;
     std::optional<glm::dvec3> gyro;   // rad/s, head frame
     std::optional<glm::dvec3> accel;  // m/s^2, head frame
+    ImuSampleFlags imu_flags;         // a gyro/accel axis at its full-scale limit
 };
 
 struct CodecCounters {
@@ -50,6 +51,8 @@ struct CodecCounters {
     uint64_t unknown = 0;    // unknown report id: skipped
     uint64_t sequence_gaps = 0;
     uint64_t missing_samples = 0;
+    uint64_t saturated_samples = 0;    // IMU samples with an axis at full scale (not trusted)
+    uint64_t stale_first_dropped = 0;  // first samples after an open whose tick was stale
 };
 
 // Report codec of one device family. Reader thread only.
