@@ -1,5 +1,5 @@
 // Device tracker: transport -> codec -> clock sync -> (fusion) -> ring, with reconnection.
-// The pipeline composes clock_sync.cpp (windowed-minimum clock tracking) and imu_fusion.cpp
+// The pipeline composes clock_sync.cpp (lower-envelope clock tracking) and imu_fusion.cpp
 // (Mahony); the ring is the Lamport SPSC queue of spsc_ring.hpp. Reconnection follows the
 // practice of public runtimes (Monado's and OpenHMD's HID drivers: on a read error close the
 // device, poll enumeration at a fixed interval, reopen).
