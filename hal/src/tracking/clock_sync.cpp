@@ -136,7 +136,8 @@ int64_t ClockSync::update(int64_t device_ns, int64_t arrival_ns) {
     } else if (diff < b.min_diff) {
         b.min_diff = diff;
         b.at_device = x;
-        refit(idx);
+        // The hull uses completed buckets only: the slope stands, the line may only go down.
+        intercept_ = std::min(intercept_, diff - slope_ * x);
     }
     const double above = diff - predicted_diff(x);
     jitter_ns_ += (above - jitter_ns_) * 0.01;
