@@ -63,6 +63,7 @@ class ViveCodec final : public ReportCodec {
         dec_ = vive::ImuDecoder(variant_, ranges_);
         held_.reset();
         confirmed_ = false;
+        empty_reports_ = 0;
     }
     size_t decode(std::span<const uint8_t> report,
                   std::span<DeviceSample, kMaxSamplesPerReport> out) override {
@@ -79,6 +80,9 @@ class ViveCodec final : public ReportCodec {
             return 0;
         }
         if (dec_.counters().reports == before.reports) return 0;  // not an IMU report
+        // A report with no new slot is a repeat (the report rate beats the sample rate); several
+        // in a row mean the held sequence number is ahead of the stream's: stale too.
+        if (n == 0 && ++empty_reports_ < 3) return 0;
         if (n > 0 && follows(*held_, s[0])) {
             confirmed_ = true;
             copy_imu_samples(std::span(&*held_, 1), out);
@@ -94,6 +98,7 @@ class ViveCodec final : public ReportCodec {
         dec_ = vive::ImuDecoder(variant_, ranges_);
         n = dec_.decode(report, s);
         held_.reset();
+        empty_reports_ = 0;
         if (n > 0) held_ = s[n - 1];
         return 0;
     }
@@ -116,6 +121,7 @@ class ViveCodec final : public ReportCodec {
     CodecCounters base_;
     std::optional<vive::ImuSample> held_;  // the first sample after an open, until confirmed
     bool confirmed_ = false;
+    int empty_reports_ = 0;  // IMU reports with no new slot since the held sample
 };
 
 class RiftCodec final : public ReportCodec {
