@@ -217,5 +217,43 @@ TEST(ViveCodec, DropsAndCountsAStaleFirstReport) {
     for (size_t i = 1; i < ah.size(); ++i) EXPECT_EQ(ah[i].sequence, ah[i - 1].sequence + 1);
 }
 
+// 28de:2300 is shared by the Index and a Vive Pro (other IMU axes, not supported): unless the
+// product string says Index, the codec warns instead of decoding silently with the wrong axes.
+TEST(ViveCodec, WarnsWhenA2300DeviceIsNotKnownToBeAnIndex) {
+    struct NamedTransport final : Transport {
+        std::string product;
+        DeviceId id() const override {
+            DeviceId d;
+            d.vendor_id = kVendorId;
+            d.product_id = kIndexProductId;
+            d.product = product;
+            return d;
+        }
+        Result<std::optional<InputReport>> read_input(int) override {
+            return std::optional<InputReport>();
+        }
+        Result<std::vector<uint8_t>> get_feature(uint8_t, size_t) override {
+            return make_error("no feature reports");
+        }
+        Status set_feature(std::span<const uint8_t>) override { return {}; }
+        Status write_output(std::span<const uint8_t>) override { return {}; }
+    };
+    auto codec = make_codec_for(kVendorId, kIndexProductId);
+    NamedTransport t;
+    t.product = "Index HMD";
+    codec->configure(t);
+    EXPECT_TRUE(codec->warning().empty()) << codec->warning();
+    t.product = "VIVE Pro MV";
+    codec->configure(t);
+    EXPECT_NE(codec->warning().find("Vive Pro"), std::string::npos) << codec->warning();
+    EXPECT_NE(codec->warning().find("VIVE Pro MV"), std::string::npos) << codec->warning();
+    t.product = "";  // a capture without a label: cannot be told
+    codec->configure(t);
+    EXPECT_FALSE(codec->warning().empty());
+    auto vive = make_codec_for(kVendorId, kViveProductId);
+    vive->configure(t);
+    EXPECT_TRUE(vive->warning().empty());
+}
+
 }  // namespace
 }  // namespace hmdnode::vive

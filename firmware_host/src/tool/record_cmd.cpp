@@ -381,6 +381,8 @@ void finish_tracker_recording(const RecordArgs& args, const std::string& label,
     std::printf("  %-24s %llu (%llu samples missing)\n", "sequence gaps",
                 static_cast<unsigned long long>(st.codec.sequence_gaps),
                 static_cast<unsigned long long>(st.codec.missing_samples));
+    if (!st.codec_warning.empty())
+        std::fprintf(stderr, "hmdnode record: warning: %s\n", st.codec_warning.c_str());
     if (st.codec.saturated_samples || st.codec.stale_first_dropped)
         std::printf("  %-24s %llu saturated (axis at full scale), %llu stale first dropped\n",
                     "IMU samples not trusted",

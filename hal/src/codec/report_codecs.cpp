@@ -1,6 +1,7 @@
 // ReportCodec adapters: the Vive/Index IMU codec (vive_imu_codec.cpp) and the reference protocol
 // codec (reference_protocol.cpp) behind the interface the device tracker uses. Glue only: the
 // algorithms live in those files. O(1) per report.
+#include <cctype>
 #include <cmath>
 #include <optional>
 
@@ -52,6 +53,17 @@ class ViveCodec final : public ReportCodec {
         return variant_ == vive::Variant::Index ? "Valve Index IMU" : "HTC Vive IMU";
     }
     void configure(Transport& t) override {
+        warning_.clear();
+        if (variant_ == vive::Variant::Index) {
+            // 28de:2300 is the Index's and also a Vive Pro's, whose IMU axes differ; only the
+            // product string tells them apart, and the Vive Pro mapping is not implemented.
+            std::string product = t.id().product;
+            for (char& c : product) c = char(std::tolower(static_cast<unsigned char>(c)));
+            if (product.find("index") == std::string::npos)
+                warning_ = "28de:2300 with product string \"" + t.id().product +
+                           "\": decoded with the Valve Index's IMU axes; a Vive Pro shares this id "
+                           "with other axes (not supported), so its orientation would be wrong";
+        }
         auto f = t.get_feature(vive::kRangeReportId, vive::kRangeReportSize);
         if (!f) return;  // defaults
         auto r = vive::parse_range_report(*f);
@@ -107,6 +119,7 @@ class ViveCodec final : public ReportCodec {
         accumulate(c, dec_.counters());
         return c;
     }
+    std::string warning() const override { return warning_; }
 
   private:
     static bool follows(const vive::ImuSample& a, const vive::ImuSample& b) {
@@ -122,6 +135,7 @@ class ViveCodec final : public ReportCodec {
     std::optional<vive::ImuSample> held_;  // the first sample after an open, until confirmed
     bool confirmed_ = false;
     int empty_reports_ = 0;  // IMU reports with no new slot since the held sample
+    std::string warning_;
 };
 
 class RiftCodec final : public ReportCodec {

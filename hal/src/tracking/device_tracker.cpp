@@ -114,6 +114,7 @@ class DeviceTrackerImpl final : public DeviceTracker {
                 codec_->reset();
                 codec_->configure(*transport_);
                 std::lock_guard lock(mutex_);
+                status_.codec_warning = codec_->warning();
                 ++status_.opens;
                 status_.connected = true;
                 info_.serial = transport_->id().serial;

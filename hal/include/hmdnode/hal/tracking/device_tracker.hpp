@@ -70,6 +70,9 @@ class ReportCodec {
     virtual size_t decode(std::span<const uint8_t> report,
                           std::span<DeviceSample, kMaxSamplesPerReport> out) = 0;
     virtual CodecCounters counters() const = 0;
+    // After configure(): what the codec could not be sure of for this device (empty: nothing),
+    // e.g. a product id two devices share with different IMU axes.
+    virtual std::string warning() const { return {}; }
 };
 
 // HTC Vive / Valve Index IMU (report 0x20; ranges from feature report 0x01).
@@ -108,6 +111,7 @@ struct DeviceTrackerStatus {
     double clock_jitter_ns = 0.0;
     uint64_t clock_resets = 0;
     CodecCounters codec;
+    std::string codec_warning;  // ReportCodec::warning() after the last open
     std::string last_error;
 };
 
