@@ -8,14 +8,16 @@
 //     transport latency), median / p99 / max -- beside the same figure for the trace-replay
 //     sim_tracker, whose reader thread only sleeps and pushes (the ring alone).
 //
-// Usage: bench_tracker_bench [seconds=3] [--write-docs]
-//   (--write-docs: also into docs/tracking.md)
+// Usage: bench_tracker_bench [seconds=3] [--capture FILE.pcap[.gz]] [--write-docs]
+//   (--capture: decode that capture's Vive IMU reports instead of the bundled one; an unreadable
+//   one is an error. --write-docs: also into docs/tracking.md)
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -51,10 +53,19 @@ double pct(std::vector<double> v, double f) {
     return v[size_t(f * double(v.size() - 1))];
 }
 
-std::vector<std::vector<uint8_t>> vive_reports() {
+// The Vive IMU reports of `capture` (default: the repository's vive_cal.pcap.gz; synthetic
+// reports when that is absent). A capture given with --capture that cannot be read is an error.
+std::optional<std::vector<std::vector<uint8_t>>> vive_reports(const std::string& capture) {
     std::vector<std::vector<uint8_t>> reports;
-    const auto file = std::filesystem::path(HMDNODE_SOURCE_DIR) / "data/traces/vive_cal.pcap.gz";
-    if (auto cap = read_usbmon_capture(file); cap.ok()) {
+    const auto file =
+        capture.empty() ? std::filesystem::path(HMDNODE_SOURCE_DIR) / "data/traces/vive_cal.pcap.gz"
+                        : std::filesystem::path(capture);
+    auto cap = read_usbmon_capture(file);
+    if (!cap.ok() && !capture.empty()) {
+        std::fprintf(stderr, "tracker bench: --capture: %s\n", cap.error().message.c_str());
+        return std::nullopt;
+    }
+    if (cap.ok()) {
         for (const UsbPacket& u : cap->packets)
             if (u.event == 'C' && u.transfer_type == 1 && !u.data.empty() &&
                 u.data[0] == vive::kImuReportId)
@@ -79,8 +90,10 @@ std::vector<std::vector<uint8_t>> vive_reports() {
     return reports;
 }
 
-void bench_decode() {
-    const auto reports = vive_reports();
+bool bench_decode(const std::string& capture) {
+    const auto got = vive_reports(capture);
+    if (!got) return false;
+    const auto& reports = *got;
     const int reps = 5;
     // Baseline: copying each report once.
     std::vector<uint8_t> sink(64);
@@ -130,6 +143,7 @@ void bench_decode() {
         "period): %.4f %% of a core\n",
         full_ns, full_ns / 1e4);
     if (bytes == 42) std::printf(" ");
+    return true;
 }
 
 struct Lat {
@@ -204,9 +218,14 @@ void bench_latency(double seconds) {
 
 int main(int argc, char** argv) {
     const bool write_docs = bench::wants_docs(argc, argv);
-    std::string seconds_arg;
-    for (int i = 1; i < argc; ++i)
-        if (std::string(argv[i]) != "--write-docs" && seconds_arg.empty()) seconds_arg = argv[i];
+    std::string seconds_arg, capture;
+    for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        if (a == "--capture" && i + 1 < argc)
+            capture = argv[++i];
+        else if (a != "--write-docs" && seconds_arg.empty())
+            seconds_arg = a;
+    }
     const double parsed = seconds_arg.empty() ? 3.0 : std::atof(seconds_arg.c_str());
     const double seconds = parsed > 0 ? parsed : 3.0;
     std::string command = "build/release/bench/bench_tracker_bench";
@@ -214,10 +233,11 @@ int main(int argc, char** argv) {
         command += ' ';
         command += seconds_arg;
     }
+    if (!capture.empty()) command += " --capture " + bench::in_tree(capture);
     if (write_docs) command += " --write-docs";
     out = "Measured by `" + command + "` (" + bench::build_kind() + "; " + bench::machine_facts() +
           "; 1. on one thread, 2. a reader thread per tracker and the polling thread):\n\n```\n";
-    bench_decode();
+    if (!bench_decode(capture)) return 1;
     bench_latency(seconds);
     out += "```\n";
     std::fputs(out.c_str(), stdout);

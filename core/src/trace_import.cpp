@@ -24,9 +24,10 @@ using trace_text::trim;
 constexpr int64_t kGapReportNs = 100 * kNsPerMs;
 // Quaternions whose norm is off by more than this are counted as normalised.
 constexpr double kNormCountTolerance = 1e-6;
-// Norms outside this range are taken as wrong columns, not as a sensor's rounding.
-constexpr double kMinImportNorm = 0.5;
-constexpr double kMaxImportNorm = 2.0;
+// Plausible time for a head tracker: median interval within [10 us, 10 s], at most a day long.
+constexpr int64_t kMinMedianIntervalNs = 10 * kNsPerUs;
+constexpr int64_t kMaxMedianIntervalNs = 10 * kNsPerSecond;
+constexpr int64_t kMaxDurationNs = 24 * 3600 * kNsPerSecond;
 // Duplicate rows whose orientation differs by more than this (radians) count as conflicting.
 constexpr double kConflictAngleRad = 1e-9;
 
@@ -440,8 +441,18 @@ Result<Trace> import_trace_text(const std::string& text, const std::string& sour
 
     // Source axes -> hmdnode axes (+Y up, -Z forward, +X right).
     std::optional<glm::dquat> frame_change;
+    bool mirror_z = false;  // a left-handed source: the reflection z -> -z
     const std::string frame = lower(options.source_frame);
-    if (frame == "z-up-x-forward") {
+    if (frame == "unity" || frame == "left-handed-y-up-z-forward") {
+        // Unity, HoloLens, Quest (OpenXR via Unity): left-handed, +Y up, +Z forward, +X right.
+        // The reflection M = diag(1, 1, -1) takes its axes to ours: p' = M p and R' = M R M, which
+        // for a quaternion (w, x, y, z) is (w, -x, -y, z) (a reflection flips the axis' sign
+        // except along the mirror's normal).
+        mirror_z = true;
+        rep.notes.push_back(
+            "axes: source left-handed +Y up, +Z forward, +X right (Unity) mirrored to +Y up, "
+            "-Z forward, +X right");
+    } else if (frame == "z-up-x-forward") {
         glm::dmat3 m(0.0);  // columns: where the source's x (forward), y (left), z (up) go
         m[0] = glm::dvec3(0, 0, -1);
         m[1] = glm::dvec3(-1, 0, 0);
@@ -451,8 +462,17 @@ Result<Trace> import_trace_text(const std::string& text, const std::string& sour
             "axes: source +Z up, +X forward, +Y left converted to +Y up, -Z forward, +X right");
     } else if (frame != "hmdnode") {
         return make_error("source frame " + in_quotes(options.source_frame) +
-                          " is not one of: hmdnode, z-up-x-forward");
+                          " is not one of: hmdnode, z-up-x-forward, unity");
     }
+    const std::string on_fast = lower(options.on_fast_rotation);
+    if (on_fast != "report" && on_fast != "drop" && on_fast != "refuse")
+        return make_error("on fast rotation " + in_quotes(options.on_fast_rotation) +
+                          " is not one of: report, drop, refuse");
+    if (!(options.max_angular_speed_deg_s > 0.0))
+        return make_error("the angular speed limit must be positive (deg/s)");
+    if (!(options.quat_norm_tolerance > 0.0 && options.quat_norm_tolerance < 1.0))
+        return make_error("the quaternion norm tolerance must be within (0, 1)");
+    {}
     std::vector<Column> quat_cols, euler_cols, pos_cols;
     std::string order = lower(options.quat_order);
     if (order != "wxyz" && order != "xyzw")
@@ -606,12 +626,14 @@ Result<Trace> import_trace_text(const std::string& text, const std::string& sour
             }
             q = glm::dquat(c[0], c[1], c[2], c[3]);
             double norm = std::sqrt(glm::dot(q, q));
-            if (!(norm >= kMinImportNorm && norm <= kMaxImportNorm))
+            if (!(std::abs(norm - 1.0) <= options.quat_norm_tolerance))
                 return make_error(where(source, line.number) + labels(quat_cols) +
                                   ": quaternion norm " + fmt("%.6g", norm) +
                                   (norm == 0.0 ? " (a zero quaternion is no rotation)"
-                                               : " is far from 1: are the quaternion columns and "
-                                                 "their order right?"));
+                                               : " is far from 1 (off by more than " +
+                                                     fmt("%g", options.quat_norm_tolerance) +
+                                                     "): are the quaternion columns and their "
+                                                     "order right?"));
             if (std::abs(norm - 1.0) > kNormCountTolerance) source_norm = norm;
             // note: norms within 1e-12 of 1 keep the source's bits (as the trace reader does).
             if (std::abs(norm - 1.0) > 1e-12) q /= norm;
@@ -620,6 +642,10 @@ Result<Trace> import_trace_text(const std::string& text, const std::string& sour
             for (int k = 0; k < 3; ++k) {
                 Result<double> v = number(euler_cols[size_t(k)]);
                 if (!v.ok()) return v.error();
+                if (!euler_degrees && std::abs(*v) > 2.0 * kPi + 1e-9)
+                    return field_error(euler_cols[size_t(k)],
+                                       "an angle beyond 2 pi with --euler-radians (degrees? drop "
+                                       "--euler-radians):");
                 a[k] = euler_degrees ? deg_to_rad(*v) : *v;
             }
             q = quat_from_yaw_pitch_roll(a[0], a[1], a[2]);
@@ -638,6 +664,10 @@ Result<Trace> import_trace_text(const std::string& text, const std::string& sour
             // Same change of basis on the world and the head frame: q' = C q C^-1, p' = C p.
             q = glm::normalize(*frame_change * q * glm::conjugate(*frame_change));
             if (pos) *pos = *frame_change * *pos;
+        }
+        if (mirror_z) {
+            q = glm::dquat(q.w, -q.x, -q.y, q.z);
+            if (pos) pos->z = -pos->z;
         }
 
         // Repairs against the previous kept sample.
@@ -660,6 +690,23 @@ Result<Trace> import_trace_text(const std::string& text, const std::string& sour
                 q = -q;
                 ++rep.sign_flips_fixed;
             }
+            // Angular speed of this step: a jump no head makes (a wrong order, a glitch).
+            const double speed =
+                rad_to_deg(angle_between_rad(q, prev.orientation)) / ns_to_s(t_ns - prev.time_ns);
+            if (speed > options.max_angular_speed_deg_s) {
+                ++rep.fast_rotations;
+                if (on_fast == "refuse")
+                    return make_error(where(source, line.number) + "the orientation turns " +
+                                      fmt("%.0f", speed) + " deg/s since line " +
+                                      std::to_string(prev_line) + ", above the limit of " +
+                                      fmt("%g", options.max_angular_speed_deg_s) +
+                                      " deg/s (a wrong quaternion order, or a tracking glitch)");
+                if (on_fast == "drop") {
+                    ++rep.fast_rotations_dropped;
+                    continue;
+                }
+            }
+            rep.max_angular_speed_deg_s = std::max(rep.max_angular_speed_deg_s, speed);
             if (q == prev.orientation) ++rep.repeated_orientations;
             int64_t gap = t_ns - prev.time_ns;
             if (gap > kGapReportNs) ++rep.gaps_over_100ms;
@@ -713,8 +760,43 @@ Result<Trace> import_trace_text(const std::string& text, const std::string& sour
     if (rep.comment_lines_skipped)
         rep.notes.push_back(count(rep.comment_lines_skipped, "comment line", "comment lines") +
                             " among the rows skipped");
+    if (rep.fast_rotations)
+        rep.notes.push_back(count(rep.fast_rotations, "step turns", "steps turn") +
+                            " faster than " + fmt("%g", options.max_angular_speed_deg_s) +
+                            " deg/s" +
+                            (rep.fast_rotations_dropped ? ": dropped" : ": kept (reported)"));
     if (trace.samples.size() >= 2) {
         TraceStats st = compute_trace_stats(trace);
+        const int64_t duration = trace.samples.back().time_ns - trace.samples.front().time_ns;
+        if (st.median_interval_ns < kMinMedianIntervalNs ||
+            st.median_interval_ns > kMaxMedianIntervalNs || duration > kMaxDurationNs) {
+            // The unit under which the median interval would be that of a head tracker (~1 kHz
+            // to ~10 Hz), among the usual ones.
+            const long double median_units = (long double)(st.median_interval_ns) / *ns_per;
+            std::string likely;
+            for (const auto& [name, per] :
+                 std::initializer_list<std::pair<const char*, long double>>{
+                     {"--time-unit s", 1e9L},
+                     {"--time-unit ms", 1e6L},
+                     {"--time-unit us", 1e3L},
+                     {"--time-unit ns", 1.0L},
+                     {"--time-scale 1e-7 (100 ns ticks: .NET DateTime/TimeSpan, Windows FILETIME)",
+                      100.0L},
+                     {"--time-scale 2.0833333e-8 (48 MHz ticks)", 1e9L / 48e6L}}) {
+                const long double m = median_units * per;
+                if (per != *ns_per && m >= 5e5L && m <= 1e8L) {
+                    likely = std::string("; with ") + name + " the median interval would be " +
+                             fmt("%.3g", double(m) * 1e-6) + " ms";
+                    break;
+                }
+            }
+            return make_error(
+                source + ": " + time_col->label + " read as " + unit_name(*ns_per) +
+                " gives a median interval of " + fmt("%.6g", ns_to_s(st.median_interval_ns)) +
+                " s over " + fmt("%.6g", ns_to_s(duration)) +
+                " s, implausible for a head tracker (median 10 us to 10 s, at most a day)" +
+                (likely.empty() ? std::string("; check the time unit") : likely));
+        }
         if (st.median_interval_ns < 100 * kNsPerUs || st.median_interval_ns > kNsPerSecond)
             rep.notes.push_back("the median interval " +
                                 fmt("%.6g", ns_to_s(st.median_interval_ns)) +

@@ -415,7 +415,7 @@ TEST(TraceImport, MessyExportIsRepairedAndEachRepairCounted) {
     // xyzw by name; position from pos_x,pos_y,pos_z; 'tracking' ignored.
     ASSERT_TRUE(t->samples[3].position);
     EXPECT_DOUBLE_EQ(t->samples[3].position->z, 0.01);
-    EXPECT_NEAR(t->samples[3].orientation.y, 0.04 / std::sqrt(0.81 + 0.0016), 1e-15);
+    EXPECT_NEAR(t->samples[3].orientation.y, 0.04 / std::sqrt(0.990025 + 0.0016), 1e-15);
 }
 
 // --- Importer: options ---------------------------------------------------------------------------
@@ -669,6 +669,111 @@ TEST(TraceImport, ConvertsAZUpXForwardSourceToHmdnodeAxes) {
     EXPECT_NEAR(f.z, -std::cos(deg_to_rad(30.0)), 1e-6);
     o.source_frame = "y-down";
     expect_error(import_trace_text(text, "zup.txt", o, nullptr), {"source frame", "y-down"});
+}
+
+// --- Importer: refusing wrong data --------------------------------------------------------------
+
+// A known motion in hmdnode axes (turning left, looking up, walking forward), written as Unity
+// would (left-handed, +Z forward: q -> (w, -x, -y, z), p -> (x, y, -z)), comes back exactly.
+TEST(TraceImport, UnitySourceFrameRoundTripsAKnownMotion) {
+    std::vector<TraceSample> truth;
+    std::string text = "time,qw,qx,qy,qz,px,py,pz\n";
+    char buf[256];
+    for (int i = 0; i <= 100; ++i) {
+        const double t = i * 0.01;
+        TraceSample s;
+        s.time_ns = i * 10 * kNsPerMs;
+        s.orientation = glm::angleAxis(deg_to_rad(90.0 * t), glm::dvec3(0, 1, 0)) *
+                        glm::angleAxis(deg_to_rad(20.0 * t), glm::dvec3(1, 0, 0));
+        s.position = glm::dvec3(0.1 * t, 1.6, -1.0 * t);
+        truth.push_back(s);
+        const glm::dquat& q = s.orientation;
+        std::snprintf(buf, sizeof buf, "%.2f,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n", t, q.w,
+                      -q.x, -q.y, q.z, s.position->x, s.position->y, -s.position->z);
+        text += buf;
+    }
+    TraceImportOptions o;
+    o.source_frame = "unity";
+    TraceImportReport rep;
+    Result<Trace> t = import_trace_text(text, "unity.csv", o, &rep);
+    ASSERT_TRUE(t.ok()) << t.error().message;
+    ASSERT_EQ(t->samples.size(), truth.size());
+    for (size_t i = 0; i < truth.size(); ++i) {
+        EXPECT_LT(angle_between_rad(t->samples[i].orientation, truth[i].orientation), 1e-12) << i;
+        EXPECT_NEAR(glm::length(*t->samples[i].position - *truth[i].position), 0.0, 1e-12) << i;
+    }
+    // Unity's own meaning: a positive yaw about +Y turns right (+Z forward goes to +X), walking
+    // forward is +Z. In hmdnode the forward (-Z) must go to +X and the walk to -Z.
+    const double h = std::sqrt(0.5);
+    Result<Trace> u =
+        import_trace_text("time,qw,qx,qy,qz,px,py,pz\n0,1,0,0,0,0,0,0\n1," + std::to_string(h) +
+                              ",0," + std::to_string(h) + ",0,0,0,2\n",
+                          "unity.csv", o, nullptr);
+    ASSERT_TRUE(u.ok()) << u.error().message;
+    const glm::dvec3 f = u->samples[1].orientation * glm::dvec3(0, 0, -1);
+    EXPECT_NEAR(f.x, 1.0, 1e-6);
+    EXPECT_NEAR(u->samples[1].position->z, -2.0, 1e-12);
+}
+
+// A HoloLens CSV in .NET ticks (100 ns) read as seconds was a 253-million-second trace: now an
+// error naming the likely unit. So are sub-10-us median intervals and traces longer than a day.
+TEST(TraceImport, ImplausibleTimeUnitsAreErrorsSuggestingTheUnit) {
+    std::string ticks = "time,qw,qx,qy,qz\n";
+    for (int i = 0; i < 50; ++i)
+        ticks += std::to_string(638000000000000000LL + i * 166667LL) + ",1,0,0,0\n";
+    expect_error(import_trace_text(ticks, "holo.csv", {}, nullptr),
+                 {"holo.csv", "median interval of 166667 s", "--time-scale 1e-7", ".NET"});
+    TraceImportOptions ok;
+    ok.time_scale_to_s = 1e-7;
+    EXPECT_TRUE(import_trace_text(ticks, "holo.csv", ok, nullptr).ok());
+
+    TraceImportOptions ns;
+    ns.time_unit = "ns";
+    expect_error(import_trace_text("t,qw,qx,qy,qz\n0,1,0,0,0\n16.7,1,0,0,0\n33.3,1,0,0,0\n",
+                                   "ms.csv", ns, nullptr),
+                 {"median interval", "--time-unit ms"});
+    expect_error(import_trace_text("t,qw,qx,qy,qz\n0,1,0,0,0\n0.01,1,0,0,0\n0.02,1,0,0,0\n"
+                                   "0.03,1,0,0,0\n100000,1,0,0,0\n",
+                                   "day.csv", {}, nullptr),
+                 {"over 100000 s", "at most a day"});
+}
+
+TEST(TraceImport, NonUnitQuaternionsAndRadiansOnDegreesAreErrors) {
+    expect_error(
+        import_trace_text("t,qw,qx,qy,qz\n0,1,0,0,0\n0.01,1.05,0,0,0\n", "n.csv", {}, nullptr),
+        {"n.csv:3:", "norm 1.05", "off by more than 0.01"});
+    TraceImportReport rep;
+    ASSERT_TRUE(
+        import_trace_text("t,qw,qx,qy,qz\n0,1,0,0,0\n0.01,1.005,0,0,0\n", "n.csv", {}, &rep).ok());
+    EXPECT_EQ(rep.non_unit_normalized, 1u);
+    TraceImportOptions rad;
+    rad.euler_degrees = false;
+    expect_error(
+        import_trace_text("t,yaw,pitch,roll\n0,0,0,0\n0.01,45,0,0\n", "e.csv", rad, nullptr),
+        {"e.csv:3:", "yaw", "degrees?"});
+}
+
+// A 170 deg jump in 10 ms (17000 deg/s): reported by default, dropped or refused on request.
+TEST(TraceImport, FastRotationsAreReportedDroppedOrRefused) {
+    const glm::dquat far = glm::angleAxis(deg_to_rad(170.0), glm::dvec3(0, 1, 0));
+    const std::string text = "t,qw,qx,qy,qz\n0,1,0,0,0\n0.01," + std::to_string(far.w) + ",0," +
+                             std::to_string(far.y) + ",0\n0.02,1,0,0,0\n0.03,1,0,0,0\n";
+    TraceImportReport rep;
+    Result<Trace> t = import_trace_text(text, "jump.csv", {}, &rep);
+    ASSERT_TRUE(t.ok()) << t.error().message;
+    EXPECT_EQ(rep.fast_rotations, 2u);  // there and back
+    EXPECT_EQ(t->samples.size(), 4u);
+    TraceImportOptions drop;
+    drop.on_fast_rotation = "drop";
+    t = import_trace_text(text, "jump.csv", drop, &rep);
+    ASSERT_TRUE(t.ok()) << t.error().message;
+    EXPECT_EQ(rep.fast_rotations_dropped, 1u);  // the jump; the next row is near the last kept
+    EXPECT_EQ(t->samples.size(), 3u);
+    EXPECT_LT(rep.max_angular_speed_deg_s, 1.0);
+    TraceImportOptions refuse;
+    refuse.on_fast_rotation = "refuse";
+    expect_error(import_trace_text(text, "jump.csv", refuse, nullptr),
+                 {"jump.csv:3:", "17000 deg/s", "limit of 1500"});
 }
 
 }  // namespace hmdnode

@@ -143,4 +143,19 @@ TEST(CaptureCmd, ReplayNamesTheDevicesWhenTheOneAskedForIsAbsent) {
     EXPECT_EQ(r.code, 2) << r.output;
 }
 
+// `replay --capture --device VID:PID:SERIAL` used to run the node with a tracker that never
+// opened and exit 0 with an empty report; the selector matching nothing is an error now.
+TEST(CaptureCmd, ReplaySelectorMatchingNothingIsAnError) {
+    ASSERT_TRUE(fs::exists(kCapture)) << kCapture << " is missing";
+    const fs::path dir = temp_dir("replay_serial");
+    const fs::path report = dir / "report.json";
+    const CommandRun r =
+        run(kTool + " replay --quiet --eye-width 32 --eye-height 32 --duration 1 " + "--scene " +
+            kScene + " --capture " + kCapture.string() + " --device 28de:2000:LHR-0001 --report " +
+            report.string());
+    EXPECT_NE(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("1-62=28de:2000"), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(report));
+}
+
 }  // namespace

@@ -249,6 +249,21 @@ TEST(RecordCmd, CaptureErrorsNameTheFileOrDeviceAndWriteNothing) {
     }
 }
 
+// A capture records no serial numbers: --device VID:PID:SERIAL used to leave the tracker retrying
+// the open forever (a busy loop on the simulated clock). Now it is an error naming the devices the
+// capture holds, at once.
+TEST(RecordCmd, CaptureSelectorWithASerialIsAnErrorNamingTheDevices) {
+    if (!fs::exists(kViveCapture)) GTEST_SKIP() << kViveCapture << " is missing";
+    const fs::path dir = temp_dir("capture_serial");
+    const fs::path csv = dir / "a.csv";
+    const ToolRun r = run("record --device 28de:2000:LHR-0001 --backend capture --from " +
+                          kViveCapture.string() + " --out " + csv.string());
+    EXPECT_EQ(r.status, 1) << r.output;
+    EXPECT_NE(r.output.find("1-62=28de:2000"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("no serial numbers"), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(csv));
+}
+
 TEST(RecordCmd, NeedsAnOutput) {
     const ToolRun r = run("record --device 1209:0001 --backend sim --sim-clock");
     EXPECT_EQ(r.status, 2);

@@ -206,11 +206,13 @@ TEST(UsbmonCapture, RealViveCaptureMeetsTheDoneWhenFigures) {
         ++still;
         const double a = glm::length(smp.accel);
         a_sum += a;
-        if (!have_ref) {
+        // Drift within any 1 s after the first second (the stillness window's first fill).
+        if (smp.device_time_ns - samples.front().device_time_ns < 1'000'000'000) continue;
+        if (!have_ref || smp.device_time_ns - ref_ns >= 1'000'000'000) {
             have_ref = true;
             ref = fusion.orientation();
             ref_ns = smp.device_time_ns;
-        } else if (smp.device_time_ns - ref_ns < 1'000'000'000) {
+        } else {
             const glm::dquat d = glm::conjugate(ref) * fusion.orientation();
             const double deg = 2.0 * std::acos(std::min(1.0, std::abs(d.w))) * 180.0 / M_PI;
             max_still_drift_deg = std::max(max_still_drift_deg, deg);

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "hmdnode/hal/codec/vive_imu.hpp"
+#include "hmdnode/hal/tracking/device_tracker.hpp"
 
 namespace hmdnode::vive {
 namespace {
@@ -144,6 +145,114 @@ TEST(ViveImu, CountsMalformedAndUnknownReports) {
     EXPECT_EQ(dec.counters().malformed, 1u);
     EXPECT_EQ(dec.counters().unknown, 2u);
     EXPECT_EQ(dec.counters().samples, 0u);
+}
+
+// Full-scale counts flag the sample as saturated (its true value may be beyond), and count it.
+TEST(ViveImu, FlagsAndCountsSaturatedSamples) {
+    ImuDecoder dec(Variant::Index);
+    std::array<ImuSample, 3> out;
+    ASSERT_EQ(dec.decode(encode_imu_report({slot(1, 48000), slot(0, 0), slot(0, 0)}), out), 1u);
+    EXPECT_FALSE(out[0].gyro_saturated);
+    ASSERT_EQ(dec.decode(encode_imu_report({slot(1, 48000), slot(2, 96000, 0, 0, 0, 0, -32768, 0),
+                                            slot(3, 144000, 32767, 0, 0)}),
+                         out),
+              2u);
+    EXPECT_TRUE(out[0].gyro_saturated);
+    EXPECT_FALSE(out[0].accel_saturated);
+    EXPECT_TRUE(out[1].accel_saturated);
+    EXPECT_FALSE(out[1].gyro_saturated);
+    EXPECT_EQ(dec.counters().saturated_samples, 2u);
+}
+
+// The codec (make_codec_for) holds the first sample after an open until the next report: a
+// continuous one emits both; a stale one (sequence and tick from ~100 samples before) is dropped
+// and counted, with no phantom gap.
+TEST(ViveCodec, DropsAndCountsAStaleFirstReport) {
+    auto run = [](uint8_t first_seq, uint32_t first_ticks) {
+        auto codec = make_codec_for(kVendorId, kIndexProductId);
+        std::array<DeviceSample, ReportCodec::kMaxSamplesPerReport> out;
+        std::vector<DeviceSample> got;
+        auto feed = [&](std::array<RawSlot, 3> slots) {
+            const size_t n = codec->decode(encode_imu_report(slots), out);
+            got.insert(got.end(), out.begin(), out.begin() + long(n));
+        };
+        const std::array<RawSlot, 3> first = {slot(first_seq, first_ticks),
+                                              slot(uint8_t(first_seq - 1), first_ticks - 48000),
+                                              slot(uint8_t(first_seq - 2), first_ticks - 96000)};
+        feed(first);
+        feed(first);               // a repeat (no new slot) does not judge the held sample
+        EXPECT_TRUE(got.empty());  // held until the next report
+        uint8_t seq = 200;
+        uint32_t ticks = 48'000'000;
+        for (int r = 0; r < 10; ++r, seq += 3, ticks += 3 * 48000)
+            feed({slot(seq, ticks), slot(uint8_t(seq + 1), ticks + 48000),
+                  slot(uint8_t(seq + 2), ticks + 96000)});
+        return std::make_pair(got, codec->counters());
+    };
+    // Continuous: seq 199 one tick period before 200.
+    auto [ok, okc] = run(199, 48'000'000 - 48000);
+    ASSERT_EQ(ok.size(), 31u);
+    EXPECT_EQ(ok.front().sequence + 1, ok[1].sequence);
+    EXPECT_EQ(okc.stale_first_dropped, 0u);
+    EXPECT_EQ(okc.missing_samples, 0u);
+    EXPECT_EQ(okc.samples, 31u);
+    // Stale: seq 100 and a tick 100 ms older; dropped, the stream restarts at the next report's
+    // newest slot, no gap is counted.
+    auto [st, stc] = run(100, 48'000'000 - 4'800'000);
+    EXPECT_EQ(stc.stale_first_dropped, 1u);
+    EXPECT_EQ(stc.sequence_gaps, 0u);
+    EXPECT_EQ(stc.missing_samples, 0u);
+    ASSERT_EQ(st.size(), 28u);  // 30 of the stream less the next report's two older slots
+    EXPECT_EQ(st.front().sequence + 1, st[1].sequence);
+    EXPECT_EQ(stc.samples, 28u);
+    for (size_t i = 1; i < st.size(); ++i)
+        EXPECT_EQ(st[i].device_time_ns - st[i - 1].device_time_ns, 1'000'000);
+    // Stale with a sequence ahead of the stream's (the decoder takes the stream's slots for old
+    // repeats): judged stale after three reports without a new slot, then the stream flows.
+    auto [ah, ahc] = run(250, 48'000'000 - 4'800'000);
+    EXPECT_EQ(ahc.stale_first_dropped, 1u);
+    EXPECT_EQ(ahc.missing_samples, 0u);
+    EXPECT_EQ(ahc.samples, ah.size());
+    ASSERT_GT(ah.size(), 15u);
+    for (size_t i = 1; i < ah.size(); ++i) EXPECT_EQ(ah[i].sequence, ah[i - 1].sequence + 1);
+}
+
+// 28de:2300 is shared by the Index and a Vive Pro (other IMU axes, not supported): unless the
+// product string says Index, the codec warns instead of decoding silently with the wrong axes.
+TEST(ViveCodec, WarnsWhenA2300DeviceIsNotKnownToBeAnIndex) {
+    struct NamedTransport final : Transport {
+        std::string product;
+        DeviceId id() const override {
+            DeviceId d;
+            d.vendor_id = kVendorId;
+            d.product_id = kIndexProductId;
+            d.product = product;
+            return d;
+        }
+        Result<std::optional<InputReport>> read_input(int) override {
+            return std::optional<InputReport>();
+        }
+        Result<std::vector<uint8_t>> get_feature(uint8_t, size_t) override {
+            return make_error("no feature reports");
+        }
+        Status set_feature(std::span<const uint8_t>) override { return {}; }
+        Status write_output(std::span<const uint8_t>) override { return {}; }
+    };
+    auto codec = make_codec_for(kVendorId, kIndexProductId);
+    NamedTransport t;
+    t.product = "Index HMD";
+    codec->configure(t);
+    EXPECT_TRUE(codec->warning().empty()) << codec->warning();
+    t.product = "VIVE Pro MV";
+    codec->configure(t);
+    EXPECT_NE(codec->warning().find("Vive Pro"), std::string::npos) << codec->warning();
+    EXPECT_NE(codec->warning().find("VIVE Pro MV"), std::string::npos) << codec->warning();
+    t.product = "";  // a capture without a label: cannot be told
+    codec->configure(t);
+    EXPECT_FALSE(codec->warning().empty());
+    auto vive = make_codec_for(kVendorId, kViveProductId);
+    vive->configure(t);
+    EXPECT_TRUE(vive->warning().empty());
 }
 
 }  // namespace

@@ -70,7 +70,7 @@ void print_decoded(const UsbCapture& cap, const CaptureDeviceSummary& d) {
             ++n;
             sync.update(s.device_time_ns, u.time_ns);
             if (!s.gyro || !s.accel) continue;
-            fusion.update(s.device_time_ns, *s.gyro, *s.accel);
+            fusion.update(s.device_time_ns, *s.gyro, *s.accel, s.imu_flags);
             // Still: |gyro| under 0.05 rad/s (3 deg/s). Drift: the largest rotation of the fused
             // orientation within 1 s of a still stretch's start (after the first second).
             const bool is_still = glm::length(*s.gyro) < 0.05;
@@ -99,6 +99,8 @@ void print_decoded(const UsbCapture& cap, const CaptureDeviceSummary& d) {
                 (unsigned long long)n, span_s, span_s > 0 ? double(n - 1) / span_s : 0.0);
     std::printf("      sequence gaps         %llu (%llu samples missing)\n",
                 (unsigned long long)c.sequence_gaps, (unsigned long long)c.missing_samples);
+    std::printf("      saturated samples     %llu; stale first report dropped: %llu\n",
+                (unsigned long long)c.saturated_samples, (unsigned long long)c.stale_first_dropped);
     std::printf("      reports               %llu decoded, %llu malformed, %llu unknown id\n",
                 (unsigned long long)c.reports, (unsigned long long)c.malformed,
                 (unsigned long long)c.unknown);

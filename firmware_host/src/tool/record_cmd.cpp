@@ -285,9 +285,13 @@ void append_row(const TrackerSample& t, int64_t t0, TrackerRecording* rec) {
     rows.push_back(s);
 }
 
+// The longest wait for the first pose of a device (or a capture) before giving up with an error.
+constexpr int64_t kFirstPoseTimeoutNs = 5 * kNsPerSecond;
+
 // Runs a started device tracker until `end` on `clock` (or Ctrl-C, or the end of a capture).
 // Simulated clock: advanced in 10 ms steps, times from the first row. System clock: polled every
-// 5 ms, times from `start`; a disconnect ends the recording (what arrived is kept).
+// 5 ms, times from `start`; a disconnect ends the recording (what arrived is kept). A device that
+// cannot be opened, or gives no pose within kFirstPoseTimeoutNs, ends it with a failure.
 TrackerRecording record_tracker(DeviceTracker& tracker, Clock& clock, int64_t start, int64_t end) {
     TrackerRecording rec;
     std::vector<TrackerSample> buf(1024);
@@ -319,8 +323,18 @@ TrackerRecording record_tracker(DeviceTracker& tracker, Clock& clock, int64_t st
             rec.failure = st.last_error;
             break;
         }
-        if (!clock.is_simulated() && st.opens == 0 && st.open_failures > 0) {
-            rec.failure = "could not open the device: " + st.last_error;
+        if (st.opens == 0 && st.open_failures > 0) {
+            rec.failure =
+                "could not open the device: " +
+                (st.last_error.empty() ? std::string("no matching device") : st.last_error);
+            break;
+        }
+        if (rec.trace.samples.empty() && clock.now_ns() - start >= kFirstPoseTimeoutNs) {
+            rec.failure = "no pose from the device within " +
+                          std::to_string(kFirstPoseTimeoutNs / kNsPerSecond) + " s (" +
+                          std::to_string(st.samples) + " samples, " +
+                          std::to_string(st.codec.reports) + " reports decoded, " +
+                          std::to_string(st.codec.unknown) + " of unknown id)";
             break;
         }
     }
@@ -374,6 +388,13 @@ void finish_tracker_recording(const RecordArgs& args, const std::string& label,
     std::printf("  %-24s %llu (%llu samples missing)\n", "sequence gaps",
                 static_cast<unsigned long long>(st.codec.sequence_gaps),
                 static_cast<unsigned long long>(st.codec.missing_samples));
+    if (!st.codec_warning.empty())
+        std::fprintf(stderr, "hmdnode record: warning: %s\n", st.codec_warning.c_str());
+    if (st.codec.saturated_samples || st.codec.stale_first_dropped)
+        std::printf("  %-24s %llu saturated (axis at full scale), %llu stale first dropped\n",
+                    "IMU samples not trusted",
+                    static_cast<unsigned long long>(st.codec.saturated_samples),
+                    static_cast<unsigned long long>(st.codec.stale_first_dropped));
     std::printf("  %-24s %llu (%llu of other ids skipped)\n", "malformed reports",
                 static_cast<unsigned long long>(st.codec.malformed),
                 static_cast<unsigned long long>(st.codec.unknown));
@@ -387,8 +408,8 @@ void finish_tracker_recording(const RecordArgs& args, const std::string& label,
                     static_cast<unsigned long long>(pcap->events()));
     if (!args.out.empty() && ok) std::printf("  %-24s %s\n", "trace", args.out.c_str());
     if (!rec.failure.empty()) {
-        // Never opened: bad input (exit 1). Gone mid-recording: exit 3.
-        const bool never_opened = st.opens == 0;
+        // Never opened or no pose at all: bad input (exit 1). Gone mid-recording: exit 3.
+        const bool never_opened = st.opens == 0 || rec.trace.samples.empty();
         std::fprintf(stderr, "hmdnode record: %s -- stopped%s\n", rec.failure.c_str(),
                      never_opened ? "" : "; what arrived before was written");
         set_exit_code(never_opened ? 1 : 3);

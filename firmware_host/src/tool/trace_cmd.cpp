@@ -62,6 +62,10 @@ void run_import(const ImportArgs& args) {
                                             std::to_string(report.duplicate_times_conflicting) +
                                             " with a different pose)");
     print_row("quaternions normalised", std::to_string(report.non_unit_normalized));
+    print_row("fast rotations", std::to_string(report.fast_rotations) + " (" +
+                                    std::to_string(report.fast_rotations_dropped) +
+                                    " dropped; fastest step kept " +
+                                    fmt("%.0f", report.max_angular_speed_deg_s) + " deg/s)");
     print_row("gaps over 100 ms (kept)", std::to_string(report.gaps_over_100ms) + " (longest " +
                                              fmt("%.1f", ns_to_ms(report.longest_gap_ns)) + " ms)");
     print_row("repeated orientations", std::to_string(report.repeated_orientations) + " (kept)");
@@ -126,9 +130,21 @@ void add_trace_command(CLI::App& app) {
         ->check(CLI::IsMember({"wxyz", "xyzw"}))
         ->capture_default_str();
     imp->add_option("--source-frame", args->options.source_frame,
-                    "Axes of the source: hmdnode (+Y up, -Z forward) or z-up-x-forward "
-                    "(+Z up, +X forward, +Y left; the Corbillon 2018 traces)")
-        ->check(CLI::IsMember({"hmdnode", "z-up-x-forward"}));
+                    "Axes of the source: hmdnode (+Y up, -Z forward), z-up-x-forward "
+                    "(+Z up, +X forward, +Y left; the Corbillon 2018 traces) or unity "
+                    "(left-handed +Y up, +Z forward, +X right: Unity, HoloLens, Quest)")
+        ->check(CLI::IsMember({"hmdnode", "z-up-x-forward", "unity"}))
+        ->capture_default_str();
+    imp->add_option("--quat-norm-tolerance", args->options.quat_norm_tolerance,
+                    "A quaternion norm off 1 by more than this is an error")
+        ->capture_default_str();
+    imp->add_option("--max-angular-speed", args->options.max_angular_speed_deg_s,
+                    "Steps turning faster than this (deg/s) are reported, dropped or refused")
+        ->capture_default_str();
+    imp->add_option("--on-fast-rotation", args->options.on_fast_rotation,
+                    "What a step above --max-angular-speed does: report, drop or refuse")
+        ->check(CLI::IsMember({"report", "drop", "refuse"}))
+        ->capture_default_str();
     imp->add_option("--euler-columns", args->options.euler_columns,
                     "Yaw, pitch, roll columns: q = Ry(yaw) Rx(pitch) Rz(roll), degrees")
         ->delimiter(',');

@@ -1,7 +1,9 @@
 // ReportCodec adapters: the Vive/Index IMU codec (vive_imu_codec.cpp) and the reference protocol
 // codec (reference_protocol.cpp) behind the interface the device tracker uses. Glue only: the
 // algorithms live in those files. O(1) per report.
+#include <cctype>
 #include <cmath>
+#include <optional>
 
 #include "hmdnode/hal/codec/reference_protocol.hpp"
 #include "hmdnode/hal/codec/rift_imu.hpp"
@@ -21,6 +23,7 @@ void accumulate(CodecCounters& c, const DecoderCounters& d) {
     c.unknown += d.unknown;
     c.sequence_gaps += d.sequence_gaps;
     c.missing_samples += d.missing_samples;
+    if constexpr (requires { d.saturated_samples; }) c.saturated_samples += d.saturated_samples;
 }
 
 // IMU-only samples (sequence, device time, gyro, accel) as DeviceSamples.
@@ -32,9 +35,17 @@ void copy_imu_samples(const Samples& in, std::span<DeviceSample> out) {
         out[i].device_time_ns = in[i].device_time_ns;
         out[i].gyro = in[i].gyro;
         out[i].accel = in[i].accel;
+        if constexpr (requires { in[i].gyro_saturated; })
+            out[i].imu_flags = {in[i].gyro_saturated, in[i].accel_saturated};
     }
 }
 
+// The stale first report: after an open, an Index sends one report whose newest slot is from long
+// before (its tick and sequence jump to the next report's), which would show as a phantom gap of
+// ~100 samples and poison the clock estimate. So the first sample after an open is held until the
+// next report: it is emitted only when the next sample follows it (1..8 sequence steps, device
+// time 0 < dt <= 2 ms per step); otherwise it is dropped and counted, and the decoder restarts on
+// that next report (whose newest slot is then held the same way).
 class ViveCodec final : public ReportCodec {
   public:
     explicit ViveCodec(uint16_t pid) : variant_(vive::variant_for_product(pid)), dec_(variant_) {}
@@ -42,6 +53,17 @@ class ViveCodec final : public ReportCodec {
         return variant_ == vive::Variant::Index ? "Valve Index IMU" : "HTC Vive IMU";
     }
     void configure(Transport& t) override {
+        warning_.clear();
+        if (variant_ == vive::Variant::Index) {
+            // 28de:2300 is the Index's and also a Vive Pro's, whose IMU axes differ; only the
+            // product string tells them apart, and the Vive Pro mapping is not implemented.
+            std::string product = t.id().product;
+            for (char& c : product) c = char(std::tolower(static_cast<unsigned char>(c)));
+            if (product.find("index") == std::string::npos)
+                warning_ = "28de:2300 with product string \"" + t.id().product +
+                           "\": decoded with the Valve Index's IMU axes; a Vive Pro shares this id "
+                           "with other axes (not supported), so its orientation would be wrong";
+        }
         auto f = t.get_feature(vive::kRangeReportId, vive::kRangeReportSize);
         if (!f) return;  // defaults
         auto r = vive::parse_range_report(*f);
@@ -51,25 +73,69 @@ class ViveCodec final : public ReportCodec {
     void reset() override {
         accumulate(base_, dec_.counters());
         dec_ = vive::ImuDecoder(variant_, ranges_);
+        held_.reset();
+        confirmed_ = false;
+        empty_reports_ = 0;
     }
     size_t decode(std::span<const uint8_t> report,
                   std::span<DeviceSample, kMaxSamplesPerReport> out) override {
         std::array<vive::ImuSample, 3> s;
-        const size_t n = dec_.decode(report, s);
-        copy_imu_samples(std::span(s).first(n), out);
-        return n;
+        if (confirmed_) {
+            const size_t n = dec_.decode(report, s);
+            copy_imu_samples(std::span(s).first(n), out);
+            return n;
+        }
+        const vive::ImuDecoderCounters before = dec_.counters();
+        size_t n = dec_.decode(report, s);
+        if (!held_) {
+            if (n > 0) held_ = s[n - 1];
+            return 0;
+        }
+        if (dec_.counters().reports == before.reports) return 0;  // not an IMU report
+        // A report with no new slot is a repeat (the report rate beats the sample rate); several
+        // in a row mean the held sequence number is ahead of the stream's: stale too.
+        if (n == 0 && ++empty_reports_ < 3) return 0;
+        if (n > 0 && follows(*held_, s[0])) {
+            confirmed_ = true;
+            copy_imu_samples(std::span(&*held_, 1), out);
+            copy_imu_samples(std::span(s).first(n), out.subspan(1));
+            held_.reset();
+            return n + 1;
+        }
+        // Stale: keep the counts of what came before this report, less the dropped sample, and
+        // decode this report again as a stream's first.
+        accumulate(base_, before);
+        base_.samples -= 1;
+        ++base_.stale_first_dropped;
+        dec_ = vive::ImuDecoder(variant_, ranges_);
+        n = dec_.decode(report, s);
+        held_.reset();
+        empty_reports_ = 0;
+        if (n > 0) held_ = s[n - 1];
+        return 0;
     }
     CodecCounters counters() const override {
         CodecCounters c = base_;
         accumulate(c, dec_.counters());
         return c;
     }
+    std::string warning() const override { return warning_; }
 
   private:
+    static bool follows(const vive::ImuSample& a, const vive::ImuSample& b) {
+        const uint64_t steps = b.sequence - a.sequence;
+        const int64_t dt = b.device_time_ns - a.device_time_ns;
+        return steps >= 1 && steps <= 8 && dt > 0 && dt <= int64_t(steps) * 2'000'000;
+    }
+
     vive::Variant variant_;
     vive::ImuRanges ranges_;
     vive::ImuDecoder dec_;
     CodecCounters base_;
+    std::optional<vive::ImuSample> held_;  // the first sample after an open, until confirmed
+    bool confirmed_ = false;
+    int empty_reports_ = 0;  // IMU reports with no new slot since the held sample
+    std::string warning_;
 };
 
 class RiftCodec final : public ReportCodec {

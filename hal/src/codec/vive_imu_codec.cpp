@@ -6,6 +6,7 @@
 // keeps the previous unwrapped time instead of jumping forward by a whole wrap.
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 #include "hmdnode/hal/codec/vive_imu.hpp"
 
@@ -154,6 +155,13 @@ size_t ImuDecoder::decode(std::span<const uint8_t> report, std::span<ImuSample, 
         o.accel =
             to_head_frame(variant_, glm::dvec3(s.accel[0], s.accel[1], s.accel[2]) * accel_scale);
         o.gyro = to_head_frame(variant_, glm::dvec3(s.gyro[0], s.gyro[1], s.gyro[2]) * gyro_scale);
+        auto clipped = [](const std::array<int16_t, 3>& v) {
+            return std::any_of(v.begin(), v.end(),
+                               [](int16_t x) { return x == INT16_MIN || x == INT16_MAX; });
+        };
+        o.gyro_saturated = clipped(s.gyro);
+        o.accel_saturated = clipped(s.accel);
+        counters_.saturated_samples += o.gyro_saturated || o.accel_saturated;
     }
     counters_.samples += n_picks;
     return n_picks;

@@ -1,5 +1,5 @@
 // Device tracker: transport -> codec -> clock sync -> (fusion) -> ring, with reconnection.
-// The pipeline composes clock_sync.cpp (windowed-minimum clock tracking) and imu_fusion.cpp
+// The pipeline composes clock_sync.cpp (lower-envelope clock tracking) and imu_fusion.cpp
 // (Mahony); the ring is the Lamport SPSC queue of spsc_ring.hpp. Reconnection follows the
 // practice of public runtimes (Monado's and OpenHMD's HID drivers: on a read error close the
 // device, poll enumeration at a fixed interval, reopen).
@@ -115,6 +115,7 @@ class DeviceTrackerImpl final : public DeviceTracker {
                 codec_->reset();
                 codec_->configure(*transport_);
                 std::lock_guard lock(mutex_);
+                status_.codec_warning = codec_->warning();
                 ++status_.opens;
                 status_.connected = true;
                 info_.serial = transport_->id().serial;
@@ -162,7 +163,7 @@ class DeviceTrackerImpl final : public DeviceTracker {
                 t.orientation = d.orientation;
                 t.gyro = d.gyro;
             } else if (d.gyro && d.accel) {
-                fusion_.update(d.device_time_ns, *d.gyro, *d.accel);
+                fusion_.update(d.device_time_ns, *d.gyro, *d.accel, d.imu_flags);
                 t.has_orientation = fusion_.initialized();
                 t.orientation = fusion_.orientation();
                 t.gyro = fusion_.angular_velocity();
@@ -321,6 +322,17 @@ Result<std::unique_ptr<DeviceTracker>> create_capture_tracker(const std::filesys
         auto applied = apply_usbdevs_sidecar(sidecar, &summary);
         if (!applied) return applied.error();
     }
+    auto held_devices = [&summary] {
+        std::string held;
+        for (const auto& d : summary.devices) {
+            held.append(" ").append(std::to_string(d.bus)).append("-");
+            held.append(std::to_string(d.address)).append("=");
+            held.append(d.id_source.empty() ? std::string("unknown")
+                                            : format_vid_pid(d.vendor_id, d.product_id));
+        }
+        if (held.empty()) held = " no device";
+        return held;
+    };
     auto has_intr_in = [](const CaptureDeviceSummary& d) {
         for (const auto& e : d.endpoints)
             if (e.transfer_type == 1 && (e.endpoint & 0x80) && e.completions > 0) return true;
@@ -338,21 +350,25 @@ Result<std::unique_ptr<DeviceTracker>> create_capture_tracker(const std::filesys
                 d.product_id = filter->product_id;
                 d.id_source = "given";
             }
-    if (matching == 0 && unknown_with_reports != 1) {
-        std::string held;
-        for (const auto& d : summary.devices)
-            held += " " + std::to_string(d.bus) + "-" + std::to_string(d.address) + "=" +
-                    (d.id_source.empty() ? std::string("unknown")
-                                         : format_vid_pid(d.vendor_id, d.product_id));
+    if (matching == 0 && unknown_with_reports != 1)
         return make_error(file.string() + ": no device " + vid_pid + " in the capture (it holds" +
-                          held + ")");
-    }
+                          held_devices() + ")");
     DeviceTrackerConfig cfg;
     cfg.filter = *filter;
     cfg.first_report_host_ns = first_report_host_ns;
     cfg.name = "capture " + file.filename().string() + " " + vid_pid;
     auto codec = make_codec_for(filter->vendor_id, filter->product_id);
     auto backend = create_capture_backend(std::make_shared<UsbCapture>(std::move(*cap)), summary);
+    // A selector that matches nothing is an error now, not a tracker retrying the open forever
+    // (a capture records no serial numbers, so VID:PID:SERIAL never matches one).
+    auto found = backend->enumerate(cfg.filter);
+    if (!found) return found.error();
+    if (found->empty()) {
+        std::string msg = file.string() + ": no device " + vid_pid + " in the capture (it holds";
+        msg.append(held_devices());
+        if (!filter->serial.empty()) msg.append("; a capture has no serial numbers: give VID:PID");
+        return make_error(msg + ")");
+    }
     auto t = create_device_tracker(std::move(backend), std::move(codec), clock, cfg);
     if (!t) return t.error();
     return std::move(*t);

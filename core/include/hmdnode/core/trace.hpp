@@ -83,6 +83,13 @@ struct TraceImportOptions {
     // "z-up-x-forward" (+Z up, +X forward, +Y left: ROS REP-103, and the Corbillon 2018 360-degree
     // video traces). Orientations and positions are converted to hmdnode's axes.
     std::string source_frame = "hmdnode";
+    // Rows whose quaternion norm is off 1 by more than this are an error (wrong columns or data);
+    // within it they are normalised.
+    double quat_norm_tolerance = 0.01;
+    // Angular speed between consecutive samples above this (deg/s) is reported; with
+    // on_fast_rotation "drop" such a sample is dropped, with "refuse" it is an error.
+    double max_angular_speed_deg_s = 1500.0;
+    std::string on_fast_rotation = "report";  // "report", "drop" or "refuse"
 };
 
 // What the importer did to make the samples valid (each counted, for the tool to print).
@@ -104,6 +111,9 @@ struct TraceImportReport {
     bool truncated_last_row_dropped = false;  // the last row had too few fields
     int64_t time_offset_ns = 0;               // source time of the first sample (subtracted when
                                               // rebasing; 0 when not rebased)
+    size_t fast_rotations = 0;          // steps above max_angular_speed_deg_s (reported or dropped)
+    size_t fast_rotations_dropped = 0;  // of those, dropped (on_fast_rotation "drop")
+    double max_angular_speed_deg_s = 0.0;  // the fastest step kept, deg/s
 };
 
 // Imports a foreign table (docs/trace-format.md, section 2). On failure no partial trace is

@@ -61,16 +61,20 @@ struct ImuSample {
     int64_t device_time_ns = 0;  // ticks converted to ns (device clock, arbitrary origin)
     glm::dvec3 accel{0.0};       // m/s^2, hmdnode head frame
     glm::dvec3 gyro{0.0};        // rad/s, hmdnode head frame
+    // A raw count at full scale (-32768 or 32767) on any axis: the true value may be beyond it.
+    bool gyro_saturated = false;
+    bool accel_saturated = false;
 };
 
 struct ImuDecoderCounters {
-    uint64_t reports = 0;          // reports with id 0x20 seen
-    uint64_t samples = 0;          // unique samples emitted
-    uint64_t duplicate_slots = 0;  // slots already emitted (the rotation repeats them)
-    uint64_t malformed = 0;        // id 0x20 but too short
-    uint64_t unknown = 0;          // other report ids
-    uint64_t sequence_gaps = 0;    // times the sequence jumped by more than one
-    uint64_t missing_samples = 0;  // samples those jumps skipped
+    uint64_t reports = 0;            // reports with id 0x20 seen
+    uint64_t samples = 0;            // unique samples emitted
+    uint64_t duplicate_slots = 0;    // slots already emitted (the rotation repeats them)
+    uint64_t malformed = 0;          // id 0x20 but too short
+    uint64_t unknown = 0;            // other report ids
+    uint64_t sequence_gaps = 0;      // times the sequence jumped by more than one
+    uint64_t missing_samples = 0;    // samples those jumps skipped
+    uint64_t saturated_samples = 0;  // samples with a gyro or accel axis at full scale
 };
 
 class ImuDecoder {

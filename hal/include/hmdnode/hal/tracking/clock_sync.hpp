@@ -1,10 +1,13 @@
 // Device clock -> host clock. A device stamps each sample with its own clock (µs, 48 MHz ticks);
-// the host knows only when the report arrived. USB delay is only ever positive, so the smallest
-// host - device difference over a window is the best offset estimate; a line fitted through the
-// minima of sub-windows follows the drift between the two crystals. Jumps (device reboot, host
-// suspend) reset the estimate; TickUnwrapper turns a wrapping counter into a 64-bit one.
+// the host knows only when the report arrived. USB delay is only ever positive, so the offset and
+// the drift between the two crystals come from the lower envelope of host - device: the lower
+// convex hull of 250 ms sub-window minima over a 16 s window, whose edge under the window's
+// centre gives the line (USB polling quantisation cannot bend a line that lies under every
+// point). Output times are monotonic and, for samples 1 ms apart on the device, at least 0.5 ms
+// apart. Jumps (device reboot, host suspend) reset the estimate; TickUnwrapper turns a wrapping
+// counter into a 64-bit one.
 //
-// One thread; update() is O(buckets) and allocation-free.
+// One thread; update() is O(1) per sample and O(buckets) per completed bucket, allocation-free.
 #pragma once
 
 #include <array>
@@ -32,7 +35,7 @@ class TickUnwrapper {
 };
 
 struct ClockSyncConfig {
-    int64_t window_ns = 2'000'000'000;       // span of the minimum (device time)
+    int64_t window_ns = 16'000'000'000;      // span of the lower envelope (device time)
     int64_t jump_threshold_ns = 20'000'000;  // a difference this far off the estimate: reset
     bool estimate_drift = true;              // fit the slope, else a constant offset
     int64_t fixed_latency_ns = 0;            // known minimum transport delay, subtracted
@@ -56,7 +59,7 @@ class ClockSync {
     uint64_t resets() const { return resets_; }      // jumps detected
 
   private:
-    static constexpr int kBuckets = 8;
+    static constexpr int kBuckets = 64;
     struct Bucket {
         bool used = false;
         int64_t index = 0;       // device_ns / bucket_ns
@@ -76,6 +79,9 @@ class ClockSync {
     double intercept_ = 0.0, slope_ = 0.0;
     double jitter_ns_ = 0.0;
     int64_t last_device_ = 0;
+    bool have_out_ = false;
+    int64_t last_out_ = 0;         // the last time returned (monotonic)
+    int64_t last_out_device_ = 0;  // its device time
     uint64_t resets_ = 0;
 };
 

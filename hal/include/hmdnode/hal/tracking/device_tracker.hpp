@@ -41,6 +41,7 @@ struct DeviceSample {
     std::optional<glm::dvec3> position;
     std::optional<glm::dvec3> gyro;   // rad/s, head frame
     std::optional<glm::dvec3> accel;  // m/s^2, head frame
+    ImuSampleFlags imu_flags;         // a gyro/accel axis at its full-scale limit
 };
 
 struct CodecCounters {
@@ -50,6 +51,8 @@ struct CodecCounters {
     uint64_t unknown = 0;    // unknown report id: skipped
     uint64_t sequence_gaps = 0;
     uint64_t missing_samples = 0;
+    uint64_t saturated_samples = 0;    // IMU samples with an axis at full scale (not trusted)
+    uint64_t stale_first_dropped = 0;  // first samples after an open whose tick was stale
 };
 
 // Report codec of one device family. Reader thread only.
@@ -67,6 +70,9 @@ class ReportCodec {
     virtual size_t decode(std::span<const uint8_t> report,
                           std::span<DeviceSample, kMaxSamplesPerReport> out) = 0;
     virtual CodecCounters counters() const = 0;
+    // After configure(): what the codec could not be sure of for this device (empty: nothing),
+    // e.g. a product id two devices share with different IMU axes.
+    virtual std::string warning() const { return {}; }
 };
 
 // HTC Vive / Valve Index IMU (report 0x20; ranges from feature report 0x01).
@@ -105,6 +111,7 @@ struct DeviceTrackerStatus {
     double clock_jitter_ns = 0.0;
     uint64_t clock_resets = 0;
     CodecCounters codec;
+    std::string codec_warning;  // ReportCodec::warning() after the last open
     std::string last_error;
 };
 
