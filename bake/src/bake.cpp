@@ -10,7 +10,6 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <numbers>
 #include <set>
 #include <string>
 
@@ -292,10 +291,9 @@ Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
                 Result<std::vector<glm::vec3>> e =
                     vertex_irradiance_least_squares(prim, obj.world, replay, 2);
                 if (!e) return e.error();
-                prim.colors.resize(prim.positions.size());
+                prim.light.resize(prim.positions.size());
                 for (size_t i = 0; i < prim.positions.size(); ++i)
-                    prim.colors[i] = glm::vec4(
-                        glm::max((*e)[i], glm::vec3(0.0f)) / std::numbers::pi_v<float>, 1.0f);
+                    prim.light[i] = glm::max((*e)[i], glm::vec3(0.0f));
                 report.vertices += prim.positions.size();
             }
         }

@@ -547,6 +547,7 @@ Result<AtlasReport> build_uv_atlas_in(Scene& scene, const AtlasOptions& options)
                     if (!src.normals.empty()) dst.normals.push_back(src.normals[v]);
                     if (!src.uv0.empty()) dst.uv0.push_back(src.uv0[v]);
                     if (!src.colors.empty()) dst.colors.push_back(src.colors[v]);
+                    if (!src.light.empty()) dst.light.push_back(src.light[v]);
                     dst.uv1.push_back(glm::vec2(float(t.x / W), float(t.y / H)));
                     it = vmap.emplace(key, nv).first;
                 }

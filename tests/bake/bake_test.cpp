@@ -4,11 +4,14 @@
 // a box (invalid, filled from neighbours), determinism across thread counts, and input errors.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <numbers>
 #include <vector>
 
 #include "hmdnode/bake/bake.hpp"
+#include "hmdnode/core/gltf.hpp"
 
 namespace hmdnode {
 namespace {
@@ -335,7 +338,7 @@ TEST(Bake, NonFinitePositionNamesTheMesh) {
     EXPECT_NE(r.error().message.find("vertex 1"), std::string::npos) << r.error().message;
 }
 
-TEST(Bake, VertexColoursAreIrradianceOverPi) {
+TEST(Bake, VertexLightIsIrradiance) {
     Builder b(glm::vec3(0.5f), glm::vec3(0.5f), 8);
     b.quad(1, {-1, 0, -1}, {0, 0, 2}, {2, 0, 0}, false);  // unlightmapped plane, normal +y
     BakeOptions o;
@@ -344,8 +347,29 @@ TEST(Bake, VertexColoursAreIrradianceOverPi) {
     Result<BakeReport> r = bake_scene(b.s, o);
     ASSERT_TRUE(r.ok()) << r.error().message;
     EXPECT_EQ(r->vertices, 4u);
-    for (const glm::vec4& c : b.s.meshes[1].primitives[0].colors)
-        for (int k = 0; k < 3; ++k) EXPECT_NEAR(c[k], o.sky_radiance[k], 0.02f * o.sky_radiance[k]);
+    const float pi = std::numbers::pi_v<float>;
+    ASSERT_EQ(b.s.meshes[1].primitives[0].light.size(), 4u);
+    for (const glm::vec3& c : b.s.meshes[1].primitives[0].light)  // E = pi Ls
+        for (int k = 0; k < 3; ++k)
+            EXPECT_NEAR(c[k], pi * o.sky_radiance[k], 0.02f * pi * o.sky_radiance[k]);
+    // E above 1 (here up to 2.8) round-trips through the .glb exactly: _LIGHT_0 is float.
+    const std::filesystem::path path =
+        std::filesystem::temp_directory_path() / "hmdnode_bake_test_vertex_light.glb";
+    b.s.meshes.erase(b.s.meshes.begin());  // the empty floor mesh, which glTF cannot hold
+    b.s.nodes.erase(b.s.nodes.begin());
+    b.s.nodes[0].mesh = 0;
+    b.s.roots = {0};
+    const Status saved = save_glb(b.s, path);
+    ASSERT_TRUE(saved.ok()) << saved.error().message;
+    Result<Scene> back = load_gltf(path);
+    std::filesystem::remove(path);
+    ASSERT_TRUE(back.ok()) << back.error().message;
+    const Primitive& p = back->meshes[0].primitives[0];
+    EXPECT_EQ(p.light, b.s.meshes[0].primitives[0].light);
+    EXPECT_TRUE(p.colors.empty());
+    float peak = 0.0f;
+    for (const glm::vec3& c : p.light) peak = std::max(peak, c.b);
+    EXPECT_GT(peak, 2.5f);
 }
 
 }  // namespace

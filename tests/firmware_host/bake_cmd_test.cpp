@@ -54,8 +54,9 @@ TEST(BakeCmd, BakesTheCornellBoxWithSummaryReportAndExr) {
     EXPECT_GT(out->materials[0].lightmap.intensity, 0.0f);
     EXPECT_EQ(out->materials[0].emissive_factor, glm::vec3(0.0f));
     EXPECT_EQ(out->materials[3].emissive_factor, glm::vec3(17.0f, 12.0f, 4.0f));
-    // The light's primitive (no lightmap) got vertex colours.
-    EXPECT_EQ(out->meshes[0].primitives[3].colors.size(), 4u);
+    // The light's primitive (no lightmap) got vertex light, no colours.
+    EXPECT_EQ(out->meshes[0].primitives[3].light.size(), 4u);
+    EXPECT_TRUE(out->meshes[0].primitives[3].colors.empty());
 
     std::ifstream f(d / "r.json");
     nlohmann::json j = nlohmann::json::parse(f);
@@ -101,7 +102,7 @@ TEST(BakeCmd, SameSeedSameBytesForAnyThreadCount) {
     EXPECT_FALSE(*a == *c) << "another seed gives another bake";
 }
 
-TEST(BakeCmd, VertexModeWritesColoursAndNoLightmaps) {
+TEST(BakeCmd, VertexModeWritesLightAndNoLightmaps) {
     const fs::path d = temp_dir("vertex");
     ASSERT_TRUE(save_glb(cornell_box_scene(16.0), d / "in.glb").ok());
     CommandRun r = run(bake_cmd(d / "in.glb", d / "out.glb", "--vertex --samples 4 --bounces 1"));
@@ -110,11 +111,12 @@ TEST(BakeCmd, VertexModeWritesColoursAndNoLightmaps) {
     ASSERT_TRUE(out.ok());
     for (const Material& m : out->materials) EXPECT_LT(m.lightmap.texture, 0);
     for (const Primitive& p : out->meshes[0].primitives) {
-        ASSERT_EQ(p.colors.size(), p.positions.size());
+        ASSERT_EQ(p.light.size(), p.positions.size());
+        EXPECT_TRUE(p.colors.empty());
         // Every primitive receives light (single vertices of the least-squares fit may clamp
-        // to 0 at room corners), and no colour is negative or not finite.
+        // to 0 at room corners), and no value is negative or not finite.
         float sum = 0.0f;
-        for (const glm::vec4& c : p.colors) {
+        for (const glm::vec3& c : p.light) {
             for (int k = 0; k < 3; ++k) EXPECT_TRUE(c[k] >= 0.0f && std::isfinite(c[k]));
             sum += c.r + c.g + c.b;
         }

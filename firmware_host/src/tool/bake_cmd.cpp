@@ -1,5 +1,5 @@
 // `hmdnode bake`: global illumination into lightmaps (TEXCOORD_1 + MOZ_lightmap, EXR masters
-// beside the output) or vertex colours (COLOR_0) with the Embree path tracer (docs/baking.md).
+// beside the output) or per-vertex light (_LIGHT_0) with the Embree path tracer (docs/baking.md).
 // Progress with time left on stderr, a summary on stdout and optionally in a JSON report; the
 // output .glb (and the EXRs) are written only when the whole bake succeeded, each atomically.
 #include <unistd.h>
@@ -200,7 +200,7 @@ void add_bake_command(CLI::App& app) {
     bake->add_option("--seed", args->seed, "Random seed (same seed and inputs: same output)")
         ->capture_default_str();
     bake->add_flag("--vertex", args->vertex,
-                   "Per-vertex COLOR_0 for every primitive instead of lightmaps");
+                   "Per-vertex light (_LIGHT_0) for every primitive instead of lightmaps");
     bake->add_option("--sky", args->sky, "Constant sky radiance R,G,B (default black)")
         ->delimiter(',')
         ->expected(3);

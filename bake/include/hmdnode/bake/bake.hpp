@@ -1,11 +1,11 @@
 // The bake pipeline (docs/baking.md): UV atlas -> texel rasterisation -> texel validity /
 // back-face push-off -> path-traced irradiance per texel -> dilation of invalid and gutter texels
 // -> edge-aware A-trous denoise -> seam blending -> encoding (EXR master + scaled PNG in the glTF
-// with MOZ_lightmap.intensity), and per-vertex COLOR_0 for the primitives without a lightmap (or
+// with MOZ_lightmap.intensity), and per-vertex _LIGHT_0 for the primitives without a lightmap (or
 // all, with `vertex`).
 //
 // Stored quantity: linear irradiance E (texel x intensity); the renderer's diffuse is
-// albedo x E / pi (docs/formats.md). Vertex colours: COLOR_0 = (E / pi, 1).
+// albedo x E / pi (docs/formats.md). Vertex light: _LIGHT_0 = E (float, Primitive::light).
 //
 // Deterministic: texel t of map m draws its random numbers from Pcg32(seed, hash(m, t)), so a
 // given seed gives the same result for any thread count.
@@ -31,7 +31,7 @@ struct BakeOptions {
     int bounces = 3;                // reflections (>= 0)
     int threads = 0;                // 0: all cores
     uint64_t seed = 1;
-    bool vertex = false;  // per-vertex COLOR_0 for every primitive, no lightmaps
+    bool vertex = false;  // per-vertex _LIGHT_0 for every primitive, no lightmaps
     glm::vec3 sky_radiance{0.0f};
     int strata = 2;                   // n x n candidate sample points per texel
     int validity_rays = 8;            // per sample (0: no validity pass)
