@@ -28,8 +28,11 @@ namespace hmdnode {
 struct BakeOptions {
     double texels_per_metre = 0.0;  // > 0: build a UV atlas for primitives without uv1 / lightmap
     int samples = 64;               // paths per texel (>= 1)
-    int bounces = 3;                // reflections (>= 0)
-    int threads = 0;                // 0: all cores
+    // Reflections at most (>= 0); < 0 (the default): no limit, Russian roulette ends each path
+    // (unbiased). A limit that drops more than 2 % of the light by the estimate rho^(bounces+1)
+    // (rho: PathTracer::mean_albedo) is a warning.
+    int bounces = -1;
+    int threads = 0;  // 0: all cores
     uint64_t seed = 1;
     bool vertex = false;  // per-vertex _LIGHT_0 for every primitive, no lightmaps
     glm::vec3 sky_radiance{0.0f};
