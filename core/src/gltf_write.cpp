@@ -1,15 +1,16 @@
 // glTF 2.0 writer: Scene -> tinygltf::Model with one buffer (tightly packed attributes, indices,
 // PNG textures) -> GLB bytes in memory -> write_file_atomically.
 //
-// What goes out: POSITION (with min/max), NORMAL, TEXCOORD_0, TEXCOORD_1, COLOR_0 (in [0, 1]) and
-// _LIGHT_0 (baked irradiance, any value >= 0) as float; a primitive with TEXCOORD_1 but no
-// TEXCOORD_0 gets a TEXCOORD_0 accessor without data (zeros, no bytes), since glTF numbers
-// attribute sets from 0; indices as UNSIGNED_SHORT when every vertex fits, else UNSIGNED_INT;
-// materials with baseColorFactor/-Texture, doubleSided, metallicFactor 0 (the scene model is
-// diffuse; glTF's default of 1 would make other viewers draw metal), emissiveFactor (scaled into
-// [0, 1] by a KHR_materials_emissive_strength when brighter) and MOZ_lightmap; textures
-// as PNG; nodes as TRS with MSFT_lod, extras.MSFT_screencoverage and extras.geometric_error
-// (every node with geometric_error_m >= 0); KHR_lights_punctual; one scene holding the roots.
+// What goes out: POSITION (with min/max), NORMAL, TEXCOORD_0, TEXCOORD_1, COLOR_0 (in [0, 1];
+// within 1e-4 of it clamped, farther an error) and _LIGHT_0 (baked irradiance, any value >= 0) as
+// float; a primitive with TEXCOORD_1 but no TEXCOORD_0 gets a TEXCOORD_0 accessor without data
+// (zeros, no bytes), since glTF numbers attribute sets from 0; indices as UNSIGNED_SHORT when every
+// vertex fits, else UNSIGNED_INT; materials with baseColorFactor/-Texture, doubleSided,
+// metallicFactor 0 (the scene model is diffuse; glTF's default of 1 would make other viewers draw
+// metal), emissiveFactor (scaled into [0, 1] by a KHR_materials_emissive_strength when brighter)
+// and MOZ_lightmap; textures as PNG; nodes as TRS with MSFT_lod, extras.MSFT_screencoverage and
+// extras.geometric_error (every node with geometric_error_m >= 0); KHR_lights_punctual; one scene
+// holding the roots.
 // A scene the format cannot hold (index out of range, attribute counts that differ, a node graph
 // that is not a forest) is an error, never a file the loader would reject.
 #include <algorithm>
@@ -35,6 +36,10 @@ namespace {
 bool finite3(const glm::dvec3& v) {
     return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
 }
+
+// COLOR_0 within this of [0, 1] is float round-off of interpolated colours (LOD, splitting): it is
+// clamped into the range; farther out is an error.
+constexpr float kColourSlack = 1e-4f;
 
 bool in_range(int index, size_t size) {
     return index >= 0 && size_t(index) < size;
@@ -84,7 +89,7 @@ std::string check_scene(const Scene& s) {
                 return label + ": an attribute's count differs from the position count";
             for (size_t v = 0; v < p.colors.size(); ++v)
                 for (int c = 0; c < 4; ++c)
-                    if (!(p.colors[v][c] >= 0.0f && p.colors[v][c] <= 1.0f))
+                    if (!(p.colors[v][c] >= -kColourSlack && p.colors[v][c] <= 1.0f + kColourSlack))
                         return cat(label, ": COLOR_0 ", v, " component ", c, " = ", p.colors[v][c],
                                    " is outside [0, 1] (glTF's range; light above 1 goes in "
                                    "_LIGHT_0)");
@@ -297,8 +302,11 @@ std::string build(const Scene& s, ModelBuilder* b) {
                     b->add_zeros(p.positions.size(), TINYGLTF_TYPE_VEC2);
             if (!p.uv1.empty())
                 prim.attributes["TEXCOORD_1"] = b->add_attribute(p.uv1, TINYGLTF_TYPE_VEC2, false);
-            if (!p.colors.empty())
-                prim.attributes["COLOR_0"] = b->add_attribute(p.colors, TINYGLTF_TYPE_VEC4, false);
+            if (!p.colors.empty()) {
+                std::vector<glm::vec4> colours = p.colors;  // round-off past [0, 1] clamped
+                for (glm::vec4& c : colours) c = glm::clamp(c, 0.0f, 1.0f);
+                prim.attributes["COLOR_0"] = b->add_attribute(colours, TINYGLTF_TYPE_VEC4, false);
+            }
             if (!p.light.empty())
                 prim.attributes["_LIGHT_0"] = b->add_attribute(p.light, TINYGLTF_TYPE_VEC3, false);
             prim.indices = b->add_indices(p.indices, p.positions.size());

@@ -720,6 +720,16 @@ TEST(Gltf, RefusesColoursOutsideZeroOne) {
     EXPECT_NE(st.error().message.find("COLOR_0 2 component 1 = 1.5"), std::string::npos)
         << st.error().message;
     EXPECT_FALSE(fs::exists(dir / "scene.glb"));
+    // Round-off of interpolated colours (here 1 + 5e-5, -5e-5) is clamped into the range.
+    s = make_scene();
+    s.meshes[0].primitives[0].colors[2].g = 1.00005f;
+    s.meshes[0].primitives[0].colors[1].r = -0.00005f;
+    ASSERT_TRUE(save_glb(s, dir / "scene.glb").ok());
+    Result<Scene> back = load_gltf(dir / "scene.glb");
+    ASSERT_TRUE(back.ok()) << back.error().message;
+    EXPECT_EQ(back->meshes[0].primitives[0].colors[2].g, 1.0f);
+    EXPECT_EQ(back->meshes[0].primitives[0].colors[1].r, 0.0f);
+    fs::remove(dir / "scene.glb");
     s = make_scene();
     s.meshes[0].primitives[0].light[1].r = std::numeric_limits<float>::quiet_NaN();
     st = save_glb(s, dir / "scene.glb");
