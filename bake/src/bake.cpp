@@ -106,8 +106,8 @@ Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
             emissive = true;
         else
             report.warnings.push_back("material " + std::to_string(i) + " '" + m.name +
-                                      "' is emissive but no mesh of the scene uses it: it lights "
-                                      "nothing");
+                                      "' is emissive but no mesh of the traced geometry (level "
+                                      "0 of every object) uses it: it lights nothing");
     }
     const bool sky = options.sky_radiance.r > 0.0f || options.sky_radiance.g > 0.0f ||
                      options.sky_radiance.b > 0.0f;

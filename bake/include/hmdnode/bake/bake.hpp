@@ -80,10 +80,13 @@ struct BakeReport {
 // progress(fraction in [0, 1]) is called from the calling thread now and then.
 using BakeProgress = std::function<void(double fraction)>;
 
-// Errors: no punctual light, no emissive material and no sky (nothing to bake); non-finite
-// positions (mesh / vertex named); a mesh too large for the atlas at the requested density;
-// lightmap textures without a size. Missing base-colour textures are warnings. On error the
-// scene may be partly modified: callers write it out only on success.
+// Errors: no punctual light, no emissive material that the traced geometry uses and no sky
+// (nothing to bake); a light with a negative or non-finite intensity, colour or range (named);
+// non-finite positions (mesh / vertex named); charts too large for the atlas at the requested
+// density; lightmap textures without a size. Warnings: missing base-colour textures, emissive
+// materials no traced mesh uses, a bounce limit that drops over 2 % of the light. On error the
+// scene may be partly modified: callers write it out only on success. `progress` gets the
+// fraction of all paths traced (lightmap texels and vertex queries).
 Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
                               const BakeProgress& progress = {});
 
