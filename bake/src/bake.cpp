@@ -119,7 +119,23 @@ Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
         return make_error(why);
     }
 
-    // 1. Atlas.
+    // 1. Tracer, on the geometry as given (double-sided surfaces as one sheet).
+    PathTracerOptions po;
+    po.sky_radiance = options.sky_radiance;
+    po.bounces = options.bounces;
+    Result<PathTracer> built = PathTracer::build(scene, po);
+    if (!built) return built.error();
+    const PathTracer& tracer = *built;
+    report.triangles = tracer.triangle_count();
+    for (const std::string& w : tracer.warnings()) report.warnings.push_back(w);
+
+    // 2. Two-sided surfaces: a front and a back sheet, each lit from its own side (two_sided.cpp),
+    // except where an input lightmap is kept (it has texels for one side only).
+    if (options.two_sided)
+        report.two_sided_primitives = detail::split_two_sided(
+            scene, [&](const Primitive& p) { return !options.vertex && has_lightmap(scene, p); });
+
+    // 3. Atlas.
     if (!options.vertex && options.texels_per_metre > 0.0) {
         AtlasOptions ao;
         ao.texels_per_metre = options.texels_per_metre;
@@ -131,15 +147,6 @@ Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
                                       "baked as vertex colours");
     }
 
-    // 2. Tracer.
-    PathTracerOptions po;
-    po.sky_radiance = options.sky_radiance;
-    po.bounces = options.bounces;
-    Result<PathTracer> built = PathTracer::build(scene, po);
-    if (!built) return built.error();
-    const PathTracer& tracer = *built;
-    report.triangles = tracer.triangle_count();
-    for (const std::string& w : tracer.warnings()) report.warnings.push_back(w);
     if (options.bounces >= 0) {
         // A closed scene of albedo rho keeps sum_k rho^k of the light; n reflections keep the
         // first n + 1 terms and drop rho^(n+1) of it (less in open scenes, where light escapes).
@@ -159,7 +166,7 @@ Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
     const Clock::time_point t_trace0 = Clock::now();
     std::atomic<uint64_t> total_rays{0};
 
-    // 3. The work, known before any path is traced so that the progress covers all of it: the
+    // 4. The work, known before any path is traced so that the progress covers all of it: the
     // lightmaps' texels and the vertex bake's irradiance queries. The vertex queries are recorded
     // by a dry run of the least-squares fit (it calls its oracle in a deterministic order).
     if (options.vertex)
@@ -217,7 +224,7 @@ Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
         }
     };
 
-    // 4. Lightmaps.
+    // 5. Lightmaps.
     if (!options.vertex) {
         for (size_t mi = 0; mi < rasters.size(); ++mi) {
             TexelRaster& r = rasters[mi];
@@ -338,7 +345,7 @@ Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
         }
     }
 
-    // 5. Vertex light for every primitive without a lightmap: the recorded queries are traced in
+    // 6. Vertex light for every primitive without a lightmap: the recorded queries are traced in
     // parallel, then the fit runs again with the answers replayed in the same order.
     uint64_t query_base = 0;
     for (VertexJob& job : vertex_jobs) {

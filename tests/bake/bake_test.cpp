@@ -524,5 +524,102 @@ TEST(Bake, NegativeLightsAreErrorsAndUnusedEmissionAWarning) {
         << r->warnings[0];
 }
 
+// A double-sided divider (x = 0, front facing +x) lit by a point light on its back side (x = -1):
+// it used to be baked for its front side only, black on the lit side. Now it is two sheets under
+// a single-sided material, the back sheet (normal -x) lit as the closed form says and the front
+// one dark; as lightmap texels (atlas) and as vertex light.
+Scene divider_scene() {
+    Scene s;
+    Material m;
+    m.name = "divider";
+    m.double_sided = true;
+    s.materials.push_back(m);
+    Mesh mesh;
+    mesh.name = "divider";
+    Primitive& p = mesh.primitives.emplace_back();
+    p.material = 0;
+    p.positions = {{0, -0.5f, -0.5f}, {0, 0.5f, -0.5f}, {0, 0.5f, 0.5f}, {0, -0.5f, 0.5f}};
+    p.normals.assign(4, glm::vec3(1, 0, 0));  // (y, z) winding: front = +x
+    p.indices = {0, 1, 2, 0, 2, 3};
+    s.meshes.push_back(mesh);
+    Node n;
+    n.name = "divider";
+    n.mesh = 0;
+    Node lamp;
+    lamp.name = "lamp";
+    lamp.translation = {-1, 0, 0};
+    s.nodes = {n, lamp};
+    s.roots = {0, 1};
+    Light l;
+    l.name = "bulb";
+    l.intensity = 10.0f;
+    l.node = 1;
+    s.lights.push_back(l);
+    return s;
+}
+
+TEST(Bake, DoubleSidedSurfacesGetLightOnEachSide) {
+    const float pi_free_e = 10.0f;  // E at the divider's centre: I / r^2, r = 1
+    for (bool vertex : {false, true}) {
+        Scene s = divider_scene();
+        BakeOptions o;
+        o.samples = 4;
+        o.vertex = vertex;
+        o.texels_per_metre = vertex ? 0.0 : 16.0;
+        Result<BakeReport> r = bake_scene(s, o);
+        ASSERT_TRUE(r.ok()) << r.error().message;
+        EXPECT_EQ(r->two_sided_primitives, 1u);
+        const Primitive& p = s.meshes[0].primitives[0];
+        ASSERT_EQ(p.triangle_count(), 4u);  // front and back sheets
+        EXPECT_FALSE(s.materials[size_t(p.material)].double_sided);
+        // The back sheet's triangles face -x (reversed winding).
+        const glm::vec3 a = p.positions[p.indices[6]], b = p.positions[p.indices[7]],
+                        c = p.positions[p.indices[8]];
+        EXPECT_LT(glm::cross(b - a, c - a).x, 0.0f);
+        // E at a sheet's point: from the light on its side only (x = -1), I cos / r^2.
+        auto expected = [&](glm::vec3 q, bool back) {
+            if (!back) return 0.0f;
+            const glm::vec3 d = glm::vec3(-1, 0, 0) - q;  // to the light; cos = 1 / r
+            const float r2 = glm::dot(d, d);
+            return pi_free_e / (r2 * std::sqrt(r2));
+        };
+        if (vertex) {
+            ASSERT_EQ(p.light.size(), 8u);
+            // Least squares over two triangles does not interpolate the peaked I cos / r^2: the
+            // back sheet's vertices are lit (at least the corners' point value), the front's
+            // exactly dark.
+            for (size_t v = 0; v < 8; ++v) {
+                if (v < 4)
+                    EXPECT_EQ(p.light[v].r, 0.0f) << "front vertex " << v;
+                else
+                    EXPECT_GT(p.light[v].r, expected(p.positions[v], true)) << "back vertex " << v;
+            }
+        } else {
+            ASSERT_EQ(r->maps.size(), 1u);
+            const BakedMap& m = r->maps[0];
+            // Sample each sheet's texel under the centroid of its first triangle.
+            for (int sheet = 0; sheet < 2; ++sheet) {
+                const uint32_t* t = &p.indices[size_t(sheet) * 6];
+                const glm::vec2 uv = (p.uv1[t[0]] + p.uv1[t[1]] + p.uv1[t[2]]) / 3.0f;
+                const glm::vec3 q =
+                    (p.positions[t[0]] + p.positions[t[1]] + p.positions[t[2]]) / 3.0f;
+                const int x = int(uv.x * m.width), y = int(uv.y * m.height);
+                const float e = m.final_e[size_t(y) * m.width + x].r;
+                EXPECT_NEAR(e, expected(q, sheet == 1), 0.05f * pi_free_e) << "sheet " << sheet;
+            }
+        }
+    }
+    // Off: one sheet, still double-sided (the old behaviour).
+    Scene s = divider_scene();
+    BakeOptions o;
+    o.samples = 2;
+    o.vertex = true;
+    o.two_sided = false;
+    Result<BakeReport> r = bake_scene(s, o);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_EQ(s.meshes[0].primitives[0].triangle_count(), 2u);
+    EXPECT_TRUE(s.materials[0].double_sided);
+}
+
 }  // namespace
 }  // namespace hmdnode

@@ -66,17 +66,26 @@ TEST(GltfValidator, BakeOutputsAreValid) {
     // with emission above 1 baked per vertex (_LIGHT_0 above 1).
     ASSERT_TRUE(save_glb(cornell_box_scene(16.0), d / "in.glb").ok());
     ASSERT_TRUE(save_glb(cornell_box_scene(0.0), d / "plain.glb").ok());
-    const std::string opts = " --samples 4 --bounces 1 --no-progress";
-    CommandRun r = run(kTool + " bake --in " + (d / "in.glb").string() + " --out " +
-                       (d / "lightmaps.glb").string() + opts);
-    ASSERT_EQ(r.code, 0) << r.output;
-    r = run(kTool + " bake --in " + (d / "plain.glb").string() + " --out " +
-            (d / "atlas.glb").string() + " --texels-per-metre 16" + opts);
-    ASSERT_EQ(r.code, 0) << r.output;
-    r = run(kTool + " bake --vertex --in " + (d / "in.glb").string() + " --out " +
-            (d / "vertex.glb").string() + opts);
-    ASSERT_EQ(r.code, 0) << r.output;
-    r = validate({d / "in.glb", d / "lightmaps.glb", d / "atlas.glb", d / "vertex.glb"});
+    // `hmdnode bake` from d/IN to d/OUT with a few paths; the test stops when it fails.
+    auto bake = [&](const char* in, const char* out, const std::string& extra) {
+        const CommandRun r =
+            run(kTool + " bake --in " + (d / in).string() + " --out " + (d / out).string() + extra +
+                " --samples 4 --bounces 1 --no-progress");
+        EXPECT_EQ(r.code, 0) << r.output;
+        return r.code == 0;
+    };
+    ASSERT_TRUE(bake("in.glb", "lightmaps.glb", ""));
+    ASSERT_TRUE(bake("plain.glb", "atlas.glb", " --texels-per-metre 16"));
+    ASSERT_TRUE(bake("in.glb", "vertex.glb", " --vertex"));
+    // Double-sided walls: split into front and back sheets (own texels / vertex light).
+    Scene two_sided = cornell_box_scene(0.0);
+    for (Material& m : two_sided.materials) m.double_sided = true;
+    ASSERT_TRUE(save_glb(two_sided, d / "two_sided.glb").ok());
+    ASSERT_TRUE(bake("two_sided.glb", "two_sided_atlas.glb", " --texels-per-metre 16"));
+    ASSERT_TRUE(bake("two_sided.glb", "two_sided_vertex.glb", " --vertex"));
+    CommandRun r;
+    r = validate({d / "in.glb", d / "lightmaps.glb", d / "atlas.glb", d / "vertex.glb",
+                  d / "two_sided_atlas.glb", d / "two_sided_vertex.glb"});
     std::printf("%s", r.output.c_str());
     EXPECT_EQ(r.code, 0) << r.output;
 }

@@ -281,6 +281,31 @@ TEST(VulkanRenderer, VertexLightIsIrradianceTimesAlbedoOverPi) {
     }
 }
 
+// What the baker makes of a double-sided surface (bake/src/two_sided.cpp): a front and a back
+// sheet under a single-sided material, each with its own light; the renderer shows the side the
+// viewer faces, here by culling: front red from in front, back green from behind.
+TEST(VulkanRenderer, TwoSidedSheetsShowTheLightOfTheSideFacingTheViewer) {
+    Scene scene;
+    scene.materials.push_back(flat({1.0f, 1.0f, 1.0f, 1.0f}));
+    Primitive front = quad(-2, -2, 2, 2, 0, 0);
+    front.light.assign(4, glm::vec3(0.8f, 0.0f, 0.0f) * float(kPiD));
+    Primitive back = quad(-2, -2, 2, 2, 0, 0, /*ccw=*/false);
+    back.light.assign(4, glm::vec3(0.0f, 0.6f, 0.0f) * float(kPiD));
+    Mesh mesh;
+    mesh.primitives = {front, back};
+    scene.meshes.push_back(mesh);
+    auto r = make_renderer(32, 32);
+    ASSERT_TRUE(r);
+    ASSERT_TRUE(r->upload(scene).ok());
+    const glm::mat4 ahead = glm::translate(glm::mat4(1.0f), glm::vec3(0, 0, -1));
+    const DrawItem facing{0, ahead};
+    expect_uniform(render_ok(*r, straight_views(), {&facing, 1}).eye[0], srgb8(0.8), 0, 0, 2,
+                   "front");
+    const DrawItem turned{0, glm::rotate(ahead, float(kPiD), glm::vec3(0, 1, 0))};
+    expect_uniform(render_ok(*r, straight_views(), {&turned, 1}).eye[0], 0, srgb8(0.6), 0, 2,
+                   "back");
+}
+
 TEST(VulkanRenderer, EmissionIsAddedToLitAndUnlitSurfaces) {
     // emissiveFactor adds emitted radiance after shading: on an unlit quad (left half) and on a
     // lightmapped one (right half, albedo 0.5, E = 1: albedo * E / pi).

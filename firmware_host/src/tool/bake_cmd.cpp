@@ -177,6 +177,9 @@ void run_bake(const BakeArgs& args) {
             k < exrs.size() ? ", master " : "", k < exrs.size() ? exrs[k].c_str() : "");
     }
     std::printf("  %-22s %zu\n", "vertices", r.vertices);
+    if (r.two_sided_primitives > 0)
+        std::printf("  %-22s %zu (a front and a back sheet each)\n", "two-sided primitives",
+                    r.two_sided_primitives);
     std::printf("  %-22s %zu\n", "triangles traced", r.triangles);
     std::printf("  %-22s %llu\n", "rays", static_cast<unsigned long long>(r.rays));
     std::printf("  %-22s %.3g\n", "rays per second", r.rays_per_second);
@@ -195,6 +198,7 @@ void run_bake(const BakeArgs& args) {
         j["sky"] = {o.sky_radiance.r, o.sky_radiance.g, o.sky_radiance.b};
         j["texels"] = r.texels;
         j["vertices"] = r.vertices;
+        j["two_sided_primitives"] = r.two_sided_primitives;
         j["triangles"] = r.triangles;
         j["rays"] = r.rays;
         j["rays_per_second"] = r.rays_per_second;

@@ -34,6 +34,10 @@ struct BakeOptions {
     int bounces = -1;
     int threads = 0;  // 0: all cores
     uint64_t seed = 1;
+    // Double-sided materials: a front and a back sheet, each with its own texels (or vertex
+    // light), the material made single-sided so renderers pick the side by culling. Primitives
+    // that keep an input lightmap stay as they are.
+    bool two_sided = true;
     bool vertex = false;  // per-vertex _LIGHT_0 for every primitive, no lightmaps
     glm::vec3 sky_radiance{0.0f};
     int strata = 2;                   // n x n candidate sample points per texel
@@ -74,6 +78,7 @@ struct BakeReport {
     double trace_seconds = 0.0;
     double rays_per_second = 0.0;  // rays / trace_seconds
     size_t triangles = 0;
+    size_t two_sided_primitives = 0;  // split into a front and a back sheet
     std::vector<std::string> warnings;
 };
 
