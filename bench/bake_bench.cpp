@@ -73,7 +73,10 @@ int main(int argc, char** argv) {
                       " threads" + (threads == 0 ? " = all cores" : "") + "; " +
                       bench::build_kind() + "; " + bench::machine_facts() +
                       "; `hmdnode bake`'s defaults: " + std::to_string(defaults.samples) +
-                      " paths per texel, " + std::to_string(defaults.bounces) + " bounces, " +
+                      " paths per texel, " +
+                      (defaults.bounces < 0 ? std::string("bounces until Russian roulette")
+                                            : std::to_string(defaults.bounces) + " bounces") +
+                      ", " +
                       std::to_string(defaults.denoise_iterations) + " denoiser passes):\n\n";
     out +=
         "| scene | triangles | texels | vertices | bake (s) | trace (s) | rays | baker (Mrays/s) "

@@ -10,7 +10,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <numbers>
+#include <cstdio>
 #include <set>
 #include <string>
 
@@ -72,21 +72,70 @@ Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
     const Clock::time_point t0 = Clock::now();
     BakeReport report;
     if (options.samples < 1) return make_error("samples must be >= 1");
-    if (options.bounces < 0) return make_error("bounces must be >= 0");
 
-    // Is there any light at all?
+    // Lights must be physical: a negative (or non-finite) intensity, colour or range would bake
+    // black or nonsense without a word.
+    for (size_t i = 0; i < scene.lights.size(); ++i) {
+        const Light& l = scene.lights[i];
+        const std::string name = "light " + std::to_string(i) + " '" + l.name + "'";
+        if (!std::isfinite(l.intensity) || l.intensity < 0.0f)
+            return make_error(name + ": intensity " + std::to_string(l.intensity) +
+                              " is not a finite number >= 0");
+        for (int c = 0; c < 3; ++c)
+            if (!std::isfinite(l.color[c]) || l.color[c] < 0.0f)
+                return make_error(name + ": colour component " + std::to_string(c) + " = " +
+                                  std::to_string(l.color[c]) + " is not a finite number >= 0");
+        if (!std::isfinite(l.range) || l.range < 0.0f)
+            return make_error(name + ": range " + std::to_string(l.range) +
+                              " is not a finite number >= 0 (0: infinite)");
+    }
+    // Emissive materials that the traced geometry (level 0 of every object) uses: only those
+    // light the scene; an unused one is a warning.
+    std::vector<uint8_t> used(scene.materials.size(), 0);
+    for (const SceneObject& obj : flatten_objects(scene))
+        for (const Primitive& prim : scene.meshes[size_t(obj.levels[0].mesh)].primitives)
+            if (prim.material >= 0 && size_t(prim.material) < used.size())
+                used[size_t(prim.material)] = 1;
     bool emissive = false;
-    for (const Material& m : scene.materials)
-        if (m.emissive_factor.r > 0.0f || m.emissive_factor.g > 0.0f || m.emissive_factor.b > 0.0f)
+    for (size_t i = 0; i < scene.materials.size(); ++i) {
+        const Material& m = scene.materials[i];
+        if (!(m.emissive_factor.r > 0.0f || m.emissive_factor.g > 0.0f ||
+              m.emissive_factor.b > 0.0f))
+            continue;
+        if (used[i])
             emissive = true;
+        else
+            report.warnings.push_back("material " + std::to_string(i) + " '" + m.name +
+                                      "' is emissive but no mesh of the traced geometry (level "
+                                      "0 of every object) uses it: it lights nothing");
+    }
     const bool sky = options.sky_radiance.r > 0.0f || options.sky_radiance.g > 0.0f ||
                      options.sky_radiance.b > 0.0f;
-    if (scene.lights.empty() && !emissive && !sky)
-        return make_error(
-            "nothing to bake: the scene has no KHR_lights_punctual light, no emissive material, "
-            "and the sky is black (give --sky R,G,B or add a light)");
+    if (scene.lights.empty() && !emissive && !sky) {
+        std::string why =
+            "nothing to bake: the scene has no KHR_lights_punctual light, no emissive material "
+            "that a mesh uses, and the sky is black (give --sky R,G,B or add a light)";
+        for (const std::string& w : report.warnings) why += "; " + w;
+        return make_error(why);
+    }
 
-    // 1. Atlas.
+    // 1. Tracer, on the geometry as given (double-sided surfaces as one sheet).
+    PathTracerOptions po;
+    po.sky_radiance = options.sky_radiance;
+    po.bounces = options.bounces;
+    Result<PathTracer> built = PathTracer::build(scene, po);
+    if (!built) return built.error();
+    const PathTracer& tracer = *built;
+    report.triangles = tracer.triangle_count();
+    for (const std::string& w : tracer.warnings()) report.warnings.push_back(w);
+
+    // 2. Two-sided surfaces: a front and a back sheet, each lit from its own side (two_sided.cpp),
+    // except where an input lightmap is kept (it has texels for one side only).
+    if (options.two_sided)
+        report.two_sided_primitives = detail::split_two_sided(
+            scene, [&](const Primitive& p) { return !options.vertex && has_lightmap(scene, p); });
+
+    // 3. Atlas.
     if (!options.vertex && options.texels_per_metre > 0.0) {
         AtlasOptions ao;
         ao.texels_per_metre = options.texels_per_metre;
@@ -98,28 +147,87 @@ Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
                                       "baked as vertex colours");
     }
 
-    // 2. Tracer.
-    PathTracerOptions po;
-    po.sky_radiance = options.sky_radiance;
-    po.bounces = options.bounces;
-    Result<PathTracer> built = PathTracer::build(scene, po);
-    if (!built) return built.error();
-    const PathTracer& tracer = *built;
-    report.triangles = tracer.triangle_count();
-    for (const std::string& w : tracer.warnings()) report.warnings.push_back(w);
+    if (options.bounces >= 0) {
+        // A closed scene of albedo rho keeps sum_k rho^k of the light; n reflections keep the
+        // first n + 1 terms and drop rho^(n+1) of it (less in open scenes, where light escapes).
+        const double rho = tracer.mean_albedo();
+        const double dropped = std::pow(rho, options.bounces + 1);
+        if (dropped > 0.02) {
+            char buf[320];
+            std::snprintf(buf, sizeof buf,
+                          "bounces %d drops up to %.1f %% of the light (rho^%d with the scene's "
+                          "area-weighted mean albedo rho = %.2f); leave the bounce limit out to "
+                          "let Russian roulette end the paths (unbiased)",
+                          options.bounces, 100.0 * dropped, options.bounces + 1, rho);
+            report.warnings.push_back(buf);
+        }
+    }
 
     const Clock::time_point t_trace0 = Clock::now();
     std::atomic<uint64_t> total_rays{0};
 
-    // 3. Lightmaps.
+    // 4. The work, known before any path is traced so that the progress covers all of it: the
+    // lightmaps' texels and the vertex bake's irradiance queries. The vertex queries are recorded
+    // by a dry run of the least-squares fit (it calls its oracle in a deterministic order).
+    if (options.vertex)
+        for (Material& m : scene.materials) m.lightmap.texture = -1;
+    std::vector<TexelRaster> rasters;
     if (!options.vertex) {
-        Result<std::vector<TexelRaster>> rasters = rasterize_texels(scene, options.strata);
-        if (!rasters) return rasters.error();
-        size_t total_texels = 0;
-        for (const TexelRaster& r : *rasters) total_texels += r.covered;
-        size_t done_texels = 0;
-        for (size_t mi = 0; mi < rasters->size(); ++mi) {
-            TexelRaster& r = (*rasters)[mi];
+        Result<std::vector<TexelRaster>> r = rasterize_texels(scene, options.strata);
+        if (!r) return r.error();
+        rasters = std::move(*r);
+    }
+    struct VertexJob {
+        Primitive* prim;
+        glm::dmat4 world;
+        float lift;
+        std::vector<std::pair<glm::vec3, glm::vec3>> queries;  // (point, normal)
+    };
+    std::vector<VertexJob> vertex_jobs;
+    std::set<int> done_meshes;
+    for (const SceneObject& obj : flatten_objects(scene)) {
+        for (size_t li = 0; li < obj.levels.size(); ++li) {
+            const LodLevel& level = obj.levels[li];
+            if (!done_meshes.insert(level.mesh).second) continue;
+            // A coarse level's surface lies within its geometric error of level 0 (the traced
+            // geometry), often inside it: its points are lifted by twice that error along the
+            // normal before tracing, so that level 0 does not shadow them.
+            const float lift = li == 0 ? 0.0f : float(2.0 * level.geometric_error_m);
+            for (Primitive& prim : scene.meshes[level.mesh].primitives) {
+                if (has_lightmap(scene, prim) || prim.positions.empty()) continue;
+                VertexJob job{&prim, obj.world, lift, {}};
+                IrradianceOracle record = [&](const glm::vec3& p, const glm::vec3& n) {
+                    job.queries.emplace_back(p, n);
+                    return glm::vec3(0.0f);
+                };
+                Result<std::vector<glm::vec3>> dry =
+                    vertex_irradiance_least_squares(prim, obj.world, record, 2);
+                if (!dry) return dry.error();
+                vertex_jobs.push_back(std::move(job));
+            }
+        }
+    }
+    const int vsamples = options.vertex_samples > 0 ? options.vertex_samples : options.samples;
+    // Progress = paths traced / paths to trace (the validity pass, denoising and encoding, a
+    // small part of the time, are not counted).
+    uint64_t total_paths = 0;
+    for (const TexelRaster& r : rasters) total_paths += uint64_t(r.covered) * options.samples;
+    for (const VertexJob& j : vertex_jobs) total_paths += uint64_t(j.queries.size()) * vsamples;
+    std::atomic<uint64_t> paths_done{0};
+    double last_report = -1.0;
+    auto report_progress = [&](int thread) {  // from the calling thread (parallel_for's 0)
+        if (thread != 0 || !progress) return;
+        const double frac = double(paths_done) / double(std::max<uint64_t>(1, total_paths));
+        if (frac - last_report >= 0.002) {
+            last_report = frac;
+            progress(std::min(1.0, frac));
+        }
+    };
+
+    // 5. Lightmaps.
+    if (!options.vertex) {
+        for (size_t mi = 0; mi < rasters.size(); ++mi) {
+            TexelRaster& r = rasters[mi];
             const size_t n = size_t(r.width) * r.height;
             BakedMap map;
             map.texture = r.texture;
@@ -144,8 +252,6 @@ Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
             std::vector<float> stddev(n, 0.0f);
             std::vector<glm::vec3> normals(n, glm::vec3(0.0f)), positions(n, glm::vec3(0.0f));
             std::vector<uint64_t> rays(n, 0);
-            std::atomic<size_t> finished{0};
-            double last_report = -1.0;
             const int samples = options.samples;
             parallel_for(n, options.threads, 16, [&](size_t texel, int thread) {
                 const uint32_t b = r.first[texel], e = r.first[texel + 1];
@@ -186,17 +292,9 @@ Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
                     stddev[texel] = float(std::sqrt(var / samples));
                     rays[texel] = rc;
                 }
-                const size_t f = ++finished;
-                if (thread == 0 && progress) {
-                    const double frac =
-                        double(done_texels + f) / double(std::max<size_t>(1, total_texels));
-                    if (frac - last_report >= 0.005) {
-                        last_report = frac;
-                        progress(std::min(1.0, frac));
-                    }
-                }
+                paths_done += uint64_t(samples);
+                report_progress(thread);
             });
-            done_texels += r.covered;
             for (uint64_t x : rays) total_rays += x;
             // Denoise the valid texels, then fill invalid and gutter texels.
             map.final_e = map.raw;
@@ -245,60 +343,38 @@ Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
             report.texels += r.covered;
             report.maps.push_back(std::move(map));
         }
-    } else {
-        for (Material& m : scene.materials) m.lightmap.texture = -1;
     }
 
-    // 4. Vertex colours for every primitive without a lightmap. The oracle is called in a
-    // deterministic order on this thread: a first pass records the query points, the irradiance
-    // is traced in parallel, and a second pass replays the answers in the same order.
-    const int vsamples = options.vertex_samples > 0 ? options.vertex_samples : options.samples;
-    std::set<int> done_meshes;
+    // 6. Vertex light for every primitive without a lightmap: the recorded queries are traced in
+    // parallel, then the fit runs again with the answers replayed in the same order.
     uint64_t query_base = 0;
-    for (const SceneObject& obj : flatten_objects(scene)) {
-        for (size_t li = 0; li < obj.levels.size(); ++li) {
-            const LodLevel& level = obj.levels[li];
-            if (!done_meshes.insert(level.mesh).second) continue;
-            // A coarse level's surface lies within its geometric error of level 0 (the traced
-            // geometry), often inside it: its points are lifted by twice that error along the
-            // normal before tracing, so that level 0 does not shadow them.
-            const float lift = li == 0 ? 0.0f : float(2.0 * level.geometric_error_m);
-            for (Primitive& prim : scene.meshes[level.mesh].primitives) {
-                if (has_lightmap(scene, prim) || prim.positions.empty()) continue;
-                std::vector<std::pair<glm::vec3, glm::vec3>> queries;
-                IrradianceOracle record = [&](const glm::vec3& p, const glm::vec3& n) {
-                    queries.emplace_back(p, n);
-                    return glm::vec3(0.0f);
-                };
-                Result<std::vector<glm::vec3>> dry =
-                    vertex_irradiance_least_squares(prim, obj.world, record, 2);
-                if (!dry) return dry.error();
-                std::vector<glm::vec3> answers(queries.size());
-                std::vector<uint64_t> rays(queries.size(), 0);
-                parallel_for(queries.size(), options.threads, 16, [&](size_t q, int) {
-                    Pcg32 rng(options.seed, mix(0x7665727465ULL, query_base + q));
-                    glm::vec3 sum(0.0f);
-                    const glm::vec3 p = queries[q].first + queries[q].second * lift;
-                    for (int j = 0; j < vsamples; ++j)
-                        sum += tracer.irradiance(p, queries[q].second, rng, &rays[q]);
-                    answers[q] = sum / float(vsamples);
-                });
-                query_base += queries.size();
-                for (uint64_t x : rays) total_rays += x;
-                size_t next = 0;
-                IrradianceOracle replay = [&](const glm::vec3&, const glm::vec3&) {
-                    return next < answers.size() ? answers[next++] : glm::vec3(0.0f);
-                };
-                Result<std::vector<glm::vec3>> e =
-                    vertex_irradiance_least_squares(prim, obj.world, replay, 2);
-                if (!e) return e.error();
-                prim.colors.resize(prim.positions.size());
-                for (size_t i = 0; i < prim.positions.size(); ++i)
-                    prim.colors[i] = glm::vec4(
-                        glm::max((*e)[i], glm::vec3(0.0f)) / std::numbers::pi_v<float>, 1.0f);
-                report.vertices += prim.positions.size();
-            }
-        }
+    for (VertexJob& job : vertex_jobs) {
+        std::vector<glm::vec3> answers(job.queries.size());
+        std::vector<uint64_t> rays(job.queries.size(), 0);
+        parallel_for(job.queries.size(), options.threads, 16, [&](size_t q, int thread) {
+            Pcg32 rng(options.seed, mix(0x7665727465ULL, query_base + q));
+            glm::vec3 sum(0.0f);
+            const glm::vec3 p = job.queries[q].first + job.queries[q].second * job.lift;
+            for (int j = 0; j < vsamples; ++j)
+                sum += tracer.irradiance(p, job.queries[q].second, rng, &rays[q]);
+            answers[q] = sum / float(vsamples);
+            paths_done += uint64_t(vsamples);
+            report_progress(thread);
+        });
+        query_base += job.queries.size();
+        for (uint64_t x : rays) total_rays += x;
+        size_t next = 0;
+        IrradianceOracle replay = [&](const glm::vec3&, const glm::vec3&) {
+            return next < answers.size() ? answers[next++] : glm::vec3(0.0f);
+        };
+        Primitive& prim = *job.prim;
+        Result<std::vector<glm::vec3>> e =
+            vertex_irradiance_least_squares(prim, job.world, replay, 2);
+        if (!e) return e.error();
+        prim.light.resize(prim.positions.size());
+        for (size_t i = 0; i < prim.positions.size(); ++i)
+            prim.light[i] = glm::max((*e)[i], glm::vec3(0.0f));
+        report.vertices += prim.positions.size();
     }
     if (progress) progress(1.0);
     report.rays = total_rays;

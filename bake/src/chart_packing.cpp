@@ -318,6 +318,12 @@ Result<AtlasReport> build_uv_atlas_in(Scene& scene, const AtlasOptions& options)
     std::vector<Job> jobs;
     const double cos_planar = std::cos(options.planar_angle_deg * kPi / 180.0);
     double distortion_sum = 0.0, distortion_area = 0.0;
+    // Charts too large for the atlas: all are counted, the largest (in texels: the one that needs
+    // the lowest density) is named with the density at which it fits, so that one rerun at that
+    // density fits them all.
+    size_t too_large = 0;
+    double largest_extent = 0.0;
+    std::string largest_message;
     for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
         const Mesh& mesh = scene.meshes[mi];
         for (size_t pi = 0; pi < mesh.primitives.size(); ++pi) {
@@ -372,6 +378,9 @@ Result<AtlasReport> build_uv_atlas_in(Scene& scene, const AtlasOptions& options)
                 ch.rect_h = std::max(1, int(std::ceil(ch.height - 1e-9))) + options.padding_texels;
                 if (ch.rect_w > options.max_atlas_size || ch.rect_h > options.max_atlas_size) {
                     const double extent = std::max(ch.width, ch.height);
+                    ++too_large;
+                    if (extent <= largest_extent) continue;
+                    largest_extent = extent;
                     const double fit = options.texels_per_metre *
                                        double(options.max_atlas_size - options.padding_texels - 1) /
                                        extent;
@@ -382,12 +391,16 @@ Result<AtlasReport> build_uv_atlas_in(Scene& scene, const AtlasOptions& options)
                                   std::ceil(ch.width), std::ceil(ch.height), ch.width / texels,
                                   ch.height / texels, options.texels_per_metre,
                                   options.max_atlas_size, std::floor(fit * 1000.0) / 1000.0);
-                    return make_error("uv atlas: mesh '" + mesh.name + "' primitive " +
-                                      std::to_string(pi) + ": a chart of " + buf);
+                    largest_message = "mesh '" + mesh.name + "' primitive " + std::to_string(pi) +
+                                      ": a chart of " + buf;
                 }
             }
         }
     }
+    if (too_large == 1) return make_error("uv atlas: " + largest_message);
+    if (too_large > 1)
+        return make_error("uv atlas: " + std::to_string(too_large) +
+                          " charts do not fit; the largest, " + largest_message);
     report.charts = charts.size();
     report.primitives = jobs.size();
     report.mean_conformal_distortion =
@@ -547,6 +560,7 @@ Result<AtlasReport> build_uv_atlas_in(Scene& scene, const AtlasOptions& options)
                     if (!src.normals.empty()) dst.normals.push_back(src.normals[v]);
                     if (!src.uv0.empty()) dst.uv0.push_back(src.uv0[v]);
                     if (!src.colors.empty()) dst.colors.push_back(src.colors[v]);
+                    if (!src.light.empty()) dst.light.push_back(src.light[v]);
                     dst.uv1.push_back(glm::vec2(float(t.x / W), float(t.y / H)));
                     it = vmap.emplace(key, nv).first;
                 }

@@ -1,8 +1,9 @@
 // Private: the lightmap passes of the bake pipeline (bake.cpp), one algorithm per file:
-// texel_validity.cpp, dilate.cpp, atrous_denoise.cpp.
+// texel_validity.cpp, dilate.cpp, atrous_denoise.cpp, seam_blend.cpp, two_sided.cpp.
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -46,5 +47,11 @@ void atrous_denoise(std::vector<glm::vec3>& texels, const std::vector<uint8_t>& 
 // (`iterations` Gauss-Seidel sweeps). Returns the number of seam edges.
 size_t blend_seams(const Scene& scene, int texture, std::vector<glm::vec3>& texels, int width,
                    int height, int iterations);
+
+// two_sided.cpp: every primitive of a double-sided material for which keep() is false becomes a
+// front and a back sheet (reversed winding, negated normals, attributes copied) under a
+// single-sided material (cloned when kept primitives share it), so that each side gets its own
+// texels or vertex light. Returns the number of primitives split.
+size_t split_two_sided(Scene& scene, const std::function<bool(const Primitive&)>& keep);
 
 }  // namespace hmdnode::detail

@@ -38,6 +38,7 @@ uint32_t add_midpoint(Primitive& p, uint32_t a, uint32_t b) {
     if (!p.uv0.empty()) p.uv0.push_back(0.5f * (p.uv0[a] + p.uv0[b]));
     if (!p.uv1.empty()) p.uv1.push_back(0.5f * (p.uv1[a] + p.uv1[b]));
     if (!p.colors.empty()) p.colors.push_back(0.5f * (p.colors[a] + p.colors[b]));
+    if (!p.light.empty()) p.light.push_back(0.5f * (p.light[a] + p.light[b]));
     return m;
 }
 

@@ -277,7 +277,7 @@ struct PathTracer::Impl {
                 const float w = pdf_b / (pdf_b + pdf_l);
                 e += beta * m.emission * w;
             }
-            if (k + 1 > bounces) break;
+            if (bounces >= 0 && k + 1 > bounces) break;
             const glm::vec3 a = albedo(h->triangle, h->u, h->v);
             if (max3(a) <= 0.0f) break;
             x = x + nx * offset(x) + d * h->t;
@@ -305,7 +305,7 @@ PathTracer::~PathTracer() = default;
 Result<PathTracer> PathTracer::build(const Scene& scene, const PathTracerOptions& options) {
     auto impl = std::make_unique<Impl>();
     impl->options = options;
-    impl->options.bounces = std::max(0, options.bounces);
+    impl->options.bounces = options.bounces < 0 ? -1 : options.bounces;
 
     // Textures used as base colour: decoded to linear once.
     std::vector<int> tex_slot(scene.textures.size(), -1);
@@ -470,6 +470,23 @@ size_t PathTracer::punctual_light_count() const {
 bool PathTracer::has_light() const {
     return !impl_->lights.empty() || !impl_->emitters.empty() ||
            max3(impl_->options.sky_radiance) > 0.0f;
+}
+float PathTracer::mean_albedo() const {
+    std::vector<glm::vec3> texture_mean(impl_->textures.size(), glm::vec3(1.0f));
+    for (size_t i = 0; i < impl_->textures.size(); ++i) {
+        const LinearTexture& t = impl_->textures[i];
+        glm::dvec3 sum(0.0);
+        for (const glm::vec3& c : t.rgb) sum += glm::dvec3(c);
+        if (!t.rgb.empty()) texture_mean[i] = glm::vec3(sum / double(t.rgb.size()));
+    }
+    double weighted = 0.0, area = 0.0;
+    for (size_t tri = 0; tri < impl_->areas.size(); ++tri) {
+        const TriMaterial& m = impl_->mats[impl_->material[tri]];
+        const glm::vec3 a = m.texture >= 0 ? m.albedo * texture_mean[size_t(m.texture)] : m.albedo;
+        weighted += double(impl_->areas[tri]) * double(max3(a));
+        area += double(impl_->areas[tri]);
+    }
+    return area > 0.0 ? float(weighted / area) : 0.0f;
 }
 const PathTracerOptions& PathTracer::options() const {
     return impl_->options;

@@ -13,7 +13,6 @@
 // integration rule is the sampled one rather than exact per-triangle quadrature.
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 
 #include <Eigen/Sparse>
 #include <Eigen/SparseCholesky>
@@ -136,10 +135,9 @@ Result<VertexBakeReport> bake_vertex_irradiance(Primitive& prim, const glm::dmat
                                                    options.seam_weight)
                  : vertex_irradiance_angle_weighted(prim, world, oracle, options.subdivisions);
     if (!e.ok()) return e.error();
-    prim.colors.resize(prim.positions.size());
-    const float inv_pi = float(1.0 / std::numbers::pi);
+    prim.light.resize(prim.positions.size());
     for (size_t v = 0; v < prim.positions.size(); ++v)
-        prim.colors[v] = glm::vec4(glm::max((*e)[v], glm::vec3(0.0f)) * inv_pi, 1.0f);
+        prim.light[v] = glm::max((*e)[v], glm::vec3(0.0f));
     report.vertices = prim.positions.size();
     return report;
 }

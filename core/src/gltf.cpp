@@ -25,6 +25,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <numbers>
 #include <sstream>
 #include <string>
 #include <string_view>
@@ -181,8 +182,10 @@ void precheck_json(std::string_view text, const fs::path& base_dir) {
         fail("asset.minVersion ", quote_text(min_version->get<std::string>()),
              " is newer than 2.0");
 
-    static const char* const kSupported[] = {"KHR_lights_punctual", "KHR_mesh_quantization",
-                                             "KHR_materials_unlit", "MOZ_lightmap", "MSFT_lod"};
+    static const char* const kSupported[] = {
+        "KHR_lights_punctual", "KHR_mesh_quantization",
+        "KHR_materials_unlit", "KHR_materials_emissive_strength",
+        "MOZ_lightmap",        "MSFT_lod"};
     auto required = doc.find("extensionsRequired");
     if (required != doc.end() && required->is_array())
         for (const Json& name : *required) {
@@ -511,13 +514,35 @@ Primitive convert_primitive(const tinygltf::Model& m, const tinygltf::Primitive&
     }
     if (int a = attribute("NORMAL"); a >= 0)
         p.normals = read_vectors<glm::vec3>(m, a, label + " NORMAL", {TINYGLTF_TYPE_VEC3}, n, true);
-    if (int a = attribute("TEXCOORD_0"); a >= 0)
+    if (int a = attribute("TEXCOORD_0"); a >= 0) {
         p.uv0 = read_vectors<glm::vec2>(m, a, label + " TEXCOORD_0", {TINYGLTF_TYPE_VEC2}, n);
+        // An accessor without data is all zeros: what the writer puts as the TEXCOORD_0 that
+        // glTF requires before a TEXCOORD_1. The renderer reads a missing uv0 as 0 as well.
+        const tinygltf::Accessor& acc = m.accessors[size_t(a)];
+        if (acc.bufferView < 0 && !acc.sparse.isSparse) p.uv0.clear();
+    }
     if (int a = attribute("TEXCOORD_1"); a >= 0)
         p.uv1 = read_vectors<glm::vec2>(m, a, label + " TEXCOORD_1", {TINYGLTF_TYPE_VEC2}, n);
     if (int a = attribute("COLOR_0"); a >= 0)
         p.colors = read_vectors<glm::vec4>(m, a, label + " COLOR_0",
                                            {TINYGLTF_TYPE_VEC3, TINYGLTF_TYPE_VEC4}, n, true);
+    if (int a = attribute("_LIGHT_0"); a >= 0) {
+        p.light = read_vectors<glm::vec3>(m, a, label + " _LIGHT_0", {TINYGLTF_TYPE_VEC3}, n);
+    } else if (!p.colors.empty()) {
+        // Files baked before _LIGHT_0 stored the light as COLOR_0 = (E / pi, 1), above 1 where
+        // bright (which glTF does not allow): such colours are read as the light they are.
+        bool opaque = true, above_one = false;
+        for (const glm::vec4& c : p.colors) {
+            opaque &= c.a == 1.0f;
+            above_one |= c.r > 1.0f || c.g > 1.0f || c.b > 1.0f;
+        }
+        if (opaque && above_one) {
+            p.light.resize(n);
+            for (size_t i = 0; i < n; ++i)
+                p.light[i] = glm::vec3(p.colors[i]) * std::numbers::pi_v<float>;
+            p.colors.clear();
+        }
+    }
 
     std::vector<uint32_t> order;  // vertex order as stored, before strip/fan expansion
     if (src.indices >= 0) {
@@ -575,6 +600,17 @@ Material convert_material(const tinygltf::Model& m, const tinygltf::Material& sr
     if (src.emissiveFactor.size() == 3)
         out.emissive_factor = glm::vec3(float(src.emissiveFactor[0]), float(src.emissiveFactor[1]),
                                         float(src.emissiveFactor[2]));
+    if (auto es = src.extensions.find("KHR_materials_emissive_strength");
+        es != src.extensions.end() && es->second.IsObject() && es->second.Has("emissiveStrength")) {
+        // Emitted radiance = emissiveFactor x emissiveStrength (the extension lets emission go
+        // above the core spec's [0, 1] factor).
+        const tinygltf::Value& v = es->second.Get("emissiveStrength");
+        if (!v.IsNumber() || !std::isfinite(v.GetNumberAsDouble()) || v.GetNumberAsDouble() < 0.0)
+            fail(label,
+                 " KHR_materials_emissive_strength: emissiveStrength is not a finite "
+                 "number >= 0");
+        out.emissive_factor *= float(v.GetNumberAsDouble());
+    }
     auto ext = src.extensions.find("MOZ_lightmap");
     if (ext != src.extensions.end()) {
         const tinygltf::Value& v = ext->second;

@@ -1,14 +1,19 @@
 // glTF 2.0 writer: Scene -> tinygltf::Model with one buffer (tightly packed attributes, indices,
 // PNG textures) -> GLB bytes in memory -> write_file_atomically.
 //
-// What goes out: POSITION (with min/max), NORMAL, TEXCOORD_0, TEXCOORD_1 and COLOR_0 as float
-// (colours may exceed 1), indices as UNSIGNED_SHORT when every vertex fits, else UNSIGNED_INT;
-// materials with baseColorFactor/-Texture, doubleSided, metallicFactor 0 (the scene model is
-// diffuse; glTF's default of 1 would make other viewers draw metal) and MOZ_lightmap; textures
-// as PNG; nodes as TRS with MSFT_lod, extras.MSFT_screencoverage and extras.geometric_error
-// (every node with geometric_error_m >= 0); KHR_lights_punctual; one scene holding the roots.
+// What goes out: POSITION (with min/max), NORMAL, TEXCOORD_0, TEXCOORD_1, COLOR_0 (in [0, 1];
+// within 1e-4 of it clamped, farther an error) and _LIGHT_0 (baked irradiance, any value >= 0) as
+// float; a primitive with TEXCOORD_1 but no TEXCOORD_0 gets a TEXCOORD_0 accessor without data
+// (zeros, no bytes), since glTF numbers attribute sets from 0; indices as UNSIGNED_SHORT when every
+// vertex fits, else UNSIGNED_INT; materials with baseColorFactor/-Texture, doubleSided,
+// metallicFactor 0 (the scene model is diffuse; glTF's default of 1 would make other viewers draw
+// metal), emissiveFactor (scaled into [0, 1] by a KHR_materials_emissive_strength when brighter)
+// and MOZ_lightmap; textures as PNG; nodes as TRS with MSFT_lod, extras.MSFT_screencoverage and
+// extras.geometric_error (every node with geometric_error_m >= 0); KHR_lights_punctual; one scene
+// holding the roots.
 // A scene the format cannot hold (index out of range, attribute counts that differ, a node graph
 // that is not a forest) is an error, never a file the loader would reject.
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -32,6 +37,10 @@ bool finite3(const glm::dvec3& v) {
     return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
 }
 
+// COLOR_0 within this of [0, 1] is float round-off of interpolated colours (LOD, splitting): it is
+// clamped into the range; farther out is an error.
+constexpr float kColourSlack = 1e-4f;
+
 bool in_range(int index, size_t size) {
     return index >= 0 && size_t(index) < size;
 }
@@ -53,6 +62,10 @@ std::string check_scene(const Scene& s) {
         if (m.lightmap.texture != -1 && !in_range(m.lightmap.texture, s.textures.size()))
             return cat("material ", i, ": lightmap texture ", m.lightmap.texture,
                        " does not exist");
+        for (int c = 0; c < 3; ++c)
+            if (!(m.emissive_factor[c] >= 0.0f && std::isfinite(m.emissive_factor[c])))
+                return cat("material ", i, ": emissive factor ", m.emissive_factor[c],
+                           " is not a finite number >= 0");
         if (m.lightmap.texture != -1 && m.lightmap.tex_coord < 0)
             return cat("material ", i, ": lightmap texCoord ", m.lightmap.tex_coord,
                        " is negative");
@@ -71,8 +84,19 @@ std::string check_scene(const Scene& s) {
                     return label + ": a position is not finite";
             if ((!p.normals.empty() && p.normals.size() != n) ||
                 (!p.uv0.empty() && p.uv0.size() != n) || (!p.uv1.empty() && p.uv1.size() != n) ||
-                (!p.colors.empty() && p.colors.size() != n))
+                (!p.colors.empty() && p.colors.size() != n) ||
+                (!p.light.empty() && p.light.size() != n))
                 return label + ": an attribute's count differs from the position count";
+            for (size_t v = 0; v < p.colors.size(); ++v)
+                for (int c = 0; c < 4; ++c)
+                    if (!(p.colors[v][c] >= -kColourSlack && p.colors[v][c] <= 1.0f + kColourSlack))
+                        return cat(label, ": COLOR_0 ", v, " component ", c, " = ", p.colors[v][c],
+                                   " is outside [0, 1] (glTF's range; light above 1 goes in "
+                                   "_LIGHT_0)");
+            for (size_t v = 0; v < p.light.size(); ++v)
+                for (int c = 0; c < 3; ++c)
+                    if (!std::isfinite(p.light[v][c]))
+                        return cat(label, ": _LIGHT_0 ", v, " is not finite");
             if (p.indices.empty() || p.indices.size() % 3 != 0)
                 return cat(label, ": ", p.indices.size(),
                            " indices is not a positive multiple of 3");
@@ -170,6 +194,17 @@ class ModelBuilder {
         return int(model.accessors.size() - 1);
     }
 
+    // An accessor without a bufferView: `count` zeros, no bytes in the buffer.
+    int add_zeros(size_t count, int type) {
+        tinygltf::Accessor a;
+        a.bufferView = -1;
+        a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+        a.type = type;
+        a.count = count;
+        model.accessors.push_back(a);
+        return int(model.accessors.size() - 1);
+    }
+
     int add_indices(const std::vector<uint32_t>& indices, size_t vertex_count) {
         tinygltf::Accessor a;
         a.type = TINYGLTF_TYPE_SCALAR;
@@ -226,7 +261,20 @@ std::string build(const Scene& s, ModelBuilder* b) {
         mat.pbrMetallicRoughness.baseColorTexture.index = src.base_color_texture;
         mat.pbrMetallicRoughness.metallicFactor = 0.0;
         mat.doubleSided = src.double_sided;
-        mat.emissiveFactor = {src.emissive_factor.r, src.emissive_factor.g, src.emissive_factor.b};
+        // glTF's emissiveFactor lies in [0, 1]; brighter emission is a factor times
+        // KHR_materials_emissive_strength, a power of two so that factor x strength gives back
+        // the same float.
+        const glm::vec3 e = src.emissive_factor;
+        const float peak = std::max({e.r, e.g, e.b});
+        double strength = 1.0;
+        while (peak > strength) strength *= 2.0;
+        mat.emissiveFactor = {e.r / strength, e.g / strength, e.b / strength};
+        if (strength > 1.0) {
+            tinygltf::Value::Object es;
+            es["emissiveStrength"] = tinygltf::Value(strength);
+            mat.extensions["KHR_materials_emissive_strength"] = tinygltf::Value(std::move(es));
+            b->use_extension("KHR_materials_emissive_strength");
+        }
         if (src.lightmap.texture >= 0) {
             tinygltf::Value::Object lm;
             lm["index"] = tinygltf::Value(src.lightmap.texture);
@@ -249,10 +297,18 @@ std::string build(const Scene& s, ModelBuilder* b) {
                 prim.attributes["NORMAL"] = b->add_attribute(p.normals, TINYGLTF_TYPE_VEC3, false);
             if (!p.uv0.empty())
                 prim.attributes["TEXCOORD_0"] = b->add_attribute(p.uv0, TINYGLTF_TYPE_VEC2, false);
+            else if (!p.uv1.empty())  // glTF numbers sets from 0: TEXCOORD_1 needs a TEXCOORD_0
+                prim.attributes["TEXCOORD_0"] =
+                    b->add_zeros(p.positions.size(), TINYGLTF_TYPE_VEC2);
             if (!p.uv1.empty())
                 prim.attributes["TEXCOORD_1"] = b->add_attribute(p.uv1, TINYGLTF_TYPE_VEC2, false);
-            if (!p.colors.empty())
-                prim.attributes["COLOR_0"] = b->add_attribute(p.colors, TINYGLTF_TYPE_VEC4, false);
+            if (!p.colors.empty()) {
+                std::vector<glm::vec4> colours = p.colors;  // round-off past [0, 1] clamped
+                for (glm::vec4& c : colours) c = glm::clamp(c, 0.0f, 1.0f);
+                prim.attributes["COLOR_0"] = b->add_attribute(colours, TINYGLTF_TYPE_VEC4, false);
+            }
+            if (!p.light.empty())
+                prim.attributes["_LIGHT_0"] = b->add_attribute(p.light, TINYGLTF_TYPE_VEC3, false);
             prim.indices = b->add_indices(p.indices, p.positions.size());
             mesh.primitives.push_back(std::move(prim));
         }

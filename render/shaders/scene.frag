@@ -1,7 +1,7 @@
 // Scene fragment shader, the project's shading contract (docs/formats.md):
 //   albedo = base_color_factor * texture(base_color, uv0) * COLOR_0
 //   lightmapped: rgb = albedo.rgb * E / pi, E = texture(lightmap, uv_n).rgb * intensity
-//   otherwise:   rgb = albedo.rgb (unlit; baked light, if any, is in COLOR_0)
+//   otherwise:   rgb = albedo.rgb * _LIGHT_0 / pi (vertex-baked E; unlit, factor 1, without)
 //   then:        rgb += emissiveFactor (emitted radiance, relative to white)
 // Writes linear colour with alpha 1; the sRGB attachment encodes. Cost: one or two texture
 // fetches per fragment.
@@ -19,6 +19,7 @@ layout(set = 1, binding = 2) uniform MaterialConstants {
 layout(location = 0) in vec2 in_uv0;
 layout(location = 1) in vec2 in_uv1;
 layout(location = 2) in vec4 in_color;
+layout(location = 3) in vec3 in_light;  // _LIGHT_0 / pi, 1 without baked vertex light
 
 layout(location = 0) out vec4 out_color;
 
@@ -26,7 +27,7 @@ const float kInvPi = 0.31830988618379067;
 
 void main() {
     vec4 albedo = material.base_color_factor * texture(base_color_texture, in_uv0) * in_color;
-    vec3 rgb = albedo.rgb;
+    vec3 rgb = albedo.rgb * in_light;
     // note: the branch is uniform per draw (a material constant), so the implicit derivatives of
     // the lightmap fetch stay defined.
     if (material.lightmap.z > 0.5) {

@@ -17,14 +17,17 @@ layout(location = 0) in vec3 in_position;
 layout(location = 2) in vec2 in_uv0;
 layout(location = 3) in vec2 in_uv1;
 layout(location = 4) in vec4 in_color;
+layout(location = 5) in vec3 in_light;  // _LIGHT_0 / pi, 1 without baked vertex light
 
 layout(location = 0) out vec2 out_uv0;
 layout(location = 1) out vec2 out_uv1;
 layout(location = 2) out vec4 out_color;
+layout(location = 3) out vec3 out_light;
 
 void main() {
     out_uv0 = in_uv0;
     out_uv1 = in_uv1;
     out_color = in_color;
+    out_light = in_light;
     gl_Position = frame.view_projection[gl_ViewIndex + draw.view_base] * (draw.world * vec4(in_position, 1.0));
 }

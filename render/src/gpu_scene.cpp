@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <numbers>
 #include <string>
 
 #include "scene_pipeline.hpp"
@@ -43,7 +44,8 @@ Status validate(const Scene& scene, uint32_t max_dim) {
             const size_t n = prim.positions.size();
             const auto bad_size = [n](size_t s) { return s != 0 && s != n; };
             if (bad_size(prim.normals.size()) || bad_size(prim.uv0.size()) ||
-                bad_size(prim.uv1.size()) || bad_size(prim.colors.size()))
+                bad_size(prim.uv1.size()) || bad_size(prim.colors.size()) ||
+                bad_size(prim.light.size()))
                 return make_error("scene: " + where(m, p) +
                                   ": an attribute count differs from the position count");
             if (prim.indices.size() % 3 != 0)
@@ -226,6 +228,8 @@ Status upload_geometry(DeviceContext& ctx, const Scene& scene, GpuScene& out) {
                 out_v.uv0 = p.uv0.empty() ? glm::vec2(0) : p.uv0[v];
                 out_v.uv1 = p.uv1.empty() ? glm::vec2(0) : p.uv1[v];
                 out_v.color = p.colors.empty() ? glm::vec4(1) : p.colors[v];
+                out_v.light =
+                    p.light.empty() ? glm::vec3(1) : p.light[v] / std::numbers::pi_v<float>;
             }
             indices.insert(indices.end(), p.indices.begin(), p.indices.end());
             gm.triangles += p.triangle_count();

@@ -20,8 +20,9 @@ struct Vertex {
     glm::vec2 uv0;
     glm::vec2 uv1;
     glm::vec4 color;
+    glm::vec3 light;  // _LIGHT_0 / pi (baked diffuse light), 1 when absent (unlit)
 };
-static_assert(sizeof(Vertex) == 56);
+static_assert(sizeof(Vertex) == 68);
 
 // Set 0, binding 0 (std140).
 struct FrameConstants {

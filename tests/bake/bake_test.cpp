@@ -4,11 +4,18 @@
 // a box (invalid, filled from neighbours), determinism across thread counts, and input errors.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <limits>
 #include <numbers>
+#include <string>
 #include <vector>
 
 #include "hmdnode/bake/bake.hpp"
+#include "hmdnode/bake/progress_eta.hpp"
+#include "hmdnode/core/gltf.hpp"
 
 namespace hmdnode {
 namespace {
@@ -335,7 +342,7 @@ TEST(Bake, NonFinitePositionNamesTheMesh) {
     EXPECT_NE(r.error().message.find("vertex 1"), std::string::npos) << r.error().message;
 }
 
-TEST(Bake, VertexColoursAreIrradianceOverPi) {
+TEST(Bake, VertexLightIsIrradiance) {
     Builder b(glm::vec3(0.5f), glm::vec3(0.5f), 8);
     b.quad(1, {-1, 0, -1}, {0, 0, 2}, {2, 0, 0}, false);  // unlightmapped plane, normal +y
     BakeOptions o;
@@ -344,8 +351,274 @@ TEST(Bake, VertexColoursAreIrradianceOverPi) {
     Result<BakeReport> r = bake_scene(b.s, o);
     ASSERT_TRUE(r.ok()) << r.error().message;
     EXPECT_EQ(r->vertices, 4u);
-    for (const glm::vec4& c : b.s.meshes[1].primitives[0].colors)
-        for (int k = 0; k < 3; ++k) EXPECT_NEAR(c[k], o.sky_radiance[k], 0.02f * o.sky_radiance[k]);
+    const float pi = std::numbers::pi_v<float>;
+    ASSERT_EQ(b.s.meshes[1].primitives[0].light.size(), 4u);
+    for (const glm::vec3& c : b.s.meshes[1].primitives[0].light)  // E = pi Ls
+        for (int k = 0; k < 3; ++k)
+            EXPECT_NEAR(c[k], pi * o.sky_radiance[k], 0.02f * pi * o.sky_radiance[k]);
+    // E above 1 (here up to 2.8) round-trips through the .glb exactly: _LIGHT_0 is float.
+    const std::filesystem::path path =
+        std::filesystem::temp_directory_path() / "hmdnode_bake_test_vertex_light.glb";
+    b.s.meshes.erase(b.s.meshes.begin());  // the empty floor mesh, which glTF cannot hold
+    b.s.nodes.erase(b.s.nodes.begin());
+    b.s.nodes[0].mesh = 0;
+    b.s.roots = {0};
+    const Status saved = save_glb(b.s, path);
+    ASSERT_TRUE(saved.ok()) << saved.error().message;
+    Result<Scene> back = load_gltf(path);
+    std::filesystem::remove(path);
+    ASSERT_TRUE(back.ok()) << back.error().message;
+    const Primitive& p = back->meshes[0].primitives[0];
+    EXPECT_EQ(p.light, b.s.meshes[0].primitives[0].light);
+    EXPECT_TRUE(p.colors.empty());
+    float peak = 0.0f;
+    for (const glm::vec3& c : p.light) peak = std::max(peak, c.b);
+    EXPECT_GT(peak, 2.5f);
+}
+
+// A closed box of albedo rho = 0.9 that emits Le = 1 everywhere (the furnace): E = pi Le / (1 -
+// rho) at every texel. At the default settings (no bounce limit, Russian roulette) the bake's
+// mean is within 2 % of it; an explicit --bounces 3 keeps sum_{k<=3} rho^k = 3.439 of the 10 and
+// warns about it (rho^4 = 66 %).
+Scene furnace_scene(float rho) {
+    Scene s;
+    Material m;
+    m.name = "furnace";
+    m.base_color_factor = glm::vec4(rho, rho, rho, 1.0f);
+    m.emissive_factor = glm::vec3(1.0f);
+    s.materials.push_back(m);
+    Mesh mesh;
+    mesh.name = "box";
+    Primitive& p = mesh.primitives.emplace_back();
+    p.material = 0;
+    auto quad = [&](glm::vec3 o, glm::vec3 u, glm::vec3 v) {
+        const uint32_t b = uint32_t(p.positions.size());
+        p.positions.insert(p.positions.end(), {o, o + u, o + u + v, o + v});
+        p.normals.insert(p.normals.end(), 4, glm::normalize(glm::cross(u, v)));
+        p.indices.insert(p.indices.end(), {b, b + 1, b + 2, b, b + 2, b + 3});
+    };
+    const float h = 0.5f, e = 1.0f;
+    quad({-h, -h, -h}, {0, 0, e}, {e, 0, 0});
+    quad({-h, h, -h}, {e, 0, 0}, {0, 0, e});
+    quad({-h, -h, -h}, {0, e, 0}, {0, 0, e});
+    quad({h, -h, -h}, {0, 0, e}, {0, e, 0});
+    quad({-h, -h, -h}, {e, 0, 0}, {0, e, 0});
+    quad({-h, -h, h}, {0, e, 0}, {e, 0, 0});
+    s.meshes.push_back(mesh);
+    Node n;
+    n.name = "box";
+    n.mesh = 0;
+    s.nodes.push_back(n);
+    s.roots.push_back(0);
+    return s;
+}
+
+double mean_valid(const BakedMap& m) {
+    double sum = 0.0;
+    size_t count = 0;
+    for (size_t i = 0; i < m.valid.size(); ++i)
+        if (m.valid[i]) {
+            sum += m.final_e[i].g;
+            ++count;
+        }
+    return count ? sum / double(count) : 0.0;
+}
+
+bool mentions_bounces(const std::vector<std::string>& warnings) {
+    for (const std::string& w : warnings)
+        if (w.find("bounces") != std::string::npos) return true;
+    return false;
+}
+
+TEST(Bake, FurnaceOfAlbedo09ConvergesAtTheDefaults) {
+    const float rho = 0.9f;
+    Scene s = furnace_scene(rho);
+    BakeOptions o;  // the defaults, with an atlas so that the box has texels
+    o.texels_per_metre = 8.0;
+    o.threads = 2;
+    Result<BakeReport> r = bake_scene(s, o);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    ASSERT_EQ(r->maps.size(), 1u);
+    const double expected = kPi / (1.0 - rho);
+    const double mean = mean_valid(r->maps[0]);
+    std::printf("furnace rho 0.9, defaults: mean E %.3f, closed form %.3f (%+.2f %%)\n", mean,
+                expected, 100.0 * (mean / expected - 1.0));
+    EXPECT_NEAR(mean, expected, 0.02 * expected);
+    EXPECT_FALSE(mentions_bounces(r->warnings));
+
+    Scene t = furnace_scene(rho);
+    o.bounces = 3;
+    r = bake_scene(t, o);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    const double truncated = kPi * (1.0 - std::pow(rho, 4.0)) / (1.0 - rho);
+    EXPECT_NEAR(mean_valid(r->maps[0]), truncated, 0.02 * truncated);
+    ASSERT_TRUE(mentions_bounces(r->warnings));
+    bool named = false;
+    for (const std::string& w : r->warnings)
+        named |= w.find("65.6 %") != std::string::npos && w.find("rho = 0.90") != std::string::npos;
+    EXPECT_TRUE(named) << r->warnings.back();
+}
+
+// The warning's threshold: rho^(n+1) > 2 %. At rho = 0.5, 5 bounces drop 1.6 % (quiet), 4 drop
+// 3.1 % (warns).
+TEST(Bake, BounceLimitWarnsOnlyAboveTwoPercent) {
+    for (int bounces : {4, 5}) {
+        Scene s = furnace_scene(0.5f);
+        BakeOptions o;
+        o.texels_per_metre = 4.0;
+        o.samples = 4;
+        o.bounces = bounces;
+        Result<BakeReport> r = bake_scene(s, o);
+        ASSERT_TRUE(r.ok()) << r.error().message;
+        EXPECT_EQ(mentions_bounces(r->warnings), bounces == 4) << bounces;
+    }
+}
+
+// The progress bar's time left: nothing until 3 % more work and half a second since the first
+// report, then the measured rate extrapolated (here a steady 10 %/s after 2 s of loading).
+TEST(Bake, ProgressClockGivesNoEstimateUntilItCanTell) {
+    ProgressClock eta;
+    EXPECT_LT(eta.seconds_left(2.0, 0.0001), 0.0);  // first report: the rate starts here
+    EXPECT_LT(eta.seconds_left(2.01, 0.001), 0.0);  // 0.1 % done: no 315,345 s guess
+    EXPECT_LT(eta.seconds_left(2.2, 0.0201), 0.0);  // 2 % done
+    EXPECT_NEAR(eta.seconds_left(2.6, 0.0601), 0.9399 * 0.6 / 0.06, 1e-9);
+    EXPECT_NEAR(eta.seconds_left(7.0, 0.5001), 0.4999 * 5.0 / 0.5,
+                1e-9);  // loading time not counted
+    EXPECT_EQ(eta.seconds_left(12.0, 1.0), 0.0);
+}
+
+// Lights that cannot be physical are errors naming the light; an emissive material that no
+// traced mesh uses is a warning, and nothing to bake when it is the only light.
+TEST(Bake, NegativeLightsAreErrorsAndUnusedEmissionAWarning) {
+    for (int bad = 0; bad < 3; ++bad) {
+        Builder b(glm::vec3(0.5f), glm::vec3(0.5f), 8);
+        b.quad(0, {-1, 0, -1}, {0, 0, 2}, {2, 0, 0}, true);
+        Light l;
+        l.name = "lamp";
+        if (bad == 0) l.intensity = -5.0f;
+        if (bad == 1) l.color.g = std::numeric_limits<float>::quiet_NaN();
+        if (bad == 2) l.range = -1.0f;
+        b.s.lights.push_back(l);
+        Result<BakeReport> r = bake_scene(b.s, BakeOptions{});
+        ASSERT_FALSE(r.ok()) << bad;
+        EXPECT_NE(r.error().message.find("light 0 'lamp'"), std::string::npos) << r.error().message;
+    }
+    Builder b(glm::vec3(0.5f), glm::vec3(0.5f), 8);
+    b.quad(0, {-1, 0, -1}, {0, 0, 2}, {2, 0, 0}, true);
+    Material glow;
+    glow.name = "glow";
+    glow.emissive_factor = glm::vec3(4.0f);
+    b.s.materials.push_back(glow);  // no primitive uses it
+    Result<BakeReport> r = bake_scene(b.s, BakeOptions{});
+    ASSERT_FALSE(r.ok());
+    EXPECT_NE(r.error().message.find("nothing to bake"), std::string::npos) << r.error().message;
+    EXPECT_NE(r.error().message.find("'glow' is emissive but no mesh"), std::string::npos)
+        << r.error().message;
+    BakeOptions o;
+    o.samples = 2;
+    o.sky_radiance = glm::vec3(1.0f);
+    r = bake_scene(b.s, o);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    ASSERT_FALSE(r->warnings.empty());
+    EXPECT_NE(r->warnings[0].find("material 2 'glow' is emissive but no mesh"), std::string::npos)
+        << r->warnings[0];
+}
+
+// A double-sided divider (x = 0, front facing +x) lit by a point light on its back side (x = -1):
+// it used to be baked for its front side only, black on the lit side. Now it is two sheets under
+// a single-sided material, the back sheet (normal -x) lit as the closed form says and the front
+// one dark; as lightmap texels (atlas) and as vertex light.
+Scene divider_scene() {
+    Scene s;
+    Material m;
+    m.name = "divider";
+    m.double_sided = true;
+    s.materials.push_back(m);
+    Mesh mesh;
+    mesh.name = "divider";
+    Primitive& p = mesh.primitives.emplace_back();
+    p.material = 0;
+    p.positions = {{0, -0.5f, -0.5f}, {0, 0.5f, -0.5f}, {0, 0.5f, 0.5f}, {0, -0.5f, 0.5f}};
+    p.normals.assign(4, glm::vec3(1, 0, 0));  // (y, z) winding: front = +x
+    p.indices = {0, 1, 2, 0, 2, 3};
+    s.meshes.push_back(mesh);
+    Node n;
+    n.name = "divider";
+    n.mesh = 0;
+    Node lamp;
+    lamp.name = "lamp";
+    lamp.translation = {-1, 0, 0};
+    s.nodes = {n, lamp};
+    s.roots = {0, 1};
+    Light l;
+    l.name = "bulb";
+    l.intensity = 10.0f;
+    l.node = 1;
+    s.lights.push_back(l);
+    return s;
+}
+
+TEST(Bake, DoubleSidedSurfacesGetLightOnEachSide) {
+    const float pi_free_e = 10.0f;  // E at the divider's centre: I / r^2, r = 1
+    for (bool vertex : {false, true}) {
+        Scene s = divider_scene();
+        BakeOptions o;
+        o.samples = 4;
+        o.vertex = vertex;
+        o.texels_per_metre = vertex ? 0.0 : 16.0;
+        Result<BakeReport> r = bake_scene(s, o);
+        ASSERT_TRUE(r.ok()) << r.error().message;
+        EXPECT_EQ(r->two_sided_primitives, 1u);
+        const Primitive& p = s.meshes[0].primitives[0];
+        ASSERT_EQ(p.triangle_count(), 4u);  // front and back sheets
+        EXPECT_FALSE(s.materials[size_t(p.material)].double_sided);
+        // The back sheet's triangles face -x (reversed winding).
+        const glm::vec3 a = p.positions[p.indices[6]], b = p.positions[p.indices[7]],
+                        c = p.positions[p.indices[8]];
+        EXPECT_LT(glm::cross(b - a, c - a).x, 0.0f);
+        // E at a sheet's point: from the light on its side only (x = -1), I cos / r^2.
+        auto expected = [&](glm::vec3 q, bool back) {
+            if (!back) return 0.0f;
+            const glm::vec3 d = glm::vec3(-1, 0, 0) - q;  // to the light; cos = 1 / r
+            const float r2 = glm::dot(d, d);
+            return pi_free_e / (r2 * std::sqrt(r2));
+        };
+        if (vertex) {
+            ASSERT_EQ(p.light.size(), 8u);
+            // Least squares over two triangles does not interpolate the peaked I cos / r^2: the
+            // back sheet's vertices are lit (at least the corners' point value), the front's
+            // exactly dark.
+            for (size_t v = 0; v < 8; ++v) {
+                if (v < 4)
+                    EXPECT_EQ(p.light[v].r, 0.0f) << "front vertex " << v;
+                else
+                    EXPECT_GT(p.light[v].r, expected(p.positions[v], true)) << "back vertex " << v;
+            }
+        } else {
+            ASSERT_EQ(r->maps.size(), 1u);
+            const BakedMap& m = r->maps[0];
+            // Sample each sheet's texel under the centroid of its first triangle.
+            for (int sheet = 0; sheet < 2; ++sheet) {
+                const uint32_t* t = &p.indices[size_t(sheet) * 6];
+                const glm::vec2 uv = (p.uv1[t[0]] + p.uv1[t[1]] + p.uv1[t[2]]) / 3.0f;
+                const glm::vec3 q =
+                    (p.positions[t[0]] + p.positions[t[1]] + p.positions[t[2]]) / 3.0f;
+                const int x = int(uv.x * m.width), y = int(uv.y * m.height);
+                const float e = m.final_e[size_t(y) * m.width + x].r;
+                EXPECT_NEAR(e, expected(q, sheet == 1), 0.05f * pi_free_e) << "sheet " << sheet;
+            }
+        }
+    }
+    // Off: one sheet, still double-sided (the old behaviour).
+    Scene s = divider_scene();
+    BakeOptions o;
+    o.samples = 2;
+    o.vertex = true;
+    o.two_sided = false;
+    Result<BakeReport> r = bake_scene(s, o);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_EQ(s.meshes[0].primitives[0].triangle_count(), 2u);
+    EXPECT_TRUE(s.materials[0].double_sided);
 }
 
 }  // namespace

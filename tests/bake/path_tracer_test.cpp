@@ -62,6 +62,18 @@ Scene furnace(float rho, float le) {
     return s;
 }
 
+// The furnace's irradiance at three wall points (a floor centre, a floor corner, a wall), each the
+// mean of n paths, within 2 % of `expected`.
+void expect_furnace_irradiance(const PathTracer& t, Pcg32 rng, int n, double expected) {
+    const glm::vec3 pts[] = {{0, -0.5f, 0}, {0.49f, -0.5f, 0.49f}, {0.5f, 0.2f, -0.3f}};
+    const glm::vec3 ns[] = {{0, 1, 0}, {0, 1, 0}, {-1, 0, 0}};
+    for (int k = 0; k < 3; ++k) {
+        double sum = 0.0;
+        for (int i = 0; i < n; ++i) sum += t.irradiance(pts[k], ns[k], rng).r;
+        EXPECT_NEAR(sum / n, expected, 0.02 * expected) << "point " << k;
+    }
+}
+
 TEST(PathTracer, InwardBoxNormalsPointInside) {
     Scene s = furnace(0.5f, 1.0f);
     const Primitive& p = s.meshes[0].primitives[0];
@@ -94,15 +106,20 @@ TEST(PathTracer, FurnaceRadianceIsLeOverOneMinusRho) {
         EXPECT_NEAR(sum / n, expected, 0.02 * expected) << "origin " << oi;
     }
     // Irradiance at wall points: E = pi L.
-    Pcg32 rng(9, 1);
-    const glm::vec3 pts[] = {{0, -0.5f, 0}, {0.49f, -0.5f, 0.49f}, {0.5f, 0.2f, -0.3f}};
-    const glm::vec3 ns[] = {{0, 1, 0}, {0, 1, 0}, {-1, 0, 0}};
-    for (int k = 0; k < 3; ++k) {
-        double sum = 0.0;
-        const int n = 4000;
-        for (int i = 0; i < n; ++i) sum += t->irradiance(pts[k], ns[k], rng).r;
-        EXPECT_NEAR(sum / n, kPi * expected, 0.02 * kPi * expected) << "point " << k;
-    }
+    expect_furnace_irradiance(*t, Pcg32(9, 1), 4000, kPi * expected);
+}
+
+// The default options set no bounce limit: Russian roulette alone ends the paths, and the
+// furnace of albedo 0.9 (where 3 bounces would give only 1 - 0.9^4 = 34 % of the light) converges
+// to Le / (1 - rho).
+TEST(PathTracer, FurnaceOfAlbedo09ConvergesWithTheDefaultOptions) {
+    const float rho = 0.9f, le = 1.0f;
+    Scene s = furnace(rho, le);
+    Result<PathTracer> t = PathTracer::build(s, PathTracerOptions{});
+    ASSERT_TRUE(t.ok()) << t.error().message;
+    EXPECT_LT(t->options().bounces, 0);
+    EXPECT_NEAR(t->mean_albedo(), rho, 1e-6);
+    expect_furnace_irradiance(*t, Pcg32(11, 3), 20000, kPi * le / (1.0 - rho));
 }
 
 TEST(PathTracer, PlaneUnderUniformSkyGetsPiLs) {

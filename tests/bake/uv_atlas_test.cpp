@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <map>
 #include <numbers>
@@ -485,6 +486,36 @@ TEST(UvAtlas, ChartTooLargeIsAClearError) {
     EXPECT_NE(r.error().message.find("texels per metre"), std::string::npos) << r.error().message;
     EXPECT_TRUE(s.meshes[0].primitives[0].uv1.empty());
     EXPECT_TRUE(s.textures.empty());
+}
+
+// Several charts too large: the suggestion comes from the largest (a 100 m wall, not the 30 m
+// one first in the scene), so that a rerun at the suggested density fits.
+TEST(UvAtlas, ChartTooLargeSuggestsTheDensityOfTheLargestChart) {
+    auto walls = [] {
+        Scene s;
+        add_mesh(s, "wall_30m", grid(2, 30.0f), {0, 0, 0});
+        add_mesh(s, "wall_100m", grid(2, 100.0f), {0, 0, 200});
+        return s;
+    };
+    Scene s = walls();
+    AtlasOptions o;
+    o.texels_per_metre = 64.0;
+    o.max_atlas_size = 1024;
+    auto r = build_uv_atlas(s, o);
+    ASSERT_FALSE(r.ok());
+    const std::string& msg = r.error().message;
+    EXPECT_NE(msg.find("2 charts do not fit"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("wall_100m"), std::string::npos) << msg;
+    // at most (1024 - padding - 1) / 100 m texels per metre
+    const size_t at = msg.find("use at most ");
+    ASSERT_NE(at, std::string::npos) << msg;
+    const double suggested = std::atof(msg.c_str() + at + 12);
+    EXPECT_GT(suggested, 10.0);
+    EXPECT_LE(suggested, 1021.0 / 100.0);
+    Scene again = walls();
+    o.texels_per_metre = suggested;
+    auto fits = build_uv_atlas(again, o);
+    EXPECT_TRUE(fits.ok()) << fits.error().message;
 }
 
 TEST(UvAtlas, KeepsExistingUv1AndClonesSharedMaterials) {

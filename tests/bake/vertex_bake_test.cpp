@@ -96,7 +96,7 @@ TEST(VertexBake, PointLightLeastSquaresHasLowerL2ErrorThanAngleWeighting) {
     }
 }
 
-TEST(VertexBake, BakeStoresEOverPiWithAlphaOneAndClampsNegatives) {
+TEST(VertexBake, BakeStoresEInLightAndClampsNegatives) {
     Primitive p = plane(2, 1.0f, 0.0f);
     VertexBakeOptions o;
     o.method = VertexBakeMethod::AngleWeighted;
@@ -108,12 +108,12 @@ TEST(VertexBake, BakeStoresEOverPiWithAlphaOneAndClampsNegatives) {
         o);
     ASSERT_TRUE(r.ok()) << r.error().message;
     EXPECT_EQ(r->vertices, 9u);
-    ASSERT_EQ(p.colors.size(), 9u);
-    for (const auto& c : p.colors) {
-        EXPECT_NEAR(c.r, 1.0f, 1e-5f);
-        EXPECT_NEAR(c.g, 2.0f, 1e-5f);
+    ASSERT_EQ(p.light.size(), 9u);
+    EXPECT_TRUE(p.colors.empty());  // a real vertex colour would be left alone
+    for (const auto& c : p.light) {
+        EXPECT_NEAR(c.r, std::numbers::pi_v<float>, 1e-5f);
+        EXPECT_NEAR(c.g, 2.0f * std::numbers::pi_v<float>, 1e-5f);
         EXPECT_EQ(c.b, 0.0f);
-        EXPECT_EQ(c.a, 1.0f);
     }
 }
 

@@ -10,6 +10,7 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <numbers>
 #include <random>
 #include <sstream>
 #include <string>
@@ -142,8 +143,10 @@ Scene make_scene() {
     lit.base_color_texture = 1;
     lit.lightmap = {0, 1, 2.5f};
     lit.double_sided = true;
+    lit.emissive_factor = {0.25f, 0.5f, 0.125f};
     Material plain;
     plain.name = "plain";
+    plain.emissive_factor = {17.0f, 12.3f, 0.1f};  // above glTF's [0, 1]: emissive strength
     s.materials = {lit, plain};
 
     Mesh quad;
@@ -153,7 +156,8 @@ Scene make_scene() {
     p.normals = {{0, 0, 1}, {0, 0, 1}, {0, 0.6f, 0.8f}, {0, 0, 1}};
     p.uv0 = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
     p.uv1 = {{0.125f, 0.125f}, {0.875f, 0.125f}, {0.875f, 0.875f}, {0.125f, 0.875f}};
-    p.colors = {{1.5f, 2.25f, 0.1f, 1}, {0, 0, 0, 1}, {3.75f, 1, 1, 0.5f}, {0.2f, 0.3f, 0.4f, 1}};
+    p.colors = {{0.5f, 0.25f, 0.1f, 1}, {0, 0, 0, 1}, {0.75f, 1, 1, 0.5f}, {0.2f, 0.3f, 0.4f, 1}};
+    p.light = {{1.5f, 2.25f, 0.1f}, {0, 0, 0}, {83.75f, 1e-4f, 1}, {0.2f, 0.3f, 0.4f}};
     p.indices = {0, 1, 2, 0, 2, 3};
     p.material = 0;
     quad.primitives.push_back(p);
@@ -272,11 +276,14 @@ TEST(Gltf, RoundTripsTheSceneModelThroughGlb) {
         EXPECT_EQ(b.normals, a.normals);
         EXPECT_EQ(b.uv0, a.uv0);
         EXPECT_EQ(b.uv1, a.uv1);
-        EXPECT_EQ(b.colors, a.colors);  // float: values above 1 survive exactly
+        EXPECT_EQ(b.colors, a.colors);
+        EXPECT_EQ(b.light, a.light);  // float: values above 1 survive exactly
         EXPECT_EQ(b.indices, a.indices);
         EXPECT_EQ(b.material, a.material);
     }
-    EXPECT_FLOAT_EQ(out.meshes[0].primitives[0].colors[2].x, 3.75f);
+    EXPECT_EQ(out.meshes[0].primitives[0].light[2].x, 83.75f);
+    for (size_t i = 0; i < in.materials.size(); ++i)  // power-of-two strength: exact
+        EXPECT_EQ(out.materials[i].emissive_factor, in.materials[i].emissive_factor);
 
     ASSERT_EQ(out.nodes.size(), in.nodes.size());
     for (size_t i = 0; i < in.nodes.size(); ++i) {
@@ -313,7 +320,20 @@ TEST(Gltf, WritesTheExtensionsItUsesAndPositionBounds) {
     const Json doc = Json::parse(glb.substr(20, json_length));
     std::vector<std::string> used = doc["extensionsUsed"];
     std::sort(used.begin(), used.end());
-    EXPECT_EQ(used, (std::vector<std::string>{"KHR_lights_punctual", "MOZ_lightmap", "MSFT_lod"}));
+    EXPECT_EQ(used,
+              (std::vector<std::string>{"KHR_lights_punctual", "KHR_materials_emissive_strength",
+                                        "MOZ_lightmap", "MSFT_lod"}));
+    // Emission above 1: factor in [0, 1] times a power-of-two strength.
+    EXPECT_EQ(
+        doc["materials"][1]["extensions"]["KHR_materials_emissive_strength"]["emissiveStrength"],
+        32.0);
+    EXPECT_EQ(doc["materials"][1]["emissiveFactor"][0], 17.0 / 32.0);
+    EXPECT_FALSE(doc["materials"][0].contains("extensions") &&
+                 doc["materials"][0]["extensions"].contains("KHR_materials_emissive_strength"));
+    // Baked light: _LIGHT_0, float VEC3.
+    const int light = doc["meshes"][0]["primitives"][0]["attributes"]["_LIGHT_0"];
+    EXPECT_EQ(doc["accessors"][light]["type"], "VEC3");
+    EXPECT_EQ(doc["accessors"][light]["componentType"], 5126);
     const int pos = doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"];
     EXPECT_EQ(doc["accessors"][pos]["min"], Json({-1.0, -1.0, 0.0}));
     EXPECT_EQ(doc["accessors"][pos]["max"], Json({1.0, 1.0, 0.25}));
@@ -664,6 +684,92 @@ TEST(Gltf, RefusesToWriteAnInconsistentSceneAndKeepsTheOldFile) {
     size_t files = 0;
     for (auto& e : fs::directory_iterator(dir.path())) files += e.is_regular_file();
     EXPECT_EQ(files, 1u);
+}
+
+// glTF numbers attribute sets from 0: a TEXCOORD_1 without TEXCOORD_0 gets a TEXCOORD_0 accessor
+// without data (zeros), which reads back as "no uv0".
+TEST(Gltf, Texcoord1AloneGetsAnEmptyTexcoord0) {
+    TempDir dir;
+    Scene s = make_scene();
+    s.meshes[0].primitives[0].uv0.clear();
+    const fs::path path = dir / "scene.glb";
+    ASSERT_TRUE(save_glb(s, path).ok());
+    const std::string glb = read_bytes(path);
+    uint32_t json_length = 0;
+    std::memcpy(&json_length, glb.data() + 12, 4);
+    const Json doc = Json::parse(glb.substr(20, json_length));
+    const Json& attributes = doc["meshes"][0]["primitives"][0]["attributes"];
+    ASSERT_TRUE(attributes.contains("TEXCOORD_0"));
+    const Json& uv0 = doc["accessors"][attributes["TEXCOORD_0"].get<int>()];
+    EXPECT_FALSE(uv0.contains("bufferView"));
+    EXPECT_EQ(uv0["count"], 4);
+    Result<Scene> back = load_gltf(path);
+    ASSERT_TRUE(back.ok()) << back.error().message;
+    EXPECT_TRUE(back->meshes[0].primitives[0].uv0.empty());
+    EXPECT_EQ(back->meshes[0].primitives[0].uv1, s.meshes[0].primitives[0].uv1);
+    EXPECT_TRUE(back->meshes[1].primitives[0].uv0.empty());  // no uv1 either: nothing added
+}
+
+// COLOR_0 must lie in [0, 1] in glTF: the writer refuses anything else (light goes in _LIGHT_0).
+TEST(Gltf, RefusesColoursOutsideZeroOne) {
+    TempDir dir;
+    Scene s = make_scene();
+    s.meshes[0].primitives[0].colors[2].g = 1.5f;
+    Status st = save_glb(s, dir / "scene.glb");
+    ASSERT_FALSE(st.ok());
+    EXPECT_NE(st.error().message.find("COLOR_0 2 component 1 = 1.5"), std::string::npos)
+        << st.error().message;
+    EXPECT_FALSE(fs::exists(dir / "scene.glb"));
+    // Round-off of interpolated colours (here 1 + 5e-5, -5e-5) is clamped into the range.
+    s = make_scene();
+    s.meshes[0].primitives[0].colors[2].g = 1.00005f;
+    s.meshes[0].primitives[0].colors[1].r = -0.00005f;
+    ASSERT_TRUE(save_glb(s, dir / "scene.glb").ok());
+    Result<Scene> back = load_gltf(dir / "scene.glb");
+    ASSERT_TRUE(back.ok()) << back.error().message;
+    EXPECT_EQ(back->meshes[0].primitives[0].colors[2].g, 1.0f);
+    EXPECT_EQ(back->meshes[0].primitives[0].colors[1].r, 0.0f);
+    fs::remove(dir / "scene.glb");
+    s = make_scene();
+    s.meshes[0].primitives[0].light[1].r = std::numeric_limits<float>::quiet_NaN();
+    st = save_glb(s, dir / "scene.glb");
+    ASSERT_FALSE(st.ok());
+    EXPECT_NE(st.error().message.find("_LIGHT_0 1 is not finite"), std::string::npos)
+        << st.error().message;
+}
+
+// Files baked before _LIGHT_0 held the light as opaque COLOR_0 = E / pi, above 1 where bright:
+// such colours load as light (E = colour x pi); colours within [0, 1] stay colours.
+TEST(Gltf, ReadsOldBakedColoursAboveOneAsLight) {
+    TempDir dir;
+    const std::vector<float> positions(kQuad.begin(), kQuad.begin() + 9);
+    const std::vector<float> colours = {2, 0.5f, 0.25f, 1, 0, 0, 0, 1, 0.1f, 0.2f, 0.3f, 1};
+    const std::string buf = raw(positions) + raw(colours);
+    Json doc = mesh_doc(positions, {});
+    doc["buffers"][0] = {{"byteLength", buf.size()},
+                         {"uri", "data:application/octet-stream;base64," + base64(buf)}};
+    doc["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", 36}, {"byteLength", 48}});
+    doc["accessors"].push_back(
+        {{"bufferView", 1}, {"componentType", 5126}, {"count", 3}, {"type", "VEC4"}});
+    doc["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"] = 1;
+    doc["meshes"][0]["primitives"][0]["material"] = 0;
+    doc["materials"] = Json::array(
+        {{{"emissiveFactor", {1, 0.5, 0.25}},
+          {"extensions", {{"KHR_materials_emissive_strength", {{"emissiveStrength", 8}}}}}}});
+    doc["extensionsUsed"] = {"KHR_materials_emissive_strength"};
+    const std::string json = doc.dump();
+    write_bytes(dir / "old.gltf", json);
+    Result<Scene> s = load_gltf(dir / "old.gltf");
+    ASSERT_TRUE(s.ok()) << s.error().message;
+    const Primitive& p = s->meshes[0].primitives[0];
+    EXPECT_TRUE(p.colors.empty());
+    ASSERT_EQ(p.light.size(), 3u);
+    const float pi = std::numbers::pi_v<float>;
+    EXPECT_FLOAT_EQ(p.light[0].r, 2.0f * pi);
+    EXPECT_FLOAT_EQ(p.light[0].g, 0.5f * pi);
+    EXPECT_FLOAT_EQ(p.light[2].b, 0.3f * pi);
+    // KHR_materials_emissive_strength multiplies the factor.
+    EXPECT_EQ(s->materials[0].emissive_factor, glm::vec3(8.0f, 4.0f, 2.0f));
 }
 
 }  // namespace

@@ -12,6 +12,8 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "firmware_host/command_run.hpp"
 #include "hmdnode/bake/cornell_box.hpp"
@@ -54,8 +56,9 @@ TEST(BakeCmd, BakesTheCornellBoxWithSummaryReportAndExr) {
     EXPECT_GT(out->materials[0].lightmap.intensity, 0.0f);
     EXPECT_EQ(out->materials[0].emissive_factor, glm::vec3(0.0f));
     EXPECT_EQ(out->materials[3].emissive_factor, glm::vec3(17.0f, 12.0f, 4.0f));
-    // The light's primitive (no lightmap) got vertex colours.
-    EXPECT_EQ(out->meshes[0].primitives[3].colors.size(), 4u);
+    // The light's primitive (no lightmap) got vertex light, no colours.
+    EXPECT_EQ(out->meshes[0].primitives[3].light.size(), 4u);
+    EXPECT_TRUE(out->meshes[0].primitives[3].colors.empty());
 
     std::ifstream f(d / "r.json");
     nlohmann::json j = nlohmann::json::parse(f);
@@ -101,7 +104,7 @@ TEST(BakeCmd, SameSeedSameBytesForAnyThreadCount) {
     EXPECT_FALSE(*a == *c) << "another seed gives another bake";
 }
 
-TEST(BakeCmd, VertexModeWritesColoursAndNoLightmaps) {
+TEST(BakeCmd, VertexModeWritesLightAndNoLightmaps) {
     const fs::path d = temp_dir("vertex");
     ASSERT_TRUE(save_glb(cornell_box_scene(16.0), d / "in.glb").ok());
     CommandRun r = run(bake_cmd(d / "in.glb", d / "out.glb", "--vertex --samples 4 --bounces 1"));
@@ -110,11 +113,12 @@ TEST(BakeCmd, VertexModeWritesColoursAndNoLightmaps) {
     ASSERT_TRUE(out.ok());
     for (const Material& m : out->materials) EXPECT_LT(m.lightmap.texture, 0);
     for (const Primitive& p : out->meshes[0].primitives) {
-        ASSERT_EQ(p.colors.size(), p.positions.size());
+        ASSERT_EQ(p.light.size(), p.positions.size());
+        EXPECT_TRUE(p.colors.empty());
         // Every primitive receives light (single vertices of the least-squares fit may clamp
-        // to 0 at room corners), and no colour is negative or not finite.
+        // to 0 at room corners), and no value is negative or not finite.
         float sum = 0.0f;
-        for (const glm::vec4& c : p.colors) {
+        for (const glm::vec3& c : p.light) {
             for (int k = 0; k < 3; ++k) EXPECT_TRUE(c[k] >= 0.0f && std::isfinite(c[k]));
             sum += c.r + c.g + c.b;
         }
@@ -162,6 +166,95 @@ TEST(BakeCmd, ErrorsWriteNothing) {
     EXPECT_FALSE(fs::exists(d / "out.glb"));
     for (const fs::directory_entry& e : fs::directory_iterator(d))
         EXPECT_EQ(e.path().extension(), ".glb") << e.path();
+}
+
+// Every numeric option rejects nan, inf and values out of range as a usage error (exit 2), with
+// the option named, before any work; nothing is written.
+TEST(BakeCmd, NumericOptionsRejectNanInfAndNegatives) {
+    const fs::path d = temp_dir("numbers");
+    ASSERT_TRUE(save_glb(cornell_box_scene(16.0), d / "in.glb").ok());
+    const std::vector<std::pair<std::string, std::string>> bad = {
+        {"--texels-per-metre nan", "--texels-per-metre"},
+        {"--texels-per-metre inf", "--texels-per-metre"},
+        {"--texels-per-metre -4", "--texels-per-metre"},
+        {"--texels-per-metre 0", "--texels-per-metre"},
+        {"--samples 0", "--samples"},
+        {"--samples -3", "--samples"},
+        {"--samples nan", "--samples"},
+        {"--bounces -1", "--bounces"},
+        {"--bounces nan", "--bounces"},
+        {"--threads -2", "--threads"},
+        {"--seed -1", "--seed"},
+        {"--sky nan,1,1", "--sky"},
+        {"--sky 1,inf,1", "--sky"},
+        {"--sky 1,1,-0.5", "--sky"},
+        {"--intensity-percentile nan", "--intensity-percentile"},
+        {"--intensity-percentile 0", "--intensity-percentile"},
+        {"--intensity-percentile 1.5", "--intensity-percentile"},
+        {"--intensity-percentile -inf", "--intensity-percentile"},
+    };
+    for (const auto& [opt, name] : bad) {
+        fs::remove(d / "out.glb");
+        CommandRun r = run(bake_cmd(d / "in.glb", d / "out.glb", opt + " --no-progress"));
+        EXPECT_EQ(r.code, 2) << opt << "\n" << r.output;
+        EXPECT_NE(r.output.find(name), std::string::npos) << opt << "\n" << r.output;
+        EXPECT_FALSE(fs::exists(d / "out.glb")) << opt;
+    }
+}
+
+// The output's folder is checked before the bake: a missing or read-only folder fails at once
+// (the input is not even read: a missing input is not what the message names).
+TEST(BakeCmd, OutputFolderIsCheckedBeforeAnyWork) {
+    const fs::path d = temp_dir("outdir");
+    CommandRun r = run(bake_cmd(d / "missing_input.glb", d / "no_such_folder" / "out.glb", ""));
+    EXPECT_EQ(r.code, 1) << r.output;
+    EXPECT_NE(r.output.find("no_such_folder does not exist"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("nothing written"), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("missing_input"), std::string::npos) << r.output;
+    r = run(bake_cmd(d / "missing_input.glb", d / "out.glb",
+                     "--report " + (d / "nowhere" / "r.json").string()));
+    EXPECT_EQ(r.code, 1) << r.output;
+    EXPECT_NE(r.output.find("--report"), std::string::npos) << r.output;
+    r = run(bake_cmd(d / "missing_input.glb", d, ""));  // --out is a folder
+    EXPECT_EQ(r.code, 1) << r.output;
+    EXPECT_NE(r.output.find("is a directory"), std::string::npos) << r.output;
+}
+
+// A negative light intensity is an error naming the light; an emissive material that no mesh
+// uses is a warning (and, as the only light, nothing to bake); KHR_materials_emissive_strength
+// multiplies the emission the bake sees.
+TEST(BakeCmd, LightInputChecks) {
+    const fs::path d = temp_dir("lights");
+    Scene neg = cornell_box_scene(16.0);
+    Light l;
+    l.name = "negative_bulb";
+    l.intensity = -5.0f;
+    l.node = 0;
+    neg.lights.push_back(l);
+    ASSERT_TRUE(save_glb(neg, d / "neg.glb").ok());
+    CommandRun r = run(bake_cmd(d / "neg.glb", d / "out.glb", "--samples 2 --no-progress"));
+    EXPECT_EQ(r.code, 1) << r.output;
+    EXPECT_NE(r.output.find("negative_bulb"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("intensity"), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(d / "out.glb"));
+
+    // The light quad's material, emissive, but the quad now uses a plain one.
+    Scene unused = cornell_box_scene(16.0);
+    Material spare = unused.materials[3];
+    spare.name = "spare_glow";
+    unused.materials.push_back(spare);
+    unused.materials[3].emissive_factor = glm::vec3(0.0f);
+    ASSERT_TRUE(save_glb(unused, d / "unused.glb").ok());
+    r = run(bake_cmd(d / "unused.glb", d / "out.glb", "--samples 2 --no-progress"));
+    EXPECT_EQ(r.code, 1) << r.output;
+    EXPECT_NE(r.output.find("nothing to bake"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("'spare_glow' is emissive but no mesh"), std::string::npos) << r.output;
+    r = run(bake_cmd(d / "unused.glb", d / "out.glb",
+                     "--samples 2 --bounces 0 --sky 1,1,1 --no-progress"));
+    EXPECT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("warning: material 4 'spare_glow' is emissive but no mesh"),
+              std::string::npos)
+        << r.output;
 }
 
 }  // namespace

@@ -252,6 +252,60 @@ TEST(VulkanRenderer, UnlitQuadShowsVertexColourTimesBaseColourFactor) {
     expect_uniform(img.eye[1], 255, 255, 255, 0, "default material");
 }
 
+TEST(VulkanRenderer, VertexLightIsIrradianceTimesAlbedoOverPi) {
+    // _LIGHT_0 (Primitive::light) = baked E per vertex, above 1 allowed: colour = albedo * E / pi,
+    // with COLOR_0 still a colour that multiplies the albedo; a lightmap wins over it.
+    Scene scene;
+    scene.textures.push_back(solid_texture(1, 1, 255, 255, 255));
+    scene.materials.push_back(flat({0.5f, 1.0f, 1.0f, 1.0f}));
+    Material lit = flat({0.5f, 0.5f, 0.5f, 1.0f});
+    lit.lightmap = {0, 0, 1.0f};  // E = 1 everywhere
+    scene.materials.push_back(lit);
+    Primitive left = quad(-2, -2, 0, 2, -1, 0);
+    left.colors.assign(4, {1.0f, 0.5f, 1.0f, 1.0f});
+    left.light.assign(4, glm::vec3(0.8f, 0.4f, 0.2f) * float(kPiD));
+    Primitive right = quad(0, -2, 2, 2, -1, 1);
+    right.light.assign(4, glm::vec3(9.0f * float(kPiD)));  // ignored: the lightmap holds E
+    Mesh mesh;
+    mesh.primitives = {left, right};
+    scene.meshes.push_back(mesh);
+    auto r = make_renderer(64, 64);
+    ASSERT_TRUE(r);
+    ASSERT_TRUE(r->upload(scene).ok());
+    const DrawItem item{0, glm::mat4(1.0f)};
+    StereoImage img = render_ok(*r, straight_views(), {&item, 1});
+    const double lm = 0.5 / kPiD;
+    for (int eye = 0; eye < 2; ++eye) {
+        expect_pixel(img.eye[eye], 10, 32, srgb8(0.4), srgb8(0.2), srgb8(0.2), 2, "vertex light");
+        expect_pixel(img.eye[eye], 54, 32, srgb8(lm), srgb8(lm), srgb8(lm), 2, "lightmap");
+    }
+}
+
+// What the baker makes of a double-sided surface (bake/src/two_sided.cpp): a front and a back
+// sheet under a single-sided material, each with its own light; the renderer shows the side the
+// viewer faces, here by culling: front red from in front, back green from behind.
+TEST(VulkanRenderer, TwoSidedSheetsShowTheLightOfTheSideFacingTheViewer) {
+    Scene scene;
+    scene.materials.push_back(flat({1.0f, 1.0f, 1.0f, 1.0f}));
+    Primitive front = quad(-2, -2, 2, 2, 0, 0);
+    front.light.assign(4, glm::vec3(0.8f, 0.0f, 0.0f) * float(kPiD));
+    Primitive back = quad(-2, -2, 2, 2, 0, 0, /*ccw=*/false);
+    back.light.assign(4, glm::vec3(0.0f, 0.6f, 0.0f) * float(kPiD));
+    Mesh mesh;
+    mesh.primitives = {front, back};
+    scene.meshes.push_back(mesh);
+    auto r = make_renderer(32, 32);
+    ASSERT_TRUE(r);
+    ASSERT_TRUE(r->upload(scene).ok());
+    const glm::mat4 ahead = glm::translate(glm::mat4(1.0f), glm::vec3(0, 0, -1));
+    const DrawItem facing{0, ahead};
+    expect_uniform(render_ok(*r, straight_views(), {&facing, 1}).eye[0], srgb8(0.8), 0, 0, 2,
+                   "front");
+    const DrawItem turned{0, glm::rotate(ahead, float(kPiD), glm::vec3(0, 1, 0))};
+    expect_uniform(render_ok(*r, straight_views(), {&turned, 1}).eye[0], 0, srgb8(0.6), 0, 2,
+                   "back");
+}
+
 TEST(VulkanRenderer, EmissionIsAddedToLitAndUnlitSurfaces) {
     // emissiveFactor adds emitted radiance after shading: on an unlit quad (left half) and on a
     // lightmapped one (right half, albedo 0.5, E = 1: albedo * E / pi).

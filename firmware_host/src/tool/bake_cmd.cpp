@@ -1,12 +1,13 @@
 // `hmdnode bake`: global illumination into lightmaps (TEXCOORD_1 + MOZ_lightmap, EXR masters
-// beside the output) or vertex colours (COLOR_0) with the Embree path tracer (docs/baking.md).
+// beside the output) or per-vertex light (_LIGHT_0) with the Embree path tracer (docs/baking.md).
 // Progress with time left on stderr, a summary on stdout and optionally in a JSON report; the
 // output .glb (and the EXRs) are written only when the whole bake succeeded, each atomically.
-#include <unistd.h>
 
 #include <array>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -18,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "hmdnode/bake/bake.hpp"
+#include "hmdnode/bake/progress_eta.hpp"
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/gltf.hpp"
 #include "tool/cli_checks.hpp"
@@ -31,7 +33,7 @@ namespace fs = std::filesystem;
 struct BakeArgs {
     std::string in, out, report;
     double texels_per_metre = 0.0;
-    int samples = 64, bounces = 3, threads = 0;
+    int samples = 64, bounces = -1, threads = 0;  // bounces < 0: until Russian roulette
     uint64_t seed = 1;
     bool vertex = false, no_progress = false, no_denoise = false;
     double intensity_percentile = BakeOptions{}.intensity_percentile;
@@ -47,6 +49,22 @@ void fail(const std::string& message) {
 void usage_error(const std::string& message) {
     std::fprintf(stderr, "hmdnode bake: error: %s\n", message.c_str());
     set_exit_code(2);
+}
+
+// A number option's check: a finite number in [lo, hi] (lo excluded when `open_lo`). CLI11 parses
+// "nan" and "inf" as doubles; these checks turn them, and negatives, into usage errors (exit 2).
+CLI::Validator number_in(double lo, bool open_lo, double hi, const std::string& what) {
+    return CLI::Validator(
+        [=](std::string& text) -> std::string {
+            char* end = nullptr;
+            const double v = std::strtod(text.c_str(), &end);
+            if (text.empty() || end != text.c_str() + text.size())
+                return "'" + text + "' is not a number";
+            if (!std::isfinite(v) || (open_lo ? !(v > lo) : !(v >= lo)) || !(v <= hi))
+                return "'" + text + "' is not " + what;
+            return {};
+        },
+        what);
 }
 
 void run_bake(const BakeArgs& args) {
@@ -94,16 +112,24 @@ void run_bake(const BakeArgs& args) {
 
     const bool show_progress = !args.no_progress && isatty(fileno(stderr));
     auto last = std::chrono::steady_clock::now();
+    ProgressClock eta;
+    bool finished = false;
     BakeProgress progress = [&](double f) {
-        if (!show_progress) return;
+        if (!show_progress || finished) return;
+        finished = f >= 1.0;
         const auto now = std::chrono::steady_clock::now();
+        const double t = std::chrono::duration<double>(now - t0).count();
+        const double left = eta.seconds_left(t, f);
         if (f < 1.0 && now - last < std::chrono::milliseconds(200)) return;
         last = now;
-        const double el = std::chrono::duration<double>(now - t0).count();
-        const double left = f > 0.0 ? el * (1.0 - f) / f : 0.0;
         const int width = 30, fill = int(f * width + 0.5);
-        std::fprintf(stderr, "\r[%s%s] %5.1f %%  %6.1f s left ", std::string(fill, '#').c_str(),
-                     std::string(width - fill, '.').c_str(), 100.0 * f, left);
+        char when[32];
+        if (left >= 0.0)
+            std::snprintf(when, sizeof when, "%6.1f s left", left);
+        else
+            std::snprintf(when, sizeof when, "%s", "  estimating ");
+        std::fprintf(stderr, "\r[%s%s] %5.1f %%  %s ", std::string(fill, '#').c_str(),
+                     std::string(width - fill, '.').c_str(), 100.0 * f, when);
         if (f >= 1.0) std::fprintf(stderr, "\n");
         std::fflush(stderr);
     };
@@ -148,6 +174,9 @@ void run_bake(const BakeArgs& args) {
             k < exrs.size() ? ", master " : "", k < exrs.size() ? exrs[k].c_str() : "");
     }
     std::printf("  %-22s %zu\n", "vertices", r.vertices);
+    if (r.two_sided_primitives > 0)
+        std::printf("  %-22s %zu (a front and a back sheet each)\n", "two-sided primitives",
+                    r.two_sided_primitives);
     std::printf("  %-22s %zu\n", "triangles traced", r.triangles);
     std::printf("  %-22s %llu\n", "rays", static_cast<unsigned long long>(r.rays));
     std::printf("  %-22s %.3g\n", "rays per second", r.rays_per_second);
@@ -166,6 +195,7 @@ void run_bake(const BakeArgs& args) {
         j["sky"] = {o.sky_radiance.r, o.sky_radiance.g, o.sky_radiance.b};
         j["texels"] = r.texels;
         j["vertices"] = r.vertices;
+        j["two_sided_primitives"] = r.two_sided_primitives;
         j["triangles"] = r.triangles;
         j["rays"] = r.rays;
         j["rays_per_second"] = r.rays_per_second;
@@ -200,25 +230,33 @@ void add_bake_command(CLI::App& app) {
     bake->add_option("--out", args->out, "Output .glb (written only on success)")->required();
     bake->add_option("--texels-per-metre", args->texels_per_metre,
                      "Build a lightmap atlas at this density for primitives without TEXCOORD_1 "
-                     "(default: 32 when the input has no lightmap, else keep the input's)");
+                     "(default: 32 when the input has no lightmap, else keep the input's)")
+        ->check(number_in(0.0, true, 1e6, "a finite number > 0"));
     bake->add_option("--samples", args->samples, "Paths per texel / vertex sample")
-        ->capture_default_str();
-    bake->add_option("--bounces", args->bounces, "Reflections of light (0: direct only)")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->check(CLI::Range(1, 1 << 24));
+    bake->add_option("--bounces", args->bounces,
+                     "Reflections of light at most (0: direct only; default: no limit, Russian "
+                     "roulette ends each path); a limit that drops over 2 % of the light warns")
+        ->check(CLI::NonNegativeNumber);
     bake->add_option("--threads", args->threads, "Worker threads (0: all cores)")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->check(CLI::Range(0, 4096));
     bake->add_option("--seed", args->seed, "Random seed (same seed and inputs: same output)")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->check(CLI::NonNegativeNumber);
     bake->add_flag("--vertex", args->vertex,
-                   "Per-vertex COLOR_0 for every primitive instead of lightmaps");
+                   "Per-vertex light (_LIGHT_0) for every primitive instead of lightmaps");
     bake->add_option("--sky", args->sky, "Constant sky radiance R,G,B (default black)")
         ->delimiter(',')
-        ->expected(3);
+        ->expected(3)
+        ->check(number_in(0.0, false, 3.4e38, "a finite number >= 0"));
     bake->add_option("--report", args->report, "Write the summary as JSON here");
     bake->add_option("--intensity-percentile", args->intensity_percentile,
                      "Lightmap PNG scale = this quantile of the texels (1: the maximum; brighter "
                      "texels clamp in the PNG, not in the EXR master)")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->check(number_in(0.0, true, 1.0, "a number in (0, 1]"));
     bake->add_flag("--no-denoise", args->no_denoise, "Skip the A-trous denoiser");
     bake->add_flag("--no-progress", args->no_progress,
                    "No progress bar (it is drawn only when stderr is a terminal)");

@@ -1,11 +1,11 @@
 // The bake pipeline (docs/baking.md): UV atlas -> texel rasterisation -> texel validity /
 // back-face push-off -> path-traced irradiance per texel -> dilation of invalid and gutter texels
 // -> edge-aware A-trous denoise -> seam blending -> encoding (EXR master + scaled PNG in the glTF
-// with MOZ_lightmap.intensity), and per-vertex COLOR_0 for the primitives without a lightmap (or
+// with MOZ_lightmap.intensity), and per-vertex _LIGHT_0 for the primitives without a lightmap (or
 // all, with `vertex`).
 //
 // Stored quantity: linear irradiance E (texel x intensity); the renderer's diffuse is
-// albedo x E / pi (docs/formats.md). Vertex colours: COLOR_0 = (E / pi, 1).
+// albedo x E / pi (docs/formats.md). Vertex light: _LIGHT_0 = E (float, Primitive::light).
 //
 // Deterministic: texel t of map m draws its random numbers from Pcg32(seed, hash(m, t)), so a
 // given seed gives the same result for any thread count.
@@ -28,10 +28,17 @@ namespace hmdnode {
 struct BakeOptions {
     double texels_per_metre = 0.0;  // > 0: build a UV atlas for primitives without uv1 / lightmap
     int samples = 64;               // paths per texel (>= 1)
-    int bounces = 3;                // reflections (>= 0)
-    int threads = 0;                // 0: all cores
+    // Reflections at most (>= 0); < 0 (the default): no limit, Russian roulette ends each path
+    // (unbiased). A limit that drops more than 2 % of the light by the estimate rho^(bounces+1)
+    // (rho: PathTracer::mean_albedo) is a warning.
+    int bounces = -1;
+    int threads = 0;  // 0: all cores
     uint64_t seed = 1;
-    bool vertex = false;  // per-vertex COLOR_0 for every primitive, no lightmaps
+    // Double-sided materials: a front and a back sheet, each with its own texels (or vertex
+    // light), the material made single-sided so renderers pick the side by culling. Primitives
+    // that keep an input lightmap stay as they are.
+    bool two_sided = true;
+    bool vertex = false;  // per-vertex _LIGHT_0 for every primitive, no lightmaps
     glm::vec3 sky_radiance{0.0f};
     int strata = 2;                   // n x n candidate sample points per texel
     int validity_rays = 8;            // per sample (0: no validity pass)
@@ -71,16 +78,20 @@ struct BakeReport {
     double trace_seconds = 0.0;
     double rays_per_second = 0.0;  // rays / trace_seconds
     size_t triangles = 0;
+    size_t two_sided_primitives = 0;  // split into a front and a back sheet
     std::vector<std::string> warnings;
 };
 
 // progress(fraction in [0, 1]) is called from the calling thread now and then.
 using BakeProgress = std::function<void(double fraction)>;
 
-// Errors: no punctual light, no emissive material and no sky (nothing to bake); non-finite
-// positions (mesh / vertex named); a mesh too large for the atlas at the requested density;
-// lightmap textures without a size. Missing base-colour textures are warnings. On error the
-// scene may be partly modified: callers write it out only on success.
+// Errors: no punctual light, no emissive material that the traced geometry uses and no sky
+// (nothing to bake); a light with a negative or non-finite intensity, colour or range (named);
+// non-finite positions (mesh / vertex named); charts too large for the atlas at the requested
+// density; lightmap textures without a size. Warnings: missing base-colour textures, emissive
+// materials no traced mesh uses, a bounce limit that drops over 2 % of the light. On error the
+// scene may be partly modified: callers write it out only on success. `progress` gets the
+// fraction of all paths traced (lightmap texels and vertex queries).
 Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
                               const BakeProgress& progress = {});
 

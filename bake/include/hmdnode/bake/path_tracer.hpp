@@ -12,8 +12,8 @@
 //     estimation of punctual lights and emissive triangles (area sampling proportional to power)
 //     combined with the cosine-sampled continuation by the balance heuristic (MIS), so an emitter
 //     is never counted twice; sky only through escaping rays. `bounces` reflections at most
-//     between a light and p (0: direct light only), Russian roulette after rr_min_bounces
-//     (unbiased).
+//     between a light and p (0: direct light only; negative, the default: no limit, Russian
+//     roulette alone ends the path), Russian roulette after rr_min_bounces (unbiased).
 //   radiance(o, d):  the radiance arriving at o from direction -d (camera rays): emission of the
 //     first hit + albedo / pi x irradiance there.
 // A back face of a single-sided material absorbs (it is the inside of a closed object).
@@ -61,8 +61,8 @@ class Pcg32 {
 
 struct PathTracerOptions {
     glm::vec3 sky_radiance{0.0f};  // radiance of rays that leave the scene (W/sr/m^2 units of E)
-    int bounces = 3;               // reflections between a light and the point, >= 0
-    int rr_min_bounces = 3;        // Russian roulette on reflections after this many
+    int bounces = -1;  // reflections between a light and the point; < 0: until Russian roulette
+    int rr_min_bounces = 3;  // Russian roulette on reflections after this many
 };
 
 struct TraceHit {
@@ -110,6 +110,9 @@ class PathTracer {
     size_t emissive_triangle_count() const;
     size_t punctual_light_count() const;
     bool has_light() const;  // some punctual light, emissive triangle or a non-zero sky
+    // Area-weighted mean over the triangles of the largest albedo channel (base colour factor x
+    // the texture's mean texel): the rho of the truncation estimate rho^(bounces + 1).
+    float mean_albedo() const;
     const PathTracerOptions& options() const;
     glm::vec3 bounds_min() const;
     glm::vec3 bounds_max() const;

@@ -1,5 +1,5 @@
-// Per-vertex baking of irradiance into COLOR_0 (docs/baking.md "Per-vertex mode"), two ways side
-// by side:
+// Per-vertex baking of irradiance into _LIGHT_0 (Primitive::light; docs/baking.md "Per-vertex
+// mode"), two ways side by side:
 //  * AngleWeighted (vertex_angle_weighted.cpp): as 000_ section 3 does it -- every face is
 //    sampled at several points, its value is their mean, and a vertex takes the average of its
 //    incident faces' values weighted by each face's corner angle at that vertex;
@@ -12,7 +12,9 @@
 // The oracle gives irradiance E (rgb) at a world point with a unit world normal; the bake's path
 // tracer passes its estimator, tests pass closed forms. It is called from the calling thread
 // only, in a deterministic order. Stored result (docs/formats.md shading contract):
-// COLOR_0 = (E / pi, 1), so albedo * COLOR_0 is the outgoing radiance of a Lambertian surface.
+// _LIGHT_0 = max(E, 0) as float (any brightness; glTF's COLOR_0 must stay within [0, 1]), and the
+// renderer's albedo * E / pi is the outgoing radiance of a Lambertian surface. COLOR_0, a real
+// vertex colour, is left alone.
 #pragma once
 
 #include <cstddef>
@@ -68,7 +70,7 @@ struct VertexBakeReport {
     size_t vertices = 0;
     size_t triangles_added = 0;  // by split_long_edges
 };
-// Bakes one primitive: optional split, irradiance by options.method, COLOR_0 = (E / pi, 1).
+// Bakes one primitive: optional split, irradiance by options.method, _LIGHT_0 = max(E, 0).
 Result<VertexBakeReport> bake_vertex_irradiance(Primitive& prim, const glm::dmat4& world,
                                                 const IrradianceOracle& oracle,
                                                 const VertexBakeOptions& options);

@@ -42,7 +42,10 @@ struct Primitive {
     std::vector<glm::vec3> normals;
     std::vector<glm::vec2> uv0;     // TEXCOORD_0
     std::vector<glm::vec2> uv1;     // TEXCOORD_1 (lightmap)
-    std::vector<glm::vec4> colors;  // COLOR_0, linear, may exceed 1 (baked vertex light)
+    std::vector<glm::vec4> colors;  // COLOR_0: linear vertex colour in [0, 1], multiplies albedo
+    // _LIGHT_0 (float VEC3): baked irradiance E per vertex (linear, lux, may exceed 1); the
+    // renderer's diffuse is albedo * E / pi where the material has no lightmap (docs/formats.md).
+    std::vector<glm::vec3> light;
     std::vector<uint32_t> indices;  // triangles, 3 per face
     int material = -1;
 

@@ -65,8 +65,9 @@ class Renderer {
     // Shading (docs/formats.md): albedo = base_color_factor * base colour texture (sRGB-decoded,
     // TEXCOORD_0) * COLOR_0; with a lightmap, colour = albedo.rgb * E / pi where E = lightmap
     // texel (linear, TEXCOORD_1 when lightmap.tex_coord == 1, else TEXCOORD_0) * intensity;
-    // without one, colour = albedo.rgb. Alpha is 1. Output pixels are sRGB-encoded. Single-sided
-    // materials cull back faces (glTF: counter-clockwise is front).
+    // without one, colour = albedo.rgb * _LIGHT_0 / pi (Primitive::light, baked vertex
+    // irradiance; factor 1 without it: unlit). Alpha is 1. Output pixels are sRGB-encoded.
+    // Single-sided materials cull back faces (glTF: counter-clockwise is front).
     virtual Status upload(const Scene& scene) = 0;
 
     // Renders both eyes (one multiview pass; see RenderStats::passes) and, when out_image is not
