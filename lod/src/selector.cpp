@@ -1,6 +1,8 @@
 // Runtime LOD selection: screen-space error (Luebke et al., "Level of Detail for 3D Graphics",
-// 2003, ch. 4) with the eccentricity and velocity criteria of 002_... (Reddy's perceptual LOD), as
-// a multiplicative widening of the pixel tolerance, and hysteresis against flicker.
+// 2003, ch. 4) against a perceptual tolerance, the eccentricity and velocity criteria of 002_...
+// (Reddy's perceptual LOD) made quantitative: acuity as the minimum angle of resolution that grows
+// linearly with eccentricity (Guenter et al., "Foveated 3D graphics", SIGGRAPH Asia 2012), and
+// the smear of a head turn during the display's persistence; hysteresis against flicker.
 // Cost: O(levels) per object per frame, no allocation.
 #include "hmdnode/lod/selector.hpp"
 
@@ -18,10 +20,11 @@ void LodSelector::reset() {
 }
 
 double LodSelector::tolerance_px(const LodSelectorParams& p, double eccentricity_deg,
-                                 double speed_dps) {
-    const double we = 1.0 + p.eccentricity_gain * std::max(0.0, eccentricity_deg - p.foveal_deg);
-    const double ws = 1.0 + p.speed_gain * std::max(0.0, speed_dps - p.speed_threshold_dps);
-    return p.tolerance_px * std::min(p.max_widening, we * ws);
+                                 double speed_dps, double pixels_per_radian) {
+    const double ppd = pixels_per_radian * (3.14159265358979323846 / 180.0);
+    const double acuity = (p.mar0_deg + p.mar_slope * std::max(0.0, eccentricity_deg)) * ppd;
+    const double smear = std::max(0.0, speed_dps) * p.persistence_s * ppd;
+    return std::min(p.tolerance_px * p.max_widening, std::max({p.tolerance_px, acuity, smear}));
 }
 
 double LodSelector::projected_error_px(double error_m, double distance_m,
@@ -46,7 +49,8 @@ LodDecision LodSelector::select(size_t index, const LodObjectView& object,
         const double half_size = std::asin(std::min(1.0, object.radius / center_dist));
         ecc_deg = (180.0 / 3.14159265358979323846) * (std::max(0.0, std::acos(cos_a) - half_size));
     }
-    const double tol = tolerance_px(params_, ecc_deg, viewer.angular_speed_dps);
+    const double tol =
+        tolerance_px(params_, ecc_deg, viewer.angular_speed_dps, viewer.pixels_per_radian);
 
     auto projected = [&](int l) {
         return projected_error_px(object.level_errors_m[l], distance, viewer.pixels_per_radian);

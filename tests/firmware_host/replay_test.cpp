@@ -179,11 +179,16 @@ TEST(Replay, FastHeadTurnsCoarsenTheLevels) {
     fs::path dir = temp_dir("speed");
     // Rolling about the view axis keeps the object at the gaze centre: only the speed changes.
     const glm::dvec3 roll(0, 0, 1);
+    // 48-px eyes (0.35 px per degree): level 1 projects to ~0.24 px at 1.65 m, over the 0.1 px
+    // floor; a 200 deg/s turn smears 1.6 degrees = 0.56 px during an 8 ms persistence (a
+    // full-persistence panel), so level 1 is hidden then.
     ReplayOptions still = options(dir, yaw_trace(60, 0.5, 0.0, false, roll));
-    still.node.lod.tolerance_px = 0.1;  // 48-px eyes: level 1 projects to ~0.24 px at 1.65 m
+    still.node.lod.tolerance_px = 0.1;
+    still.display.persistence_ns = 8'000'000;
     auto slow = run_replay(still);
     ReplayOptions turning = options(dir, yaw_trace(60, 0.5, 200.0, false, roll));
     turning.node.lod.tolerance_px = 0.1;
+    turning.display.persistence_ns = 8'000'000;
     auto fast = run_replay(turning);
     ASSERT_TRUE(slow.ok() && fast.ok());
     EXPECT_NEAR(fast->frames[10].eccentricity_deg[0], slow->frames[10].eccentricity_deg[0], 1e-6);
@@ -191,6 +196,30 @@ TEST(Replay, FastHeadTurnsCoarsenTheLevels) {
     EXPECT_EQ(slow->frames.back().levels[0], 0);
     EXPECT_GT(fast->frames[10].levels[0], 0);
     EXPECT_LT(fast->summary.triangles_mean, slow->summary.triangles_mean + 1e-9);
+}
+
+// Per-eye frustum culling: "side" (2 m to the right, 80 degrees beyond the 50-degree outer edge
+// of the right eye's field less its angular radius) is never drawn while the head faces -z;
+// facing +z, "ahead" (2 m behind) is not drawn either. Culled objects keep a level.
+TEST(Replay, ObjectsOutsideBothEyesAreNotDrawn) {
+    fs::path dir = temp_dir("cull");
+    auto forward = run_replay(options(dir, yaw_trace(60, 0.3, 0.0)));
+    Trace back = yaw_trace(60, 0.3, 0.0);
+    for (TraceSample& t : back.samples)
+        t.orientation = glm::angleAxis(deg_to_rad(180.0), glm::dvec3(0, 1, 0));
+    auto behind = run_replay(options(dir, back));
+    ASSERT_TRUE(forward.ok() && behind.ok());
+    for (const FrameRecord& f : forward->frames) {
+        if (f.kind != FrameKind::new_frame) continue;
+        EXPECT_EQ(f.culled, 1u);
+        EXPECT_EQ(f.triangles, 12u);  // "ahead" alone, a 12-triangle box at every level
+        EXPECT_EQ(f.levels.size(), 2u);
+    }
+    for (const FrameRecord& f : behind->frames) {
+        if (f.kind != FrameKind::new_frame) continue;
+        EXPECT_EQ(f.culled, 2u);
+        EXPECT_EQ(f.triangles, 0u);
+    }
 }
 
 TEST(Replay, WritesAReportWithTheDocumentedFields) {

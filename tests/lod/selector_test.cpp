@@ -67,16 +67,36 @@ TEST(LodSelector, LevelRisesWithHeadAngularSpeed) {
               b.select(0, object_at({0, 0, -1.0}), viewer(200)).level);
 }
 
+// tau = min(tau0 * W, max(tau0, (mar0 + slope * e) * ppd, omega * persistence * ppd)).
 TEST(LodSelector, ToleranceFormula) {
     LodSelectorParams p;
-    EXPECT_DOUBLE_EQ(LodSelector::tolerance_px(p, 0.0, 0.0), p.tolerance_px);
-    EXPECT_DOUBLE_EQ(LodSelector::tolerance_px(p, p.foveal_deg, p.speed_threshold_dps),
-                     p.tolerance_px);
-    EXPECT_DOUBLE_EQ(LodSelector::tolerance_px(p, p.foveal_deg + 10.0, 0.0),
-                     p.tolerance_px * (1.0 + 10.0 * p.eccentricity_gain));
-    EXPECT_DOUBLE_EQ(LodSelector::tolerance_px(p, 0.0, p.speed_threshold_dps + 100.0),
-                     p.tolerance_px * (1.0 + 100.0 * p.speed_gain));
-    EXPECT_DOUBLE_EQ(LodSelector::tolerance_px(p, 1e6, 1e6), p.tolerance_px * p.max_widening);
+    const double ppr = 300.0, ppd = ppr * 3.14159265358979323846 / 180.0;  // 5.236 px per degree
+    // In the fovea and still: the display's pixel (acuity 1/48 degree is 0.11 px here).
+    EXPECT_DOUBLE_EQ(LodSelector::tolerance_px(p, 0.0, 0.0, ppr), p.tolerance_px);
+    // At 30 degrees the eye resolves (1/48 + 0.022 * 30) degrees = 0.681 degrees = 3.57 px.
+    EXPECT_NEAR(LodSelector::tolerance_px(p, 30.0, 0.0, ppr), (1.0 / 48.0 + 0.66) * ppd, 1e-12);
+    // A 200 deg/s turn smears 200 * 0.002 = 0.4 degrees during the 2 ms persistence: 2.09 px.
+    EXPECT_NEAR(LodSelector::tolerance_px(p, 0.0, 200.0, ppr), 0.4 * ppd, 1e-12);
+    // The larger of the two, not their product.
+    EXPECT_NEAR(LodSelector::tolerance_px(p, 30.0, 200.0, ppr), (1.0 / 48.0 + 0.66) * ppd, 1e-12);
+    EXPECT_DOUBLE_EQ(LodSelector::tolerance_px(p, 1e6, 1e6, ppr), p.tolerance_px * p.max_widening);
+    LodSelectorParams blur_off = p;
+    blur_off.persistence_s = 0.0;
+    EXPECT_DOUBLE_EQ(LodSelector::tolerance_px(blur_off, 0.0, 500.0, ppr), p.tolerance_px);
+}
+
+// Where acuity, not the pixel, limits what one sees (off the gaze), a sharper panel needs no more
+// detail: the tolerance in pixels grows with the pixels per degree as the projected errors do.
+// In the fovea the pixel limits, so the sharper panel gets finer levels there.
+TEST(LodSelector, PeripheryNeedsNoMoreDetailOnASharperPanel) {
+    auto level_at = [](double deg, double ppr) {
+        LodSelector sel(1);
+        LodViewer v = viewer();
+        v.pixels_per_radian = ppr;
+        return sel.select(0, object_at(at_angle(deg, 1.0)), v).level;
+    };
+    for (double deg : {30.0, 45.0}) EXPECT_EQ(level_at(deg, 300.0), level_at(deg, 1200.0)) << deg;
+    EXPECT_LT(level_at(0.0, 1200.0), level_at(0.0, 300.0));
 }
 
 TEST(LodSelector, DoesNotFlickerAroundAThreshold) {

@@ -86,7 +86,11 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
       warp_costs_(config.pacing.window),
       total_costs_(config.pacing.window) {
     objects_ = flatten_objects(scene);
-    selector_ = LodSelector(objects_.size(), config.lod);
+    // note: the smear of a head turn lasts as long as the panel glows.
+    LodSelectorParams lod = config.lod;
+    if (const int64_t persistence = display_.info().persistence_ns; persistence > 0)
+        lod.persistence_s = double(persistence) * 1e-9;
+    selector_ = LodSelector(objects_.size(), lod);
     level_errors_.resize(objects_.size());
     for (size_t i = 0; i < objects_.size(); ++i)
         for (const LodLevel& l : objects_[i].levels)
@@ -187,7 +191,24 @@ uint64_t NodeRuntime::select_and_sort(const Pose& head, FrameRecord* rec) {
     viewer.near_m = render_rig_.near_m;
     rec->levels.resize(objects_.size());
     rec->eccentricity_deg.resize(objects_.size());
+    rec->culled = 0;
     order_.clear();
+    // Per-eye frustum culling: an object whose bounding sphere lies outside both eyes' frusta
+    // (the rendered field, warp margin included) is not drawn; it keeps its level for hysteresis.
+    glm::dmat4 view[2];
+    for (int e = 0; e < 2; ++e) view[e] = glm::dmat4(eye_view_matrix(render_rig_, head, e));
+    auto in_eye = [&](int e, const glm::dvec3& c, double r) {
+        const glm::dvec3 p = glm::dvec3(view[e] * glm::dvec4(c, 1.0));
+        const EyeFov& f = render_rig_.eye[e];
+        const double d = -p.z;  // depth along the eye's view direction
+        if (d < render_rig_.near_m - r) return false;
+        auto outside = [&](double coord, double t, double sign) {
+            // note: the side plane coord = t * d, its outward normal's sign
+            return sign * (coord - t * d) / std::sqrt(1.0 + t * t) > r;
+        };
+        return !(outside(p.x, f.tan_right, 1.0) || outside(p.x, f.tan_left, -1.0) ||
+                 outside(p.y, f.tan_up, 1.0) || outside(p.y, f.tan_down, -1.0));
+    };
     uint64_t triangles = 0;
     for (size_t i = 0; i < objects_.size(); ++i) {
         const SceneObject& o = objects_[i];
@@ -195,6 +216,11 @@ uint64_t NodeRuntime::select_and_sort(const Pose& head, FrameRecord* rec) {
         LodDecision d = selector_.select(i, ov, viewer);
         rec->levels[i] = d.level;
         rec->eccentricity_deg[i] = d.eccentricity_deg;
+        if (!in_eye(0, o.bounds_center, o.bounds_radius) &&
+            !in_eye(1, o.bounds_center, o.bounds_radius)) {
+            ++rec->culled;
+            continue;
+        }
         triangles += o.levels[d.level].triangles;
         order_.emplace_back(glm::length(o.bounds_center - head.position) - o.bounds_radius, i);
     }

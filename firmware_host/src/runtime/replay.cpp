@@ -383,6 +383,7 @@ nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& 
                           {"render_pose_sample_time_ns", f.render_pose_sample_time_ns},
                           {"lod", levels},
                           {"triangles", f.triangles},
+                          {"culled", f.culled},
                           {"render_ms", f.render_ms},
                           {"warp_ms", f.warp_ms},
                           {"frame_cost_ms", f.frame_cost_ms}});

@@ -24,6 +24,7 @@ class MockDisplay final : public Display {
         info_.refresh_hz = config.refresh_hz;
         info_.period_ns = period_ns_;
         info_.latch_margin_ns = config.latch_margin_ns;
+        info_.persistence_ns = config.persistence_ns;
     }
 
     DisplayInfo info() const override { return info_; }

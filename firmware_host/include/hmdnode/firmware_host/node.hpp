@@ -109,7 +109,8 @@ struct FrameRecord {
     bool on_time = false;              // shown at target_vsync_ns
     bool late = false;                 // a new frame shown after the vsync it was rendered for
     int64_t missed_vsyncs_before = 0;  // vsyncs since the previous present that showed nothing
-    uint64_t triangles = 0;
+    uint64_t triangles = 0;      // drawn (both eyes' frusta, culled objects left out)
+    size_t culled = 0;           // objects outside both eyes' frusta, not drawn
     double render_ms = 0.0;      // measured wall time of the render call (0 for a re-warp)
     double warp_ms = 0.0;        // measured wall time of the warp call (0 when there is none)
     double frame_cost_ms = 0.0;  // on the node's clock: wake to present

@@ -20,6 +20,7 @@ struct DisplayInfo {
     double refresh_hz = 0.0;
     int64_t period_ns = 0;
     int64_t latch_margin_ns = 0;  // a frame must be presented this long before its vsync
+    int64_t persistence_ns = 0;   // how long a row glows after its scan-out (0: unknown)
 };
 
 struct PresentResult {

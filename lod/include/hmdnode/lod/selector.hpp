@@ -1,5 +1,6 @@
-// Runtime level-of-detail selection by projected geometric error, widened by eccentricity and by
-// head angular speed, with hysteresis (docs/lod-selection.md has the formula and its defaults).
+// Runtime level-of-detail selection by projected geometric error against a perceptual tolerance
+// (display pixel, acuity at the eccentricity, motion smear during a head turn), with hysteresis
+// (docs/lod-selection.md has the formula, its sources and its defaults).
 //
 // Threads: one LodSelector belongs to the frame thread. select() neither allocates nor locks.
 #pragma once
@@ -12,14 +13,17 @@
 
 namespace hmdnode {
 
+// The tolerance model (docs/lod-selection.md): the largest of what the display, the eye's acuity
+// at the object's eccentricity and the smear of a head turn during the persistence let one see.
 struct LodSelectorParams {
-    double tolerance_px = 1.0;        // tau0: allowed projected error at the gaze point, still head
-    double foveal_deg = 5.0;          // theta0: no widening within this eccentricity
-    double eccentricity_gain = 0.15;  // k_e: widening per degree beyond theta0
-    double speed_threshold_dps = 15.0;  // omega0: no widening below this head speed
-    double speed_gain = 0.03;           // k_w: widening per deg/s beyond omega0
-    double max_widening = 64.0;         // cap on the product of both widenings
-    double hysteresis = 0.25;           // h: a coarser level must fit within tau * (1 - h)
+    double tolerance_px = 1.0;  // tau0: the display's floor (detail below a pixel is not shown)
+    // Minimum angle of resolution MAR(e) = mar0 + slope * e, degrees (Guenter et al. 2012,
+    // "Foveated 3D graphics": mar0 = 1/48 degree, slope 0.022-0.034; the lower, conservative end).
+    double mar0_deg = 1.0 / 48.0;
+    double mar_slope = 0.022;
+    double persistence_s = 0.002;  // how long a pixel glows; the frame loop sets the display's
+    double max_widening = 64.0;    // cap on tau / tau0
+    double hysteresis = 0.25;      // h: a coarser level must fit within tau * (1 - h)
 };
 
 // One object as the selector sees it this frame.
@@ -33,7 +37,7 @@ struct LodObjectView {
 // The viewer this frame.
 struct LodViewer {
     glm::dvec3 eye_position{0.0};         // world
-    glm::dvec3 gaze_direction{0, 0, -1};  // world, unit: head forward or an eye tracker's gaze
+    glm::dvec3 gaze_direction{0, 0, -1};  // world, unit: the lens centre (head forward) or a gaze
     double angular_speed_dps = 0.0;       // head angular speed
     double pixels_per_radian = 500.0;     // at the centre of the eye image
     double near_m = 0.05;
@@ -50,10 +54,10 @@ class LodSelector {
   public:
     explicit LodSelector(size_t object_count, const LodSelectorParams& params = {});
 
-    // tau = tau0 * min(max_widening, (1 + k_e * max(0, theta - theta0)) * (1 + k_w * max(0, omega -
-    // omega0)))
+    // tau = min(tau0 * max_widening, max(tau0, MAR(theta) * ppd, omega * persistence * ppd)),
+    // ppd = pixels_per_radian * pi / 180.
     static double tolerance_px(const LodSelectorParams& p, double eccentricity_deg,
-                               double speed_dps);
+                               double speed_dps, double pixels_per_radian);
     // Projected error in pixels of a level with error e at distance d: e / d * pixels_per_radian.
     static double projected_error_px(double error_m, double distance_m, double pixels_per_radian);
 
