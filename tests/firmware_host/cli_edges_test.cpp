@@ -117,8 +117,9 @@ TEST(CliEdges, NoFloatingPointOptionTakesNanOrInf) {
             EXPECT_TRUE(has(r.output, opt)) << r.output;
             // note: an option's range check may see inf first ("not in range"); nan passes
             // every range check, so only the finite check refuses it.
-            if (std::string(value) == "nan")
+            if (std::string(value) == "nan") {
                 EXPECT_TRUE(has(r.output, "not a finite number")) << opt << " " << r.output;
+            }
         }
     // Vectors of numbers too (bake --sky R,G,B), and other commands' options.
     CommandRun r = run(kTool + " bake --in a.glb --out b.glb --sky 1,nan,0");

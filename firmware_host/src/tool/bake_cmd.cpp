@@ -45,12 +45,6 @@ void fail(const std::string& message) {
     set_exit_code(1);
 }
 
-// A bad option value: the usage-error status.
-void usage_error(const std::string& message) {
-    std::fprintf(stderr, "hmdnode bake: error: %s\n", message.c_str());
-    set_exit_code(2);
-}
-
 // A number option's check: a finite number in [lo, hi] (lo excluded when `open_lo`). CLI11 parses
 // "nan" and "inf" as doubles; these checks turn them, and negatives, into usage errors (exit 2).
 CLI::Validator number_in(double lo, bool open_lo, double hi, const std::string& what) {
@@ -69,16 +63,7 @@ CLI::Validator number_in(double lo, bool open_lo, double hi, const std::string& 
 
 void run_bake(const BakeArgs& args) {
     const auto t0 = std::chrono::steady_clock::now();
-    if (!args.sky.empty() && args.sky.size() != 3)
-        return usage_error("--sky needs three values R,G,B (got " +
-                           std::to_string(args.sky.size()) + ")");
-    for (float v : args.sky)
-        if (!(v >= 0.0f)) return usage_error("--sky values must be finite and >= 0");
-    if (args.samples < 1) return usage_error("--samples must be >= 1");
-    if (args.bounces < 0) return usage_error("--bounces must be >= 0");
-    if (args.texels_per_metre < 0.0) return usage_error("--texels-per-metre must be >= 0");
-    if (!(args.intensity_percentile > 0.0 && args.intensity_percentile <= 1.0))
-        return usage_error("--intensity-percentile must be in (0, 1]");
+    // note: the options' own checks (below) refuse every value out of range, nan and inf.
     if (!check_outputs("hmdnode bake", {{"--out", args.out}, {"--report", args.report}}))
         return set_exit_code(1);
 
