@@ -71,6 +71,12 @@ struct LodLevelReport {
     double hausdorff_pct = 0.0;  // % of level 0's bounding-box diagonal
     double mean_m = 0.0;         // max of the two one-sided mean distances
     double mean_pct = 0.0;
+    // The sampling error (mesh_distance.hpp): the true Hausdorff distance lies in
+    // [hausdorff_m, hausdorff_upper_m]; the mean's standard error.
+    double hausdorff_upper_m = 0.0;
+    double hausdorff_upper_pct = 0.0;
+    double mean_stderr_m = 0.0;
+    double mean_stderr_pct = 0.0;
     double estimated_error = -1.0;  // the algorithm's own estimate, when it has one
     double simplify_ms = 0.0;       // the simplify() call that made it (one call, all levels,
                                     // for edge-collapse algorithms)
