@@ -9,8 +9,8 @@
 // low-discrepancy sequence (Roberts 2018) folded into the triangle, so the samples are stratified
 // and reproducible for a seed. Each sample weighs area_i / samples_i. The mean's standard error is
 // the weighted mean's, sqrt(sum w_i^2 (d_i - mean)^2) / sum w_i, as if the samples were
-// independent; stratification only makes the true error smaller. N defaults to the reference
-// mesh's triangle count (one sample per triangle of level 0).
+// independent; stratification only makes the true error smaller. N defaults to an eighth of the
+// sampled mesh's triangle count (at least 1024).
 //
 // Upper bound of the Hausdorff distance (branch and bound, as in Tang, Lee & Kim, "Interactive
 // Hausdorff distance computation for general polygonal models", SIGGRAPH 2009, with the bound of
@@ -577,7 +577,7 @@ MeshDistance MeshDistanceReference::measure(TriangleMeshView b_view) const {
     out.backward = measure_one_side(
         b.view(),
         sample_surface(b.view(), samples_for(b.triangles(), r.options), r.options.seed + 1), r.a,
-        threads, refine_for(b.triangles(), r.options));
+        threads, refine_for(std::max(r.a.triangles(), b.triangles()), r.options));
     out.hausdorff = std::max(out.forward.max, out.backward.max);
     out.hausdorff_upper = std::max(out.forward.max_upper, out.backward.max_upper);
     const bool fwd = out.forward.mean >= out.backward.mean;

@@ -4,7 +4,8 @@
 // selector. Implementation: lod/src/lod_chain.cpp; the tool is `hmdnode lod`
 // (docs/lod-generation.md).
 //
-// Thread: any; runs on the calling thread except the distance measurement (its own workers) and
+// Thread: any; runs on the calling thread except the distance measurement (workers only when
+// options.distance.threads asks for them) and
 // what simplify() runs on its helper thread (options.simplify.threads, simplify.hpp).
 #pragma once
 

@@ -20,12 +20,13 @@
 namespace hmdnode {
 
 struct MeshDistanceOptions {
-    // Surface samples per direction, spread over the triangles in proportion to their area, at
-    // least one per triangle of non-zero area; 0 = as many as the reference mesh (`a`) has
-    // triangles, at least 4096. The vertices are measured too (for the maximum and its bound).
+    // Area samples per direction, spread over the sampled mesh's triangles in proportion to their
+    // area, at least one per triangle of non-zero area; 0 = an eighth of the sampled mesh's
+    // triangle count, at least 1024. Every vertex is measured too (for the maximum and its bound).
     size_t samples = 0;
-    // Extra queries per direction spent tightening the Hausdorff upper bound (best-first
-    // subdivision of the triangles whose bound is largest); 0 = samples / 4.
+    // Extra queries per direction spent tightening the Hausdorff bracket (best-first subdivision
+    // of the triangles whose upper bound is largest); 0 = max(768, T / 16), T the larger triangle
+    // count of the two meshes.
     size_t refine_queries = 0;
     // Seed of the stratified jitter, so that runs are reproducible.
     uint32_t seed = 1;
