@@ -35,6 +35,7 @@
 #include "hmdnode/lod/mesh_file.hpp"
 #include "hmdnode/lod/simplify.hpp"
 #include "lod/test_meshes.hpp"
+#include "lod_inputs.hpp"
 
 namespace fs = std::filesystem;
 using namespace hmdnode;
@@ -286,23 +287,8 @@ int main(int argc, char** argv) {
             mesh_files.push_back(a);
         }
     }
-    // (name, file, flat splits): the bundled meshes, and the bunny with each triangle split into 4
-    // on its own plane (piecewise-flat input, like tessellated walls and CAD parts: most
-    // collapses cost zero there), or the files given.
-    struct Input {
-        std::string name;
-        fs::path file;
-        int splits = 0;
-    };
-    std::vector<Input> files;
-    if (mesh_files.empty()) {
-        files = {{"bunny", mesh_dir / "stanford-bunny.obj"},
-                 {"fandisk", mesh_dir / "fandisk.obj"},
-                 {"spot", mesh_dir / "spot.obj"},
-                 {"bunny-split", mesh_dir / "stanford-bunny.obj", 1}};
-    } else {
-        for (const fs::path& f : mesh_files) files.push_back({f.stem().string(), f});
-    }
+    // (name, file, flat splits): the bundled meshes and bunny-split, or the files given.
+    const std::vector<bench::LodInput> files = bench::lod_inputs(mesh_dir, mesh_files);
     const double ratios[] = {0.5, 0.1, 0.01};
 
     std::vector<std::string> algorithms;
@@ -329,7 +315,7 @@ int main(int argc, char** argv) {
         double mean_pct, hausdorff_pct;
     };
     std::vector<EqualCount> equal_counts;
-    for (const Input& input : files) {
+    for (const bench::LodInput& input : files) {
         const std::string& name = input.name;
         // note: OBJ through load_obj, as the bundled meshes always were; PLY, OFF and glTF through
         // load_mesh_file (the first primitive of the first mesh).

@@ -29,6 +29,8 @@
 #include <optional>
 #include <set>
 
+#include <time.h>
+
 #include "hmdnode/core/str_cat.hpp"
 #include "hmdnode/lod/progressive_mesh.hpp"
 #include "position_set.hpp"
@@ -40,6 +42,12 @@ using Clock = std::chrono::steady_clock;
 
 double ms_since(Clock::time_point t0) {
     return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+double thread_cpu_ms() {
+    timespec t{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
 }
 
 // All primitives of a mesh as one triangle soup, for the distance measurement.
@@ -181,30 +189,36 @@ struct MeasuredLevel {
     BuiltLevel built;
     MeshDistance distance;
     double measure_ms = 0.0;
+    double measure_cpu_ms = 0.0;
 };
 
 // Level 0 prepared for the measurement once per mesh (its BVH and samples); the preparation's
 // time is charged to the first level measured with it.
 struct Reference {
-    mutable double unpaid_ms = 0.0;  // note: declared first, timed() sets it while ref is made
+    mutable double unpaid_ms = 0.0;  // note: declared first, timed() sets them while ref is made
+    mutable double unpaid_cpu_ms = 0.0;
     MeshDistanceReference ref;
     Reference(const Soup& base, const MeshDistanceOptions& o) : ref(timed(base, o)) {}
 
   private:
     MeshDistanceReference timed(const Soup& base, const MeshDistanceOptions& o) {
         const Clock::time_point t0 = Clock::now();
+        const double c0 = thread_cpu_ms();
         MeshDistanceReference r(base.view(), o);
         unpaid_ms = ms_since(t0);
+        unpaid_cpu_ms = thread_cpu_ms() - c0;
         return r;
     }
 };
 
 MeasuredLevel measure(BuiltLevel built, const Reference& base) {
     const Clock::time_point t0 = Clock::now();
+    const double c0 = thread_cpu_ms();
     const Soup s = soup_of(built.primitives);
-    MeasuredLevel m{std::move(built), base.ref.measure(s.view()), 0.0};
+    MeasuredLevel m{std::move(built), base.ref.measure(s.view()), 0.0, 0.0};
     m.measure_ms = ms_since(t0) + base.unpaid_ms;
-    base.unpaid_ms = 0.0;
+    m.measure_cpu_ms = thread_cpu_ms() - c0 + base.unpaid_cpu_ms;
+    base.unpaid_ms = base.unpaid_cpu_ms = 0.0;
     return m;
 }
 
@@ -561,6 +575,7 @@ Result<LodChainReport> generate_lod_chains(Scene& scene, const LodChainOptions& 
             row.estimated_error = lvl.built.estimated_error;
             row.simplify_ms = lvl.built.simplify_ms;
             row.measure_ms = lvl.measure_ms;
+            row.measure_cpu_ms = lvl.measure_cpu_ms;
             report.levels.push_back(row);
             chain.level_meshes.push_back(int(out.meshes.size()));
             chain.errors.push_back(lvl.distance.hausdorff);

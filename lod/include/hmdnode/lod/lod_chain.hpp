@@ -82,6 +82,7 @@ struct LodLevelReport {
     double simplify_ms = 0.0;       // the simplify() call that made it (one call, all levels,
                                     // for edge-collapse algorithms)
     double measure_ms = 0.0;
+    double measure_cpu_ms = 0.0;  // the calling thread's CPU time of it (the machine may be shared)
 };
 
 // The progressive mesh of one primitive of a mesh given a chain, based at the primitive's part of
