@@ -35,10 +35,11 @@
 #include "hmdnode/lod/mesh_file.hpp"
 #include "hmdnode/lod/simplify.hpp"
 #include "lod/test_meshes.hpp"
-#include "lod_inputs.hpp"
+#include "lod_bench_common.hpp"
 
 namespace fs = std::filesystem;
 using namespace hmdnode;
+using bench::appendf;
 using Clock = std::chrono::steady_clock;
 
 namespace {
@@ -240,16 +241,6 @@ std::string svg_plot(const std::vector<Row>& rows, const std::vector<std::string
 }
 
 }  // namespace
-
-// printf into a string (the tables are printed and may be written into the docs).
-__attribute__((format(printf, 2, 3))) void appendf(std::string& out, const char* format, ...) {
-    char line[1024];
-    va_list args;
-    va_start(args, format);
-    std::vsnprintf(line, sizeof line, format, args);
-    va_end(args);
-    out += line;
-}
 
 int main(int argc, char** argv) {
     const bool write_docs = bench::wants_docs(argc, argv);

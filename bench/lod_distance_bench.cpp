@@ -33,10 +33,11 @@
 #include "hmdnode/lod/mesh_file.hpp"
 #include "hmdnode/lod/simplify.hpp"
 #include "lod/test_meshes.hpp"
-#include "lod_inputs.hpp"
+#include "lod_bench_common.hpp"
 
 namespace fs = std::filesystem;
 using namespace hmdnode;
+using bench::appendf;
 
 namespace {
 
@@ -49,15 +50,6 @@ double thread_cpu_ms() {
 double median(std::vector<double> v) {
     std::sort(v.begin(), v.end());
     return v.empty() ? 0.0 : v[v.size() / 2];
-}
-
-__attribute__((format(printf, 2, 3))) void appendf(std::string& out, const char* format, ...) {
-    char line[1024];
-    va_list args;
-    va_start(args, format);
-    std::vsnprintf(line, sizeof line, format, args);
-    va_end(args);
-    out += line;
 }
 
 Result<Primitive> load(const fs::path& file) {

@@ -1,7 +1,9 @@
-// The meshes the LOD benchmarks run on by default, shared by bench_lod_bench and
-// bench_lod_distance_bench. Header-only (benches are one file each).
+// What bench_lod_bench and bench_lod_distance_bench share: the meshes they run on by default and
+// printf into a string for their tables. Header-only (benches are one file each).
 #pragma once
 
+#include <cstdarg>
+#include <cstdio>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -28,6 +30,17 @@ inline std::vector<LodInput> lod_inputs(const std::filesystem::path& mesh_dir,
                 {"bunny-split", mesh_dir / "stanford-bunny.obj", 1}};
     for (const std::filesystem::path& f : files) inputs.push_back({f.stem().string(), f});
     return inputs;
+}
+
+// printf into a string (the tables are printed and may be written into the docs).
+__attribute__((format(printf, 2, 3))) inline void appendf(std::string& out, const char* format,
+                                                          ...) {
+    char line[1024];
+    va_list args;
+    va_start(args, format);
+    std::vsnprintf(line, sizeof line, format, args);
+    va_end(args);
+    out += line;
 }
 
 }  // namespace hmdnode::bench
