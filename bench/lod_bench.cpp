@@ -35,9 +35,11 @@
 #include "hmdnode/lod/mesh_file.hpp"
 #include "hmdnode/lod/simplify.hpp"
 #include "lod/test_meshes.hpp"
+#include "lod_bench_common.hpp"
 
 namespace fs = std::filesystem;
 using namespace hmdnode;
+using bench::appendf;
 using Clock = std::chrono::steady_clock;
 
 namespace {
@@ -240,16 +242,6 @@ std::string svg_plot(const std::vector<Row>& rows, const std::vector<std::string
 
 }  // namespace
 
-// printf into a string (the tables are printed and may be written into the docs).
-__attribute__((format(printf, 2, 3))) void appendf(std::string& out, const char* format, ...) {
-    char line[1024];
-    va_list args;
-    va_start(args, format);
-    std::vsnprintf(line, sizeof line, format, args);
-    va_end(args);
-    out += line;
-}
-
 int main(int argc, char** argv) {
     const bool write_docs = bench::wants_docs(argc, argv);
     std::string only_arg;
@@ -257,7 +249,11 @@ int main(int argc, char** argv) {
     std::vector<fs::path> mesh_files;  // mesh paths given as arguments: instead of the bundled set
     std::string prefix = "lod_bench";
     std::vector<std::string> only;
+    // note: the quality figures keep the dense measurement they were always made with (300 000
+    // samples per direction on every hardware thread), not hmdnode lod's one-per-triangle default.
     MeshDistanceOptions distance;
+    distance.samples = 300'000;
+    distance.threads = 0;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--out" && i + 1 < argc) {
@@ -282,23 +278,8 @@ int main(int argc, char** argv) {
             mesh_files.push_back(a);
         }
     }
-    // (name, file, flat splits): the bundled meshes, and the bunny with each triangle split into 4
-    // on its own plane (piecewise-flat input, like tessellated walls and CAD parts: most
-    // collapses cost zero there), or the files given.
-    struct Input {
-        std::string name;
-        fs::path file;
-        int splits = 0;
-    };
-    std::vector<Input> files;
-    if (mesh_files.empty()) {
-        files = {{"bunny", mesh_dir / "stanford-bunny.obj"},
-                 {"fandisk", mesh_dir / "fandisk.obj"},
-                 {"spot", mesh_dir / "spot.obj"},
-                 {"bunny-split", mesh_dir / "stanford-bunny.obj", 1}};
-    } else {
-        for (const fs::path& f : mesh_files) files.push_back({f.stem().string(), f});
-    }
+    // (name, file, flat splits): the bundled meshes and bunny-split, or the files given.
+    const std::vector<bench::LodInput> files = bench::lod_inputs(mesh_dir, mesh_files);
     const double ratios[] = {0.5, 0.1, 0.01};
 
     std::vector<std::string> algorithms;
@@ -325,7 +306,7 @@ int main(int argc, char** argv) {
         double mean_pct, hausdorff_pct;
     };
     std::vector<EqualCount> equal_counts;
-    for (const Input& input : files) {
+    for (const bench::LodInput& input : files) {
         const std::string& name = input.name;
         // note: OBJ through load_obj, as the bundled meshes always were; PLY, OFF and glTF through
         // load_mesh_file (the first primitive of the first mesh).

@@ -29,6 +29,8 @@
 #include <optional>
 #include <set>
 
+#include <time.h>
+
 #include "hmdnode/core/str_cat.hpp"
 #include "hmdnode/lod/progressive_mesh.hpp"
 #include "position_set.hpp"
@@ -40,6 +42,12 @@ using Clock = std::chrono::steady_clock;
 
 double ms_since(Clock::time_point t0) {
     return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+double thread_cpu_ms() {
+    timespec t{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
 }
 
 // All primitives of a mesh as one triangle soup, for the distance measurement.
@@ -181,13 +189,36 @@ struct MeasuredLevel {
     BuiltLevel built;
     MeshDistance distance;
     double measure_ms = 0.0;
+    double measure_cpu_ms = 0.0;
 };
 
-MeasuredLevel measure(BuiltLevel built, const Soup& base, const MeshDistanceOptions& o) {
+// Level 0 prepared for the measurement once per mesh (its BVH and samples); the preparation's
+// time is charged to the first level measured with it.
+struct Reference {
+    mutable double unpaid_ms = 0.0;  // note: declared first, timed() sets them while ref is made
+    mutable double unpaid_cpu_ms = 0.0;
+    MeshDistanceReference ref;
+    Reference(const Soup& base, const MeshDistanceOptions& o) : ref(timed(base, o)) {}
+
+  private:
+    MeshDistanceReference timed(const Soup& base, const MeshDistanceOptions& o) {
+        const Clock::time_point t0 = Clock::now();
+        const double c0 = thread_cpu_ms();
+        MeshDistanceReference r(base.view(), o);
+        unpaid_ms = ms_since(t0);
+        unpaid_cpu_ms = thread_cpu_ms() - c0;
+        return r;
+    }
+};
+
+MeasuredLevel measure(BuiltLevel built, const Reference& base) {
     const Clock::time_point t0 = Clock::now();
+    const double c0 = thread_cpu_ms();
     const Soup s = soup_of(built.primitives);
-    MeasuredLevel m{std::move(built), measure_mesh_distance(base.view(), s.view(), o), 0.0};
-    m.measure_ms = ms_since(t0);
+    MeasuredLevel m{std::move(built), base.ref.measure(s.view()), 0.0, 0.0};
+    m.measure_ms = ms_since(t0) + base.unpaid_ms;
+    m.measure_cpu_ms = thread_cpu_ms() - c0 + base.unpaid_cpu_ms;
+    base.unpaid_ms = base.unpaid_cpu_ms = 0.0;
     return m;
 }
 
@@ -212,7 +243,11 @@ Result<std::vector<MeasuredLevel>> search_error(const Mesh& mesh, size_t mesh_in
                                                 PrimitiveLogs* logs) {
     const size_t count = mesh.triangle_count();
     MeshDistanceOptions quick = options.distance;
-    quick.samples = std::min(options.search_samples, options.distance.samples);
+    quick.samples =
+        std::min(options.search_samples, options.distance.samples ? options.distance.samples
+                                                                  : std::max<size_t>(count, 4096));
+    const Reference quick_ref(base, quick);
+    std::optional<Reference> full_ref;  // made when the search has found a level
     std::vector<size_t> ladder;
     for (size_t t = count / 2; t >= 1 && ladder.size() < 24; t /= 2) ladder.push_back(t);
     if (ladder.empty()) {
@@ -231,7 +266,7 @@ Result<std::vector<MeasuredLevel>> search_error(const Mesh& mesh, size_t mesh_in
     std::optional<MeasuredLevel> pass;
     size_t fail_count = 0;
     for (size_t k = 0; k < ladder.size(); ++k) {
-        MeasuredLevel m = measure(std::move((*built)[k]), base, quick);
+        MeasuredLevel m = measure(std::move((*built)[k]), quick_ref);
         report(0.3 + 0.2 * double(k + 1) / double(ladder.size()));
         if (bound.holds(m.distance)) {
             pass = std::move(m);
@@ -249,7 +284,7 @@ Result<std::vector<MeasuredLevel>> search_error(const Mesh& mesh, size_t mesh_in
         Result<std::vector<BuiltLevel>> one =
             build_levels(mesh, mesh_index, {mid}, options, nullptr, run_log);
         if (!one.ok()) return one.error();
-        MeasuredLevel m = measure(std::move((*one)[0]), base, quick);
+        MeasuredLevel m = measure(std::move((*one)[0]), quick_ref);
         if (bound.holds(m.distance)) {
             pass = std::move(m);
             pass_count = mid;
@@ -269,7 +304,8 @@ Result<std::vector<MeasuredLevel>> search_error(const Mesh& mesh, size_t mesh_in
     // can miss the farthest point: a level that passed there may not pass here. Step back to more
     // triangles (2 % more, then twice the step each time) until the reported figure holds the
     // bound.
-    MeasuredLevel final_level = measure(std::move(pass->built), base, options.distance);
+    full_ref.emplace(base, options.distance);
+    MeasuredLevel final_level = measure(std::move(pass->built), *full_ref);
     for (int back = 0; !bound.holds(final_level.distance); ++back) {
         const size_t was = pass_count;
         const double step = std::ceil(double(was) * 0.02 * std::ldexp(1.0, back));
@@ -289,7 +325,7 @@ Result<std::vector<MeasuredLevel>> search_error(const Mesh& mesh, size_t mesh_in
         Result<std::vector<BuiltLevel>> one =
             build_levels(mesh, mesh_index, {pass_count}, options, nullptr, run_log);
         if (!one.ok()) return one.error();
-        final_level = measure(std::move((*one)[0]), base, options.distance);
+        final_level = measure(std::move((*one)[0]), *full_ref);
         if (logs) pass_logs = std::move(run_logs);
     }
     if (logs) {
@@ -468,8 +504,9 @@ Result<LodChainReport> generate_lod_chains(Scene& scene, const LodChainOptions& 
             Result<std::vector<BuiltLevel>> built = build_levels(
                 mesh, size_t(mi), *targets, options, [&](double f) { progress(0.6 * f); }, log);
             if (!built.ok()) return built.error();
+            const Reference reference(base, options.distance);
             for (size_t k = 0; k < built->size(); ++k) {
-                levels.push_back(measure(std::move((*built)[k]), base, options.distance));
+                levels.push_back(measure(std::move((*built)[k]), reference));
                 progress(0.6 + 0.4 * double(k + 1) / double(built->size()));
             }
         }
@@ -531,9 +568,14 @@ Result<LodChainReport> generate_lod_chains(Scene& scene, const LodChainOptions& 
             row.hausdorff_pct = lvl.distance.hausdorff_pct();
             row.mean_m = lvl.distance.mean;
             row.mean_pct = lvl.distance.mean_pct();
+            row.hausdorff_upper_m = lvl.distance.hausdorff_upper;
+            row.hausdorff_upper_pct = lvl.distance.hausdorff_upper_pct();
+            row.mean_stderr_m = lvl.distance.mean_stderr;
+            row.mean_stderr_pct = lvl.distance.mean_stderr_pct();
             row.estimated_error = lvl.built.estimated_error;
             row.simplify_ms = lvl.built.simplify_ms;
             row.measure_ms = lvl.measure_ms;
+            row.measure_cpu_ms = lvl.measure_cpu_ms;
             report.levels.push_back(row);
             chain.level_meshes.push_back(int(out.meshes.size()));
             chain.errors.push_back(lvl.distance.hausdorff);

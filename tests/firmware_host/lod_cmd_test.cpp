@@ -169,8 +169,18 @@ TEST(LodCommand, RatiosFromObjWithReport) {
     ASSERT_EQ(j["levels"].size(), 3u);
     for (const char* key :
          {"mesh", "mesh_name", "level", "triangles", "target", "error_m", "error_pct_diag",
-          "mean_m", "mean_pct_diag", "simplify_ms", "measure_ms"})
+          "mean_m", "mean_pct_diag", "simplify_ms", "measure_ms", "error_upper_m",
+          "error_upper_pct_diag", "mean_stderr_m", "mean_stderr_pct_diag", "measure_cpu_ms"})
         EXPECT_TRUE(j["levels"][1].contains(key)) << key;
+    // The sampling error: the Hausdorff bracket is ordered, the mean has a standard error.
+    for (size_t k = 1; k < 3; ++k) {
+        const nlohmann::json& l = j["levels"][k];
+        EXPECT_GE(l["error_upper_m"].get<double>(), l["error_m"].get<double>());
+        EXPECT_GT(l["mean_stderr_m"].get<double>(), 0.0);
+        EXPECT_LT(l["mean_stderr_m"].get<double>(), l["mean_m"].get<double>());
+    }
+    for (const char* key : {"load", "load_cpu", "repair", "repair_cpu", "chains", "chains_cpu"})
+        EXPECT_TRUE(j["timing_ms"].contains(key)) << key;
     EXPECT_EQ(j["levels"][2]["triangles"].get<size_t>(), tris[2]);
     EXPECT_GT(j["levels"][2]["error_m"].get<double>(), j["levels"][1]["error_m"].get<double>());
     EXPECT_EQ(j["levels"][0]["error_m"].get<double>(), 0.0);

@@ -53,7 +53,10 @@ TEST(MeshDistance, ParallelSquaresAreTheirSpacingApart) {
     EXPECT_NEAR(d.backward.mean, 0.1, 1e-6);
     EXPECT_NEAR(d.diagonal, std::sqrt(2.0), 1e-6);
     EXPECT_NEAR(d.hausdorff_pct(), 10.0 / std::sqrt(2.0), 1e-4);
-    EXPECT_GE(d.forward.samples, MeshDistanceOptions{}.samples);
+    EXPECT_GE(d.forward.samples, 1024u);  // the default's floor
+    // Every corner's nearest triangle lies in the parallel plane, so the convex bound is exact.
+    EXPECT_NEAR(d.hausdorff_upper, 0.1, 1e-6);
+    EXPECT_LT(d.mean_stderr, 1e-6);
 }
 
 TEST(MeshDistance, IdenticalMeshesAreZeroApart) {
@@ -119,6 +122,122 @@ TEST(MeshDistance, IsReproducibleAndThreadIndependent) {
     const MeshDistance b = measure_mesh_distance(icosphere(1), icosphere(3), four);
     EXPECT_DOUBLE_EQ(a.hausdorff, b.hausdorff);
     EXPECT_NEAR(a.mean, b.mean, 1e-12);
+}
+
+// The unit square turned by `angle` about its edge on the x axis.
+Primitive tilted_square(double angle) {
+    Primitive p = rectangle(1, 0);
+    for (glm::vec3& v : p.positions)
+        v = glm::vec3(v.x, float(v.y * std::cos(angle)), float(v.y * std::sin(angle)));
+    return p;
+}
+
+// A closed polyhedron scaled about the origin.
+Primitive scaled(Primitive p, float s) {
+    for (glm::vec3& v : p.positions) v *= s;
+    return p;
+}
+
+// The true value lies in [hausdorff, hausdorff_upper] and within 3 standard errors of the mean.
+void expect_brackets(const MeshDistance& d, double hausdorff, double mean) {
+    EXPECT_LE(d.hausdorff, hausdorff + 1e-6);
+    EXPECT_GE(d.hausdorff_upper, hausdorff - 1e-6);
+    EXPECT_LE(std::abs(d.mean - mean), 3.0 * d.mean_stderr + 1e-6)
+        << "mean " << d.mean << " stderr " << d.mean_stderr << " true " << mean;
+}
+
+TEST(MeshDistanceBounds, TiltedSquareIsBracketed) {
+    // Square -> its copy turned by a about an edge: the distance to the plane, y sin a (the foot
+    // of the perpendicular stays on the square), both ways: Hausdorff sin a, mean sin(a) / 2.
+    for (double a : {0.05, 0.3, 1.0}) {
+        const MeshDistance d = measure_mesh_distance(rectangle(1, 0), tilted_square(a));
+        expect_brackets(d, std::sin(a), std::sin(a) / 2.0);
+        EXPECT_NEAR(d.hausdorff, std::sin(a), 1e-6);  // at the far corner, a vertex
+        EXPECT_GT(d.mean_stderr, 0.0);
+    }
+}
+
+TEST(MeshDistanceBounds, ScaledPolyhedronHasClosedFormDistances) {
+    // A convex polyhedron P (circumradius R, inradius h) and sP, s < 1: P -> sP is largest at the
+    // vertices, (1 - s) R (by symmetry the nearest point of sP to a vertex v is s v); every point
+    // of sP is (1 - s) h from the boundary of P (its own face's parallel plane is the nearest).
+    const Primitive p = icosphere(0);  // the icosahedron, R = 1
+    const double h = 1.0 - sagitta(p), s = 0.8;
+    const MeshDistance d = measure_mesh_distance(p, scaled(p, float(s)));
+    EXPECT_NEAR(d.hausdorff, (1 - s), 1e-6);
+    EXPECT_GE(d.hausdorff_upper, (1 - s) - 1e-6);
+    EXPECT_LE(d.hausdorff_upper, (1 - s) * 1.01);  // refined to within 1 %
+    EXPECT_NEAR(d.backward.mean, (1 - s) * h, 1e-6);
+    EXPECT_NEAR(d.backward.max_upper, (1 - s) * h, 1e-6);  // constant: exact
+    EXPECT_LE(d.backward.mean_stderr, 1e-6);
+}
+
+TEST(MeshDistanceBounds, RaisedCentreMeanIsWithinItsStandardError) {
+    const double h = 0.2;
+    const MeshDistance d = measure_mesh_distance(pyramid(float(h)), pyramid(0.0f));
+    EXPECT_LE(std::abs(d.forward.mean - h / 3.0), 3.0 * d.forward.mean_stderr);
+    EXPECT_GT(d.forward.mean_stderr, 0.0);
+    EXPECT_LE(d.forward.max, h + 1e-6);
+    EXPECT_GE(d.forward.max_upper, h - 1e-6);
+}
+
+TEST(MeshDistanceBounds, UpperBoundHoldsAgainstADenseMeasurement) {
+    // The default measurement's upper bound is above what 400 000 samples per direction find, and
+    // its lower bound below the dense upper bound, on curved meshes where nothing is exact.
+    MeshDistanceOptions dense;
+    dense.samples = 400'000;
+    dense.threads = 0;
+    for (auto [ca, cb] : {std::pair{1, 3}, std::pair{2, 4}}) {
+        const Primitive a = icosphere(cb), b = icosphere(ca);
+        const MeshDistance quick = measure_mesh_distance(a, b);
+        const MeshDistance full = measure_mesh_distance(a, b, dense);
+        EXPECT_GE(quick.hausdorff_upper, full.hausdorff);
+        EXPECT_LE(quick.hausdorff, full.hausdorff_upper);
+        EXPECT_LE(quick.hausdorff, quick.hausdorff_upper);
+        EXPECT_LE(std::abs(quick.mean - full.mean),
+                  3.0 * (quick.mean_stderr + full.mean_stderr) + 1e-9);
+    }
+}
+
+TEST(MeshDistanceBounds, CornerCoveringRadiusIsTheFarthestPoint) {
+    // Closed forms: the equilateral triangle's circumradius 1/sqrt(3); a right triangle's half
+    // hypotenuse; and, for any triangle, the largest distance of a point to its nearest corner,
+    // found on a fine grid of points, at most the radius and close to it.
+    using glm::dvec3;
+    EXPECT_NEAR(corner_covering_radius({0, 0, 0}, {1, 0, 0}, {0.5, std::sqrt(0.75), 0}),
+                1 / std::sqrt(3.0), 1e-12);
+    EXPECT_NEAR(corner_covering_radius({0, 0, 0}, {1, 0, 0}, {0, 1, 0}), std::sqrt(0.5), 1e-12);
+    EXPECT_EQ(corner_covering_radius({1, 1, 1}, {1, 1, 1}, {1, 1, 1}), 0.0);
+    const dvec3 tris[][3] = {{{0, 0, 0}, {1, 0, 0}, {0.5, 0.01, 0}},   // sliver
+                             {{0, 0, 0}, {1, 0, 0}, {0.2, 0.3, 0.1}},  // obtuse
+                             {{0, 0, 0}, {1, 0, 0}, {0.4, 0.8, 0}},    // acute
+                             {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}}};       // flat
+    for (const auto& t : tris) {
+        const double r = corner_covering_radius(t[0], t[1], t[2]);
+        double far = 0.0;
+        const int n = 400;
+        for (int i = 0; i <= n; ++i)
+            for (int j = 0; i + j <= n; ++j) {
+                const dvec3 p =
+                    t[0] + (t[1] - t[0]) * (double(i) / n) + (t[2] - t[0]) * (double(j) / n);
+                far = std::max(far, std::min({glm::length(p - t[0]), glm::length(p - t[1]),
+                                              glm::length(p - t[2])}));
+            }
+        EXPECT_LE(far, r + 1e-12);
+        EXPECT_GE(far, r * 0.99);
+    }
+}
+
+TEST(MeshDistanceBounds, AReferenceMeasuresLikeTheOneCall) {
+    const Primitive a = icosphere(3);
+    const MeshDistanceReference ref(view_of(a));
+    for (int level : {0, 1, 2}) {
+        const Primitive b = icosphere(level);
+        const MeshDistance x = ref.measure(view_of(b)), y = measure_mesh_distance(a, b);
+        EXPECT_EQ(x.hausdorff, y.hausdorff);
+        EXPECT_EQ(x.hausdorff_upper, y.hausdorff_upper);
+        EXPECT_EQ(x.mean, y.mean);
+    }
 }
 
 TEST(MeshDistance, EmptyOrZeroAreaMeshHasNoSamples) {

@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <filesystem>
 #include <functional>
 #include <memory>
@@ -44,6 +45,7 @@ struct LodArgs {
     std::vector<size_t> triangles;
     size_t step = 0;
     size_t samples = MeshDistanceOptions{}.samples;
+    unsigned measure_threads = 1;
     uint32_t seed = 1;
     bool lock_borders = false;
     bool list_algorithms = false;
@@ -170,7 +172,8 @@ void list_algorithms() {
 // The --report JSON. Throws what nlohmann::json throws (invalid UTF-8 in a name).
 std::string report_json(const LodArgs& args, const LodChainOptions& options,
                         const RepairReport& repair, const LodChainReport& report,
-                        const std::vector<ProgressiveOut>& progressive, double total_ms) {
+                        const std::vector<ProgressiveOut>& progressive, double total_ms,
+                        const nlohmann::json& timing) {
     nlohmann::json j;
     j["input"] = args.in;
     j["output"] = args.out;
@@ -199,9 +202,14 @@ std::string report_json(const LodArgs& args, const LodChainOptions& options,
                           {"error_pct_diag", l.hausdorff_pct},
                           {"mean_m", l.mean_m},
                           {"mean_pct_diag", l.mean_pct},
+                          {"error_upper_m", l.hausdorff_upper_m},
+                          {"error_upper_pct_diag", l.hausdorff_upper_pct},
+                          {"mean_stderr_m", l.mean_stderr_m},
+                          {"mean_stderr_pct_diag", l.mean_stderr_pct},
                           {"estimated_error", l.estimated_error},
                           {"simplify_ms", l.simplify_ms},
-                          {"measure_ms", l.measure_ms}});
+                          {"measure_ms", l.measure_ms},
+                          {"measure_cpu_ms", l.measure_cpu_ms}});
     j["levels"] = std::move(levels);
     j["notes"] = report.notes;
     nlohmann::json pms = nlohmann::json::array();
@@ -214,6 +222,7 @@ std::string report_json(const LodArgs& args, const LodChainOptions& options,
                        {"vertex_splits", p.pm.splits.size()}});
     j["progressive"] = std::move(pms);
     j["total_ms"] = total_ms;
+    j["timing_ms"] = timing;
     return j.dump(2) + "\n";
 }
 
@@ -261,6 +270,7 @@ void run_lod(const LodArgs& args) {
     options.simplify.seed = args.seed;
     options.distance.samples = args.samples;
     options.distance.seed = args.seed;
+    options.distance.threads = args.measure_threads;
     options.progressive = !args.progressive.empty();
 
     // Every output checked before the work. The progressive meshes' names are known only after
@@ -281,17 +291,32 @@ void run_lod(const LodArgs& args) {
         }
     }
 
+    // The report's breakdown: wall ms, and the process's CPU ms as "<step>_cpu" (all threads).
+    nlohmann::json timing;
+    Clock::time_point step = Clock::now();
+    std::clock_t step_cpu = std::clock();
+    auto lap = [&](const char* name) {
+        timing[name] = std::chrono::duration<double, std::milli>(Clock::now() - step).count();
+        timing[std::string(name) + "_cpu"] = 1e3 * double(std::clock() - step_cpu) / CLOCKS_PER_SEC;
+        step = Clock::now();
+        step_cpu = std::clock();
+    };
     Result<Scene> scene = load_mesh_file(args.in);
+    lap("load");
     if (!scene.ok()) return fail(scene.error().message + "; nothing written");
     RepairReport repair;
     if (Status s = repair_scene(*scene, repair); !s.ok())
         return fail(s.error().message + "; nothing written");
+    lap("repair");
     for (const std::string& m : repair.messages)
         std::fprintf(stderr, "hmdnode lod: warning: %s\n", m.c_str());
 
     ProgressBar bar(!args.no_progress);
     options.progress = [&bar](double f) { bar.update(f); };
+    step = Clock::now();
+    step_cpu = std::clock();
     Result<LodChainReport> report = generate_lod_chains(*scene, options);
+    lap("chains");
     bar.finish();
     if (!report.ok()) return fail(report.error().message + "; nothing written");
     std::vector<ProgressiveOut> progressive =
@@ -307,7 +332,8 @@ void run_lod(const LodArgs& args) {
     const double total_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     if (!args.report.empty()) {
         try {
-            report_text = report_json(args, options, repair, *report, progressive, total_ms);
+            report_text =
+                report_json(args, options, repair, *report, progressive, total_ms, timing);
         } catch (const std::exception& e) {
             return fail("--report " + args.report + ": " + e.what() + "; nothing written");
         }
@@ -324,12 +350,12 @@ void run_lod(const LodArgs& args) {
                                 [&] { return write_file_atomically(args.report, report_text); });
     if (!written.ok()) return fail(written.error().message + "; nothing written");
 
-    std::printf("%-24s %5s %10s %12s %9s %9s %10s %10s\n", "mesh", "level", "triangles", "error m",
-                "error %", "mean %", "simplify ms", "measure ms");
+    std::printf("%-24s %5s %10s %12s %9s %9s %9s %10s %10s\n", "mesh", "level", "triangles",
+                "error m", "error %", "<= %", "mean %", "simplify ms", "measure ms");
     for (const LodLevelReport& l : report->levels)
-        std::printf("%-24s %5d %10zu %12.6g %9.4f %9.4f %10.1f %10.1f\n", l.mesh_name.c_str(),
-                    l.level, l.triangles, l.hausdorff_m, l.hausdorff_pct, l.mean_pct, l.simplify_ms,
-                    l.measure_ms);
+        std::printf("%-24s %5d %10zu %12.6g %9.4f %9.4f %9.4f %10.1f %10.1f\n", l.mesh_name.c_str(),
+                    l.level, l.triangles, l.hausdorff_m, l.hausdorff_pct, l.hausdorff_upper_pct,
+                    l.mean_pct, l.simplify_ms, l.measure_ms);
     std::printf("wrote %s: %zu meshes, %zu nodes with chains (%s, %.0f ms)\n", args.out.c_str(),
                 report->meshes, report->nodes, args.algorithm.c_str(), total_ms);
     for (const ProgressiveOut& p : progressive)
@@ -368,7 +394,11 @@ void add_lod_command(CLI::App& app) {
                     "Write the table of levels as JSON here (all outputs are written only when "
                     "all can be)");
     lod->add_option("--samples", args->samples,
-                    "Surface samples per direction for the error measurement")
+                    "Surface samples per direction for the error measurement (0: one per "
+                    "triangle of the mesh, at least 4096)")
+        ->capture_default_str();
+    lod->add_option("--measure-threads", args->measure_threads,
+                    "Threads for the error measurement (0: one per hardware thread)")
         ->capture_default_str();
     lod->add_option("--seed", args->seed, "Seed of randomised steps and of the sampling")
         ->capture_default_str();

@@ -4,7 +4,8 @@
 // selector. Implementation: lod/src/lod_chain.cpp; the tool is `hmdnode lod`
 // (docs/lod-generation.md).
 //
-// Thread: any; runs on the calling thread except the distance measurement (its own workers) and
+// Thread: any; runs on the calling thread except the distance measurement (workers only when
+// options.distance.threads asks for them) and
 // what simplify() runs on its helper thread (options.simplify.threads, simplify.hpp).
 #pragma once
 
@@ -71,10 +72,17 @@ struct LodLevelReport {
     double hausdorff_pct = 0.0;  // % of level 0's bounding-box diagonal
     double mean_m = 0.0;         // max of the two one-sided mean distances
     double mean_pct = 0.0;
+    // The sampling error (mesh_distance.hpp): the true Hausdorff distance lies in
+    // [hausdorff_m, hausdorff_upper_m]; the mean's standard error.
+    double hausdorff_upper_m = 0.0;
+    double hausdorff_upper_pct = 0.0;
+    double mean_stderr_m = 0.0;
+    double mean_stderr_pct = 0.0;
     double estimated_error = -1.0;  // the algorithm's own estimate, when it has one
     double simplify_ms = 0.0;       // the simplify() call that made it (one call, all levels,
                                     // for edge-collapse algorithms)
     double measure_ms = 0.0;
+    double measure_cpu_ms = 0.0;  // the calling thread's CPU time of it (the machine may be shared)
 };
 
 // The progressive mesh of one primitive of a mesh given a chain, based at the primitive's part of
