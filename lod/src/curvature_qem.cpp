@@ -28,6 +28,7 @@
 #include <numbers>
 
 #include "collapse_engine.hpp"
+#include "quadric.hpp"
 
 namespace hmdnode::lod_detail {
 namespace {

@@ -30,6 +30,7 @@
 #include <memory>
 
 #include "collapse_engine.hpp"
+#include "quadric.hpp"
 
 namespace hmdnode::lod_detail {
 
