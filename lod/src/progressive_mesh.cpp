@@ -23,6 +23,7 @@
 
 #include "collapse_engine.hpp"
 #include "hmdnode/core/atomic_file.hpp"
+#include "scratch.hpp"
 
 namespace hmdnode {
 namespace {
@@ -284,6 +285,7 @@ Result<ProgressiveMeshBuild> build_progressive_mesh(const Primitive& in, std::st
     if (Status s = lod_detail::check_simplify_arguments(in, algorithm, target_triangles); !s) {
         return s.error();
     }
+    const lod_detail::ScratchScope scope(options.scratch);
     std::unique_ptr<lod_detail::CollapseCost> cost = lod_detail::make_collapse_cost(algorithm);
     if (!cost) {
         return make_error("algorithm '" + std::string(algorithm) +

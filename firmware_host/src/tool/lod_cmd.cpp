@@ -22,6 +22,7 @@
 #include <span>
 #include <string>
 #include <system_error>
+#include <thread>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -45,6 +46,8 @@ struct LodArgs {
     size_t step = 0;
     size_t samples = MeshDistanceOptions{}.samples;
     uint32_t seed = 1;
+    // Simplification threads: the machine's cores, at most 2 (the engine uses one helper at most).
+    unsigned threads = std::clamp(std::thread::hardware_concurrency(), 1u, 2u);
     bool lock_borders = false;
     bool list_algorithms = false;
     bool no_progress = false;
@@ -265,6 +268,7 @@ void run_lod(const LodArgs& args) {
                     "\" is not one (see --list-algorithms)");
     options.simplify.lock_borders = args.lock_borders;
     options.simplify.seed = args.seed;
+    options.simplify.threads = args.threads;
     options.distance.samples = args.samples;
     options.distance.seed = args.seed;
     options.progressive = !args.progressive.empty();
@@ -377,6 +381,12 @@ void add_lod_command(CLI::App& app) {
                     "Surface samples per direction for the error measurement")
         ->capture_default_str();
     lod->add_option("--seed", args->seed, "Seed of randomised steps and of the sampling")
+        ->capture_default_str();
+    lod->add_option("--threads", args->threads,
+                    "Simplification threads: 1 = this thread only, 2 = a helper thread for qem "
+                    "and curvature-qem on meshes of 8192 faces or more (the same output); "
+                    "default: the machine's cores, at most 2")
+        ->check(CLI::Range(1u, 64u))
         ->capture_default_str();
     lod->add_flag("--no-progress", args->no_progress,
                   "No progress bar (it is drawn only when stderr is a terminal)");

@@ -4,8 +4,10 @@
 // selector. Implementation: lod/src/lod_chain.cpp; the tool is `hmdnode lod`
 // (docs/lod-generation.md).
 //
-// Thread: any; runs on the calling thread except the distance measurement (its own workers) and
-// what simplify() runs on its helper thread (options.simplify.threads, simplify.hpp).
+// Thread: any; runs on the calling thread except the distance measurement (its own workers,
+// MeshDistanceOptions::threads) and what simplify() runs on a helper thread where
+// options.simplify.threads asks for one (simplify.hpp). Memory: one SimplifyScratch for all the
+// simplify() calls of a run unless options.simplify.scratch names the caller's, freed at the end.
 #pragma once
 
 #include <cstddef>
