@@ -232,38 +232,6 @@ void EngineCore::check_invariants() const {
 }
 #endif
 
-Primitive compact_primitive(std::span<const glm::vec3> positions,
-                            std::span<const uint32_t> wedge_position,
-                            std::span<const PmWedge> wedges, std::span<const uint32_t> corners,
-                            std::span<const uint8_t> face_alive, bool has_normals, bool has_uv0,
-                            bool has_uv1, bool has_colors, int material) {
-    Primitive out;
-    out.material = material;
-    Scratch<uint32_t> remap(wedge_position.size(), kNone);
-    size_t live = 0;
-    for (size_t f = 0; f < face_alive.size(); ++f) {
-        if (!face_alive[f]) continue;
-        ++live;
-        for (int k = 0; k < 3; ++k) remap[corners[3 * f + k]] = 0;
-    }
-    uint32_t next = 0;
-    for (size_t w = 0; w < wedge_position.size(); ++w) {
-        if (remap[w] == kNone) continue;
-        remap[w] = next++;
-        out.positions.push_back(positions[wedge_position[w]]);
-        if (has_normals) out.normals.push_back(wedges[w].normal);
-        if (has_uv0) out.uv0.push_back(wedges[w].uv0);
-        if (has_uv1) out.uv1.push_back(wedges[w].uv1);
-        if (has_colors) out.colors.push_back(wedges[w].color);
-    }
-    out.indices.reserve(live * 3);
-    for (size_t f = 0; f < face_alive.size(); ++f) {
-        if (!face_alive[f]) continue;
-        for (int k = 0; k < 3; ++k) out.indices.push_back(remap[corners[3 * f + k]]);
-    }
-    return out;
-}
-
 Result<std::vector<SimplifiedLevel>> run_edge_collapse(const Primitive& in,
                                                        std::span<const size_t> targets,
                                                        const SimplifyOptions& options,

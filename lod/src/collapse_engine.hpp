@@ -14,6 +14,7 @@
 
 #include <glm/glm.hpp>
 
+#include "compact_primitive.hpp"
 #include "hmdnode/core/result.hpp"
 #include "hmdnode/core/scene.hpp"
 #include "hmdnode/lod/progressive_mesh.hpp"
@@ -22,8 +23,6 @@
 #include "two_way.hpp"
 
 namespace hmdnode::lod_detail {
-
-inline constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
 
 // What may happen to a position.
 enum class VertexKind : uint8_t {
@@ -141,15 +140,6 @@ Result<std::vector<SimplifiedLevel>> run_edge_collapse(const Primitive& in,
                                                        const SimplifyOptions& options,
                                                        CollapseCost& cost,
                                                        ProgressiveMesh* log = nullptr);
-
-// The output primitive of a state: live faces in id order, the wedges they use in id order.
-// Shared by the engine's snapshots and refine() so that both agree bit for bit. `wedges` is only
-// read for the attributes the flags name (it may be empty when none is set).
-Primitive compact_primitive(std::span<const glm::vec3> positions,
-                            std::span<const uint32_t> wedge_position,
-                            std::span<const PmWedge> wedges, std::span<const uint32_t> corners,
-                            std::span<const uint8_t> face_alive, bool has_normals, bool has_uv0,
-                            bool has_uv1, bool has_colors, int material);
 
 // The argument checks of simplify() (simplify.cpp), shared with build_progressive_mesh().
 Status check_simplify_arguments(const Primitive& in, std::string_view algorithm,
