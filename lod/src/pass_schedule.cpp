@@ -45,9 +45,8 @@ namespace hmdnode::lod_detail {
 namespace {
 
 // From this many input faces on, a caller's second thread (SimplifyOptions::threads >= 2) runs
-// the halves of a split; below it everything runs on the calling thread, where the hand-overs
-// would cost more than the halves save (the crossover: docs/simplification.md, "Measurements
-// behind the engine's choices").
+// the halves of a split; below it everything runs on the calling thread. It is the split's own
+// threshold: below kSplitFaces there is nothing to split.
 constexpr size_t kHelperFaces = kSplitFaces;
 
 class PassSchedule final : public EngineCore {
@@ -449,6 +448,7 @@ double PassSchedule::sort_candidates(bool classes, size_t goal) {
         uint32_t* high = halves_[h].radix.data();
         for (size_t i = h == 0 ? 0 : cut, end = h == 0 ? cut : n; i < end; ++i) {
             uint32_t key;  // note: costs are >= 0, so their bits sort as the floats do
+            assert(candidates_[i].cost >= 0.0f);  // not negative, not NaN: bits in float order
             std::memcpy(&key, &candidates_[i].cost, 4);
             keys_[i] = key;
             ++high[key >> 21];
