@@ -50,6 +50,11 @@
 
 namespace hmdnode::lod_detail {
 
+// Attribute placement: what the kept wedges carry after a collapse moved their position. Today
+// one rule: each wedge of the kept position is interpolated towards the removed position's
+// wedge on the same side at the parameter of the new point projected on the edge (move_kept()
+// computes it; lerp_wedge() applies it, at once or, in a pass without a log, in
+// flush_attributes()). Another placement replaces lerp_wedge() and the PendingLerp it defers.
 PmWedge lerp_wedge(const PmWedge& from, const PmWedge& to, float t, bool has_normals) {
     PmWedge w = to;
     w.normal = from.normal + (to.normal - from.normal) * t;
@@ -63,6 +68,7 @@ PmWedge lerp_wedge(const PmWedge& from, const PmWedge& to, float t, bool has_nor
     return w;
 }
 
+// The progressive-mesh record of a collapse (H. Hoppe 1996): what a vertex split restores.
 VertexSplit* EngineCore::start_record(Worker& w, uint32_t u, uint32_t v) {
     if (!log_) return nullptr;
     VertexSplit& rec = (&w == &workers_[0] ? records_ : w.records).emplace_back();
