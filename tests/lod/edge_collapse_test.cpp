@@ -4,9 +4,12 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <map>
 #include <set>
 #include <string>
+#include <system_error>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -461,6 +464,40 @@ TEST(EdgeCollapse, PiecewiseFlatInputTakesFewPasses) {
             const EdgeCensus c = census(out);
             EXPECT_TRUE(c.oriented) << algorithm;
             EXPECT_FALSE(c.degenerate) << algorithm;
+        }
+    }
+}
+
+// The threads of this process, as /proc lists them (0 where there is no /proc).
+size_t process_threads() {
+    std::error_code ec;
+    size_t n = 0;
+    for (auto it = std::filesystem::directory_iterator("/proc/self/task", ec);
+         !ec && it != std::filesystem::directory_iterator(); it.increment(ec)) {
+        ++n;
+    }
+    return n;
+}
+
+// simplify() starts no thread its caller did not ask for: by default (threads = 1) the call runs
+// on the calling thread alone, even on a mesh large enough to split; with threads = 2 it has one
+// helper thread while it runs (on a machine with a second core), and none once it returned.
+TEST(EdgeCollapse, NoThreadUnlessTheCallerAsksForOne) {
+    const size_t before = process_threads();
+    if (before == 0) GTEST_SKIP() << "no /proc/self/task";
+    const Primitive in = sphere(6);  // 81 920 faces: the split's size
+    const size_t targets[] = {2000};
+    for (const char* algorithm : {"qem", "curvature-qem", "melax"}) {
+        for (unsigned threads : {1u, 2u}) {
+            size_t most = 0;
+            SimplifyOptions options;  // note: the default for 1
+            if (threads == 2) options.threads = 2;
+            options.progress = [&most](double) { most = std::max(most, process_threads()); };
+            ASSERT_TRUE(simplify(in, algorithm, targets, options).ok()) << algorithm;
+            const bool helper = threads == 2 && std::string(algorithm) != "melax" &&
+                                std::thread::hardware_concurrency() > 1;
+            EXPECT_EQ(most, before + (helper ? 1 : 0)) << algorithm << " threads " << threads;
+            EXPECT_EQ(process_threads(), before) << algorithm << " threads " << threads;
         }
     }
 }
