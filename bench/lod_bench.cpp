@@ -3,7 +3,10 @@
 // "openmesh-quadric" algorithm when registered), on the bunny, fandisk and spot at 50 %, 10 % and
 // 1 % of their triangles: time (median of 5 runs under 0.2 s, 3 under 2 s, else 1), triangles
 // reached, mean and Hausdorff error (mesh_distance.hpp, % of the bounding-box diagonal); for the
-// time target, qem's time over meshopt_simplify's from interleaved pairs of runs.
+// time target, qem's time over meshopt_simplify's from interleaved pairs of runs. Every
+// simplify() call passes one SimplifyScratch (as generate_lod_chains does for its calls), so the
+// runs after the first reuse their working memory; a call without one pays about 1.1-1.25x for
+// its page faults (docs/simplification.md, "Measurements behind the engine's choices").
 //
 // Usage: bench_lod_bench [MESH_DIR | MESH_FILE...] [--out PREFIX] [--only a,b] [--samples N]
 //                        [--write-docs]
@@ -325,6 +328,9 @@ int main(int argc, char** argv) {
         double mean_pct, hausdorff_pct;
     };
     std::vector<EqualCount> equal_counts;
+    SimplifyScratch scratch;  // note: reused by every simplify() call, see the header
+    SimplifyOptions defaults;
+    defaults.scratch = &scratch;
     for (const Input& input : files) {
         const std::string& name = input.name;
         // note: OBJ through load_obj, as the bundled meshes always were; PLY, OFF and glTF through
@@ -392,8 +398,8 @@ int main(int argc, char** argv) {
                     row.reported_error = result_error;
                 } else {
                     const size_t targets[] = {row.target};
-                    Result<std::vector<SimplifiedLevel>> r =
-                        timed([&] { return simplify(in, algo, targets); }, row.ms, row.runs);
+                    Result<std::vector<SimplifiedLevel>> r = timed(
+                        [&] { return simplify(in, algo, targets, defaults); }, row.ms, row.runs);
                     if (!r.ok()) {
                         row.failure = r.error().message;
                         rows.push_back(row);
@@ -429,11 +435,11 @@ int main(int argc, char** argv) {
             float result_error = 0.0f;
             const int pairs = std::clamp(int(1500.0 / std::max(1e-3, q->ms + o->ms)), 7, 31);
             auto meshopt = [&] { (void)run_meshopt_simplify(in, o->target, dst, result_error); };
-            SimplifyOptions two_threads;
+            SimplifyOptions two_threads = defaults;
             two_threads.threads = 2;
             const Paired helper = paired_time_ratios(
                 [&] { (void)simplify(in, "qem", qem_targets, two_threads); }, meshopt, pairs);
-            SimplifyOptions one_thread;
+            SimplifyOptions one_thread = defaults;
             one_thread.threads = 1;
             const Paired single = paired_time_ratios(
                 [&] { (void)simplify(in, "qem", qem_targets, one_thread); }, meshopt, pairs);
@@ -444,7 +450,7 @@ int main(int argc, char** argv) {
             q->pair_1t_median = single.median, q->pair_1t_p75 = single.p75;
             if (o->triangles <= o->target) continue;
             const size_t targets[] = {o->triangles};
-            const Result<std::vector<SimplifiedLevel>> r = simplify(in, "qem", targets);
+            const Result<std::vector<SimplifiedLevel>> r = simplify(in, "qem", targets, defaults);
             if (!r.ok()) continue;
             const MeshDistance d = measure_mesh_distance(in, (*r)[0].primitive, distance);
             equal_counts.push_back(
