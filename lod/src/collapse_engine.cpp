@@ -13,9 +13,9 @@
 //   positions (free, border, seam, locked) and the moves they allow on an edge;
 // - greedy_schedule.cpp: costs that read the faces around an endpoint (formula1, melax): strict
 //   greedy order on a lazy binary heap, corner lists spliced in O(1) per collapse;
-// - pass_schedule.cpp: costs of the endpoints only (qem, curvature-qem): passes in the manner of
-//   meshoptimizer over flat adjacency lists rebuilt per pass, candidates radix-sorted, work split
-//   in two regions (and on a helper thread where the caller allows one);
+// - pass_schedule.{hpp,cpp}: costs of the endpoints only (qem, curvature-qem): passes in the
+//   manner of meshoptimizer over flat adjacency lists rebuilt per pass, work split in two regions
+//   (and on a helper thread where the caller allows one); candidate_sort.cpp: its radix sort;
 // - collapse_check.hpp: the one check that refuses a collapse, for both schedules;
 // - this file: applying an allowed collapse (attributes, record) and the levels.
 // A level is snapshotted when the live face count first drops to or below its target, so all

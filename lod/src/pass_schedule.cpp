@@ -17,7 +17,8 @@
 // collapses of a target, up to 4 times the current cost of the cheapest candidate it had to skip.
 // The next pass drops the candidates of touched positions and evaluates their edges again. Within
 // a pass the order is greedy and every applied cost is exact (a QEM cost reads only its two
-// quadrics). The check is collapse_check.hpp's, in one walk of each endpoint's flat list.
+// quadrics). The check is collapse_check.hpp's, in one walk of each endpoint's flat list; the
+// sort is candidate_sort.cpp's; the class, pass_schedule.hpp.
 //
 // The split: from kSplitFaces input faces on, the positions are cut at the median of the bounding
 // box's longest axis into two regions numbered apart (collapse_mesh.cpp); while at least
@@ -40,140 +41,9 @@
 
 #include "collapse_check.hpp"
 #include "collapse_mesh.hpp"
+#include "pass_schedule.hpp"
 
 namespace hmdnode::lod_detail {
-namespace {
-
-// From this many input faces on, a caller's second thread (SimplifyOptions::threads >= 2) runs
-// the halves of a split; below it everything runs on the calling thread. It is the split's own
-// threshold: below kSplitFaces there is nothing to split.
-constexpr size_t kHelperFaces = kSplitFaces;
-
-class PassSchedule final : public EngineCore {
-  public:
-    PassSchedule(const SimplifyOptions& options, CollapseCost& cost, ProgressiveMesh* log,
-                 bool helper)
-        : EngineCore(options, cost, log, /*flat_lists=*/true, helper) {}
-
-    Result<std::vector<SimplifiedLevel>> run(const Primitive& in, std::span<const size_t> targets);
-
-  private:
-    // A CollapseCandidate packed into 40 bytes (the pass loop reads them in cost order).
-    struct Candidate {
-        float cost;
-        uint32_t from, to;
-        glm::vec3 position;
-        float error;
-        bool moves;
-
-        Candidate() = default;
-        explicit Candidate(const CollapseCandidate& c)
-            : cost(float(c.cost)),
-              from(c.from),
-              to(c.to),
-              position(c.position),
-              error(float(c.error)),
-              moves(c.moves) {}
-        CollapseCandidate unpack() const {
-            return {double(cost), from, to, moves, glm::dvec3(position), double(error)};
-        }
-    };
-    // What one half of a split pass works with besides its Worker (workers_[h]). note: aligned
-    // apart, as Worker is.
-    struct alignas(128) Half {
-        Scratch<Candidate> candidates;  // the second half's new candidates
-        // A region's share of a pass: its candidates in cost order, the positions its collapses
-        // kept, the faces they removed.
-        Scratch<uint64_t> order;
-        Scratch<uint32_t> touched;
-        size_t collapses = 0, removed_faces = 0;
-        // sort_candidates(): the counts and offsets of this half's radix buckets
-        Scratch<uint32_t> radix;
-    };
-
-    void rebuild_adjacency();
-    // Rewrites the corners of the live faces through the remaps of the pass, after
-    // flush_attributes() (the attribute interpolations of the pass).
-    void flush() override;
-    // Face f's corners through the remaps of the pass.
-    void remap_corners(uint32_t f) {
-        for (uint32_t c = 3 * f; c < 3 * f + 3; ++c) {
-            m_.corners[c] = wedge_remap_[m_.corners[c]];
-            m_.corner_position[c] = remap_[m_.corner_position[c]];
-        }
-    }
-#ifndef NDEBUG
-    void check_adjacency() const;
-#endif
-    // The walks of p: its flat list, then its faces (no effect on the result).
-    void prefetch_list(uint32_t p) const {
-        if (prefetch_) __builtin_prefetch(adj_.data() + adj_first_[p]);
-    }
-    void prefetch_faces(uint32_t p) const {
-        for (uint32_t i = adj_first_[p], end = adj_first_[p + 1]; i < end; ++i) {
-            const AdjEntry& e = adj_[i];
-            __builtin_prefetch(&m_.positions[e.next]);
-            __builtin_prefetch(&m_.corners[e.corner]);
-            __builtin_prefetch(&input_normals_[e.corner / 3]);
-        }
-    }
-    // What evaluating the edges of p reads about its neighbours.
-    void prefetch_neighbours(uint32_t p) const {
-        if (!prefetch_) return;
-        for (uint32_t i = adj_first_[p], end = adj_first_[p + 1]; i < end; ++i) {
-            const uint32_t q = adj_[i].next;
-            __builtin_prefetch(&m_.positions[q]);
-            __builtin_prefetch(&m_.kinds[q]);
-            cost_.prefetch(q);
-        }
-    }
-    void collect_candidates();
-    void add_candidates(Worker& w, uint32_t p, uint32_t refresh, Scratch<Candidate>& out);
-    void drop_touched_candidates();
-    void refresh_candidates();
-    void run_passes(std::span<const size_t> targets, std::vector<SimplifiedLevel>& levels,
-                    size_t& ti);
-    size_t split_pass(uint32_t pass, double limit, size_t target);
-    size_t boundary_pass(uint32_t pass, std::span<const size_t> targets,
-                         std::vector<SimplifiedLevel>& levels, size_t& ti);
-    bool apply_in_pass(const CollapseCandidate& c, uint32_t pass, std::span<const size_t> targets,
-                       std::vector<SimplifiedLevel>& levels, size_t& ti);
-    // The faces the collapse removed (1 or 2), 0 when refused.
-    size_t try_collapse_in_pass(Worker& w, const CollapseCandidate& c);
-    void prefetch_ahead(const uint64_t* order, size_t i, size_t n) const;
-    double cost_now(const CollapseCandidate& c);
-    double sort_candidates(bool classes, size_t goal);
-    void sort_buckets(uint32_t first, uint32_t last, uint32_t skip);
-    void sort_bucket(uint32_t b, uint32_t* counts);
-    void sort_rest();
-    const Candidate& candidate_at(size_t rank) const {
-        return candidates_[uint32_t(order_[rank]) & kCandidateIndex];
-    }
-
-    std::array<Half, 2> halves_;
-    Scratch<Candidate> candidates_;
-    // Per position: the last pass in which a collapse touched it (the candidates of its edges are
-    // then evaluated again before the next pass).
-    Scratch<uint32_t> touched_;
-    uint32_t touched_pass_ = 0;
-    Scratch<uint32_t> touched_list_, refresh_mark_;
-    uint32_t refresh_stamp_ = 0;
-    Scratch<uint32_t> keys_;  // the candidates' cost bits, read twice by sort_candidates()
-    // (cost key << 32 | region class << 30 | candidate), in cost order
-    Scratch<uint64_t> order_, order_tmp_;
-    static constexpr uint32_t kCandidateIndex = (uint32_t(1) << 30) - 1;
-    static constexpr uint32_t kRadixBuckets = 2048;      // 11 bits
-    static constexpr uint32_t kInsertionSortItems = 64;  // see sort_bucket()
-    // sort_candidates(): where each high bucket starts in order_ (and order_tmp_), and the items
-    // sorted, up to a bucket's start (order_ from sorted_ on holds the rest unsorted).
-    std::array<uint32_t, kRadixBuckets + 1> bucket_start_{};
-    size_t sorted_ = 0;
-    // Per position and pass: 1 or 2 when all its faces lie in region 0 or 1, 3 otherwise.
-    Scratch<uint8_t> region_class_;
-    Scratch<uint64_t> boundary_;   // the candidates across the cut, in cost order
-    Scratch<uint32_t> live_list_;  // the faces live at the last rebuild_adjacency()
-    bool pending_remap_ = false;
-};
 
 Result<std::vector<SimplifiedLevel>> PassSchedule::run(const Primitive& in,
                                                        std::span<const size_t> targets) {
@@ -430,134 +300,6 @@ void PassSchedule::run_passes(std::span<const size_t> targets, std::vector<Simpl
     }
 }
 
-// The candidates in cost order, into order_ as (key << 32 | region class << 30 | candidate), by
-// the top 22 bits of the cost (sign, exponent, 13 mantissa bits: costs within a relative 2^-13 of
-// each other keep their candidate order), as far as a pass reads them: a radix sort by the top
-// 11 bits (a few large buckets), then, bucket by bucket, by the next 11 (counting sorts; insertion
-// sorts of small buckets), but only of the buckets up to the one holding 1.5 times the cost of the
-// goal-th candidate (the pass's limit, returned; sort_rest() sorts the others if a pass reads past
-// it). Each part splits in two where there is a helper: the first by halves of the candidates (the
-// first half's items of a bucket before the second's), the buckets between the threads by their
-// sizes. The order is that of a stable sort on one thread.
-double PassSchedule::sort_candidates(bool classes, size_t goal) {
-    const size_t n = candidates_.size();
-    keys_.resize(n), order_.resize(n), order_tmp_.resize(n);
-    const size_t cut = two_way_.has_helper() ? n / 2 : n;
-    for (Half& half : halves_) half.radix.assign(kRadixBuckets, 0);
-    auto count = [this, n, cut](int h) {
-        uint32_t* high = halves_[h].radix.data();
-        for (size_t i = h == 0 ? 0 : cut, end = h == 0 ? cut : n; i < end; ++i) {
-            uint32_t key;  // note: costs are >= 0, so their bits sort as the floats do
-            assert(candidates_[i].cost >= 0.0f);  // not negative, not NaN: bits in float order
-            std::memcpy(&key, &candidates_[i].cost, 4);
-            keys_[i] = key;
-            ++high[key >> 21];
-        }
-    };
-    two_way_.run(count);
-    uint32_t* offset0 = halves_[0].radix.data();
-    uint32_t* offset1 = halves_[1].radix.data();
-    for (uint32_t b = 0, at = 0; b < kRadixBuckets; ++b) {
-        bucket_start_[b] = at;
-        const uint32_t c0 = offset0[b], c1 = offset1[b];
-        offset0[b] = at, offset1[b] = at + c0;
-        at += c0 + c1;
-    }
-    bucket_start_[kRadixBuckets] = uint32_t(n);
-    auto high_pass = [this, n, cut, classes](int h) {
-        uint32_t* offset = halves_[h].radix.data();
-        for (size_t i = h == 0 ? 0 : cut, end = h == 0 ? cut : n; i < end; ++i) {
-            const uint32_t key = keys_[i];
-            uint64_t item = uint64_t(key) << 32 | i;
-            if (classes) {
-                const Candidate& c = candidates_[i];
-                item |= uint64_t(region_class_[c.from] | region_class_[c.to]) << 30;
-            }
-            order_tmp_[offset[key >> 21]++] = item;
-        }
-    };
-    two_way_.run(high_pass);
-    double limit = std::numeric_limits<double>::infinity();
-    uint32_t last = kRadixBuckets - 1, goal_bucket = kRadixBuckets;
-    if (goal < n) {
-        goal_bucket =
-            uint32_t(std::upper_bound(bucket_start_.begin(), bucket_start_.end(), uint32_t(goal)) -
-                     bucket_start_.begin()) -
-            1;
-        sort_bucket(goal_bucket, halves_[0].radix.data());
-        limit = 1.5 * double(candidate_at(goal).cost);
-        // note: a float cost <= limit has bits <= those of float(limit) (rounding is monotonic).
-        const float bound = float(limit);
-        uint32_t bits;
-        std::memcpy(&bits, &bound, 4);
-        last = std::max(goal_bucket, std::min(bits >> 21, kRadixBuckets - 1));
-    }
-    sort_buckets(0, last, goal_bucket);
-    sorted_ = bucket_start_[last + 1];
-    std::copy(order_tmp_.begin() + sorted_, order_tmp_.end(), order_.begin() + sorted_);
-    return limit;
-}
-
-// Buckets first..last (all but `skip`) sorted into order_, split between the threads by size.
-void PassSchedule::sort_buckets(uint32_t first, uint32_t last, uint32_t skip) {
-    const uint32_t items = bucket_start_[last + 1] - bucket_start_[first];
-    uint32_t mid = last + 1;  // note: in one piece without a helper
-    if (two_way_.has_helper()) {
-        mid = first;
-        while (mid <= last && bucket_start_[mid] - bucket_start_[first] < items / 2) ++mid;
-    }
-    auto buckets = [this, first, last, mid, skip](int h) {
-        uint32_t* counts = halves_[h].radix.data();
-        for (uint32_t b = h == 0 ? first : mid, end = h == 0 ? mid : last + 1; b < end; ++b) {
-            if (b != skip) sort_bucket(b, counts);
-        }
-    };
-    two_way_.run(buckets);
-}
-
-// High bucket b of order_tmp_ into order_, stably by the next 11 bits of the key.
-void PassSchedule::sort_bucket(uint32_t b, uint32_t* counts) {
-    const uint32_t begin = bucket_start_[b], end = bucket_start_[b + 1];
-    if (end - begin <= kInsertionSortItems) {
-        // note: a counting sort clears and sums all 2 048 counters whatever the bucket's size,
-        // and most buckets a pass reads hold a few items or none. An insertion sort is stable
-        // too, so the order is the same (measured: docs/simplification.md, "Measurements behind
-        // the engine's choices").
-        for (uint32_t i = begin; i < end; ++i) {
-            const uint64_t item = order_tmp_[i];
-            const uint64_t digit = item >> 42;  // note: the high digit is the bucket's, equal
-            uint32_t j = i;
-            while (j > begin && (order_[j - 1] >> 42) > digit) {
-                order_[j] = order_[j - 1];
-                --j;
-            }
-            order_[j] = item;
-        }
-        return;
-    }
-    std::fill(counts, counts + kRadixBuckets, 0u);
-    for (uint32_t i = begin; i < end; ++i) ++counts[(order_tmp_[i] >> 42) & (kRadixBuckets - 1)];
-    for (uint32_t k = 0, at = begin; k < kRadixBuckets; ++k) {
-        const uint32_t c = counts[k];
-        counts[k] = at;
-        at += c;
-    }
-    for (uint32_t i = begin; i < end; ++i) {
-        const uint64_t item = order_tmp_[i];
-        order_[counts[(item >> 42) & (kRadixBuckets - 1)]++] = item;
-    }
-}
-
-// The buckets a pass did not expect to read (past the limit), when it does.
-void PassSchedule::sort_rest() {
-    // note: the first bucket starting at sorted_ (the empty ones before it are sorted already).
-    const uint32_t first =
-        uint32_t(std::lower_bound(bucket_start_.begin(), bucket_start_.end(), uint32_t(sorted_)) -
-                 bucket_start_.begin());
-    if (first < kRadixBuckets) sort_buckets(first, kRadixBuckets - 1, kRadixBuckets);
-    sorted_ = order_.size();
-}
-
 // The two regions' share of a pass (see run_passes()): the sorted candidates up to `limit` go to
 // their region's worker or, across the cut, to boundary_; returns the collapses applied.
 size_t PassSchedule::split_pass(uint32_t pass, double limit, size_t target) {
@@ -758,8 +500,6 @@ void PassSchedule::check_adjacency() const {
     }
 }
 #endif
-
-}  // namespace
 
 Result<std::vector<SimplifiedLevel>> run_pass_schedule(const Primitive& in,
                                                        std::span<const size_t> targets,
