@@ -5,17 +5,17 @@
 // Functions over caller-owned data, no I/O; `progress` is called on the calling thread. What a
 // call uses besides the calling thread and its own heap memory is what the caller asks for:
 // - threads: none by default. With SimplifyOptions::threads >= 2, qem and curvature-qem start one
-//   helper thread per call on inputs of 8 192 faces or more (below that it would cost more than it
-//   saves), with a CPU affinity that leaves out the caller's core of the moment, and join it
+//   helper thread per call on inputs of 8 192 faces or more (below that their work is not split),
+//   with a CPU affinity that leaves out the caller's core of the moment, and join it
 //   before returning; it sleeps whenever it has no work (lod/src/two_way.hpp). The result is the
-//   same bit for bit with or without it. The other algorithms run on the calling thread only
-//   (OpenMesh's and Embree's own thread pools are not used).
+//   same bit for bit with or without it. The other algorithms run on the calling thread only.
 // - memory: each call allocates its working arrays, O(V + F), and frees them before it returns
 //   (the edge-collapse engine's bytes per face: lod/src/collapse_mesh.hpp). A caller that
 //   simplifies mesh after mesh may pass a SimplifyScratch (SimplifyOptions::scratch): the large
 //   arrays then come from it and go back to it, up to 64 MiB kept between calls, freed with the
 //   object.
-// No globals: calls on different threads share no state (each with its own SimplifyScratch).
+// Nothing is kept between calls but what the caller's SimplifyScratch holds; calls on different
+// threads share no state (each with its own SimplifyScratch, or none).
 #pragma once
 
 #include <cstddef>
