@@ -25,8 +25,11 @@
 // - seams: a seam position only collapses along a seam edge, each wedge onto the wedge of the
 //   kept position on its side, so both sides move together and UV charts (TEXCOORD_0 and the
 //   lightmap's TEXCOORD_1) stay consistent on every level; seam ends and corners are locked;
-// - attributes (normals, uv0, uv1, colours) are interpolated per wedge at the parameter of the new
-//   point projected on the edge (lerp_wedge(), move_kept()); normals renormalised;
+// - attributes (normals, uv0, uv1, colours): a merge of two free positions takes them where the
+//   new point lies, barycentric in the face around either endpoint that it projects into
+//   (merge_attributes.hpp); otherwise, and where no face contains the projection, they are
+//   interpolated per wedge at the parameter of the new point projected on the edge (lerp_wedge(),
+//   move_kept()); normals renormalised;
 // - material boundaries: one primitive has one material, so there is no boundary inside it;
 // - borders: border positions only collapse along border edges, onto the neighbouring border
 //   position; lock_borders forbids removing them at all (they can still be collapse targets,
@@ -87,26 +90,27 @@ VertexSplit* EngineCore::start_record(Worker& w, uint32_t u, uint32_t v) {
 }
 
 void EngineCore::move_kept(Worker& w, uint32_t u, uint32_t v, const glm::dvec3& target,
-                           const WedgeMap& map, VertexSplit* rec) {
+                           const WedgeMap& map, VertexSplit* rec, const PmWedge* merged) {
     const glm::dvec3 pu = m_.positions[u], pv = m_.positions[v];
     const glm::dvec3 e = pv - pu;
     const double ee = glm::dot(e, e);
     const float t = ee > 0.0 ? float(std::clamp(glm::dot(target - pu, e) / ee, 0.0, 1.0)) : 1.0f;
     // note: without attributes a wedge is only its position: nothing to interpolate (and without
-    // a log either, wedges_ is empty).
+    // a log either, wedges_ is empty). In the pass schedule u and v were not touched earlier in
+    // the pass, so their wedges are current.
     const bool attributes = has_normals_ || has_uv0_ || has_uv1_ || has_colors_;
     for (int i = 0; i < map.count && !wedges_.empty(); ++i) {
-        if (flat_ && !rec) {
-            // note: in the pass schedule nothing reads a wedge before flush_attributes(), and a
-            // pass touches a wedge at most once, so the interpolations wait for it, where their
-            // scattered reads overlap.
-            if (attributes) w.lerps.push_back({map.from[i], map.to[i], t});
-            continue;
-        }
         PmWedge& wv = wedges_[map.to[i]];
         if (rec) rec->kept_wedges.push_back(wv);
-        if (attributes) wv = lerp_wedge(wedges_[map.from[i]], wv, t, has_normals_);
+        if (merged) {
+            const uint32_t id = wv.id, position = wv.position;
+            wv = *merged;
+            wv.id = id, wv.position = position;
+        } else if (attributes) {
+            wv = lerp_wedge(wedges_[map.from[i]], wv, t, has_normals_);
+        }
     }
+    (void)w;
     m_.positions[v] = glm::vec3(target);
 }
 
@@ -115,19 +119,6 @@ void EngineCore::finish_collapse(Worker& w, const CollapseCandidate& c) {
     if (error < 0.0) w.error_unknown = true;
     w.max_error = std::max(w.max_error, error);
     cost_.collapsed(m_, c);
-}
-
-void EngineCore::flush_attributes(Worker& w) {
-    const size_t n = w.lerps.size();
-    for (size_t i = 0; i < n; ++i) {
-        if (prefetch_ && i + 8 < n) {
-            __builtin_prefetch(&wedges_[w.lerps[i + 8].from]);
-            __builtin_prefetch(&wedges_[w.lerps[i + 8].to]);
-        }
-        const PendingLerp& l = w.lerps[i];
-        wedges_[l.to] = lerp_wedge(wedges_[l.from], wedges_[l.to], l.t, has_normals_);
-    }
-    w.lerps.clear();
 }
 
 void EngineCore::begin(std::span<const size_t> targets, std::vector<SimplifiedLevel>& levels,

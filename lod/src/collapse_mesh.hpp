@@ -58,11 +58,13 @@ class EngineCore {
         uint32_t q, count;
         uint32_t face[2], wp[2], wq[2];
     };
-    // Attribute interpolations of a pass, applied by flush_attributes(): wedge `to` moves towards
-    // wedge `from` by t.
-    struct PendingLerp {
-        uint32_t from, to;
-        float t;
+    // A face around the kept position after a collapse, for the fold check (folds()): its other
+    // two positions (next, prev in winding order), whose it was before, and its normals before
+    // and after (unnormalised).
+    struct FanFace {
+        uint32_t next, prev;
+        bool of_kept;  // a face of the kept position before (else of the removed one)
+        glm::dvec3 before, after;
     };
     // What one half of a two-way split walks the mesh with (workers_[0] on the calling thread,
     // workers_[1] on the helper); the rest of the engine uses workers_[0]. note: aligned apart, so
@@ -74,9 +76,9 @@ class EngineCore {
         Scratch<EdgeGroup> groups;
         uint32_t first_wedge_at_p = kNone, other_wedge_at_p = kNone;
         bool more_wedges_at_p = false;
-        Scratch<uint32_t> shared_faces;  // of the collapse being checked (check_collapse())
-        Scratch<PendingLerp> lerps;
-        std::vector<VertexSplit> records;          // worker 1's collapses in a split, with a log
+        Scratch<uint32_t> shared_faces;    // of the collapse being checked (check_collapse())
+        Scratch<FanFace> fan;              // of the collapse being checked (folds())
+        std::vector<VertexSplit> records;  // worker 1's collapses in a split, with a log
         Scratch<ConstraintEdge> constraint_edges;  // classify(): this half's
         size_t counted = 0;                        // build(): the live faces of this half
         double max_error = 0.0;
@@ -139,8 +141,22 @@ class EngineCore {
     template <class Around>
     size_t check_collapse(Worker& w, const CollapseCandidate& c, WedgeMap& map,
                           Around&& around) const;
-    bool turns_over(const glm::dvec3& from, const glm::dvec3& target, uint32_t p1, uint32_t p2,
-                    uint32_t f) const;
+    bool fan_face(Worker& w, bool of_kept, const glm::dvec3& from, const glm::dvec3& target,
+                  uint32_t p1, uint32_t p2, uint32_t f) const;
+    // Whether the collapse of u onto v (its fan in w.fan) folds two faces onto each other.
+    template <class Around>
+    bool folds(const Worker& w, uint32_t u, uint32_t v, Around&& around) const;
+    // The attributes at `target` of the merge of free positions u and v (one wedge each, read
+    // through `wedge_of(corner)`): barycentric in the face around u or v, before the collapse,
+    // that target projects into. False where none contains its projection.
+    // Whether a collapse of u onto v merges two free positions with attributes to place.
+    bool merges_free(uint32_t u, uint32_t v) const {
+        return !wedges_.empty() && (has_normals_ || has_uv0_ || has_uv1_ || has_colors_) &&
+               m_.kinds[u] == VertexKind::Free && m_.kinds[v] == VertexKind::Free;
+    }
+    template <class Around, class WedgeOf>
+    bool merged_attributes(uint32_t u, uint32_t v, const glm::dvec3& target, Around&& around,
+                           WedgeOf&& wedge_of, PmWedge& out) const;
     // The neighbours of a collapse's endpoints u and v, counted through a mark array with three
     // fresh stamps: their degrees and the neighbours they share, for topology_ok().
     struct LinkCount {
@@ -170,11 +186,10 @@ class EngineCore {
     // Worker 0 records into records_, worker 1 into its own list (appended after a split's
     // regions).
     VertexSplit* start_record(Worker& w, uint32_t u, uint32_t v);
-    // Moves the kept position v to `target` and places the attributes of its wedges (the
-    // interpolations wait in w.lerps for flush_attributes() in a pass without a log).
+    // Moves the kept position v to `target` and places the attributes of its wedges: `merged`
+    // where the caller found them (merged_attributes()), else interpolated along the edge.
     void move_kept(Worker& w, uint32_t u, uint32_t v, const glm::dvec3& target, const WedgeMap& map,
-                   VertexSplit* rec);
-    void flush_attributes(Worker& w);
+                   VertexSplit* rec, const PmWedge* merged);
     void finish_collapse(Worker& w, const CollapseCandidate& c);
     // The run around a schedule: begin() once the adjacency is built (classifies, starts the cost,
     // snapshots the targets already met); after_collapse() snapshots the targets met; end() the

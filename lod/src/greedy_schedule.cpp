@@ -18,6 +18,7 @@
 
 #include "collapse_check.hpp"
 #include "collapse_mesh.hpp"
+#include "merge_attributes.hpp"
 
 namespace hmdnode::lod_detail {
 namespace {
@@ -149,7 +150,14 @@ void GreedySchedule::push_all_edges() {
     // Apply: u's corners go to v (their wedges through the map), the faces on the edge die, and
     // u's list is spliced onto v's.
     VertexSplit* rec = start_record(w, u, v);
-    if (c.moves) move_kept(w, u, v, target, map, rec);
+    if (c.moves) {
+        PmWedge merged;
+        const bool in_face =
+            map.count == 1 && merges_free(u, v) &&
+            merged_attributes(
+                u, v, target, around, [this](uint32_t cr) { return m_.corners[cr]; }, merged);
+        move_kept(w, u, v, target, map, rec, in_face ? &merged : nullptr);
+    }
     auto apply_corner = [&](uint32_t cr) {
         const uint32_t f = cr / 3;
         if (!m_.face_alive[f]) return;

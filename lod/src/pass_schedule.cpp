@@ -41,6 +41,7 @@
 
 #include "collapse_check.hpp"
 #include "collapse_mesh.hpp"
+#include "merge_attributes.hpp"
 #include "pass_schedule.hpp"
 
 namespace hmdnode::lod_detail {
@@ -67,14 +68,13 @@ Result<std::vector<SimplifiedLevel>> PassSchedule::run(const Primitive& in,
 void PassSchedule::flush() {
     if (!pending_remap_) return;
     pending_remap_ = false;
-    for (Worker& w : workers_) flush_attributes(w);
     for (uint32_t f : live_list_) {
         if (m_.face_alive[f]) remap_corners(f);
     }
 }
 
 void PassSchedule::rebuild_adjacency() {
-    // note: flush() less flush_attributes() (the caller's), the pruning of dead faces and
+    // note: flush(), the pruning of dead faces and
     // the count of the entries in one walk (the rewrite is the identity where nothing is pending).
     pending_remap_ = false;
     const uint32_t np = uint32_t(m_.positions.size());
@@ -243,14 +243,13 @@ void PassSchedule::run_passes(std::span<const size_t> targets, std::vector<Simpl
     collect_candidates();
     while (ti < targets.size()) {
         if (pass > 0) {
-            // note: the attribute interpolations and the dropping of stale candidates (the helper)
-            // while this thread rebuilds the adjacency: disjoint data.
+            // note: the dropping of stale candidates (the helper) while this thread rebuilds the
+            // adjacency: disjoint data.
             touched_pass_ = pass;
             auto prepare = [this](int h) {
                 if (h == 0) {
                     rebuild_adjacency();
                 } else {
-                    for (Worker& w : workers_) flush_attributes(w);
                     drop_touched_candidates();
                 }
             };
@@ -326,7 +325,6 @@ size_t PassSchedule::split_pass(uint32_t pass, double limit, size_t target) {
         // note: reserved on this thread, from its scratch cache (pages mapped by earlier runs).
         const size_t most = std::min(halves_[h].order.size(), cap);
         halves_[h].touched.reserve(most);
-        workers_[h].lerps.reserve(workers_[h].lerps.size() + 2 * most);
     }
     auto region = [this, pass, cap](int h) {
         Worker& w = workers_[h];
@@ -471,7 +469,15 @@ double PassSchedule::cost_now(const CollapseCandidate& c) {
             rec->corners.push_back({adj_[i].corner, m_.corners[adj_[i].corner]});
         }
     }
-    if (c.moves) move_kept(w, u, v, target, map, rec);
+    if (c.moves) {
+        PmWedge merged;
+        const bool in_face =
+            map.count == 1 && merges_free(u, v) &&
+            merged_attributes(
+                u, v, target, around, [this](uint32_t cr) { return wedge_remap_[m_.corners[cr]]; },
+                merged);
+        move_kept(w, u, v, target, map, rec, in_face ? &merged : nullptr);
+    }
     for (uint32_t f : shared_faces) m_.face_alive[f] = 0;
     for (int i = 0; i < map.count; ++i) wedge_remap_[map.from[i]] = map.to[i];
     remap_[u] = v;

@@ -59,8 +59,7 @@ class PassSchedule final : public EngineCore {
     };
 
     void rebuild_adjacency();
-    // Rewrites the corners of the live faces through the remaps of the pass, after
-    // flush_attributes() (the attribute interpolations of the pass).
+    // Rewrites the corners of the live faces through the remaps of the pass.
     void flush() override;
     // Face f's corners through the remaps of the pass.
     void remap_corners(uint32_t f) {
