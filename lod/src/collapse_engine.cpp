@@ -53,11 +53,12 @@
 
 namespace hmdnode::lod_detail {
 
-// Attribute placement: what the kept wedges carry after a collapse moved their position. Today
-// one rule: each wedge of the kept position is interpolated towards the removed position's
-// wedge on the same side at the parameter of the new point projected on the edge (move_kept()
-// computes it; lerp_wedge() applies it, at once or, in a pass without a log, in
-// flush_attributes()). Another placement replaces lerp_wedge() and the PendingLerp it defers.
+// Attribute placement: what the kept wedges carry after a collapse moved their position. A merge
+// of two free positions takes them where the new point lies (merge_attributes.hpp, computed by
+// the schedule, which walks the faces); everything else, and a merge whose point projects into no
+// face, interpolates each wedge of the kept position towards the removed position's wedge on the
+// same side at the parameter of the new point projected on the edge (lerp_wedge()). Both are
+// applied at once by move_kept().
 PmWedge lerp_wedge(const PmWedge& from, const PmWedge& to, float t, bool has_normals) {
     PmWedge w = to;
     w.normal = from.normal + (to.normal - from.normal) * t;
