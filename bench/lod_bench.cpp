@@ -3,7 +3,11 @@
 // "openmesh-quadric" algorithm when registered), on the bunny, fandisk and spot at 50 %, 10 % and
 // 1 % of their triangles: time (median of 5 runs under 0.2 s, 3 under 2 s, else 1), triangles
 // reached, mean and Hausdorff error (mesh_distance.hpp, % of the bounding-box diagonal); for the
-// time target, qem's time over meshopt_simplify's from interleaved pairs of runs.
+// time target, qem's time over meshopt_simplify's from interleaved pairs of runs; on meshes with
+// uv0, the texture drift (uv_drift_pct()). Every
+// simplify() call passes one SimplifyScratch (as generate_lod_chains does for its calls), so the
+// runs after the first reuse their working memory; a call without one pays about 1.1-1.25x for
+// its page faults (docs/simplification.md, "Measurements behind the engine's choices").
 //
 // Usage: bench_lod_bench [MESH_DIR | MESH_FILE...] [--out PREFIX] [--only a,b] [--samples N]
 //                        [--write-docs]
@@ -52,9 +56,10 @@ struct Row {
     int runs = 0;
     double mean_pct = 0.0, hausdorff_pct = 0.0;
     double reported_error = -1.0;  // meshoptimizer's own result_error (relative), or the estimate
+    double uv_drift_pct = -1.0;    // uv_drift_pct(); < 0: the mesh has no uv0
     std::string failure;
     // qem only: its time over meshopt_simplify's from interleaved pairs (paired_time_ratios()),
-    // with its helper thread (as simplify() runs by default) and on one thread; and the process
+    // with its helper thread (SimplifyOptions::threads = 2) and on one thread; and the process
     // CPU time of the helper-thread runs over their wall time (2.0: both cores busy throughout).
     int pairs = 0;
     double pair_ratio_p25 = 0.0, pair_ratio_median = 0.0, pair_ratio_p75 = 0.0;
@@ -62,6 +67,96 @@ struct Row {
     double pair_1t_p25 = 0.0, pair_1t_median = 0.0, pair_1t_p75 = 0.0;
     double cpu_over_wall = 0.0;
 };
+
+// The point of triangle (a, b, c) nearest p, as barycentric coordinates (Ericson, Real-Time
+// Collision Detection, 5.1.5).
+glm::dvec3 closest_barycentric(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b,
+                               const glm::dvec3& c) {
+    const glm::dvec3 ab = b - a, ac = c - a, ap = p - a;
+    const double d1 = glm::dot(ab, ap), d2 = glm::dot(ac, ap);
+    if (d1 <= 0.0 && d2 <= 0.0) return {1, 0, 0};
+    const glm::dvec3 bp = p - b;
+    const double d3 = glm::dot(ab, bp), d4 = glm::dot(ac, bp);
+    if (d3 >= 0.0 && d4 <= d3) return {0, 1, 0};
+    const double vc = d1 * d4 - d3 * d2;
+    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
+        const double v = d1 / (d1 - d3);
+        return {1 - v, v, 0};
+    }
+    const glm::dvec3 cp = p - c;
+    const double d5 = glm::dot(ab, cp), d6 = glm::dot(ac, cp);
+    if (d6 >= 0.0 && d5 <= d6) return {0, 0, 1};
+    const double vb = d5 * d2 - d1 * d6;
+    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
+        const double w = d2 / (d2 - d6);
+        return {1 - w, 0, w};
+    }
+    const double va = d3 * d6 - d5 * d4;
+    if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
+        const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return {0, 1 - w, w};
+    }
+    const double denom = 1.0 / (va + vb + vc);
+    const double v = vb * denom, w = vc * denom;
+    return {1 - v - w, v, w};
+}
+
+// Texture drift: at samples on the output's faces (the centroid and three interior points each,
+// weighted by area), |uv0 interpolated on the output - uv0 at the nearest point of the input
+// surface|, area-weighted mean, in % of the input's uv0 range (the larger side of its bounding
+// box). Where input faces of different charts are equally near (a seam), the nearest uv0 of them
+// counts. Brute force over the input's faces (the spot: about a second). -1 without uv0.
+double uv_drift_pct(const Primitive& in, const Primitive& out) {
+    if (in.uv0.empty() || out.uv0.size() != out.positions.size()) return -1.0;
+    glm::dvec2 lo(1e300), hi(-1e300);
+    for (const glm::vec2& t : in.uv0)
+        lo = glm::min(lo, glm::dvec2(t)), hi = glm::max(hi, glm::dvec2(t));
+    const double range = std::max(hi.x - lo.x, hi.y - lo.y);
+    glm::dvec3 blo(1e300), bhi(-1e300);
+    for (const glm::vec3& p : in.positions)
+        blo = glm::min(blo, glm::dvec3(p)), bhi = glm::max(bhi, glm::dvec3(p));
+    const double tie = 1e-6 * glm::length(bhi - blo);
+    const size_t nf = in.triangle_count();
+    std::vector<double> dist(nf);
+    std::vector<glm::dvec3> at(nf);
+    const glm::dvec3 samples[] = {{1.0 / 3, 1.0 / 3, 1.0 / 3},
+                                  {2.0 / 3, 1.0 / 6, 1.0 / 6},
+                                  {1.0 / 6, 2.0 / 3, 1.0 / 6},
+                                  {1.0 / 6, 1.0 / 6, 2.0 / 3}};
+    double sum = 0.0, area_sum = 0.0;
+    for (size_t f = 0; f < out.triangle_count(); ++f) {
+        const uint32_t i0 = out.indices[3 * f], i1 = out.indices[3 * f + 1],
+                       i2 = out.indices[3 * f + 2];
+        const glm::dvec3 a = out.positions[i0], b = out.positions[i1], c = out.positions[i2];
+        const double area = 0.5 * glm::length(glm::cross(b - a, c - a));
+        if (!(area > 0.0)) continue;
+        for (const glm::dvec3& l : samples) {
+            const glm::dvec3 p = l.x * a + l.y * b + l.z * c;
+            const glm::dvec2 uv = l.x * glm::dvec2(out.uv0[i0]) + l.y * glm::dvec2(out.uv0[i1]) +
+                                  l.z * glm::dvec2(out.uv0[i2]);
+            double best = 1e300;
+            for (size_t g = 0; g < nf; ++g) {
+                const glm::dvec3 ga = in.positions[in.indices[3 * g]],
+                                 gb = in.positions[in.indices[3 * g + 1]],
+                                 gc = in.positions[in.indices[3 * g + 2]];
+                at[g] = closest_barycentric(p, ga, gb, gc);
+                dist[g] = glm::length(p - (at[g].x * ga + at[g].y * gb + at[g].z * gc));
+                best = std::min(best, dist[g]);
+            }
+            double drift = 1e300;
+            for (size_t g = 0; g < nf; ++g) {
+                if (dist[g] > best + tie) continue;
+                const glm::dvec2 guv = at[g].x * glm::dvec2(in.uv0[in.indices[3 * g]]) +
+                                       at[g].y * glm::dvec2(in.uv0[in.indices[3 * g + 1]]) +
+                                       at[g].z * glm::dvec2(in.uv0[in.indices[3 * g + 2]]);
+                drift = std::min(drift, glm::length(uv - guv));
+            }
+            sum += 0.25 * area * drift;
+        }
+        area_sum += area;
+    }
+    return area_sum > 0.0 && range > 0.0 ? 100.0 * sum / area_sum / range : -1.0;
+}
 
 double median(std::vector<double> v) {
     std::sort(v.begin(), v.end());
@@ -306,6 +401,9 @@ int main(int argc, char** argv) {
         double mean_pct, hausdorff_pct;
     };
     std::vector<EqualCount> equal_counts;
+    SimplifyScratch scratch;  // note: reused by every simplify() call, see the header
+    SimplifyOptions defaults;
+    defaults.scratch = &scratch;
     for (const bench::LodInput& input : files) {
         const std::string& name = input.name;
         // note: OBJ through load_obj, as the bundled meshes always were; PLY, OFF and glTF through
@@ -369,12 +467,13 @@ int main(int argc, char** argv) {
                         row.ms, row.runs);
                     dst.resize(n);
                     out.positions = in.positions;
+                    out.uv0 = in.uv0;  // meshoptimizer keeps the input's vertices
                     out.indices = std::move(dst);
                     row.reported_error = result_error;
                 } else {
                     const size_t targets[] = {row.target};
-                    Result<std::vector<SimplifiedLevel>> r =
-                        timed([&] { return simplify(in, algo, targets); }, row.ms, row.runs);
+                    Result<std::vector<SimplifiedLevel>> r = timed(
+                        [&] { return simplify(in, algo, targets, defaults); }, row.ms, row.runs);
                     if (!r.ok()) {
                         row.failure = r.error().message;
                         rows.push_back(row);
@@ -390,13 +489,17 @@ int main(int argc, char** argv) {
                     const MeshDistance d = measure_mesh_distance(in, out, distance);
                     row.mean_pct = d.mean_pct();
                     row.hausdorff_pct = d.hausdorff_pct();
+                    row.uv_drift_pct = uv_drift_pct(in, out);
                 } else {
                     row.failure = "no triangles";
                 }
-                std::fprintf(stderr,
-                             "  %-24s %4.0f%%: %7zu tris %9.1f ms mean %.4f%% haus %.4f%%\n",
+                std::fprintf(stderr, "  %-24s %4.0f%%: %7zu tris %9.1f ms mean %.4f%% haus %.4f%%",
                              algo.c_str(), ratio * 100, row.triangles, row.ms, row.mean_pct,
                              row.hausdorff_pct);
+                if (row.uv_drift_pct >= 0.0) {
+                    std::fprintf(stderr, " uv drift %.4f%%", row.uv_drift_pct);
+                }
+                std::fprintf(stderr, "\n");
                 rows.push_back(row);
             }
         }
@@ -410,9 +513,11 @@ int main(int argc, char** argv) {
             float result_error = 0.0f;
             const int pairs = std::clamp(int(1500.0 / std::max(1e-3, q->ms + o->ms)), 7, 31);
             auto meshopt = [&] { (void)run_meshopt_simplify(in, o->target, dst, result_error); };
-            const Paired helper =
-                paired_time_ratios([&] { (void)simplify(in, "qem", qem_targets); }, meshopt, pairs);
-            SimplifyOptions one_thread;
+            SimplifyOptions two_threads = defaults;
+            two_threads.threads = 2;
+            const Paired helper = paired_time_ratios(
+                [&] { (void)simplify(in, "qem", qem_targets, two_threads); }, meshopt, pairs);
+            SimplifyOptions one_thread = defaults;
             one_thread.threads = 1;
             const Paired single = paired_time_ratios(
                 [&] { (void)simplify(in, "qem", qem_targets, one_thread); }, meshopt, pairs);
@@ -423,7 +528,7 @@ int main(int argc, char** argv) {
             q->pair_1t_median = single.median, q->pair_1t_p75 = single.p75;
             if (o->triangles <= o->target) continue;
             const size_t targets[] = {o->triangles};
-            const Result<std::vector<SimplifiedLevel>> r = simplify(in, "qem", targets);
+            const Result<std::vector<SimplifiedLevel>> r = simplify(in, "qem", targets, defaults);
             if (!r.ok()) continue;
             const MeshDistance d = measure_mesh_distance(in, (*r)[0].primitive, distance);
             equal_counts.push_back(
@@ -458,7 +563,7 @@ int main(int argc, char** argv) {
     appendf(out,
             "(time: the table's medians; paired: median and quartiles of the ratios of "
             "interleaved runs, the figure to compare with the target, on one thread and with "
-            "simplify()'s helper thread (the default); CPU/wall: the process's CPU time over wall "
+            "simplify()'s helper thread (threads = 2); CPU/wall: the process's CPU time over wall "
             "time during the helper-thread runs, 2.0 = both cores busy throughout; meshopt "
             "runs on one thread)\n\n");
     appendf(out,
@@ -503,6 +608,7 @@ int main(int argc, char** argv) {
                      {"mean_pct_diag", r.mean_pct},
                      {"hausdorff_pct_diag", r.hausdorff_pct},
                      {"reported_error", r.reported_error},
+                     {"uv_drift_pct_range", r.uv_drift_pct},
                      {"failure", r.failure}});
     for (size_t i = 0; i < rows.size(); ++i) {
         if (rows[i].pairs == 0) continue;

@@ -1,7 +1,8 @@
-// The edge-collapse engine shared by qem.cpp, curvature_qem.cpp, formula1.cpp and melax.cpp: the
-// mesh on flat arrays, the candidate heap, the validity checks (seams, borders, link condition,
-// flips) and the snapshots. Each cost lives in its own file and plugs in as a CollapseCost.
-// See collapse_engine.cpp for the method and its cost.
+// The edge-collapse engine's interface to its costs (qem.cpp, curvature_qem.cpp, formula1.cpp,
+// melax.cpp): the mesh as a cost sees it, the moves an edge allows, a candidate collapse, and the
+// CollapseCost each cost file implements; run_edge_collapse() runs the engine with one. The
+// engine itself: collapse_engine.cpp (its file map), collapse_mesh.hpp, collapse_check.hpp,
+// greedy_schedule.cpp, pass_schedule.cpp; the quadrics: quadric.hpp.
 #pragma once
 
 #include <cmath>
@@ -13,6 +14,7 @@
 
 #include <glm/glm.hpp>
 
+#include "compact_primitive.hpp"
 #include "hmdnode/core/result.hpp"
 #include "hmdnode/core/scene.hpp"
 #include "hmdnode/lod/progressive_mesh.hpp"
@@ -21,8 +23,6 @@
 #include "two_way.hpp"
 
 namespace hmdnode::lod_detail {
-
-inline constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
 
 // What may happen to a position.
 enum class VertexKind : uint8_t {
@@ -141,15 +141,6 @@ Result<std::vector<SimplifiedLevel>> run_edge_collapse(const Primitive& in,
                                                        CollapseCost& cost,
                                                        ProgressiveMesh* log = nullptr);
 
-// The output primitive of a state: live faces in id order, the wedges they use in id order.
-// Shared by the engine's snapshots and refine() so that both agree bit for bit. `wedges` is only
-// read for the attributes the flags name (it may be empty when none is set).
-Primitive compact_primitive(std::span<const glm::vec3> positions,
-                            std::span<const uint32_t> wedge_position,
-                            std::span<const PmWedge> wedges, std::span<const uint32_t> corners,
-                            std::span<const uint8_t> face_alive, bool has_normals, bool has_uv0,
-                            bool has_uv1, bool has_colors, int material);
-
 // The argument checks of simplify() (simplify.cpp), shared with build_progressive_mesh().
 Status check_simplify_arguments(const Primitive& in, std::string_view algorithm,
                                 std::span<const size_t> targets);
@@ -161,61 +152,5 @@ std::unique_ptr<CollapseCost> make_formula1_cost();
 std::unique_ptr<CollapseCost> make_melax_cost();
 // nullptr for a name that is not an edge-collapse cost.
 std::unique_ptr<CollapseCost> make_collapse_cost(std::string_view algorithm);
-
-// A symmetric 4x4 quadric (Garland & Heckbert 1997) v^T A v + 2 b.v + c, plus the total weight
-// (area) it gathered, for error estimates.
-struct Quadric {
-    double a00 = 0, a01 = 0, a02 = 0, a11 = 0, a12 = 0, a22 = 0;
-    double b0 = 0, b1 = 0, b2 = 0, c = 0;
-    double weight = 0;
-
-    // The plane n.x + d = 0 (n unit length) with weight w.
-    static Quadric plane(const glm::dvec3& n, double d, double w) {
-        Quadric q;
-        q.a00 = w * n.x * n.x, q.a01 = w * n.x * n.y, q.a02 = w * n.x * n.z;
-        q.a11 = w * n.y * n.y, q.a12 = w * n.y * n.z, q.a22 = w * n.z * n.z;
-        q.b0 = w * n.x * d, q.b1 = w * n.y * d, q.b2 = w * n.z * d;
-        q.c = w * d * d;
-        q.weight = w;
-        return q;
-    }
-    Quadric& operator+=(const Quadric& o) {
-        a00 += o.a00, a01 += o.a01, a02 += o.a02, a11 += o.a11, a12 += o.a12, a22 += o.a22;
-        b0 += o.b0, b1 += o.b1, b2 += o.b2, c += o.c, weight += o.weight;
-        return *this;
-    }
-    Quadric operator+(const Quadric& o) const {
-        Quadric q = *this;
-        q += o;
-        return q;
-    }
-    Quadric operator*(double s) const {
-        Quadric q;
-        q.a00 = a00 * s, q.a01 = a01 * s, q.a02 = a02 * s, q.a11 = a11 * s, q.a12 = a12 * s;
-        q.a22 = a22 * s, q.b0 = b0 * s, q.b1 = b1 * s, q.b2 = b2 * s, q.c = c * s;
-        q.weight = weight * s;
-        return q;
-    }
-    double evaluate(const glm::dvec3& v) const {
-        const double ax = a00 * v.x + a01 * v.y + a02 * v.z;
-        const double ay = a01 * v.x + a11 * v.y + a12 * v.z;
-        const double az = a02 * v.x + a12 * v.y + a22 * v.z;
-        const double r =
-            v.x * ax + v.y * ay + v.z * az + 2.0 * (b0 * v.x + b1 * v.y + b2 * v.z) + c;
-        return r > 0.0 ? r : 0.0;
-    }
-};
-
-// The placement of Garland & Heckbert for merging p and q under quadric `q`: the minimiser of the
-// 3x3 system when well conditioned (and not far off the edge), else the minimiser on the segment,
-// else the best of the endpoints and the midpoint. Returns the point; `cost` its quadric value.
-glm::dvec3 optimal_placement(const Quadric& q, const glm::dvec3& p0, const glm::dvec3& p1,
-                             double& cost);
-
-// Garland & Heckbert's per-position quadrics (qem.cpp): the planes of the faces around each
-// position weighted by face area, plus, for every border edge and each side of every seam edge,
-// the plane through the edge perpendicular to its face, weighted by kBoundaryWeight * length^2.
-inline constexpr double kBoundaryWeight = 10.0;
-Scratch<Quadric> position_quadrics(const CollapseMesh& mesh);
 
 }  // namespace hmdnode::lod_detail

@@ -22,12 +22,14 @@
 //
 // Cost: O(F) for the curvatures and quadrics (two quadrics per position, 176 bytes); O(1) per
 // edge evaluation; the engine's O(E log E) for the rest.
+#include <cassert>
 #include <cmath>
 #include <limits>
 #include <memory>
 #include <numbers>
 
 #include "collapse_engine.hpp"
+#include "quadric.hpp"
 
 namespace hmdnode::lod_detail {
 namespace {
@@ -115,6 +117,7 @@ class CurvatureQemCost final : public CollapseCost {
     void collapsed(const CollapseMesh&, const CollapseCandidate& c) override {
         weighted_[c.to] += weighted_[c.from];
         plain_[c.to] += plain_[c.from];
+        assert(std::isfinite(weighted_[c.to].c) && std::isfinite(plain_[c.to].c));
     }
 
   private:

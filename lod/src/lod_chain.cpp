@@ -419,7 +419,12 @@ std::vector<glm::vec3> material_boundary_positions(const Mesh& mesh) {
     return out;
 }
 
-Result<LodChainReport> generate_lod_chains(Scene& scene, const LodChainOptions& options) {
+Result<LodChainReport> generate_lod_chains(Scene& scene, const LodChainOptions& options_in) {
+    // note: one scratch for every simplify() call of this run (primitives, bisection steps), so
+    // the calls after the first reuse its pages; freed when the run ends.
+    SimplifyScratch scratch;
+    LodChainOptions options = options_in;
+    if (!options.simplify.scratch) options.simplify.scratch = &scratch;
     const AlgorithmInfo* algo = find_simplification_algorithm(options.algorithm);
     if (!algo) {
         std::string names;

@@ -25,11 +25,13 @@
 //
 // Cost: O(F) to build the quadrics (88 bytes per position); O(1) per edge evaluation (one 3x3
 // solve); the engine's O(E log E) for the rest.
+#include <cassert>
 #include <cmath>
 #include <limits>
 #include <memory>
 
 #include "collapse_engine.hpp"
+#include "quadric.hpp"
 
 namespace hmdnode::lod_detail {
 
@@ -201,6 +203,7 @@ class QemCost final : public CollapseCost {
 
     void collapsed(const CollapseMesh&, const CollapseCandidate& c) override {
         quadrics_[c.to] += quadrics_[c.from];
+        assert(std::isfinite(quadrics_[c.to].c) && std::isfinite(quadrics_[c.to].weight));
     }
 
   private:

@@ -1,35 +1,26 @@
-// Per-thread cache of large scratch blocks; see scratch.hpp.
+// Scratch blocks from the caller's SimplifyScratch, named by a ScratchScope; see scratch.hpp.
 #include "scratch.hpp"
 
 #include <bit>
 #include <cstdint>
-#include <utility>
 
-namespace hmdnode::lod_detail {
+namespace hmdnode {
+
+SimplifyScratch::SimplifyScratch() : cache_(std::make_unique<lod_detail::ScratchCache>()) {}
+SimplifyScratch::~SimplifyScratch() = default;
+
+size_t SimplifyScratch::cached_bytes() const {
+    return cache_->bytes;
+}
+
+namespace lod_detail {
 namespace {
 
 constexpr size_t kMinCached = size_t(64) << 10;
 constexpr std::align_val_t kAlign{64};  // note: a cache line, for the per-element arrays
 
-// note: trivially destructible, so it stays readable after the thread's Cache is gone (a scratch
-// array freed later in that thread's exit then bypasses the cache).
-thread_local bool t_cache_gone = false;
-
-struct Cache {
-    std::vector<std::pair<size_t, void*>> blocks;  // (size, block)
-    size_t bytes = 0;
-    ~Cache() {
-        for (const auto& [size, p] : blocks) ::operator delete(p, kAlign);
-        t_cache_gone = true;
-    }
-};
-
-// nullptr once the calling thread's cache was destroyed.
-Cache* cache() {
-    if (t_cache_gone) return nullptr;
-    thread_local Cache c;
-    return &c;
-}
+// note: only a pointer to the caller's cache, set by ScratchScope for the length of a call.
+thread_local ScratchCache* t_cache = nullptr;
 
 size_t block_size(size_t bytes) {
     return bytes < kMinCached ? bytes : std::bit_ceil(bytes);
@@ -37,9 +28,21 @@ size_t block_size(size_t bytes) {
 
 }  // namespace
 
+ScratchCache::~ScratchCache() {
+    for (const auto& [size, p] : blocks) ::operator delete(p, kAlign);
+}
+
+ScratchScope::ScratchScope(SimplifyScratch* scratch) : previous_(t_cache) {
+    t_cache = scratch ? scratch->cache_.get() : nullptr;
+}
+
+ScratchScope::~ScratchScope() {
+    t_cache = previous_;
+}
+
 void* scratch_allocate(size_t bytes) {
     const size_t size = block_size(bytes);
-    if (Cache* c = size >= kMinCached ? cache() : nullptr) {
+    if (ScratchCache* c = size >= kMinCached ? t_cache : nullptr) {
         for (size_t i = 0; i < c->blocks.size(); ++i) {
             if (c->blocks[i].first != size) continue;
             void* p = c->blocks[i].second;
@@ -55,7 +58,7 @@ void* scratch_allocate(size_t bytes) {
 void scratch_free(void* p, size_t bytes) noexcept {
     if (!p) return;
     const size_t size = block_size(bytes);
-    Cache* c = size >= kMinCached ? cache() : nullptr;
+    ScratchCache* c = size >= kMinCached ? t_cache : nullptr;
     if (c && c->bytes + size <= kScratchKeepBytes) {
         try {
             c->blocks.emplace_back(size, p);
@@ -68,9 +71,5 @@ void scratch_free(void* p, size_t bytes) noexcept {
     ::operator delete(p, kAlign);
 }
 
-size_t scratch_cached_bytes() noexcept {
-    const Cache* c = cache();
-    return c ? c->bytes : 0;
-}
-
-}  // namespace hmdnode::lod_detail
+}  // namespace lod_detail
+}  // namespace hmdnode

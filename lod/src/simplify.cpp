@@ -9,6 +9,7 @@
 
 #include "algorithms.hpp"
 #include "collapse_engine.hpp"
+#include "scratch.hpp"
 
 namespace hmdnode {
 namespace {
@@ -161,6 +162,8 @@ Result<std::vector<SimplifiedLevel>> simplify(const Primitive& in, std::string_v
     for (const Entry& e : table()) {
         if (e.info.name != algorithm) continue;
         if (!e.make_cost) return e.fn(in, target_triangles, options);
+        // note: the caller's scratch (if any) for the cost's arrays too, so it outlives the cost.
+        const lod_detail::ScratchScope scope(options.scratch);
         const std::unique_ptr<lod_detail::CollapseCost> cost = e.make_cost();
         return lod_detail::run_edge_collapse(in, target_triangles, options, *cost);
     }

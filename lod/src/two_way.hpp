@@ -3,14 +3,17 @@
 // f(0) then f(1) on the calling thread. Work split this way writes disjoint data in its two halves,
 // so the result is the same bit for bit with or without the helper. Half 1 goes to whichever
 // thread claims it first: a caller done with f(0) before the helper has started f(1) runs it
-// itself, so a helper that waits for its core (a busy machine: another process on it) costs at
-// most its own half, not a scheduler time slice per run().
+// itself, so a helper that waits for its core (a busy machine: another process on it) or is slow
+// to wake costs at most its own half, not a scheduler time slice per run().
+//
+// Only a caller that asked for a second thread gets one (SimplifyOptions::threads >= 2, see the
+// pass schedule in pass_schedule.cpp); the object starts it and joins it in its destructor.
 //
 // Cost: one thread start per object (on a core other than the caller's, see start()); per run(),
-// a hand-over to a thread still spinning from the last run (it spins for up to a millisecond, see
-// wait_change()), else a wake-up from a futex. Between runs the helper spins for up to that
-// millisecond, on its own core. The measurements behind these choices: docs/simplification.md
-// ("Measurements behind the engine's choices").
+// a futex wake-up of the helper (it sleeps between runs: after a run it waits for the next one
+// for at most kIdleSpin, 0: it blocks at once, so an idle helper uses no CPU), and the caller waits
+// for the helper's half spinning for up to kResultSpin, then blocking. The measurements behind
+// these choices: docs/simplification.md ("Measurements behind the engine's choices").
 #pragma once
 
 #include <pthread.h>
@@ -69,7 +72,7 @@ class TwoWay {
             return;
         }
         for (uint32_t done = done_.load(std::memory_order_acquire); done != round;) {
-            done = wait_change(done_, done);
+            done = wait_change(done_, done, kResultSpin);
         }
     }
 
@@ -107,23 +110,22 @@ class TwoWay {
         return nullptr;
     }
 
-    // Waits until a changes from old and returns the new value: spinning for up to kSpin first,
-    // then asleep on the futex. note: the next run usually comes within a millisecond, and waking
-    // a thread asleep on a futex (on a VM whose idle vCPU halts) costs several times a short
-    // half.
-    static uint32_t wait_change(const std::atomic<uint32_t>& a, uint32_t old) {
+    // Waits until a changes from old and returns the new value: spinning for up to `spin` first,
+    // then asleep on the futex.
+    static uint32_t wait_change(const std::atomic<uint32_t>& a, uint32_t old,
+                                std::chrono::microseconds spin) {
         const auto start = std::chrono::steady_clock::now();
-        for (uint32_t i = 1;; ++i) {
+        for (uint32_t i = 1; spin.count() > 0; ++i) {
             const uint32_t v = a.load(std::memory_order_acquire);
             if (v != old) return v;
 #if defined(__x86_64__) || defined(__i386__)
             __builtin_ia32_pause();
 #endif
             if (i % 64 == 0) {
-                if (std::chrono::steady_clock::now() - start > kSpin) break;
+                if (std::chrono::steady_clock::now() - start > spin) break;
                 // note: should the two threads share a core for a while (the caller is not
                 // pinned, and may move to the helper's), spinning without yielding would hold
-                // the other off for the whole kSpin.
+                // the other off for the whole spin.
                 std::this_thread::yield();
             }
         }
@@ -137,7 +139,7 @@ class TwoWay {
     void serve() {
         uint32_t seen = 0;
         for (;;) {
-            seen = wait_change(go_, seen);
+            seen = wait_change(go_, seen, kIdleSpin);
             if (stop_.load(std::memory_order_relaxed)) return;
             // note: the latest round only (the caller may have run earlier ones' halves itself);
             // while this round is unclaimed the caller waits for it, so job_ is this round's.
@@ -155,7 +157,11 @@ class TwoWay {
     struct alignas(64) Job {
         unsigned char bytes[128];
     };
-    static constexpr std::chrono::microseconds kSpin{1000};
+    // note: the helper's wait between runs is idle time: it blocks at once (kIdleSpin 0). The
+    // caller's wait for the helper's half is part of the call (both cores are at work on it):
+    // it spins for up to kResultSpin, which covers most halves, before it blocks.
+    static constexpr std::chrono::microseconds kIdleSpin{0};
+    static constexpr std::chrono::microseconds kResultSpin{1000};
     // go_: the rounds started; claimed_: the last round whose half 1 a thread took; done_: the
     // last round whose half 1 the helper finished.
     std::atomic<uint32_t> go_{0}, claimed_{0}, done_{0};

@@ -11,6 +11,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -185,6 +186,26 @@ TEST(LodCommand, RatiosFromObjWithReport) {
     EXPECT_GT(j["levels"][2]["error_m"].get<double>(), j["levels"][1]["error_m"].get<double>());
     EXPECT_EQ(j["levels"][0]["error_m"].get<double>(), 0.0);
     EXPECT_EQ(j["repair"]["degenerate_faces"], 0);
+}
+
+// --threads 2 lets qem use a helper thread on meshes of 8 192 faces or more: the .glb is the
+// same byte for byte as with --threads 1; --threads 0 is a usage error and writes nothing.
+TEST(LodCommand, ThreadsDoNotChangeTheOutput) {
+    const fs::path d = temp_dir("threads");
+    write(d / "ball.obj", obj_text(icosphere(5)));  // 20 480 triangles
+    auto bytes = [](const fs::path& p) {
+        std::ifstream f(p, std::ios::binary);
+        return std::string(std::istreambuf_iterator<char>(f), {});
+    };
+    CommandRun one = run(lod(d / "ball.obj", d / "one.glb", "--ratios 0.5,0.1 --threads 1"));
+    ASSERT_EQ(one.code, 0) << one.output;
+    CommandRun two = run(lod(d / "ball.obj", d / "two.glb", "--ratios 0.5,0.1 --threads 2"));
+    ASSERT_EQ(two.code, 0) << two.output;
+    EXPECT_FALSE(bytes(d / "one.glb").empty());
+    EXPECT_EQ(bytes(d / "one.glb"), bytes(d / "two.glb"));
+    CommandRun zero = run(lod(d / "ball.obj", d / "zero.glb", "--ratios 0.5 --threads 0"));
+    EXPECT_EQ(zero.code, 2) << zero.output;
+    EXPECT_FALSE(fs::exists(d / "zero.glb"));
 }
 
 TEST(LodCommand, TrianglesFromAsciiPly) {

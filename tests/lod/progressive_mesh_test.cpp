@@ -95,11 +95,13 @@ TEST(ProgressiveMesh, TwoRegionPassesRefineToEverySnapshot) {
     const Primitive in = seamed_bumpy_grid(128);  // 32 768 triangles
     const size_t targets[] = {12000, 3000, 300};
     for (const char* algorithm : {"qem", "curvature-qem"}) {
-        Result<ProgressiveMeshBuild> built = build_progressive_mesh(in, algorithm, targets);
+        SimplifyOptions helper;
+        helper.threads = 2;
+        Result<ProgressiveMeshBuild> built = build_progressive_mesh(in, algorithm, targets, helper);
         ASSERT_TRUE(built.ok()) << built.error().message;
         SimplifyOptions one_thread;
         one_thread.threads = 1;
-        Result<std::vector<SimplifiedLevel>> direct = simplify(in, algorithm, targets);
+        Result<std::vector<SimplifiedLevel>> direct = simplify(in, algorithm, targets, helper);
         Result<std::vector<SimplifiedLevel>> single = simplify(in, algorithm, targets, one_thread);
         ASSERT_TRUE(direct.ok()) << direct.error().message;
         ASSERT_TRUE(single.ok()) << single.error().message;

@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "../../lod/src/collapse_engine.hpp"
+#include "../../lod/src/quadric.hpp"
 
 namespace hmdnode::lod_detail {
 namespace {

@@ -74,7 +74,7 @@ TEST(TwoWay, WithoutHelperBothHalvesRunOnTheCallerInOrder) {
 }
 
 TEST(TwoWay, RunsAfterTheHelperFellAsleep) {
-    // note: the threads spin for about a millisecond between runs, then sleep on a futex.
+    // note: the helper sleeps on a futex between runs; each run wakes it.
     TwoWay split(true);
     std::array<int, 2> seen{};
     for (int round = 1; round <= 5; ++round) {

@@ -23,6 +23,7 @@
 #include <span>
 #include <string>
 #include <system_error>
+#include <thread>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -47,6 +48,8 @@ struct LodArgs {
     size_t samples = MeshDistanceOptions{}.samples;
     unsigned measure_threads = 1;
     uint32_t seed = 1;
+    // Simplification threads: the machine's cores, at most 2 (the engine uses one helper at most).
+    unsigned threads = std::clamp(std::thread::hardware_concurrency(), 1u, 2u);
     bool lock_borders = false;
     bool list_algorithms = false;
     bool no_progress = false;
@@ -268,6 +271,7 @@ void run_lod(const LodArgs& args) {
                            "\" is not one (see --list-algorithms)");
     options.simplify.lock_borders = args.lock_borders;
     options.simplify.seed = args.seed;
+    options.simplify.threads = args.threads;
     options.distance.samples = args.samples;
     options.distance.seed = args.seed;
     options.distance.threads = args.measure_threads;
@@ -401,6 +405,12 @@ void add_lod_command(CLI::App& app) {
                     "Threads for the error measurement (0: one per hardware thread)")
         ->capture_default_str();
     lod->add_option("--seed", args->seed, "Seed of randomised steps and of the sampling")
+        ->capture_default_str();
+    lod->add_option("--threads", args->threads,
+                    "Simplification threads: 1 = this thread only, 2 = a helper thread for qem "
+                    "and curvature-qem on meshes of 8192 faces or more (the same output); "
+                    "default: the machine's cores, at most 2")
+        ->check(CLI::Range(1u, 64u))
         ->capture_default_str();
     lod->add_flag("--no-progress", args->no_progress,
                   "No progress bar (it is drawn only when stderr is a terminal)");

@@ -5,8 +5,9 @@
 // (docs/lod-generation.md).
 //
 // Thread: any; runs on the calling thread except the distance measurement (workers only when
-// options.distance.threads asks for them) and
-// what simplify() runs on its helper thread (options.simplify.threads, simplify.hpp).
+// options.distance.threads asks for them) and what simplify() runs on a helper thread where
+// options.simplify.threads asks for one (simplify.hpp). Memory: one SimplifyScratch for all the
+// simplify() calls of a run unless options.simplify.scratch names the caller's, freed at the end.
 #pragma once
 
 #include <cstddef>

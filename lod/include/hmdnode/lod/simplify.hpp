@@ -2,16 +2,25 @@
 // name (`hmdnode lod --algorithm NAME`). Each algorithm lives in its own file under lod/src/ that
 // opens with the paper it implements and its cost; lod/src/algorithms.hpp is the private table.
 //
-// Functions over caller-owned data, no I/O; `progress` is called on the calling thread. Two things
-// live behind them: qem and curvature-qem start a helper thread per call on large inputs
-// (SimplifyOptions::threads), with a CPU affinity that leaves out the caller's core of the moment,
-// and join it before returning (lod/src/two_way.hpp); and the simplifiers' large working arrays
-// come from a thread_local cache that keeps up to 64 MiB per thread between calls for reuse, freed
-// when the thread ends (lod/src/scratch.hpp). Calls on different threads share no state.
+// Functions over caller-owned data, no I/O; `progress` is called on the calling thread. What a
+// call uses besides the calling thread and its own heap memory is what the caller asks for:
+// - threads: none by default. With SimplifyOptions::threads >= 2, qem and curvature-qem start one
+//   helper thread per call on inputs of 8 192 faces or more (below that their work is not split),
+//   with a CPU affinity that leaves out the caller's core of the moment, and join it
+//   before returning; it sleeps whenever it has no work (lod/src/two_way.hpp). The result is the
+//   same bit for bit with or without it. The other algorithms run on the calling thread only.
+// - memory: each call allocates its working arrays, O(V + F), and frees them before it returns
+//   (the edge-collapse engine's bytes per face: lod/src/collapse_mesh.hpp). A caller that
+//   simplifies mesh after mesh may pass a SimplifyScratch (SimplifyOptions::scratch): the large
+//   arrays then come from it and go back to it, up to 64 MiB kept between calls, freed with the
+//   object.
+// Nothing is kept between calls but what the caller's SimplifyScratch holds; calls on different
+// threads share no state (each with its own SimplifyScratch, or none).
 #pragma once
 
 #include <cstddef>
 #include <functional>
+#include <memory>
 #include <span>
 #include <string>
 #include <string_view>
@@ -21,6 +30,28 @@
 #include "hmdnode/core/scene.hpp"
 
 namespace hmdnode {
+
+namespace lod_detail {
+struct ScratchCache;
+class ScratchScope;
+}  // namespace lod_detail
+
+// Working memory that simplify() calls may share, one call at a time: their large arrays are
+// taken from it and given back to it (up to 64 MiB kept), so the next call reuses pages already
+// mapped instead of faulting them in again. Not thread-safe: one call at a time per object.
+class SimplifyScratch {
+  public:
+    SimplifyScratch();
+    ~SimplifyScratch();
+    SimplifyScratch(const SimplifyScratch&) = delete;
+    SimplifyScratch& operator=(const SimplifyScratch&) = delete;
+    // Bytes kept for the next call.
+    size_t cached_bytes() const;
+
+  private:
+    friend class lod_detail::ScratchScope;
+    std::unique_ptr<lod_detail::ScratchCache> cache_;
+};
 
 // What one simplify() call did, for callers that watch the engine (tests, benchmarks).
 struct SimplifyStats {
@@ -40,11 +71,14 @@ struct SimplifyOptions {
     std::function<void(double)> progress;
     // For randomised steps, so that runs are reproducible.
     uint32_t seed = 1;
-    // Threads qem and curvature-qem may use: 1 = the calling thread only; otherwise, from 8 192
-    // input faces on and on a machine with more than one core, one helper thread besides it (they
-    // split their work in two halves, so the result is the same bit for bit either way). The
-    // other algorithms run on the calling thread.
-    unsigned threads = 0;
+    // Threads qem and curvature-qem may use: 0 or 1 = the calling thread only; 2 or more = one
+    // helper thread besides it, from 8 192 input faces on and on a machine with more than one
+    // core (they split their work in two halves, so the result is the same bit for bit either
+    // way). The other algorithms run on the calling thread.
+    unsigned threads = 1;
+    // Working memory reused across calls (see SimplifyScratch); nullptr: the call allocates its
+    // own and frees it before returning.
+    SimplifyScratch* scratch = nullptr;
     // Filled, when not null, by the edge-collapse algorithms (the figures of the last primitive
     // simplified).
     SimplifyStats* stats = nullptr;
