@@ -91,28 +91,67 @@ VertexSplit* EngineCore::start_record(Worker& w, uint32_t u, uint32_t v) {
 }
 
 void EngineCore::move_kept(Worker& w, uint32_t u, uint32_t v, const glm::dvec3& target,
-                           const WedgeMap& map, VertexSplit* rec, const PmWedge* merged) {
+                           const WedgeMap& map, VertexSplit* rec, const PendingBlend* merged) {
     const glm::dvec3 pu = m_.positions[u], pv = m_.positions[v];
     const glm::dvec3 e = pv - pu;
     const double ee = glm::dot(e, e);
     const float t = ee > 0.0 ? float(std::clamp(glm::dot(target - pu, e) / ee, 0.0, 1.0)) : 1.0f;
     // note: without attributes a wedge is only its position: nothing to interpolate (and without
-    // a log either, wedges_ is empty). In the pass schedule u and v were not touched earlier in
-    // the pass, so their wedges are current.
+    // a log either, wedges_ is empty).
     const bool attributes = has_normals_ || has_uv0_ || has_uv1_ || has_colors_;
     for (int i = 0; i < map.count && !wedges_.empty(); ++i) {
-        PmWedge& wv = wedges_[map.to[i]];
-        if (rec) rec->kept_wedges.push_back(wv);
+        if (rec) rec->kept_wedges.push_back(wedges_[map.to[i]]);
+        if (!attributes) continue;
+        PendingBlend b;
         if (merged) {
-            const uint32_t id = wv.id, position = wv.position;
-            wv = *merged;
-            wv.id = id, wv.position = position;
-        } else if (attributes) {
-            wv = lerp_wedge(wedges_[map.from[i]], wv, t, has_normals_);
+            b = *merged;
+            b.to = map.to[i];
+        } else {
+            b = {map.to[i], map.to[i], {map.from[i], map.to[i], map.to[i]}, {0.0f, t, 0.0f}, true};
+        }
+        // note: in the pass schedule a placement reads only wedges of positions whose faces lie in
+        // its region, and the placements of a pass are applied in order, so waiting changes
+        // nothing but where the reads happen.
+        if (flat_ && !rec) {
+            w.blends.push_back(b);
+        } else {
+            apply_blend(b);
         }
     }
-    (void)w;
     m_.positions[v] = glm::vec3(target);
+}
+
+void EngineCore::apply_blend(const PendingBlend& b) {
+    if (b.lerp) {
+        wedges_[b.to] = lerp_wedge(wedges_[b.src[0]], wedges_[b.src[1]], b.l[1], has_normals_);
+        return;
+    }
+    const PmWedge &w0 = wedges_[b.src[0]], &w1 = wedges_[b.src[1]], &w2 = wedges_[b.src[2]];
+    PmWedge& out = wedges_[b.to];
+    const float l0 = b.l[0], l1 = b.l[1], l2 = b.l[2];
+    const glm::vec3 normal = w0.normal * l0 + w1.normal * l1 + w2.normal * l2;
+    const glm::vec3 fallback = wedges_[b.fallback].normal;
+    out.uv0 = w0.uv0 * l0 + w1.uv0 * l1 + w2.uv0 * l2;
+    out.uv1 = w0.uv1 * l0 + w1.uv1 * l1 + w2.uv1 * l2;
+    out.color = w0.color * l0 + w1.color * l1 + w2.color * l2;
+    out.normal = normal;
+    if (has_normals_) {
+        const float len = glm::length(normal);
+        out.normal = len > 0.0f ? normal / len : fallback;
+    }
+}
+
+void EngineCore::flush_attributes(Worker& w) {
+    const size_t n = w.blends.size();
+    for (size_t i = 0; i < n; ++i) {
+        if (prefetch_ && i + 8 < n) {
+            const PendingBlend& ahead = w.blends[i + 8];
+            for (uint32_t s : ahead.src) __builtin_prefetch(&wedges_[s]);
+            __builtin_prefetch(&wedges_[ahead.to]);
+        }
+        apply_blend(w.blends[i]);
+    }
+    w.blends.clear();
 }
 
 void EngineCore::finish_collapse(Worker& w, const CollapseCandidate& c) {

@@ -58,6 +58,16 @@ class EngineCore {
         uint32_t q, count;
         uint32_t face[2], wp[2], wq[2];
     };
+    // An attribute placement waiting for flush_attributes(): wedge `to` becomes the blend of
+    // wedges src with weights l (read when applied: in the pass's order, the values a placement
+    // at the collapse would have read), normals renormalised (wedge `fallback`'s where the blend
+    // has none).
+    struct PendingBlend {
+        uint32_t to, fallback;
+        std::array<uint32_t, 3> src;
+        std::array<float, 3> l;
+        bool lerp = false;  // src[0] towards src[1] by l[1] (lerp_wedge()), the edge's rule
+    };
     // A face around the kept position after a collapse, for the fold check (folds()): its other
     // two positions (next, prev in winding order), whose it was before, and its normals before
     // and after (unnormalised).
@@ -78,6 +88,7 @@ class EngineCore {
         bool more_wedges_at_p = false;
         Scratch<uint32_t> shared_faces;    // of the collapse being checked (check_collapse())
         Scratch<FanFace> fan;              // of the collapse being checked (folds())
+        Scratch<PendingBlend> blends;      // a pass's attribute placements (flush_attributes())
         std::vector<VertexSplit> records;  // worker 1's collapses in a split, with a log
         Scratch<ConstraintEdge> constraint_edges;  // classify(): this half's
         size_t counted = 0;                        // build(): the live faces of this half
@@ -156,7 +167,7 @@ class EngineCore {
     }
     template <class Around, class WedgeOf>
     bool merged_attributes(uint32_t u, uint32_t v, const glm::dvec3& target, Around&& around,
-                           WedgeOf&& wedge_of, PmWedge& out) const;
+                           WedgeOf&& wedge_of, PendingBlend& out) const;
     // The neighbours of a collapse's endpoints u and v, counted through a mark array with three
     // fresh stamps: their degrees and the neighbours they share, for topology_ok().
     struct LinkCount {
@@ -187,9 +198,14 @@ class EngineCore {
     // regions).
     VertexSplit* start_record(Worker& w, uint32_t u, uint32_t v);
     // Moves the kept position v to `target` and places the attributes of its wedges: `merged`
-    // where the caller found them (merged_attributes()), else interpolated along the edge.
+    // where the caller found them (merged_attributes()), else interpolated along the edge. In a
+    // pass without a log the placements wait in w.blends for flush_attributes(), where their
+    // scattered reads overlap.
     void move_kept(Worker& w, uint32_t u, uint32_t v, const glm::dvec3& target, const WedgeMap& map,
-                   VertexSplit* rec, const PmWedge* merged);
+                   VertexSplit* rec, const PendingBlend* merged);
+    // Applies a placement to wedges_; flush_attributes() applies w's pending ones, in order.
+    void apply_blend(const PendingBlend& b);
+    void flush_attributes(Worker& w);
     void finish_collapse(Worker& w, const CollapseCandidate& c);
     // The run around a schedule: begin() once the adjacency is built (classifies, starts the cost,
     // snapshots the targets already met); after_collapse() snapshots the targets met; end() the

@@ -151,7 +151,7 @@ void GreedySchedule::push_all_edges() {
     // u's list is spliced onto v's.
     VertexSplit* rec = start_record(w, u, v);
     if (c.moves) {
-        PmWedge merged;
+        PendingBlend merged;
         const bool in_face =
             map.count == 1 && merges_free(u, v) &&
             merged_attributes(

@@ -25,7 +25,7 @@ namespace hmdnode::lod_detail {
 
 template <class Around, class WedgeOf>
 bool EngineCore::merged_attributes(uint32_t u, uint32_t v, const glm::dvec3& target,
-                                   Around&& around, WedgeOf&& wedge_of, PmWedge& out) const {
+                                   Around&& around, WedgeOf&& wedge_of, PendingBlend& out) const {
     // note: a point on the edge (up to rounding) gets the edge's interpolation from either face
     // on it: the caller's lerp, without reading the faces.
     const glm::dvec3 pu = m_.positions[u], e = glm::dvec3(m_.positions[v]) - pu;
@@ -75,18 +75,9 @@ bool EngineCore::merged_attributes(uint32_t u, uint32_t v, const glm::dvec3& tar
     }
     // note: a projection outside every face by more than rounding: no face to read it from.
     if (best_outside > 1e-6) return false;
-    const PmWedge& w0 = wedges_[wedge_of(best_c[0])];
-    const PmWedge& w1 = wedges_[wedge_of(best_c[1])];
-    const PmWedge& w2 = wedges_[wedge_of(best_c[2])];
-    const float l0 = float(best_l.x), l1 = float(best_l.y), l2 = float(best_l.z);
-    out.normal = w0.normal * l0 + w1.normal * l1 + w2.normal * l2;
-    if (has_normals_) {
-        const float len = glm::length(out.normal);
-        out.normal = len > 0.0f ? out.normal / len : w0.normal;
-    }
-    out.uv0 = w0.uv0 * l0 + w1.uv0 * l1 + w2.uv0 * l2;
-    out.uv1 = w0.uv1 * l0 + w1.uv1 * l1 + w2.uv1 * l2;
-    out.color = w0.color * l0 + w1.color * l1 + w2.color * l2;
+    out.src = {wedge_of(best_c[0]), wedge_of(best_c[1]), wedge_of(best_c[2])};
+    out.l = {float(best_l.x), float(best_l.y), float(best_l.z)};
+    out.fallback = out.src[0];
     return true;
 }
 

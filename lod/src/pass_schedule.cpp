@@ -68,6 +68,7 @@ Result<std::vector<SimplifiedLevel>> PassSchedule::run(const Primitive& in,
 void PassSchedule::flush() {
     if (!pending_remap_) return;
     pending_remap_ = false;
+    for (Worker& w : workers_) flush_attributes(w);
     for (uint32_t f : live_list_) {
         if (m_.face_alive[f]) remap_corners(f);
     }
@@ -243,13 +244,14 @@ void PassSchedule::run_passes(std::span<const size_t> targets, std::vector<Simpl
     collect_candidates();
     while (ti < targets.size()) {
         if (pass > 0) {
-            // note: the dropping of stale candidates (the helper) while this thread rebuilds the
-            // adjacency: disjoint data.
+            // note: the attribute placements and the dropping of stale candidates (the helper)
+            // while this thread rebuilds the adjacency: disjoint data.
             touched_pass_ = pass;
             auto prepare = [this](int h) {
                 if (h == 0) {
                     rebuild_adjacency();
                 } else {
+                    for (Worker& w : workers_) flush_attributes(w);
                     drop_touched_candidates();
                 }
             };
@@ -365,6 +367,8 @@ size_t PassSchedule::split_pass(uint32_t pass, double limit, size_t target) {
 // The candidates across the cut, after split_pass(), in cost order on this thread.
 size_t PassSchedule::boundary_pass(uint32_t pass, std::span<const size_t> targets,
                                    std::vector<SimplifiedLevel>& levels, size_t& ti) {
+    // note: a collapse across the cut reads wedges of both regions: their placements first.
+    for (Worker& w : workers_) flush_attributes(w);
     size_t done = 0;
     const size_t count = boundary_.size();
     for (size_t i = 0; i < count && ti < targets.size(); ++i) {
@@ -470,7 +474,7 @@ double PassSchedule::cost_now(const CollapseCandidate& c) {
         }
     }
     if (c.moves) {
-        PmWedge merged;
+        PendingBlend merged;
         const bool in_face =
             map.count == 1 && merges_free(u, v) &&
             merged_attributes(
