@@ -56,7 +56,8 @@ class ViveCodec final : public ReportCodec {
         warning_.clear();
         if (variant_ == vive::Variant::Index) {
             // 28de:2300 is the Index's and also a Vive Pro's, whose IMU axes differ; only the
-            // product string tells them apart, and the Vive Pro mapping is not implemented.
+            // product string tells them apart. This codec decodes the Index's axes only, so any
+            // other product string gets the warning below (docs/tracking.md: Vive Pro unsupported).
             std::string product = t.id().product;
             for (char& c : product) c = char(std::tolower(static_cast<unsigned char>(c)));
             if (product.find("index") == std::string::npos)
