@@ -3,16 +3,33 @@
 // one file each).
 #pragma once
 
+#include <algorithm>
+#include <chrono>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "hmdnode/core/atomic_file.hpp"
 
 namespace hmdnode::bench {
+
+// The q-quantile (0..1) of `v`, nearest rank; 0 for none.
+inline double quantile(std::vector<double> v, double q) {
+    std::sort(v.begin(), v.end());
+    return v.empty() ? 0.0 : v[size_t(q * double(v.size() - 1) + 0.5)];
+}
+
+// The steady clock, nanoseconds.
+inline int64_t now_ns() {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(
+               std::chrono::steady_clock::now().time_since_epoch())
+        .count();
+}
 
 // True when --write-docs is among the arguments.
 inline bool wants_docs(int argc, char** argv) {

@@ -190,10 +190,7 @@ size_t run_meshopt_simplify(const Primitive& in, size_t target, std::vector<uint
                             &result_error);
 }
 
-double quantile(std::vector<double> v, double q) {
-    std::sort(v.begin(), v.end());
-    return v.empty() ? 0.0 : v[size_t(q * double(v.size() - 1) + 0.5)];
-}
+using bench::quantile;
 
 double time_ms(const std::function<void()>& fn) {
     const auto t0 = Clock::now();

@@ -21,20 +21,8 @@
 
 using namespace hmdnode;
 
-namespace {
-
-double quantile(std::vector<double> v, double q) {
-    std::sort(v.begin(), v.end());
-    return v.empty() ? 0.0 : v[size_t(q * double(v.size() - 1) + 0.5)];
-}
-
-int64_t now_ns() {
-    return std::chrono::duration_cast<std::chrono::nanoseconds>(
-               std::chrono::steady_clock::now().time_since_epoch())
-        .count();
-}
-
-}  // namespace
+using bench::now_ns;
+using bench::quantile;
 
 int main(int argc, char** argv) {
     const bool write_docs = bench::wants_docs(argc, argv);

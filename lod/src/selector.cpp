@@ -74,7 +74,7 @@ LodDecision LodSelector::select(size_t index, const LodObjectView& object,
         level = std::max(cur, coarsest_within(tol * (1.0 - params_.hysteresis)));
     }
     cur = level;
-    return LodDecision{level, ecc_deg, tol, projected(level)};
+    return LodDecision{level, ecc_deg, tol, projected(level), distance};
 }
 
 }  // namespace hmdnode

@@ -141,6 +141,7 @@ TEST(CliEdges, ImplausibleOrInconsistentValuesAreRefusedNamingTheOption) {
          std::vector<Case>{{"--resample 1e8", "--resample"},
                            {"--lod-tolerance-px -1", "--lod-tolerance-px"},
                            {"--noise-deg -2", "--noise-deg"},
+                           {"--allocator iga", "--allocator"},
                            {"--persistence-ms 20", "--persistence-ms"},
                            {"--refresh 120 --persistence-ms 9", "refresh period"}}) {
         const CommandRun r = run(base + " " + c.args);
@@ -171,7 +172,8 @@ TEST(CliEdges, TheDaemonRefusesTheSameValuesInItsConfigNamingTheKey) {
          std::vector<Case>{{"/tracker/resample_hz", 1e8, "tracker.resample_hz"},
                            {"/tracker/noise_deg", -1.0, "tracker.noise_deg"},
                            {"/display/persistence_ms", 20.0, "display.persistence_ms"},
-                           {"/node/lod_tolerance_px", -1.0, "node.lod_tolerance_px"}}) {
+                           {"/node/lod_tolerance_px", -1.0, "node.lod_tolerance_px"},
+                           {"/node/lod_allocator", "iga", "node.lod_allocator"}}) {
         nlohmann::json cfg = good;
         cfg[nlohmann::json::json_pointer(c.pointer)] = c.value;
         std::ofstream(dir / "hmdnoded.json") << cfg.dump(1);

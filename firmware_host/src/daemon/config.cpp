@@ -158,8 +158,9 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
     json n = j.value("node", json::object());
     if (r.check_keys(n, "node",
                      {"ipd_m", "predict", "lod_tolerance_px", "head_height_m", "warp", "distortion",
-                      "headset", "mesh"})) {
+                      "headset", "mesh", "lod_allocator"})) {
         std::string headset;
+        std::string allocator = lod_allocator_name(c.node.lod_allocator);
         int mesh = c.node.mesh_cols;
         r.get(n, "ipd_m", &c.node.rig.ipd_m);
         r.get(n, "predict", &c.node.predict);
@@ -169,6 +170,11 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         r.get(n, "distortion", &c.node.distortion);
         r.get(n, "headset", &headset);
         r.get(n, "mesh", &mesh);
+        r.get(n, "lod_allocator", &allocator);
+        if (std::optional<LodAllocator> a = parse_lod_allocator(allocator))
+            c.node.lod_allocator = *a;
+        else
+            r.fail("node.lod_allocator \"" + allocator + "\" is not threshold or greedy");
         if (c.node.lod.tolerance_px < 0.0) r.fail("node.lod_tolerance_px must be >= 0");
         if (mesh < 0 || mesh > 512) r.fail("node.mesh must be between 0 (automatic) and 512");
         c.node.mesh_cols = c.node.mesh_rows = mesh;

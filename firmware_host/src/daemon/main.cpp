@@ -303,6 +303,8 @@ int main(int argc, char** argv) {
                 if (next->node.warp != cfg->node.warp ||
                     next->node.distortion != cfg->node.distortion)
                     needs_restart("node.warp/distortion");
+                if (next->node.lod_allocator != cfg->node.lod_allocator)
+                    needs_restart("node.lod_allocator");
                 if (next->control_path != cfg->control_path) needs_restart("control");
                 spdlog::info("reload: applied predict, lod_tolerance_px, status{}{}",
                              restart.empty() ? "" : "; needs a restart to change: ", restart);

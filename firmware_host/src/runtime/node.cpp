@@ -7,9 +7,10 @@
 //     the new frame must start, else the new frame starts now and is rendered in pieces with the
 //     re-warp between two of them.
 //  2. New frame: wake at v_new - latch - (render + warp estimates + margin), drain the tracker,
-//     predict the head pose at v_new's photon time, select LOD, render both eyes (in pieces into
-//     the back eye buffers). A render that overran is retargeted to the first vsync still
-//     reachable (the one it was meant for is missed).
+//     predict the head pose at v_new's photon time, select LOD (with the greedy allocator: coarsen
+//     it until the learned render cost fits the frame budget, docs/lod-selection.md), render both
+//     eyes (in pieces into the back eye buffers). A render that overran is retargeted to the
+//     first vsync still reachable (the one it was meant for is missed).
 //  3. Wake at target - latch - (warp estimate + margin), drain the tracker, predict again at the
 //     target's photon time, warp the eye buffers to that pose through the lens-distortion mesh,
 //     present; the display reports the vsync the frame landed on. A missed latch grows the
@@ -17,7 +18,8 @@
 // Estimates are the 95th percentile of the last 90 measured costs (on a simulated clock, of the
 // cost model's). Before the tracker's first sample a call renders nothing and reports
 // FrameOutcome::no_pose_yet (never an unbounded wait). Cost per present: O(objects log objects)
-// CPU for LOD and sorting, O(window) for the estimates, plus the render and the warp.
+// CPU for LOD, the allocator and sorting, O(window) for the estimates, plus the render and the
+// warp.
 #include "hmdnode/firmware_host/node.hpp"
 
 #include <algorithm>
@@ -45,6 +47,16 @@ int64_t median_ns(std::vector<int64_t> v) {
 }
 
 }  // namespace
+
+const char* lod_allocator_name(LodAllocator a) {
+    return a == LodAllocator::greedy ? "greedy" : "threshold";
+}
+
+std::optional<LodAllocator> parse_lod_allocator(std::string_view name) {
+    if (name == "threshold") return LodAllocator::threshold;
+    if (name == "greedy") return LodAllocator::greedy;
+    return std::nullopt;
+}
 
 double registration_error(const Pose& shown, const TruthPose& truth, double distance_m) {
     if (!truth.position) return angle_between_deg(shown.orientation, truth.orientation);
@@ -84,7 +96,8 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
       selector_(0, config.lod),
       render_costs_(config.pacing.window),
       warp_costs_(config.pacing.window),
-      total_costs_(config.pacing.window) {
+      total_costs_(config.pacing.window),
+      feedback_(config.lod_feedback) {
     objects_ = flatten_objects(scene);
     // note: the smear of a head turn lasts as long as the panel glows.
     LodSelectorParams lod = config.lod;
@@ -92,9 +105,15 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
         lod.persistence_s = double(persistence) * 1e-9;
     selector_ = LodSelector(objects_.size(), lod);
     level_errors_.resize(objects_.size());
+    level_triangles_.resize(objects_.size());
     for (size_t i = 0; i < objects_.size(); ++i)
-        for (const LodLevel& l : objects_[i].levels)
+        for (const LodLevel& l : objects_[i].levels) {
             level_errors_[i].push_back(l.geometric_error_m);
+            level_triangles_[i].push_back(l.triangles);
+        }
+    candidates_.reserve(objects_.size());
+    candidate_objects_.reserve(objects_.size());
+    allocated_.reserve(objects_.size());
     draws_.reserve(objects_.size());
     draw_triangles_.reserve(objects_.size());
     order_.reserve(objects_.size());
@@ -181,7 +200,7 @@ Pose NodeRuntime::predict(int64_t photon_time_ns) const {
     return head;
 }
 
-uint64_t NodeRuntime::select_and_sort(const Pose& head, FrameRecord* rec) {
+uint64_t NodeRuntime::select_and_sort(const Pose& head, FrameRecord* rec, double target_ms) {
     const glm::dvec3 omega = history_.angular_velocity();
     LodViewer viewer;
     viewer.eye_position = head.position;
@@ -209,7 +228,8 @@ uint64_t NodeRuntime::select_and_sort(const Pose& head, FrameRecord* rec) {
         return !(outside(p.x, f.tan_right, 1.0) || outside(p.x, f.tan_left, -1.0) ||
                  outside(p.y, f.tan_up, 1.0) || outside(p.y, f.tan_down, -1.0));
     };
-    uint64_t triangles = 0;
+    candidates_.clear();
+    candidate_objects_.clear();
     for (size_t i = 0; i < objects_.size(); ++i) {
         const SceneObject& o = objects_[i];
         LodObjectView ov{o.bounds_center, o.bounds_radius, level_errors_[i]};
@@ -221,7 +241,35 @@ uint64_t NodeRuntime::select_and_sort(const Pose& head, FrameRecord* rec) {
             ++rec->culled;
             continue;
         }
-        triangles += o.levels[d.level].triangles;
+        candidate_objects_.push_back(i);
+        candidates_.push_back(BudgetCandidate{
+            level_errors_[i], level_triangles_[i],
+            viewer.pixels_per_radian / (d.distance_m * std::max(d.tolerance_px, 1e-9)), d.level});
+    }
+    // The frame budget: the selector's levels are the goal (the finest the eye needs); the
+    // allocator coarsens them, least benefit per ms first, until the predicted render fits.
+    open_budget_ = BudgetState{};
+    open_budget_.target_ms = target_ms;
+    if (config_.lod_allocator == LodAllocator::greedy) {
+        BudgetState& b = open_budget_;
+        b.learning = cost_fit_.empty();
+        // Nothing measured yet: every object at its coarsest (the cheapest frame teaches the model
+        // the most about the base cost and errs on the safe side).
+        b.budget_ms =
+            b.learning ? -std::numeric_limits<double>::infinity() : feedback_.scale() * target_ms;
+        allocated_.resize(candidates_.size());
+        const BudgetAllocation a = allocator_.allocate(
+            candidates_, cost_fit_.base_ms(), cost_fit_.per_triangle_ms(), b.budget_ms, allocated_);
+        for (size_t k = 0; k < candidate_objects_.size(); ++k)
+            rec->levels[candidate_objects_[k]] = allocated_[k];
+        b.predicted_ms = a.predicted_ms;
+        b.coarsened = a.coarsened;
+        b.limited = a.limited;
+    }
+    uint64_t triangles = 0;
+    for (size_t i : candidate_objects_) {
+        const SceneObject& o = objects_[i];
+        triangles += o.levels[size_t(rec->levels[i])].triangles;
         order_.emplace_back(glm::length(o.bounds_center - head.position) - o.bounds_radius, i);
     }
     // Front to back: nearest first saves fill on lavapipe.
@@ -284,6 +332,12 @@ Result<FrameCostModel> NodeRuntime::calibrate_frame_cost() {
             std::max(0.0, double(*fine - *coarse) / double(tri_fine - tri_coarse));
     model.base_ns =
         std::max<int64_t>(0, *coarse - int64_t(model.per_triangle_ns * double(tri_coarse)));
+    // On the system clock the LOD cost model starts from these two points (the simulated clock's
+    // frames cost the model, not what was measured here).
+    if (!clock_.is_simulated()) {
+        cost_fit_.add(tri_coarse, ns_to_ms(*coarse));
+        cost_fit_.add(tri_fine, ns_to_ms(*fine));
+    }
     model.warp_ns = 0;
     if (pass_enabled()) {
         std::vector<int64_t> t;
@@ -404,6 +458,8 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
         r.late = false;
         r.triangles = 0;
         r.render_ms = 0.0;
+        r.lod_budget_ms = r.predicted_render_ms = std::numeric_limits<double>::quiet_NaN();
+        r.lod_coarsened = 0;
         r.levels.assign(frame_levels_.begin(), frame_levels_.end());
         r.eccentricity_deg.assign(frame_eccentricity_.begin(), frame_eccentricity_.end());
         r.frame_cost_ms = ns_to_ms(clock_.now_ns() - wake);
@@ -429,7 +485,12 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
         clock_.sleep_until_ns(open_wake_ns_);
         drain_tracker();
         open_pose_ = predict(target + photon_offset);
-        open_triangles_ = select_and_sort(open_pose_, &r);
+        // The render time that lets a new frame make every vsync: a frame's render and warp
+        // within one period (the wake-up and the present shift by the same margin), less headroom
+        // for the estimates' error.
+        const double target_ms = ns_to_ms(std::max<int64_t>(0, info.period_ns - warp_est)) *
+                                 (1.0 - config_.lod_budget_headroom);
+        open_triangles_ = select_and_sort(open_pose_, &r, target_ms);
         std::copy(r.levels.begin(), r.levels.end(), open_levels_.begin());
         std::copy(r.eccentricity_deg.begin(), r.eccentricity_deg.end(), open_eccentricity_.begin());
         if (Status st = renderer_.begin_frame(views_for(open_pose_), draws_); !st.ok())
@@ -507,6 +568,13 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
         open_ = !*done;
     }
     render_costs_.push(open_render_ns_);
+    // The cost model learns from every frame (node clock: on the simulated clock, the model's);
+    // the budget's feedback from the allocator's frames.
+    const double measured_ms = ns_to_ms(open_render_ns_);
+    cost_fit_.add(open_triangles_, measured_ms);
+    if (config_.lod_allocator == LodAllocator::greedy && !open_budget_.learning)
+        feedback_.update(measured_ms, open_budget_.target_ms, open_budget_.limited);
+    frame_budget_ = open_budget_;
     has_frame_ = true;
     ++render_index_;
     frame_pose_ = open_pose_;
@@ -530,6 +598,9 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
     r.late = r.vsync_ns > frame_target_vsync_ns_;
     r.triangles = frame_triangles_;
     r.render_ms = open_render_ms_;
+    r.lod_budget_ms = frame_budget_.budget_ms;
+    r.predicted_render_ms = frame_budget_.predicted_ms;
+    r.lod_coarsened = frame_budget_.coarsened;
     r.levels.assign(frame_levels_.begin(), frame_levels_.end());
     r.eccentricity_deg.assign(frame_eccentricity_.begin(), frame_eccentricity_.end());
     r.frame_cost_ms = ns_to_ms(clock_.now_ns() - open_wake_ns_);

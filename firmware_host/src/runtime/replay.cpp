@@ -281,6 +281,7 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     result.device_name = (*renderer)->device_name();
     result.mesh_cols = node.mesh_cols();
     result.mesh_rows = node.mesh_rows();
+    result.lod_allocator = opt.node.lod_allocator;
     for (const SceneObject& o : node.objects()) result.object_names.push_back(o.name);
     FrameRecord rec;
     // A capture's --duration: the frames whose wake-up falls within it (a trace's ends the trace).
@@ -317,6 +318,9 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     ReplaySummary& s = result.summary;
     s.frame_cost_model = cost_model;
     s.frame_cost_calibrated = calibrated;
+    if (!node.lod_cost_fit().empty())
+        s.lod_cost_fit = ReplaySummary::LearnedCost{node.lod_cost_fit().base_ms(),
+                                                    node.lod_cost_fit().per_triangle_ms()};
     s.replayed_s =
         s.frames
             ? ns_to_s(result.frames.back().photon_time_ns - result.frames.front().photon_time_ns)
@@ -338,6 +342,10 @@ nlohmann::json replay_summary_json(const ReplaySummary& s) {
                 {"render_per_1k_triangles", s.frame_cost_model->per_triangle_ns * 1e-3},
                 {"warp", ns_to_ms(s.frame_cost_model->warp_ns)},
                 {"calibrated", s.frame_cost_calibrated}};
+    json fit = nullptr;
+    if (s.lod_cost_fit)
+        fit = {{"render_base", s.lod_cost_fit->base_ms},
+               {"render_per_1k_triangles", s.lod_cost_fit->per_triangle_ms * 1e3}};
     return {{"frames", s.frames},
             {"new_frames", s.new_frames},
             {"rewarps", s.rewarps},
@@ -352,6 +360,7 @@ nlohmann::json replay_summary_json(const ReplaySummary& s) {
             {"warp_ms",
              {{"p50", finite_or_null(s.warp_ms.p50)}, {"p99", finite_or_null(s.warp_ms.p99)}}},
             {"frame_cost_model_ms", cost},
+            {"lod_cost_fit_ms", fit},
             {"on_time_rate", s.on_time_rate},
             {"triangles_mean", s.triangles_mean},
             {"replayed_s", s.replayed_s},
@@ -384,6 +393,9 @@ nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& 
                           {"lod", levels},
                           {"triangles", f.triangles},
                           {"culled", f.culled},
+                          {"lod_budget_ms", finite_or_null(f.lod_budget_ms)},
+                          {"predicted_render_ms", finite_or_null(f.predicted_render_ms)},
+                          {"lod_coarsened", f.lod_coarsened},
                           {"render_ms", f.render_ms},
                           {"warp_ms", f.warp_ms},
                           {"frame_cost_ms", f.frame_cost_ms}});
@@ -403,6 +415,7 @@ nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& 
             {"ipd_m", opt.node.rig.ipd_m},
             {"prediction", opt.node.predict},
             {"warp", opt.node.warp},
+            {"lod_allocator", lod_allocator_name(r.lod_allocator)},
             {"distortion", opt.node.distortion ? json(opt.node.headset.name) : json(nullptr)},
             {"distortion_mesh", {r.mesh_cols, r.mesh_rows}},
             {"objects", r.object_names},
@@ -453,8 +466,15 @@ std::string replay_summary_table(const ReplayResult& r) {
             s.frame_cost_calibrated ? "calibrated on this renderer at start-up" : "given");
         out << buf;
     }
-    std::snprintf(buf, sizeof buf, "triangles per new frame %.0f (mean)\n", s.triangles_mean);
+    std::snprintf(buf, sizeof buf, "triangles per new frame %.0f (mean), LOD allocator %s",
+                  s.triangles_mean, lod_allocator_name(r.lod_allocator));
     out << buf;
+    if (s.lod_cost_fit) {
+        std::snprintf(buf, sizeof buf, ", learned render cost %.2f ms + %.3f ms per 1k triangles",
+                      s.lod_cost_fit->base_ms, s.lod_cost_fit->per_triangle_ms * 1e3);
+        out << buf;
+    }
+    out << '\n';
     return out.str();
 }
 

@@ -24,6 +24,7 @@ void add_replay_command(CLI::App& app) {
     auto mesh = std::make_shared<int>(0);
     auto frame_cost_ms = std::make_shared<double>(-1.0);
     auto warp_cost_ms = std::make_shared<double>(-1.0);
+    auto allocator = std::make_shared<std::string>("threshold");
 
     CLI::App* c = app.add_subcommand("replay",
                                      "Replay a head trace through tracking, LOD selection, "
@@ -74,6 +75,10 @@ void add_replay_command(CLI::App& app) {
     c->add_option("--lod-tolerance-px", opt->node.lod.tolerance_px,
                   "LOD pixel tolerance at the gaze point")
         ->check(CLI::NonNegativeNumber);
+    c->add_option("--allocator", *allocator,
+                  "LOD allocator: threshold (the perceptual selector's levels) or greedy (coarsen "
+                  "them until the learned render cost fits the frame budget)")
+        ->check(CLI::IsMember({"threshold", "greedy"}));
     c->add_flag("--no-warp", *no_warp,
                 "No late warp: show each frame as rendered (a missed vsync repeats the old one)");
     c->add_flag("--no-distortion", *no_distortion,
@@ -116,6 +121,7 @@ void add_replay_command(CLI::App& app) {
         }
         o.simulated_clock = *clock == "sim";
         o.node.warp = !*no_warp;
+        o.node.lod_allocator = *parse_lod_allocator(*allocator);  // checked by IsMember
         o.node.distortion = !*no_distortion;
         o.node.mesh_cols = o.node.mesh_rows = *mesh;
         if (!headset->empty()) {

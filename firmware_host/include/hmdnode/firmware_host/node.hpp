@@ -16,6 +16,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "hmdnode/core/scene.hpp"
@@ -24,6 +25,7 @@
 #include "hmdnode/firmware_host/pose_history.hpp"
 #include "hmdnode/hal/display.hpp"
 #include "hmdnode/hal/tracker.hpp"
+#include "hmdnode/lod/budget.hpp"
 #include "hmdnode/lod/selector.hpp"
 #include "hmdnode/render/lens.hpp"
 #include "hmdnode/render/renderer.hpp"
@@ -58,6 +60,15 @@ struct PacingConfig {
     int64_t recover_step_ns = 10'000;   // shrink on a vsync made
 };
 
+// How the frame loop turns the selector's levels into the levels it draws (docs/lod-selection.md):
+// `threshold` draws the selector's level (the finest the eye needs); `greedy` coarsens them, least
+// benefit per millisecond first, until the render predicted by the learned cost model fits the
+// frame budget left by pacing.
+enum class LodAllocator { threshold, greedy };
+const char* lod_allocator_name(LodAllocator a);
+// "threshold" or "greedy"; nullopt for anything else.
+std::optional<LodAllocator> parse_lod_allocator(std::string_view name);
+
 struct NodeConfig {
     StereoRig rig = StereoRig::typical();  // eye offsets, near/far; the field of view when
                                            // distortion is off
@@ -65,6 +76,11 @@ struct NodeConfig {
     bool predict = true;                              // false: render the newest sample's pose
     PoseHistoryConfig history;
     LodSelectorParams lod;
+    LodAllocator lod_allocator = LodAllocator::threshold;
+    // greedy: the render target is (1 - headroom) x (period - warp estimate), the render time
+    // that lets a new frame make every vsync, less room for the estimates' error.
+    double lod_budget_headroom = 0.1;
+    BudgetFeedbackParams lod_feedback;
     // Late warp: the finished frame is reprojected to the newest pose just before the latch, and
     // re-warped for a vsync that gets no new frame. Off: the frame is shown as rendered.
     bool warp = true;
@@ -109,12 +125,18 @@ struct FrameRecord {
     bool on_time = false;              // shown at target_vsync_ns
     bool late = false;                 // a new frame shown after the vsync it was rendered for
     int64_t missed_vsyncs_before = 0;  // vsyncs since the previous present that showed nothing
-    uint64_t triangles = 0;      // drawn (both eyes' frusta, culled objects left out)
-    size_t culled = 0;           // objects outside both eyes' frusta, not drawn
-    double render_ms = 0.0;      // measured wall time of the render call (0 for a re-warp)
-    double warp_ms = 0.0;        // measured wall time of the warp call (0 when there is none)
-    double frame_cost_ms = 0.0;  // on the node's clock: wake to present
-    std::vector<int> levels;     // LOD level per object (index as in objects())
+    uint64_t triangles = 0;            // drawn (both eyes' frusta, culled objects left out)
+    size_t culled = 0;                 // objects outside both eyes' frusta, not drawn
+    double render_ms = 0.0;            // measured wall time of the render call (0 for a re-warp)
+    double warp_ms = 0.0;              // measured wall time of the warp call (0 when there is none)
+    double frame_cost_ms = 0.0;        // on the node's clock: wake to present
+    // greedy allocator (NaN / 0 otherwise): the render budget it allocated against, the render
+    // time the learned cost model predicted for the levels chosen, and how many drawn objects it
+    // left coarser than the selector wanted.
+    double lod_budget_ms = std::numeric_limits<double>::quiet_NaN();
+    double predicted_render_ms = std::numeric_limits<double>::quiet_NaN();
+    size_t lod_coarsened = 0;
+    std::vector<int> levels;               // LOD level per object (index as in objects())
     std::vector<double> eccentricity_deg;  // per object
     Pose shown_pose;                       // the head pose the shown image was made for
 };
@@ -167,8 +189,8 @@ class NodeRuntime {
     // Measures the renderer on this scene at start-up (after start(), before the first frame):
     // renders at the finest and at the coarsest levels from a few head poses and times the warp,
     // and returns the model the simulated clock can use (medians; triangles of both eyes). On the
-    // system clock the measured costs also seed the pacing estimates, so the first frames are not
-    // paced on a guess. Blocks for about 40 frames.
+    // system clock the measured costs also seed the pacing estimates and the LOD cost model, so
+    // the first frames are not paced or budgeted on a guess. Blocks for about 40 frames.
     Result<FrameCostModel> calibrate_frame_cost();
     void set_sim_cost(const FrameCostModel& model) { config_.sim_cost = model; }
     // Run-time settings (the daemon's control socket), between frames: prediction on or off; the
@@ -205,6 +227,9 @@ class NodeRuntime {
     int mesh_rows() const { return mesh_[0].rows; }
     const Renderer& renderer() const { return renderer_; }
     const PoseHistory& history() const { return history_; }
+    // The render cost model learned from the frames so far (node clock: on the simulated clock it
+    // converges to the sim_cost model's render part).
+    const FrameCostFit& lod_cost_fit() const { return cost_fit_; }
     // The last rendered frame (empty unless config.read_back).
     const StereoImage& last_frame() const { return frame_; }
 
@@ -214,7 +239,8 @@ class NodeRuntime {
     Pose predict(int64_t photon_time_ns) const;
     // LOD selection for `head`, fills rec->levels / eccentricity, draws_ and draw_triangles_;
     // returns triangles.
-    uint64_t select_and_sort(const Pose& head, FrameRecord* rec);
+    // target_ms: the greedy allocator's render target before the feedback's scale.
+    uint64_t select_and_sort(const Pose& head, FrameRecord* rec, double target_ms);
     // Warps the finished frame for `target` (sampling the newest pose first when the warp is on),
     // presents it and fills the record's present fields; adapts the margin.
     Status warp_and_present(int64_t target, int64_t warp_est, FrameRecord* rec,
@@ -266,6 +292,25 @@ class NodeRuntime {
     std::vector<int> frame_levels_;
     std::vector<double> frame_eccentricity_;
     double pixels_per_radian_ = 0.0;
+    // The frame budget (greedy allocator): the learned cost, the budget's correction, the drawn
+    // objects as candidates (reused), and what the allocation of the open and the finished frame
+    // said.
+    struct BudgetState {
+        double target_ms = 0.0;  // before the feedback's scale
+        double budget_ms = std::numeric_limits<double>::quiet_NaN();
+        double predicted_ms = std::numeric_limits<double>::quiet_NaN();
+        size_t coarsened = 0;
+        bool limited = false;
+        bool learning = false;  // no cost model yet: everything at its coarsest, no feedback
+    };
+    FrameCostFit cost_fit_;
+    BudgetFeedback feedback_;
+    GreedyLodAllocator allocator_;
+    std::vector<std::vector<uint64_t>> level_triangles_;  // per object, per level
+    std::vector<BudgetCandidate> candidates_;
+    std::vector<size_t> candidate_objects_;
+    std::vector<int> allocated_;
+    BudgetState open_budget_, frame_budget_;
 };
 
 }  // namespace hmdnode

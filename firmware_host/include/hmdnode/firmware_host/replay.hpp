@@ -70,6 +70,11 @@ struct ReplaySummary {
     double triangles_mean = 0.0;  // per new frame
     std::optional<FrameCostModel> frame_cost_model;  // simulated clock: the model used
     bool frame_cost_calibrated = false;
+    // The render cost the node learned for LOD over the run (FrameCostFit), when it rendered.
+    struct LearnedCost {
+        double base_ms = 0.0, per_triangle_ms = 0.0;
+    };
+    std::optional<LearnedCost> lod_cost_fit;
     double replayed_s = 0.0;  // trace time covered
     double wall_s = 0.0;      // wall time the replay took
 };
@@ -105,6 +110,7 @@ struct ReplayResult {
     std::string device_name;
     size_t trace_samples = 0;
     int mesh_cols = 0, mesh_rows = 0;  // the distortion mesh in use
+    LodAllocator lod_allocator = LodAllocator::threshold;
 };
 
 Percentiles percentiles(std::vector<double> values);

@@ -48,6 +48,7 @@ struct LodDecision {
     double eccentricity_deg = 0.0;
     double tolerance_px = 0.0;
     double projected_error_px = 0.0;  // of the chosen level
+    double distance_m = 0.0;          // eye to the bounding sphere's nearest point (>= near)
 };
 
 class LodSelector {
