@@ -58,26 +58,29 @@ TEST(OrientationEval, ConstantWorldAndBodyRotationsAreFoundAndLeaveNoError) {
     EXPECT_LT(r->error.max, 1e-5);
 }
 
-TEST(OrientationEval, AHeadingErrorIsReportedWholeAsHeading) {
+// An error of err_deg about `axis` in the estimate's world: every sample reads err_deg in all,
+// err_deg in the component `part` (heading or tilt) and none in `other`.
+void expect_whole_error(const glm::dvec3& axis, double err_deg,
+                        ErrorPercentiles OrientationEval::*part,
+                        ErrorPercentiles OrientationEval::*other) {
     Trace ref, est;
-    make_traces(&ref, &est, glm::dvec3(0, 1, 0), 1.5 * kDeg);
+    make_traces(&ref, &est, axis, err_deg * kDeg);
     auto r = evaluate_orientation(ref, est);
     ASSERT_TRUE(r.ok()) << r.error().message;
-    EXPECT_NEAR(r->error.p50, 1.5, 1e-3);
-    EXPECT_NEAR(r->error.max, 1.5, 1e-3);
-    EXPECT_NEAR(r->heading.p95, 1.5, 1e-3);
-    EXPECT_LT(r->tilt.max, 1e-3);
+    for (const ErrorPercentiles& p : {r->error, (*r).*part}) {
+        EXPECT_NEAR(p.p50, err_deg, 1e-3);
+        EXPECT_NEAR(p.p95, err_deg, 1e-3);
+        EXPECT_NEAR(p.max, err_deg, 1e-3);
+    }
+    EXPECT_LT(((*r).*other).max, 1e-3);
+}
+
+TEST(OrientationEval, AHeadingErrorIsReportedWholeAsHeading) {
+    expect_whole_error(glm::dvec3(0, 1, 0), 1.5, &OrientationEval::heading, &OrientationEval::tilt);
 }
 
 TEST(OrientationEval, ATiltErrorIsReportedWholeAsTilt) {
-    Trace ref, est;
-    make_traces(&ref, &est, glm::dvec3(1, 0, 0), 0.7 * kDeg);
-    auto r = evaluate_orientation(ref, est);
-    ASSERT_TRUE(r.ok()) << r.error().message;
-    EXPECT_NEAR(r->error.p95, 0.7, 1e-3);
-    EXPECT_NEAR(r->tilt.p50, 0.7, 1e-3);
-    EXPECT_NEAR(r->tilt.max, 0.7, 1e-3);
-    EXPECT_LT(r->heading.max, 1e-3);
+    expect_whole_error(glm::dvec3(1, 0, 0), 0.7, &OrientationEval::tilt, &OrientationEval::heading);
 }
 
 TEST(OrientationEval, TheWindowRestrictsTheSamplesAndDisjointTracesAreAnError) {
