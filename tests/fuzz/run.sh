@@ -43,6 +43,14 @@ if [ -f "$SRC/data/traces/vive_cal.pcap.gz" ]; then
   gzip -c "$WORK/corpus/usbmon_capture_fuzz/seed.pcap" > "$WORK/corpus/usbmon_capture_fuzz/seed.pcap.gz"
 fi
 
+# Lines of the real libsurvive recording: IMU samples, poses, an option line.
+if [ -f "$SRC/data/traces/compare-test-index.rec.gz" ]; then
+  { gzip -dc "$SRC/data/traces/compare-test-index.rec.gz" 2>/dev/null | head -n 600 | tail -n 40
+    gzip -dc "$SRC/data/traces/compare-test-index.rec.gz" 2>/dev/null | grep -m 40 ' T20 i '
+    gzip -dc "$SRC/data/traces/compare-test-index.rec.gz" 2>/dev/null | grep -m 5 ' T20 POSE '
+  } > "$WORK/corpus/survive_recording_fuzz/seed.rec" || true
+fi
+
 # A small valid .hmpm (normals; a triangle and one vertex split) and one file per mesh format
 # (first byte: 1 = named .obj, 0 = .ply).
 le32() { for v in "$@"; do printf "$(printf '\\%03o\\%03o\\%03o\\%03o' $((v & 255)) \

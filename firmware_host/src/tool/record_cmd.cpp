@@ -40,6 +40,7 @@
 #include "hmdnode/hal/sim/sim_reference_device.hpp"
 #include "hmdnode/hal/tracking/clock_sync.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
+#include "hmdnode/hal/tracking/survive_recording.hpp"
 #include "hmdnode/hal/transport.hpp"
 #include "tool/cli_checks.hpp"
 #include "tool/commands.hpp"
@@ -60,6 +61,7 @@ struct RecordArgs {
     double duration_s = 10.0;
     std::string backend = "hidapi";
     std::string from;
+    std::string reference_out;
     bool sim_clock = false;
     bool duration_given = false;
 };
@@ -292,11 +294,13 @@ constexpr int64_t kFirstPoseTimeoutNs = 5 * kNsPerSecond;
 // Simulated clock: advanced in 10 ms steps, times from the first row. System clock: polled every
 // 5 ms, times from `start`; a disconnect ends the recording (what arrived is kept). A device that
 // cannot be opened, or gives no pose within kFirstPoseTimeoutNs, ends it with a failure.
-TrackerRecording record_tracker(DeviceTracker& tracker, Clock& clock, int64_t start, int64_t end) {
+// `origin`, when given, is the clock time that row time 0 stands for (a recording's own timeline).
+TrackerRecording record_tracker(DeviceTracker& tracker, Clock& clock, int64_t start, int64_t end,
+                                std::optional<int64_t> origin = std::nullopt) {
     TrackerRecording rec;
     std::vector<TrackerSample> buf(1024);
-    std::optional<int64_t> t0;
-    if (!clock.is_simulated()) t0 = start;
+    std::optional<int64_t> t0 = origin;
+    if (!t0 && !clock.is_simulated()) t0 = start;
     auto drain = [&] {
         size_t n;
         do {
@@ -449,6 +453,89 @@ void run_record_capture(const RecordArgs& args, const DeviceFilter& filter) {
                              "capture " + args.from, rec, st, nullptr);
 }
 
+// --reference-out: a libsurvive recording's lighthouse-solved poses (POSE lines) as a trace on the
+// recording's timeline (libsurvive's world, z up, and its object frame: `hmdnode tracking eval`
+// fits both rotations). Lines whose time does not increase are skipped and counted.
+Status write_survive_reference(const SurviveRecording& rec, const std::string& path,
+                               size_t* skipped) {
+    Trace t;
+    for (const SurvivePose& p : rec.poses) {
+        if (!t.samples.empty() && p.host_time_ns <= t.samples.back().time_ns) {
+            ++*skipped;
+            continue;
+        }
+        TraceSample s;
+        s.time_ns = p.host_time_ns;
+        s.orientation = t.samples.empty()
+                            ? p.orientation
+                            : same_hemisphere(p.orientation, t.samples.back().orientation);
+        s.position = p.position;
+        t.samples.push_back(s);
+    }
+    if (t.samples.size() < 2)
+        return make_error(rec.device + ": " + std::to_string(t.samples.size()) +
+                          " lighthouse pose(s) (POSE lines) in the recording: --reference-out " +
+                          path + " not written");
+    t.comments.push_back("lighthouse-solved poses (libsurvive POSE lines) of " + rec.device +
+                         ", libsurvive's world frame (z up), time = the recording's TIME");
+    return write_trace_csv(t, path);
+}
+
+// --backend rec --from FILE.rec[.gz] --device NAME: a libsurvive recording's IMU samples through
+// the device tracker as the Index's own reports (Index codec with the recording's factory
+// calibration, clock sync, fusion) on a simulated clock; rows on the recording's timeline (its
+// TIME column), as --reference-out's lighthouse poses.
+void run_record_survive(const RecordArgs& args) {
+    if (args.from.empty()) return usage_error("--backend rec needs --from FILE.rec[.gz]");
+    if (!args.capture.empty())
+        return usage_error("--capture with --backend rec: a recording has no USB reports to keep");
+    if (args.out.empty()) return usage_error("--backend rec needs --out FILE.csv");
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(args.from, ec))
+        return fail("--from " + args.from + ": no such file");
+    auto loaded = read_survive_recording(args.from, args.device);
+    if (!loaded.ok()) return fail(loaded.error().message);
+    for (const std::string& w : loaded->warnings)
+        std::fprintf(stderr, "hmdnode record: warning: %s\n", w.c_str());
+    if (!loaded->has_config)
+        std::fprintf(stderr,
+                     "hmdnode record: warning: %s has no CONFIG line for %s: no factory IMU "
+                     "calibration, the Index's axes\n",
+                     args.from.c_str(), args.device.c_str());
+    auto rec = std::make_shared<const SurviveRecording>(std::move(*loaded));
+    SimulatedClock clock(kNsPerSecond);
+    const int64_t start = clock.now_ns();
+    auto tracker = create_survive_tracker(rec, clock, start);
+    if (!tracker.ok()) return fail(tracker.error().message);
+    if (Status st = (*tracker)->start(); !st.ok()) return fail(st.error().message);
+    const int64_t end = args.duration_given && args.duration_s > 0
+                            ? start + s_to_ns(args.duration_s)
+                            : std::numeric_limits<int64_t>::max();
+    // The tracker's host times are the recording's shifted so its first IMU line is at `start`.
+    TrackerRecording out =
+        record_tracker(**tracker, clock, start, end, start - rec->imu.front().host_time_ns);
+    out.seconds = ns_to_s(clock.now_ns() - start);
+    const DeviceTrackerStatus st = (*tracker)->status();
+    finish_tracker_recording(
+        args,
+        rec->device + " (Valve Index IMU" + (rec->model.empty() ? "" : ", " + rec->model) + ")",
+        "libsurvive recording " + args.from, out, st, nullptr);
+    std::printf("  %-24s %s\n", "factory calibration",
+                rec->has_config ? "applied (CONFIG imu: acc_bias, acc_scale, gyro_bias, axes)"
+                                : "none (no CONFIG line)");
+    if (exit_code() != 0) return;  // the fused trace was not written: neither is the reference
+    if (!args.reference_out.empty()) {
+        size_t skipped = 0;
+        Status w = write_survive_reference(*rec, args.reference_out, &skipped);
+        if (!w.ok()) {
+            std::fprintf(stderr, "hmdnode record: %s\n", w.error().message.c_str());
+            return set_exit_code(1);
+        }
+        std::printf("  %-24s %s (%zu lighthouse poses, %zu with a repeated time skipped)\n",
+                    "reference", args.reference_out.c_str(), rec->poses.size() - skipped, skipped);
+    }
+}
+
 // A live IMU-only device: its reports through the device tracker, raw reports teed to the pcap.
 void run_record_imu(const RecordArgs& args, DeviceFilter filter,
                     std::unique_ptr<TransportBackend> backend, const DeviceId& id, Clock& clock) {
@@ -480,12 +567,18 @@ void run_record_imu(const RecordArgs& args, DeviceFilter filter,
 void run_record(const RecordArgs& args) {
     if (args.out.empty() && args.capture.empty())
         return usage_error("nothing to write: give --out FILE.csv and/or --capture FILE.pcap");
+    if (!args.from.empty() && args.backend != "capture" && args.backend != "rec")
+        return usage_error("--from needs --backend capture or rec");
+    if (!args.reference_out.empty() && args.backend != "rec")
+        return usage_error("--reference-out needs --backend rec (a recording's lighthouse poses)");
+    if (!check_outputs("hmdnode record", {{"--out", args.out},
+                                          {"--capture", args.capture},
+                                          {"--reference-out", args.reference_out}}))
+        return set_exit_code(1);
+    // A libsurvive recording names its devices (T20, WM0, ...), not by VID:PID.
+    if (args.backend == "rec") return run_record_survive(args);
     Result<DeviceFilter> filter = parse_vid_pid(std::string_view(args.device));
     if (!filter.ok()) return usage_error("--device: " + filter.error().message);
-    if (!args.from.empty() && args.backend != "capture")
-        return usage_error("--from needs --backend capture");
-    if (!check_outputs("hmdnode record", {{"--out", args.out}, {"--capture", args.capture}}))
-        return set_exit_code(1);
     if (args.backend == "capture") return run_record_capture(args, *filter);
     if (args.sim_clock && args.backend != "sim")
         return usage_error(
@@ -674,7 +767,9 @@ void add_record_command(CLI::App& app) {
     auto args = std::make_shared<RecordArgs>();
     CLI::App* rec = app.add_subcommand(
         "record", "Record a tracker: trace CSV from its decoded reports, raw reports as a pcap");
-    rec->add_option("--device", args->device, "VID:PID[:SERIAL] in hex, e.g. 1209:0001")
+    rec->add_option("--device", args->device,
+                    "VID:PID[:SERIAL] in hex, e.g. 1209:0001; --backend rec: the recording's "
+                    "device name, e.g. T20")
         ->required();
     rec->add_option("--out", args->out,
                     "Trace CSV to write (reference-protocol devices; Vive/Index and Rift IMUs "
@@ -686,13 +781,17 @@ void add_record_command(CLI::App& app) {
                                             "capture: the whole capture unless given")
                                 ->capture_default_str();
     rec->add_option("--backend", args->backend,
-                    "hidapi, libusb, sim (simulated reference tracker) or capture (--from)")
-        ->check(CLI::IsMember({"hidapi", "libusb", "sim", "capture"}))
+                    "hidapi, libusb, sim (simulated reference tracker), capture (a usbmon "
+                    "capture, --from) or rec (a libsurvive recording, --from)")
+        ->check(CLI::IsMember({"hidapi", "libusb", "sim", "capture", "rec"}))
         ->capture_default_str();
     rec->add_flag("--sim-clock", args->sim_clock,
                   "With --backend sim: run on a simulated clock (instant, deterministic)");
     rec->add_option("--from", args->from,
-                    "With --backend capture: the usbmon capture to decode (.pcap or .pcap.gz)");
+                    "With --backend capture: the usbmon capture to decode (.pcap or .pcap.gz); "
+                    "with --backend rec: the libsurvive recording (.rec or .rec.gz)");
+    rec->add_option("--reference-out", args->reference_out,
+                    "With --backend rec: trace CSV of the recording's lighthouse poses");
     rec->callback([args, duration] {
         args->duration_given = duration->count() > 0;
         run_record(*args);

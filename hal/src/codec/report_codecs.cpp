@@ -54,7 +54,7 @@ class ViveCodec final : public ReportCodec {
     }
     void configure(Transport& t) override {
         warning_.clear();
-        if (variant_ == vive::Variant::Index) {
+        if (variant_ == vive::Variant::Index && !calibration_) {
             // 28de:2300 is the Index's and also a Vive Pro's, whose IMU axes differ; only the
             // product string tells them apart. This codec decodes the Index's axes only, so any
             // other product string gets the warning below (docs/tracking.md: Vive Pro unsupported).
@@ -80,6 +80,35 @@ class ViveCodec final : public ReportCodec {
     }
     size_t decode(std::span<const uint8_t> report,
                   std::span<DeviceSample, kMaxSamplesPerReport> out) override {
+        const size_t n = decode_uncalibrated(report, out);
+        if (calibration_)
+            for (size_t i = 0; i < n; ++i) calibrate(out[i]);
+        return n;
+    }
+    bool set_imu_calibration(const ImuCalibration& c) override {
+        calibration_ = c;
+        return true;
+    }
+    CodecCounters counters() const override {
+        CodecCounters c = base_;
+        accumulate(c, dec_.counters());
+        return c;
+    }
+    std::string warning() const override { return warning_; }
+
+  private:
+    // The factory calibration in the IMU's own axes, then its axes (from the device's
+    // configuration) to the head frame instead of the variant's fixed mapping.
+    void calibrate(DeviceSample& d) const {
+        const ImuCalibration& c = *calibration_;
+        const glm::dvec3 a = vive::to_sensor_frame(variant_, *d.accel);
+        const glm::dvec3 g = vive::to_sensor_frame(variant_, *d.gyro);
+        d.accel = c.head_from_imu * (c.acc_scale * a - c.acc_bias);
+        d.gyro = c.head_from_imu * (c.gyro_scale * g - c.gyro_bias);
+    }
+
+    size_t decode_uncalibrated(std::span<const uint8_t> report,
+                               std::span<DeviceSample, kMaxSamplesPerReport> out) {
         std::array<vive::ImuSample, 3> s;
         if (confirmed_) {
             const size_t n = dec_.decode(report, s);
@@ -115,14 +144,7 @@ class ViveCodec final : public ReportCodec {
         if (n > 0) held_ = s[n - 1];
         return 0;
     }
-    CodecCounters counters() const override {
-        CodecCounters c = base_;
-        accumulate(c, dec_.counters());
-        return c;
-    }
-    std::string warning() const override { return warning_; }
 
-  private:
     static bool follows(const vive::ImuSample& a, const vive::ImuSample& b) {
         const uint64_t steps = b.sequence - a.sequence;
         const int64_t dt = b.device_time_ns - a.device_time_ns;
@@ -137,6 +159,7 @@ class ViveCodec final : public ReportCodec {
     bool confirmed_ = false;
     int empty_reports_ = 0;  // IMU reports with no new slot since the held sample
     std::string warning_;
+    std::optional<ImuCalibration> calibration_;
 };
 
 class RiftCodec final : public ReportCodec {

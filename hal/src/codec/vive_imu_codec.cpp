@@ -20,13 +20,15 @@ uint32_t le_u32(const uint8_t* p) {
     return uint32_t(p[0]) | (uint32_t(p[1]) << 8) | (uint32_t(p[2]) << 16) | (uint32_t(p[3]) << 24);
 }
 
-// Sensor axes -> hmdnode head frame (x right, y up, z backward), per variant (Monado's mapping).
+}  // namespace
+
 glm::dvec3 to_head_frame(Variant v, const glm::dvec3& s) {
     if (v == Variant::Index) return {-s.y, -s.x, -s.z};
     return {s.x, -s.y, -s.z};
 }
-
-}  // namespace
+glm::dvec3 to_sensor_frame(Variant v, const glm::dvec3& h) {
+    return to_head_frame(v, h);  // a signed permutation that is its own inverse
+}
 
 Result<ImuRanges> parse_range_report(std::span<const uint8_t> b) {
     if (b.size() < 3)

@@ -54,6 +54,10 @@ std::array<uint8_t, kImuReportSize> encode_imu_report(const std::array<RawSlot, 
 enum class Variant { Vive, Index };
 // 28de:2000 -> Vive, 28de:2300 -> Index; anything else -> Vive.
 Variant variant_for_product(uint16_t product_id);
+// Sensor axes -> hmdnode head frame (x right, y up, z backward) as Monado maps them: Vive
+// (x, -y, -z), Index (-y, -x, -z); and back (each mapping is its own inverse).
+glm::dvec3 to_head_frame(Variant v, const glm::dvec3& sensor);
+glm::dvec3 to_sensor_frame(Variant v, const glm::dvec3& head);
 
 struct ImuSample {
     uint64_t sequence = 0;       // unwrapped: first sample's 8-bit sequence, +1 per device sample

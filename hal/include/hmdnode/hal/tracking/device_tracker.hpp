@@ -55,6 +55,17 @@ struct CodecCounters {
     uint64_t stale_first_dropped = 0;  // first samples after an open whose tick was stale
 };
 
+// A device's factory IMU calibration (the OpenVR/lighthouse configuration's `imu` object), in the
+// IMU's own axes: calibrated = scale * raw - bias, raw already scaled by the range to m/s^2 and
+// rad/s (Monado's vive_device.c order); head_from_imu then maps the IMU axes to the head frame.
+struct ImuCalibration {
+    glm::dvec3 acc_bias{0.0};  // m/s^2
+    glm::dvec3 acc_scale{1.0};
+    glm::dvec3 gyro_bias{0.0};  // rad/s
+    glm::dvec3 gyro_scale{1.0};
+    glm::dmat3 head_from_imu{1.0};  // IMU axes -> hmdnode head frame (x right, y up, z backward)
+};
+
 // Report codec of one device family. Reader thread only.
 class ReportCodec {
   public:
@@ -73,6 +84,10 @@ class ReportCodec {
     // After configure(): what the codec could not be sure of for this device (empty: nothing),
     // e.g. a product id two devices share with different IMU axes.
     virtual std::string warning() const { return {}; }
+    // Before the first open: the device's factory calibration (from its configuration or a
+    // recording's), applied to every IMU sample from then on; its axes replace the codec's own
+    // mapping. False when the codec has no IMU to calibrate.
+    virtual bool set_imu_calibration(const ImuCalibration&) { return false; }
 };
 
 // HTC Vive / Valve Index IMU (report 0x20; ranges from feature report 0x01).

@@ -1,0 +1,188 @@
+// `hmdnode tracking eval`: the orientation error of an estimated trace (e.g. `hmdnode record
+// --backend rec`'s fused output) against a reference trace (e.g. its lighthouse poses), after the
+// constant world and body alignments (core/orientation_eval.hpp); a JSON report and an SVG plot of
+// the error against time. Docs: docs/tracking.md §8.
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "hmdnode/core/atomic_file.hpp"
+#include "hmdnode/core/orientation_eval.hpp"
+#include "hmdnode/core/time.hpp"
+#include "hmdnode/core/trace.hpp"
+#include "tool/cli_checks.hpp"
+#include "tool/commands.hpp"
+
+namespace hmdnode::tool {
+namespace {
+
+struct EvalArgs {
+    std::string reference, estimate, report, plot;
+    OrientationEvalOptions options;
+};
+
+nlohmann::json percentiles(const ErrorPercentiles& p) {
+    auto r = [](double v) { return std::round(v * 1e4) / 1e4; };
+    return {{"p50", r(p.p50)}, {"p95", r(p.p95)}, {"max", r(p.max)}};
+}
+
+nlohmann::json quat_wxyz(const glm::dquat& q) {
+    return {q.w, q.x, q.y, q.z};
+}
+
+// Error, tilt and heading (degrees) against seconds from the window's start, as an SVG.
+std::string error_plot_svg(const OrientationEval& e, const std::string& title) {
+    const double w = 900, h = 360, left = 60, right = 20, top = 30, bottom = 40;
+    const double t_end = std::max(1e-9, ns_to_s(e.time_ns.back() - e.time_ns.front()));
+    double y_max = 0.1;
+    for (double v : e.error_deg) y_max = std::max(y_max, v);
+    y_max *= 1.1;
+    auto x_of = [&](int64_t t) {
+        return left + (w - left - right) * ns_to_s(t - e.time_ns.front()) / t_end;
+    };
+    auto y_of = [&](double v) { return top + (h - top - bottom) * (1.0 - v / y_max); };
+    std::string s;
+    char buf[256];
+    std::snprintf(buf, sizeof buf,
+                  "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%.0f\" height=\"%.0f\" "
+                  "font-family=\"sans-serif\" font-size=\"12\">\n<rect width=\"100%%\" "
+                  "height=\"100%%\" fill=\"white\"/>\n",
+                  w, h);
+    s += buf;
+    std::string esc;
+    for (char c : title) esc += c == '<' ? "&lt;" : c == '&' ? "&amp;" : std::string(1, c);
+    std::snprintf(buf, sizeof buf, "<text x=\"%.0f\" y=\"18\">%s</text>\n", left, esc.c_str());
+    s += buf;
+    for (int k = 0; k <= 4; ++k) {  // y grid
+        const double v = y_max * k / 4, y = y_of(v);
+        std::snprintf(buf, sizeof buf,
+                      "<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#ddd\"/>"
+                      "<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"end\">%.2f&#176;</text>\n",
+                      left, y, w - right, y, left - 4, y + 4, v);
+        s += buf;
+    }
+    for (int k = 0; k <= 5; ++k) {  // x labels
+        const double t = t_end * k / 5, x = left + (w - left - right) * k / 5;
+        std::snprintf(buf, sizeof buf,
+                      "<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"middle\">%.1f s</text>\n", x,
+                      h - bottom + 16, t);
+        s += buf;
+    }
+    auto series = [&](const std::vector<double>& v, const char* colour, const char* name, int row) {
+        s += "<polyline fill=\"none\" stroke-width=\"1\" stroke=\"";
+        s += colour;
+        s += "\" points=\"";
+        for (size_t i = 0; i < v.size(); ++i) {
+            std::snprintf(buf, sizeof buf, "%.1f,%.1f ", x_of(e.time_ns[i]), y_of(v[i]));
+            s += buf;
+        }
+        s += "\"/>\n";
+        std::snprintf(buf, sizeof buf, "<text x=\"%.0f\" y=\"%d\" fill=\"%s\">%s</text>\n",
+                      w - right - 200, int(top) + 14 * row, colour, name);
+        s += buf;
+    };
+    series(e.error_deg, "black", "error (deg)", 1);
+    series(e.tilt_deg, "#1f77b4", "tilt error (deg)", 2);
+    series(e.heading_deg, "#d62728", "heading error (deg)", 3);
+    s += "</svg>\n";
+    return s;
+}
+
+void run_eval(const EvalArgs& args) {
+    const char* cmd = "hmdnode tracking eval";
+    if (!check_outputs(cmd, {{"--report", args.report}, {"--plot", args.plot}}))
+        return set_exit_code(1);
+    auto ref = read_trace_csv(args.reference);
+    if (!ref) {
+        std::fprintf(stderr, "%s: --reference %s\n", cmd, ref.error().message.c_str());
+        return set_exit_code(1);
+    }
+    auto est = read_trace_csv(args.estimate);
+    if (!est) {
+        std::fprintf(stderr, "%s: --estimate %s\n", cmd, est.error().message.c_str());
+        return set_exit_code(1);
+    }
+    auto e = evaluate_orientation(*ref, *est, args.options);
+    if (!e) {
+        std::fprintf(stderr, "%s: %s\n", cmd, e.error().message.c_str());
+        return set_exit_code(1);
+    }
+    nlohmann::json report = {
+        {"reference", args.reference},
+        {"estimate", args.estimate},
+        {"window_s", {{"start", ns_to_s(e->window_start_ns)}, {"end", ns_to_s(e->window_end_ns)}}},
+        {"alignment",
+         {{"world_wxyz", quat_wxyz(e->world_alignment)},
+          {"body_wxyz", quat_wxyz(e->body_alignment)}}},
+        {"summary",
+         {{"error_deg", percentiles(e->error)},
+          {"tilt_error_deg", percentiles(e->tilt)},
+          {"heading_error_deg", percentiles(e->heading)},
+          {"samples", e->samples}}}};
+    if (!args.report.empty()) {
+        Status st = write_file_atomically(args.report, report.dump(2) + "\n");
+        if (!st.ok()) {
+            std::fprintf(stderr, "%s: %s\n", cmd, st.error().message.c_str());
+            return set_exit_code(1);
+        }
+    }
+    if (!args.plot.empty()) {
+        Status st = write_file_atomically(
+            args.plot,
+            error_plot_svg(*e, "orientation error of " + args.estimate + " vs " + args.reference));
+        if (!st.ok()) {
+            std::fprintf(stderr, "%s: %s\n", cmd, st.error().message.c_str());
+            return set_exit_code(1);
+        }
+    }
+    std::printf("%s vs %s: %zu reference samples, %.3f to %.3f s\n", args.estimate.c_str(),
+                args.reference.c_str(), e->samples, ns_to_s(e->time_ns.front()),
+                ns_to_s(e->time_ns.back()));
+    std::printf("  %-20s %8s %8s %8s\n", "error (deg)", "p50", "p95", "max");
+    auto row = [](const char* name, const ErrorPercentiles& p) {
+        std::printf("  %-20s %8.3f %8.3f %8.3f\n", name, p.p50, p.p95, p.max);
+    };
+    row("orientation", e->error);
+    row("tilt", e->tilt);
+    row("heading", e->heading);
+    auto angle = [](const glm::dquat& q) {
+        return 2.0 * std::acos(std::min(1.0, std::abs(q.w))) * 180.0 / 3.14159265358979323846;
+    };
+    std::printf("  alignment: world %.2f deg, body %.2f deg (fitted over the window)\n",
+                angle(e->world_alignment), angle(e->body_alignment));
+    if (!args.report.empty()) std::printf("  report %s\n", args.report.c_str());
+    if (!args.plot.empty()) std::printf("  plot %s\n", args.plot.c_str());
+}
+
+void add_tracking_command(CLI::App& app) {
+    CLI::App* tracking = app.add_subcommand("tracking", "Evaluate tracking against a reference");
+    tracking->require_subcommand(1);
+    auto args = std::make_shared<EvalArgs>();
+    CLI::App* eval = tracking->add_subcommand(
+        "eval",
+        "Orientation error of an estimated trace against a reference trace, after fitting the "
+        "constant world and body rotations between them");
+    eval->add_option("--reference", args->reference, "Reference trace CSV (e.g. lighthouse poses)")
+        ->required();
+    eval->add_option("--estimate", args->estimate, "Estimated trace CSV (e.g. fused IMU)")
+        ->required();
+    eval->add_option("--report", args->report, "JSON report to write");
+    eval->add_option("--plot", args->plot, "SVG plot of the error against time to write");
+    eval->add_option("--start", args->options.start_s,
+                     "Window start, seconds after the reference's first sample")
+        ->check(CLI::NonNegativeNumber)
+        ->capture_default_str();
+    eval->add_option("--duration", args->options.duration_s, "Window length in seconds (0: all)")
+        ->check(CLI::NonNegativeNumber)
+        ->capture_default_str();
+    eval->callback([args] { run_eval(*args); });
+}
+
+const CommandRegistration reg{57, add_tracking_command};
+
+}  // namespace
+}  // namespace hmdnode::tool

@@ -1,0 +1,323 @@
+// libsurvive recording reader and replay backend (survive_recording.hpp). The layout read is what
+// libsurvive's recorder (src/survive_recording.c) writes, learnt from its test corpus; the IMU
+// samples are replayed as the Index's own report 0x20 so the codec, the factory calibration, the
+// clock tracking and the fusion are those of a live device. Cost: O(file) time and memory; the
+// JSON parse of one CONFIG line.
+#include "hmdnode/hal/tracking/survive_recording.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <iterator>
+#include <optional>
+#include <string_view>
+
+#include <nlohmann/json.hpp>
+
+#include "hmdnode/hal/codec/vive_imu.hpp"
+#include "transport/gunzip.hpp"
+
+namespace hmdnode {
+namespace {
+
+// Whitespace-separated tokens of one line (spaces, tabs, a CRLF's '\r').
+std::vector<std::string_view> tokens(std::string_view line, size_t max_tokens) {
+    std::vector<std::string_view> out;
+    size_t i = 0;
+    auto space = [](char c) { return c == ' ' || c == '\t' || c == '\r'; };
+    while (i < line.size() && out.size() < max_tokens) {
+        while (i < line.size() && space(line[i])) ++i;
+        if (i >= line.size()) break;
+        size_t j = i;
+        while (j < line.size() && !space(line[j])) ++j;
+        out.push_back(line.substr(i, j - i));
+        i = j;
+    }
+    return out;
+}
+
+bool to_double(std::string_view s, double* v) {
+    if (!s.empty() && s[0] == '+') s.remove_prefix(1);
+    auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), *v);
+    return ec == std::errc() && p == s.data() + s.size() && std::isfinite(*v);
+}
+
+// A whole number within [lo, hi] (the recorder prints counts as "-7166.000000").
+bool to_whole(std::string_view s, double lo, double hi, double* v) {
+    return to_double(s, v) && *v == std::floor(*v) && *v >= lo && *v <= hi;
+}
+
+// Parses one line of a kind read into rec; an error message (without the location) when it is
+// malformed.
+std::string parse_line(const std::vector<std::string_view>& t, std::string_view line,
+                       SurviveRecording* rec) {
+    double time_s = 0;
+    if (!to_double(t[0], &time_s) || time_s < 0)
+        return "TIME \"" + std::string(t[0]) + "\" is not a non-negative number";
+    const int64_t time_ns = std::llround(time_s * 1e9);
+    const std::string_view kind = t[2];
+    if (kind == "i") {
+        if (t.size() != 15)
+            return "an IMU line (i) has 15 fields (TIME DEV i MASK TICK ax ay az gx gy gz mx my mz "
+                   "SEQ), this one " +
+                   std::to_string(t.size());
+        SurviveImuLine s;
+        s.host_time_ns = time_ns;
+        double v = 0;
+        if (!to_whole(t[4], 0, 4294967295.0, &v))
+            return "TICK \"" + std::string(t[4]) + "\" is not a 32-bit count";
+        s.ticks = uint32_t(v);
+        static const char* kAxes[] = {"ax", "ay", "az", "gx", "gy", "gz"};
+        for (int k = 0; k < 6; ++k) {
+            if (!to_whole(t[5 + size_t(k)], -32768, 32767, &v))
+                return std::string(kAxes[k]) + " \"" + std::string(t[5 + size_t(k)]) +
+                       "\" is not a 16-bit raw count";
+            (k < 3 ? s.accel[size_t(k)] : s.gyro[size_t(k - 3)]) = int16_t(v);
+        }
+        if (!to_whole(t[14], 0, 255, &v))
+            return "SEQ \"" + std::string(t[14]) + "\" is not an 8-bit sequence number";
+        s.sequence = uint8_t(v);
+        rec->imu.push_back(s);
+        return {};
+    }
+    if (kind == "POSE") {
+        if (t.size() != 10)
+            return "a POSE line has 10 fields (TIME DEV POSE x y z qw qx qy qz), this one " +
+                   std::to_string(t.size());
+        double v[7];
+        for (size_t k = 0; k < 7; ++k)
+            if (!to_double(t[3 + k], &v[k]))
+                return "POSE value " + std::to_string(k + 1) + " \"" + std::string(t[3 + k]) +
+                       "\" is not a number";
+        glm::dquat q(v[3], v[4], v[5], v[6]);
+        const double n = glm::length(q);
+        if (std::abs(n - 1.0) > 0.01)
+            return "POSE quaternion (qw qx qy qz) has norm " + std::to_string(n) + ", not 1";
+        rec->poses.push_back({time_ns, glm::dvec3(v[0], v[1], v[2]), q / n});
+        return {};
+    }
+    // CONFIG: the rest of the line after the kind is the device's JSON.
+    const size_t at = size_t(kind.data() + kind.size() - line.data());
+    const std::string json(line.substr(at));
+    auto cal = parse_imu_calibration_json(json, "CONFIG");
+    if (!cal) return cal.error().message;
+    rec->has_config = true;
+    rec->calibration = *cal;
+    auto j = nlohmann::json::parse(json, nullptr, false);
+    if (j.is_object() && j.contains("model_number") && j["model_number"].is_string())
+        rec->model = j["model_number"].get<std::string>();
+    return {};
+}
+
+Result<glm::dvec3> vec3(const nlohmann::json& o, const char* key, const std::string& where,
+                        std::optional<glm::dvec3> fallback) {
+    if (!o.contains(key)) {
+        if (fallback) return *fallback;
+        return make_error(where + "." + key + ": missing");
+    }
+    const nlohmann::json& a = o[key];
+    if (!a.is_array() || a.size() != 3 || !a[0].is_number() || !a[1].is_number() ||
+        !a[2].is_number())
+        return make_error(where + "." + key + ": not an array of 3 numbers");
+    glm::dvec3 v(a[0].get<double>(), a[1].get<double>(), a[2].get<double>());
+    if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
+        return make_error(where + "." + key + ": not finite");
+    return v;
+}
+
+// The rotation whose columns are the frame's axes in the device frame, from its plus_x and
+// plus_z (y = z x x), made exactly orthonormal.
+Result<glm::dmat3> frame(const nlohmann::json& o, const std::string& where) {
+    auto x = vec3(o, "plus_x", where, glm::dvec3(1, 0, 0));
+    if (!x) return x.error();
+    auto z = vec3(o, "plus_z", where, glm::dvec3(0, 0, 1));
+    if (!z) return z.error();
+    if (glm::length(*x) < 0.5 || glm::length(*z) < 0.5 ||
+        std::abs(glm::dot(glm::normalize(*x), glm::normalize(*z))) > 0.01)
+        return make_error(where + ": plus_x and plus_z are not perpendicular unit axes");
+    const glm::dvec3 zn = glm::normalize(*z);
+    const glm::dvec3 yn = glm::normalize(glm::cross(zn, *x));
+    return glm::dmat3(glm::cross(yn, zn), yn, zn);
+}
+
+class SurviveTransport final : public Transport {
+  public:
+    SurviveTransport(std::shared_ptr<const SurviveRecording> rec, DeviceId id)
+        : rec_(std::move(rec)), id_(std::move(id)) {}
+    DeviceId id() const override { return id_; }
+    Result<std::optional<InputReport>> read_input(int) override {
+        if (cursor_ >= rec_->imu.size()) return std::optional<InputReport>();
+        // As the device sends them: the newest sample and the two before it.
+        std::array<vive::RawSlot, 3> slots;
+        for (size_t k = 0; k < 3; ++k) {
+            const SurviveImuLine& s = rec_->imu[cursor_ >= k ? cursor_ - k : 0];
+            slots[k] = {s.accel, s.gyro, s.ticks, s.sequence};
+        }
+        const auto bytes = vive::encode_imu_report(slots);
+        InputReport r{std::vector<uint8_t>(bytes.begin(), bytes.end()),
+                      rec_->imu[cursor_].host_time_ns};
+        ++cursor_;
+        return std::optional<InputReport>(std::move(r));
+    }
+    Result<std::vector<uint8_t>> get_feature(uint8_t report_id, size_t) override {
+        return make_error("libsurvive recording: no feature report " + std::to_string(report_id) +
+                          " (the IMU ranges are the Index's defaults)");
+    }
+    Status set_feature(std::span<const uint8_t>) override { return {}; }
+    Status write_output(std::span<const uint8_t>) override { return {}; }
+    bool finished() const override { return cursor_ >= rec_->imu.size(); }
+
+  private:
+    std::shared_ptr<const SurviveRecording> rec_;
+    DeviceId id_;
+    size_t cursor_ = 0;
+};
+
+class SurviveBackend final : public TransportBackend {
+  public:
+    explicit SurviveBackend(std::shared_ptr<const SurviveRecording> rec) : rec_(std::move(rec)) {
+        id_.vendor_id = vive::kVendorId;
+        id_.product_id = vive::kIndexProductId;
+        id_.path = "rec:" + rec_->device;
+        id_.product = "Valve Index (libsurvive recording " + rec_->device + ")";
+    }
+    std::string name() const override { return "rec"; }
+    Result<std::vector<DeviceId>> enumerate(const DeviceFilter& filter) override {
+        if (!filter.matches(id_)) return std::vector<DeviceId>{};
+        return std::vector<DeviceId>{id_};
+    }
+    Result<std::unique_ptr<Transport>> open(const DeviceId& id) override {
+        if (id.path != id_.path) return make_error("libsurvive recording: no device " + id.path);
+        return std::unique_ptr<Transport>(new SurviveTransport(rec_, id_));
+    }
+
+  private:
+    std::shared_ptr<const SurviveRecording> rec_;
+    DeviceId id_;
+};
+
+}  // namespace
+
+Result<ImuCalibration> parse_imu_calibration_json(const std::string& text,
+                                                  const std::string& source) {
+    nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+    if (j.is_discarded() || !j.is_object()) return make_error(source + ": not a JSON object");
+    if (!j.contains("imu") || !j["imu"].is_object())
+        return make_error(source + ": no \"imu\" object (the factory IMU calibration)");
+    const nlohmann::json& imu = j["imu"];
+    const std::string w = source + ": imu";
+    ImuCalibration c;
+    auto acc_bias = vec3(imu, "acc_bias", w, std::nullopt);
+    if (!acc_bias) return acc_bias.error();
+    auto acc_scale = vec3(imu, "acc_scale", w, glm::dvec3(1.0));
+    if (!acc_scale) return acc_scale.error();
+    auto gyro_bias = vec3(imu, "gyro_bias", w, std::nullopt);
+    if (!gyro_bias) return gyro_bias.error();
+    auto gyro_scale = vec3(imu, "gyro_scale", w, glm::dvec3(1.0));
+    if (!gyro_scale) return gyro_scale.error();
+    for (double s :
+         {acc_scale->x, acc_scale->y, acc_scale->z, gyro_scale->x, gyro_scale->y, gyro_scale->z})
+        if (s < 0.5 || s > 2.0)
+            return make_error(w + ": a scale of " + std::to_string(s) + " (expected near 1)");
+    c.acc_bias = *acc_bias;
+    c.acc_scale = *acc_scale;
+    c.gyro_bias = *gyro_bias;
+    c.gyro_scale = *gyro_scale;
+    auto device_from_imu = frame(imu, w);
+    if (!device_from_imu) return device_from_imu.error();
+    glm::dmat3 device_from_head(1.0);
+    if (j.contains("head") && j["head"].is_object()) {
+        auto h = frame(j["head"], source + ": head");
+        if (!h) return h.error();
+        device_from_head = *h;
+    }
+    c.head_from_imu = glm::transpose(device_from_head) * *device_from_imu;
+    return c;
+}
+
+Result<SurviveRecording> parse_survive_recording(const std::string& text, const std::string& source,
+                                                 const std::string& device) {
+    SurviveRecording rec;
+    rec.device = device;
+    size_t pos = 0;
+    uint64_t line_no = 0;
+    while (pos < text.size()) {
+        size_t end = text.find('\n', pos);
+        const bool cut = end == std::string::npos;  // no newline: maybe a cut last line
+        if (cut) end = text.size();
+        const std::string_view line(text.data() + pos, end - pos);
+        pos = end + 1;
+        ++line_no;
+        ++rec.lines;
+        const auto t = tokens(line, 16);
+        const bool read_kind = t.size() >= 3 && (t[2] == "i" || t[2] == "POSE" || t[2] == "CONFIG");
+        if (read_kind &&
+            std::find(rec.devices.begin(), rec.devices.end(), t[1]) == rec.devices.end())
+            rec.devices.emplace_back(t[1]);
+        if (!read_kind || t[1] != device) {
+            ++rec.other_lines;
+            continue;
+        }
+        std::string err = parse_line(t, line, &rec);
+        if (err.empty()) continue;
+        const std::string where = source + ":" + std::to_string(line_no) + ": ";
+        if (cut) {
+            rec.warnings.push_back(where + "the last line is cut short (" + err + "); skipped");
+            continue;
+        }
+        return make_error(where + err);
+    }
+    if (rec.imu.empty()) {
+        std::string held;
+        for (const std::string& d : rec.devices) held += (held.empty() ? "" : ", ") + d;
+        return make_error(source + ": no IMU line (i) of device " + device +
+                          " (devices: " + (held.empty() ? std::string("none") : held) + ")");
+    }
+    return rec;
+}
+
+Result<SurviveRecording> read_survive_recording(const std::filesystem::path& path,
+                                                const std::string& device) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) return make_error(path.string() + ": cannot open");
+    std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)),
+                               std::istreambuf_iterator<char>());
+    std::string text;
+    std::vector<std::string> warnings;
+    if (bytes.size() >= 2 && bytes[0] == 0x1f && bytes[1] == 0x8b) {
+        bool truncated = false;
+        auto r = gunzip(bytes, &truncated);
+        if (!r) return make_error(path.string() + ": " + r.error().message);
+        text.assign(r->begin(), r->end());
+        if (truncated)
+            warnings.push_back(path.string() + ": gzip: truncated stream, " +
+                               std::to_string(text.size()) + " bytes inflated");
+    } else {
+        text.assign(bytes.begin(), bytes.end());
+    }
+    auto rec = parse_survive_recording(text, path.string(), device);
+    if (!rec) return rec;
+    rec->warnings.insert(rec->warnings.begin(), warnings.begin(), warnings.end());
+    return rec;
+}
+
+std::unique_ptr<TransportBackend> create_survive_backend(
+    std::shared_ptr<const SurviveRecording> rec) {
+    return std::make_unique<SurviveBackend>(std::move(rec));
+}
+
+Result<std::unique_ptr<DeviceTracker>> create_survive_tracker(
+    std::shared_ptr<const SurviveRecording> rec, Clock& clock, int64_t first_report_host_ns) {
+    DeviceTrackerConfig cfg;
+    cfg.filter.vendor_id = vive::kVendorId;
+    cfg.filter.product_id = vive::kIndexProductId;
+    cfg.first_report_host_ns = first_report_host_ns;
+    cfg.name = "libsurvive recording " + rec->device;
+    auto codec = make_vive_codec(vive::kIndexProductId);
+    if (rec->has_config) codec->set_imu_calibration(rec->calibration);
+    return create_device_tracker(create_survive_backend(std::move(rec)), std::move(codec), clock,
+                                 cfg);
+}
+
+}  // namespace hmdnode

@@ -1,0 +1,110 @@
+// evaluate_orientation on synthetic traces with closed-form answers: an estimate that differs
+// from the reference by constant world and body rotations only (error 0, both found), and one
+// with an added error of known size about the vertical (heading) or a horizontal axis (tilt),
+// of opposite signs over two copies of the same motion so the best constant alignment leaves it
+// whole; the window options and the
+// error when the traces do not overlap.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "hmdnode/core/orientation_eval.hpp"
+#include "hmdnode/core/pose.hpp"
+
+namespace hmdnode {
+namespace {
+
+constexpr double kDeg = kPi / 180.0;
+
+// A head moving about all three axes.
+glm::dquat motion(double t) {
+    return glm::angleAxis(0.8 * std::sin(0.7 * t), glm::dvec3(0, 1, 0)) *
+           glm::angleAxis(0.4 * std::sin(1.3 * t + 0.5), glm::dvec3(1, 0, 0)) *
+           glm::angleAxis(0.3 * std::sin(0.9 * t + 1.0), glm::dvec3(0, 0, 1));
+}
+
+const glm::dquat kWorld = glm::angleAxis(1.1, glm::normalize(glm::dvec3(0.3, -1.0, 0.4)));
+const glm::dquat kBody = glm::angleAxis(2.0, glm::normalize(glm::dvec3(-0.5, 0.2, 1.0)));
+
+// The reference is kWorld * err(t) * est(t) * kBody: err acts in the estimate's world.
+void make_traces(Trace* ref, Trace* est, const glm::dvec3& err_axis, double err_rad) {
+    for (int i = 0; i < 2000; ++i) {
+        // The same 10 s of motion twice, the error +err_rad in the first and -err_rad in the
+        // second: by symmetry the best constant alignment is the true one, leaving err_rad whole.
+        const glm::dquat e = motion((i % 1000) * 0.01);
+        const double sign = i < 1000 ? 1.0 : -1.0;
+        const glm::dquat err = glm::angleAxis(sign * err_rad, err_axis);
+        TraceSample r, s;
+        r.time_ns = s.time_ns = int64_t(i) * 10'000'000 + 3'000'000'000;
+        s.orientation = e;
+        r.orientation = kWorld * err * e * kBody;
+        ref->samples.push_back(r);
+        est->samples.push_back(s);
+    }
+}
+
+double angle_between(const glm::dquat& a, const glm::dquat& b) {
+    return 2.0 * std::acos(std::min(1.0, std::abs(glm::dot(a, b))));
+}
+
+TEST(OrientationEval, ConstantWorldAndBodyRotationsAreFoundAndLeaveNoError) {
+    Trace ref, est;
+    make_traces(&ref, &est, glm::dvec3(0, 1, 0), 0.0);
+    auto r = evaluate_orientation(ref, est);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_EQ(r->samples, 2000u);
+    EXPECT_LT(angle_between(r->world_alignment, kWorld), 1e-6);
+    EXPECT_LT(angle_between(r->body_alignment, kBody), 1e-6);
+    EXPECT_LT(r->error.max, 1e-5);
+}
+
+// An error of err_deg about `axis` in the estimate's world: every sample reads err_deg in all,
+// err_deg in the component `part` (heading or tilt) and none in `other`.
+void expect_whole_error(const glm::dvec3& axis, double err_deg,
+                        ErrorPercentiles OrientationEval::*part,
+                        ErrorPercentiles OrientationEval::*other) {
+    Trace ref, est;
+    make_traces(&ref, &est, axis, err_deg * kDeg);
+    auto r = evaluate_orientation(ref, est);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    for (const ErrorPercentiles& p : {r->error, (*r).*part}) {
+        EXPECT_NEAR(p.p50, err_deg, 1e-3);
+        EXPECT_NEAR(p.p95, err_deg, 1e-3);
+        EXPECT_NEAR(p.max, err_deg, 1e-3);
+    }
+    EXPECT_LT(((*r).*other).max, 1e-3);
+}
+
+TEST(OrientationEval, AHeadingErrorIsReportedWholeAsHeading) {
+    expect_whole_error(glm::dvec3(0, 1, 0), 1.5, &OrientationEval::heading, &OrientationEval::tilt);
+}
+
+TEST(OrientationEval, ATiltErrorIsReportedWholeAsTilt) {
+    expect_whole_error(glm::dvec3(1, 0, 0), 0.7, &OrientationEval::tilt, &OrientationEval::heading);
+}
+
+TEST(OrientationEval, TheWindowRestrictsTheSamplesAndDisjointTracesAreAnError) {
+    Trace ref, est;
+    make_traces(&ref, &est, glm::dvec3(0, 1, 0), 0.0);
+    auto r = evaluate_orientation(ref, est, {5.0, 2.0});
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_EQ(r->samples, 201u);  // 5.00 .. 7.00 s after the reference's start, both ends in
+    EXPECT_EQ(r->time_ns.front(), ref.start_ns() + 5'000'000'000);
+    for (TraceSample& s : est.samples) s.time_ns += 100'000'000'000;
+    auto none = evaluate_orientation(ref, est);
+    ASSERT_FALSE(none.ok());
+    EXPECT_NE(none.error().message.find("0 reference samples in the window"), std::string::npos)
+        << none.error().message;
+}
+
+TEST(OrientationEval, PercentilesAreNearestRank) {
+    std::vector<double> v;
+    for (int i = 100; i >= 1; --i) v.push_back(i);
+    const ErrorPercentiles p = error_percentiles(v);
+    EXPECT_EQ(p.p50, 50);
+    EXPECT_EQ(p.p95, 95);
+    EXPECT_EQ(p.max, 100);
+}
+
+}  // namespace
+}  // namespace hmdnode

@@ -1,0 +1,148 @@
+// The libsurvive recording reader on the bundled Index recording (line counts, the CONFIG's factory
+// calibration and axes), the calibration applied by the Index codec to the recording's samples
+// replayed as report 0x20, and bad input: a malformed line is an error naming the file and line,
+// a cut last line is skipped with a warning, an absent device names those present.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
+#include <string>
+
+#include "hmdnode/hal/codec/vive_imu.hpp"
+#include "hmdnode/hal/tracking/device_tracker.hpp"
+#include "hmdnode/hal/tracking/survive_recording.hpp"
+
+namespace hmdnode {
+namespace {
+
+const std::string kIndexRec =
+    std::string(HMDNODE_SOURCE_DIR) + "/data/traces/compare-test-index.rec.gz";
+
+// A CONFIG with the Index's IMU block (as the bundled recording's, rounded) and a head block.
+const std::string kConfig =
+    R"(0.1 T20 CONFIG {"model_number":"Utah MP","head":{"plus_x":[-1,0,0],"plus_z":[0,0,-1]},)"
+    R"("imu":{"acc_bias":[-0.003,-0.072,0.275],"acc_scale":[1.0017,1.0018,0.9992],)"
+    R"("gyro_bias":[-0.0164,0.0227,0.0243],"plus_x":[0,-1,0],"plus_z":[0,0,1]}})"
+    "\r\n";
+
+std::string imu_line(double t, uint32_t tick, int ax, int seq) {
+    return std::to_string(t) + " T20 i 3 " + std::to_string(tick) + " " + std::to_string(ax) +
+           ".000000 -438.000000 4052.000000 26.000000 94.000000 66.000000  0.000000 0.000000 "
+           "0.000000 " +
+           std::to_string(seq) + "\r\n";
+}
+
+TEST(SurviveRecording, ReadsTheBundledIndexRecording) {
+    auto r = read_survive_recording(kIndexRec, "T20");
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_EQ(r->imu.size(), 25059u);
+    EXPECT_EQ(r->poses.size(), 4680u);
+    EXPECT_EQ(r->lines, 261747u);
+    EXPECT_TRUE(r->warnings.empty());
+    const SurviveImuLine& first = r->imu.front();
+    EXPECT_EQ(first.host_time_ns, 221'879'000);
+    EXPECT_EQ(first.ticks, 3144688562u);
+    EXPECT_EQ(first.accel, (std::array<int16_t, 3>{-7166, -438, 4052}));
+    EXPECT_EQ(first.gyro, (std::array<int16_t, 3>{26, 94, 66}));
+    EXPECT_EQ(first.sequence, 1);
+    EXPECT_EQ(r->poses.front().host_time_ns, 16'089'040'000);
+    EXPECT_NEAR(r->poses.front().orientation.w, -0.383924, 1e-5);
+    ASSERT_TRUE(r->has_config);
+    EXPECT_EQ(r->model, "Utah MP");
+    const ImuCalibration& c = r->calibration;
+    EXPECT_DOUBLE_EQ(c.acc_bias.z, 0.274579704);
+    EXPECT_DOUBLE_EQ(c.acc_scale.x, 1.00170946);
+    EXPECT_DOUBLE_EQ(c.gyro_bias.y, 0.0227181744);
+    // The CONFIG's IMU and head axes give the same mapping as the Index's fixed one (Monado's).
+    for (const glm::dvec3 v : {glm::dvec3(1, 0, 0), glm::dvec3(0, 1, 0), glm::dvec3(0, 0, 1)}) {
+        const glm::dvec3 want = vive::to_head_frame(vive::Variant::Index, v);
+        const glm::dvec3 got = c.head_from_imu * v;
+        EXPECT_NEAR(glm::length(got - want), 0.0, 1e-6);
+    }
+}
+
+TEST(SurviveRecording, TheCodecAppliesTheFactoryCalibration) {
+    const std::string text = "0.05 INFO LOG starting\n" + kConfig +
+                             imu_line(0.200, 1000, -7166, 1) + imu_line(0.201, 49000, -7170, 2) +
+                             imu_line(0.202, 97000, -7180, 3);
+    auto r = parse_survive_recording(text, "t.rec", "T20");
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    ASSERT_EQ(r->imu.size(), 3u);
+    EXPECT_EQ(r->other_lines, 1u);
+    auto rec = std::make_shared<const SurviveRecording>(*r);
+    auto backend = create_survive_backend(rec);
+    auto ids = backend->enumerate(DeviceFilter{vive::kVendorId, vive::kIndexProductId, ""});
+    ASSERT_TRUE(ids.ok());
+    ASSERT_EQ(ids->size(), 1u);
+    auto t = backend->open(ids->front());
+    ASSERT_TRUE(t.ok());
+    auto codec = make_vive_codec(vive::kIndexProductId);
+    ASSERT_TRUE(codec->set_imu_calibration(rec->calibration));
+    codec->configure(**t);
+    EXPECT_EQ(codec->warning(), "");  // the axes come from the device's configuration
+    std::vector<DeviceSample> got;
+    for (int k = 0; k < 3; ++k) {
+        auto in = (*t)->read_input(0);
+        ASSERT_TRUE(in.ok() && in->has_value());
+        EXPECT_EQ((*in)->host_time_ns, rec->imu[size_t(k)].host_time_ns);
+        std::array<DeviceSample, ReportCodec::kMaxSamplesPerReport> out;
+        const size_t n = codec->decode((*in)->bytes, out);
+        got.insert(got.end(), out.begin(), out.begin() + long(n));
+    }
+    EXPECT_TRUE((*t)->finished());
+    ASSERT_EQ(got.size(), 3u);
+    // By hand: counts x range / 32768 in the IMU's axes, scale x value - bias, then the Index
+    // mapping head = (-y, -x, -z).
+    const double acc_lsb = 4 * 9.80665 / 32768, gyro_lsb = 500 * M_PI / 180 / 32768;
+    const ImuCalibration& c = rec->calibration;
+    const glm::dvec3 a_imu(1.0017 * -7170 * acc_lsb + 0.003, 1.0018 * -438 * acc_lsb + 0.072,
+                           0.9992 * 4052 * acc_lsb - 0.275);
+    const glm::dvec3 g_imu(26 * gyro_lsb + 0.0164, 94 * gyro_lsb - 0.0227, 66 * gyro_lsb - 0.0243);
+    (void)c;
+    EXPECT_NEAR(got[1].accel->x, -a_imu.y, 1e-12);
+    EXPECT_NEAR(got[1].accel->y, -a_imu.x, 1e-12);
+    EXPECT_NEAR(got[1].accel->z, -a_imu.z, 1e-12);
+    EXPECT_NEAR(got[1].gyro->x, -g_imu.y, 1e-12);
+    EXPECT_NEAR(got[1].gyro->y, -g_imu.x, 1e-12);
+    EXPECT_NEAR(got[1].gyro->z, -g_imu.z, 1e-12);
+    EXPECT_EQ(got[2].device_time_ns - got[1].device_time_ns, 1'000'000);  // 48,000 ticks
+}
+
+TEST(SurviveRecording, AMalformedLineIsAnErrorNamingTheLine) {
+    std::string bad = imu_line(0.201, 49000, -7170, 2);
+    bad.replace(bad.find("-438.000000"), 11, "-438.5");
+    const std::string text = kConfig + imu_line(0.200, 1000, -7166, 1) + bad;
+    auto r = parse_survive_recording(text, "bad.rec", "T20");
+    ASSERT_FALSE(r.ok());
+    EXPECT_NE(r.error().message.find("bad.rec:3: ay \"-438.5\""), std::string::npos)
+        << r.error().message;
+    auto pose = parse_survive_recording(
+        kConfig + imu_line(0.2, 1, 1, 1) + "0.3 T20 POSE 0 0 0 0.5 0.5 0.5\n", "p.rec", "T20");
+    ASSERT_FALSE(pose.ok());
+    EXPECT_NE(pose.error().message.find("p.rec:3: a POSE line has 10 fields"), std::string::npos)
+        << pose.error().message;
+    auto cfg = parse_survive_recording("0.1 T20 CONFIG {\"imu\":{}}\n", "c.rec", "T20");
+    ASSERT_FALSE(cfg.ok());
+    EXPECT_NE(cfg.error().message.find("c.rec:1: CONFIG: imu.acc_bias: missing"), std::string::npos)
+        << cfg.error().message;
+}
+
+TEST(SurviveRecording, ACutLastLineIsSkippedWithAWarning) {
+    std::string text = kConfig + imu_line(0.200, 1000, -7166, 1) + imu_line(0.201, 49000, -7170, 2);
+    text += "0.202 T20 i 3 97000 -7180.000000 -43";  // the recorder stopped mid-line
+    auto r = parse_survive_recording(text, "cut.rec", "T20");
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_EQ(r->imu.size(), 2u);
+    ASSERT_EQ(r->warnings.size(), 1u);
+    EXPECT_NE(r->warnings[0].find("cut.rec:4: the last line is cut short"), std::string::npos)
+        << r->warnings[0];
+}
+
+TEST(SurviveRecording, AnAbsentDeviceNamesTheDevicesPresent) {
+    auto r = parse_survive_recording(kConfig + imu_line(0.2, 1, 1, 1), "d.rec", "WM0");
+    ASSERT_FALSE(r.ok());
+    EXPECT_EQ(r.error().message, "d.rec: no IMU line (i) of device WM0 (devices: T20)");
+}
+
+}  // namespace
+}  // namespace hmdnode
