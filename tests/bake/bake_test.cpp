@@ -148,9 +148,11 @@ TEST(Bake, PlaneUnderUniformSky) {
             ASSERT_NEAR(m.raw[i][c], ref, 0.02f * ref) << i;
             ASSERT_NEAR(m.final_e[i][c], ref, 0.02f * ref) << i;
         }
-    // The stored texture decodes to E within 8-bit quantisation.
+    // The stored texture (RGBM) decodes to E within 8-bit quantisation.
     const Material& mat = b.s.materials[0];
-    const float decoded = b.s.textures[0].rgba8[2] / 255.0f * mat.lightmap.intensity;
+    ASSERT_EQ(mat.lightmap.encoding, LightmapEncoding::Rgbm);
+    const std::vector<uint8_t>& t = b.s.textures[0].rgba8;
+    const float decoded = t[2] / 255.0f * t[3] / 255.0f * mat.lightmap.intensity;
     EXPECT_NEAR(decoded, kPi * 0.8f, 0.01f * kPi * 0.8f);
 }
 
