@@ -156,6 +156,25 @@ TEST(Bake, PlaneUnderUniformSky) {
     EXPECT_NEAR(decoded, kPi * 0.8f, 0.01f * kPi * 0.8f);
 }
 
+// A sun shining down and sideways (5 lx) and a white sky (radiance 1), baked with 32 paths per
+// texel and 3 bounces.
+Result<BakeReport> bake_in_sun_and_sky(Builder& b) {
+    Node sun;
+    sun.rotation =
+        glm::angleAxis(-1.0, glm::dvec3(1, 0, 0)) * glm::angleAxis(0.3, glm::dvec3(0, 1, 0));
+    b.s.nodes.push_back(sun);
+    Light l;
+    l.type = Light::Type::Directional;
+    l.intensity = 5.0f;
+    l.node = int(b.s.nodes.size()) - 1;
+    b.s.lights.push_back(l);
+    BakeOptions o;
+    o.samples = 32;
+    o.bounces = 3;
+    o.sky_radiance = glm::vec3(1.0f);
+    return bake_scene(b.s, o);
+}
+
 // A closed room [-1, 1] x [0, 2] x [-1, 1] of zero-thickness double-sided walls (thin walls: the
 // classic leak), a floor that runs 0.5 m past the walls, a sun and a sky outside: inside is dark,
 // outside is lit.
@@ -169,20 +188,7 @@ TEST(Bake, ClosedRoomLitFromOutsideIsDarkInside) {
     b.quad(1, {1, 0, -1}, {0, 0, 2}, {0, 2, 0}, false);   // x = +1, normal -x
     b.quad(1, {-1, 0, -1}, {2, 0, 0}, {0, 2, 0}, false);  // z = -1, normal +z
     b.quad(1, {-1, 0, 1}, {0, 2, 0}, {2, 0, 0}, false);   // z = +1, normal -z
-    Node sun;
-    sun.rotation = glm::angleAxis(-1.0, glm::dvec3(1, 0, 0)) *
-                   glm::angleAxis(0.3, glm::dvec3(0, 1, 0));  // shines down and sideways
-    b.s.nodes.push_back(sun);
-    Light l;
-    l.type = Light::Type::Directional;
-    l.intensity = 5.0f;
-    l.node = int(b.s.nodes.size()) - 1;
-    b.s.lights.push_back(l);
-    BakeOptions o;
-    o.samples = 32;
-    o.bounces = 3;
-    o.sky_radiance = glm::vec3(1.0f);
-    Result<BakeReport> r = bake_scene(b.s, o);
+    Result<BakeReport> r = bake_in_sun_and_sky(b);
     ASSERT_TRUE(r.ok()) << r.error().message;
     const BakedMap& m = r->maps[0];
     float max_inside = 0.0f, min_outside = 1e9f;
@@ -327,20 +333,7 @@ TEST(Bake, WallsOffTexelEdgesLeaveTheTexelsInsideThemDark) {
     box(b, {-a, 0, a}, {a, h, c}, false, no_bottom);
     box(b, {-a, 0, -c}, {a, h, -a}, false, no_bottom);
     box(b, {-c, h, -c}, {c, h + 0.3f, c}, false);  // ceiling slab, on the walls
-    Node sun;
-    sun.rotation =
-        glm::angleAxis(-1.0, glm::dvec3(1, 0, 0)) * glm::angleAxis(0.3, glm::dvec3(0, 1, 0));
-    b.s.nodes.push_back(sun);
-    Light l;
-    l.type = Light::Type::Directional;
-    l.intensity = 5.0f;
-    l.node = int(b.s.nodes.size()) - 1;
-    b.s.lights.push_back(l);
-    BakeOptions o;
-    o.samples = 32;
-    o.bounces = 3;
-    o.sky_radiance = glm::vec3(1.0f);
-    Result<BakeReport> r = bake_scene(b.s, o);
+    Result<BakeReport> r = bake_in_sun_and_sky(b);
     ASSERT_TRUE(r.ok()) << r.error().message;
     const BakedMap& m = r->maps[0];
     // Texel (x, y): z in [-1.5 + 3x/size, ...], x in [-1.5 + 3y/size, ...].
