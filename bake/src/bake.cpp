@@ -333,7 +333,8 @@ Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
             img.height = r.height;
             img.rgb = map.final_e;
             Result<float> intensity =
-                store_lightmap(scene, r.texture, img, options.intensity_percentile, filled);
+                store_lightmap(scene, r.texture, img, options.intensity_percentile, filled,
+                               options.lightmap_encoding);
             if (!intensity) return intensity.error();
             map.intensity = *intensity;
             if (!options.exr_prefix.empty()) {

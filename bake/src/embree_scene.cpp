@@ -1,7 +1,9 @@
 // Embree 3 scene of world triangles (Wald et al., "Embree: A Kernel Framework for Efficient CPU
 // Ray Tracing", SIGGRAPH 2014): a static, high-quality BVH built once (RTC_BUILD_QUALITY_HIGH,
 // robust mode), queried with single rays. Cost: build O(T log T), memory ~ 100 bytes per
-// triangle; each query O(log T). No departure from the library's documented use.
+// triangle; each query O(log T). intersect_skipping uses a context filter function (Embree's
+// documented RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION) to skip one triangle; the filter runs only on
+// contexts that set it, so plain queries are unchanged.
 #include "embree_scene.hpp"
 
 #include <cstring>
@@ -18,7 +20,7 @@ Status EmbreeScene::build(const std::vector<glm::vec3>& corners) {
     device_ = rtcNewDevice("verbose=0");
     if (!device_) return make_error("Embree: cannot create a device");
     scene_ = rtcNewScene(device_);
-    rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_ROBUST | RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
     rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
     const size_t tris = corners.size() / 3;
     if (tris > 0) {
@@ -47,10 +49,24 @@ Status EmbreeScene::build(const std::vector<glm::vec3>& corners) {
     return Status::success();
 }
 
-std::optional<EmbreeHit> EmbreeScene::intersect(const glm::vec3& o, const glm::vec3& d,
-                                                float t_near, float t_far) const {
+namespace {
+
+// The context Embree passes to the filter, with the triangle to skip after it.
+struct SkipContext {
     RTCIntersectContext ctx;
-    rtcInitIntersectContext(&ctx);
+    uint32_t skip;
+};
+
+void skip_filter(const RTCFilterFunctionNArguments* args) {
+    const auto* c = reinterpret_cast<const SkipContext*>(args->context);
+    for (unsigned i = 0; i < args->N; ++i)
+        if (args->valid[i] != 0 && RTCHitN_primID(args->hit, args->N, i) == c->skip)
+            args->valid[i] = 0;
+}
+
+std::optional<EmbreeHit> intersect_with(RTCScene scene, RTCIntersectContext* ctx,
+                                        const glm::vec3& o, const glm::vec3& d, float t_near,
+                                        float t_far) {
     RTCRayHit rh;
     rh.ray.org_x = o.x;
     rh.ray.org_y = o.y;
@@ -66,9 +82,28 @@ std::optional<EmbreeHit> EmbreeScene::intersect(const glm::vec3& o, const glm::v
     rh.ray.flags = 0;
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-    rtcIntersect1(scene_, &ctx, &rh);
+    rtcIntersect1(scene, ctx, &rh);
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
     return EmbreeHit{rh.ray.tfar, rh.hit.primID, rh.hit.u, rh.hit.v};
+}
+
+}  // namespace
+
+std::optional<EmbreeHit> EmbreeScene::intersect(const glm::vec3& o, const glm::vec3& d,
+                                                float t_near, float t_far) const {
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    return intersect_with(scene_, &ctx, o, d, t_near, t_far);
+}
+
+std::optional<EmbreeHit> EmbreeScene::intersect_skipping(const glm::vec3& o, const glm::vec3& d,
+                                                         float t_near, float t_far,
+                                                         uint32_t skip) const {
+    SkipContext c;
+    rtcInitIntersectContext(&c.ctx);
+    c.ctx.filter = skip_filter;
+    c.skip = skip;
+    return intersect_with(scene_, &c.ctx, o, d, t_near, t_far);
 }
 
 bool EmbreeScene::occluded(const glm::vec3& o, const glm::vec3& d, float t_near,

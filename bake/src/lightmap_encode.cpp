@@ -210,7 +210,7 @@ HdrImage decode_scaled_rgba8(const std::vector<uint8_t>& rgba8, int width, int h
 }
 
 Result<float> store_lightmap(Scene& scene, int texture, const HdrImage& image, double percentile,
-                             const std::vector<uint8_t>& mask) {
+                             const std::vector<uint8_t>& mask, LightmapEncoding encoding) {
     if (texture < 0 || size_t(texture) >= scene.textures.size())
         return make_error("lightmap texture " + std::to_string(texture) + " out of range (" +
                           std::to_string(scene.textures.size()) + " textures)");
@@ -219,9 +219,13 @@ Result<float> store_lightmap(Scene& scene, int texture, const HdrImage& image, d
     Texture& t = scene.textures[size_t(texture)];
     t.width = image.width;
     t.height = image.height;
-    t.rgba8 = std::move(enc.rgba8);
+    t.rgba8 = encoding == LightmapEncoding::Rgbm ? encode_rgbm(image, enc.intensity)
+                                                 : std::move(enc.rgba8);
     for (Material& m : scene.materials)
-        if (m.lightmap.texture == texture) m.lightmap.intensity = enc.intensity;
+        if (m.lightmap.texture == texture) {
+            m.lightmap.intensity = enc.intensity;
+            m.lightmap.encoding = encoding;
+        }
     return enc.intensity;
 }
 

@@ -8,7 +8,9 @@
 // Departures: Lambertian only (the baker stores irradiance; the renderer multiplies by albedo);
 // one light sample per vertex: the emissive triangles are one "light" chosen by power, punctual
 // lights are all evaluated (they are delta lights: no MIS); back faces of single-sided materials
-// absorb. Cost per sample: O(bounces x (2 + punctual lights)) rays of O(log T) each; memory
+// absorb, unless a face turned towards the ray lies on the same spot (within the ray offset: two
+// rooms back to back on one wall plane), which then wins (one more query per back-face hit).
+// Cost per sample: O(bounces x (2 + punctual lights)) rays of O(log T) each; memory
 // O(T) for the per-triangle data (corners, uv0, material, emitter CDF).
 #include "hmdnode/bake/path_tracer.hpp"
 
@@ -159,6 +161,17 @@ struct PathTracer::Impl {
                                       float tf) const {
         std::optional<detail::EmbreeHit> h = embree.intersect(o, d, tn, tf);
         if (!h) return std::nullopt;
+        if (glm::dot(normals[h->prim], d) >= 0.0f && !mats[material[h->prim]].double_sided) {
+            // A back face that absorbs. Where another surface lies on it (two rooms sharing a
+            // wall plane, back to back) Embree returns either; the one facing the ray wins, so a
+            // room's wall does not go black where the next room's wall touches it.
+            const float eps = offset(o + d * h->t);
+            std::optional<detail::EmbreeHit> other = embree.intersect_skipping(
+                o, d, std::max(tn, h->t - eps), std::min(tf, h->t + eps), h->prim);
+            if (other && (glm::dot(normals[other->prim], d) < 0.0f ||
+                          mats[material[other->prim]].double_sided))
+                h = other;
+        }
         TraceHit out;
         out.t = h->t;
         out.triangle = h->prim;

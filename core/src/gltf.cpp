@@ -630,6 +630,14 @@ Material convert_material(const tinygltf::Model& m, const tinygltf::Material& sr
                 fail(what, ": intensity is not a finite number");
             out.lightmap.intensity = float(v.Get("intensity").GetNumberAsDouble());
         }
+        if (v.Has("extras") && v.Get("extras").IsObject() && v.Get("extras").Has("encoding")) {
+            const tinygltf::Value& e = v.Get("extras").Get("encoding");
+            const std::string name = e.IsString() ? e.Get<std::string>() : std::string();
+            if (name == "RGBM")
+                out.lightmap.encoding = LightmapEncoding::Rgbm;
+            else if (name != "linear")
+                fail(what, ": extras.encoding is not \"linear\" or \"RGBM\"");
+        }
     }
     return out;
 }

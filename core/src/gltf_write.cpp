@@ -280,6 +280,11 @@ std::string build(const Scene& s, ModelBuilder* b) {
             lm["index"] = tinygltf::Value(src.lightmap.texture);
             lm["texCoord"] = tinygltf::Value(src.lightmap.tex_coord);
             lm["intensity"] = tinygltf::Value(double(src.lightmap.intensity));
+            if (src.lightmap.encoding == LightmapEncoding::Rgbm) {
+                tinygltf::Value::Object extras;
+                extras["encoding"] = tinygltf::Value(std::string("RGBM"));
+                lm["extras"] = tinygltf::Value(std::move(extras));
+            }
             mat.extensions["MOZ_lightmap"] = tinygltf::Value(std::move(lm));
             b->use_extension("MOZ_lightmap");
         }

@@ -1,17 +1,20 @@
 // Scene fragment shader, the project's shading contract (docs/formats.md):
 //   albedo = base_color_factor * texture(base_color, uv0) * COLOR_0
 //   lightmapped: rgb = albedo.rgb * E / pi, E = texture(lightmap, uv_n).rgb * intensity
+//                (RGBM: E = bilinear over the 4 texels of rgb * a * intensity, decoded before
+//                filtering, since filtering rgb and a apart is not the filtered product)
 //   otherwise:   rgb = albedo.rgb * _LIGHT_0 / pi (vertex-baked E; unlit, factor 1, without)
 //   then:        rgb += emissiveFactor (emitted radiance, relative to white)
 // Writes linear colour with alpha 1; the sRGB attachment encodes. Cost: one or two texture
-// fetches per fragment.
+// fetches per fragment (five with an RGBM lightmap).
 #version 450
 
 layout(set = 1, binding = 0) uniform sampler2D base_color_texture;  // sRGB view, repeat
 layout(set = 1, binding = 1) uniform sampler2D lightmap_texture;    // UNORM view, clamp to edge
 layout(set = 1, binding = 2) uniform MaterialConstants {
     vec4 base_color_factor;
-    // x = lightmap intensity, y = lightmap uv set (0 or 1), z = 1 when the material has a lightmap
+    // x = lightmap intensity, y = lightmap uv set (0 or 1), z = 1 when the material has a
+    // lightmap, w = 1 when it is RGBM-encoded (0: linear)
     vec4 lightmap;
     vec4 emissive;  // rgb = emissiveFactor
 } material;
@@ -25,6 +28,24 @@ layout(location = 0) out vec4 out_color;
 
 const float kInvPi = 0.31830988618379067;
 
+// One RGBM texel, E / intensity = rgb * a, clamped to the edge like the lightmap sampler.
+vec3 rgbm_texel(ivec2 p, ivec2 size) {
+    vec4 t = texelFetch(lightmap_texture, clamp(p, ivec2(0), size - 1), 0);
+    return t.rgb * t.a;
+}
+
+// Bilinear lookup of an RGBM lightmap at uv (texel centres at (i + 0.5) / size).
+vec3 rgbm_bilinear(vec2 uv) {
+    ivec2 size = textureSize(lightmap_texture, 0);
+    vec2 x = uv * vec2(size) - 0.5;
+    vec2 x0 = floor(x);
+    vec2 f = x - x0;
+    ivec2 p = ivec2(x0);
+    return mix(mix(rgbm_texel(p, size), rgbm_texel(p + ivec2(1, 0), size), f.x),
+               mix(rgbm_texel(p + ivec2(0, 1), size), rgbm_texel(p + ivec2(1, 1), size), f.x),
+               f.y);
+}
+
 void main() {
     vec4 albedo = material.base_color_factor * texture(base_color_texture, in_uv0) * in_color;
     vec3 rgb = albedo.rgb * in_light;
@@ -32,7 +53,9 @@ void main() {
     // the lightmap fetch stay defined.
     if (material.lightmap.z > 0.5) {
         vec2 uv = material.lightmap.y > 0.5 ? in_uv1 : in_uv0;
-        vec3 irradiance = texture(lightmap_texture, uv).rgb * material.lightmap.x;
+        vec3 texel =
+            material.lightmap.w > 0.5 ? rgbm_bilinear(uv) : texture(lightmap_texture, uv).rgb;
+        vec3 irradiance = texel * material.lightmap.x;
         rgb = albedo.rgb * irradiance * kInvPi;
     }
     out_color = vec4(rgb + material.emissive.rgb, 1.0);

@@ -266,7 +266,8 @@ Status create_materials(DeviceContext& ctx, const Scene& scene, VkDescriptorSetL
         MaterialConstants c;
         c.base_color_factor = m.base_color_factor;
         c.lightmap = glm::vec4(m.lightmap.intensity, m.lightmap.tex_coord == 1 ? 1.0f : 0.0f,
-                               m.lightmap.texture >= 0 ? 1.0f : 0.0f, 0.0f);
+                               m.lightmap.texture >= 0 ? 1.0f : 0.0f,
+                               m.lightmap.encoding == LightmapEncoding::Rgbm ? 1.0f : 0.0f);
         c.emissive = glm::vec4(m.emissive_factor, 0.0f);
         std::memcpy(constants.data() + i * out.material_stride, &c, sizeof(c));
     }

@@ -11,6 +11,7 @@
 #include <limits>
 #include <numbers>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "hmdnode/bake/bake.hpp"
@@ -147,10 +148,31 @@ TEST(Bake, PlaneUnderUniformSky) {
             ASSERT_NEAR(m.raw[i][c], ref, 0.02f * ref) << i;
             ASSERT_NEAR(m.final_e[i][c], ref, 0.02f * ref) << i;
         }
-    // The stored texture decodes to E within 8-bit quantisation.
+    // The stored texture (RGBM) decodes to E within 8-bit quantisation.
     const Material& mat = b.s.materials[0];
-    const float decoded = b.s.textures[0].rgba8[2] / 255.0f * mat.lightmap.intensity;
+    ASSERT_EQ(mat.lightmap.encoding, LightmapEncoding::Rgbm);
+    const std::vector<uint8_t>& t = b.s.textures[0].rgba8;
+    const float decoded = t[2] / 255.0f * t[3] / 255.0f * mat.lightmap.intensity;
     EXPECT_NEAR(decoded, kPi * 0.8f, 0.01f * kPi * 0.8f);
+}
+
+// A sun shining down and sideways (5 lx) and a white sky (radiance 1), baked with 32 paths per
+// texel and 3 bounces.
+Result<BakeReport> bake_in_sun_and_sky(Builder& b) {
+    Node sun;
+    sun.rotation =
+        glm::angleAxis(-1.0, glm::dvec3(1, 0, 0)) * glm::angleAxis(0.3, glm::dvec3(0, 1, 0));
+    b.s.nodes.push_back(sun);
+    Light l;
+    l.type = Light::Type::Directional;
+    l.intensity = 5.0f;
+    l.node = int(b.s.nodes.size()) - 1;
+    b.s.lights.push_back(l);
+    BakeOptions o;
+    o.samples = 32;
+    o.bounces = 3;
+    o.sky_radiance = glm::vec3(1.0f);
+    return bake_scene(b.s, o);
 }
 
 // A closed room [-1, 1] x [0, 2] x [-1, 1] of zero-thickness double-sided walls (thin walls: the
@@ -166,20 +188,7 @@ TEST(Bake, ClosedRoomLitFromOutsideIsDarkInside) {
     b.quad(1, {1, 0, -1}, {0, 0, 2}, {0, 2, 0}, false);   // x = +1, normal -x
     b.quad(1, {-1, 0, -1}, {2, 0, 0}, {0, 2, 0}, false);  // z = -1, normal +z
     b.quad(1, {-1, 0, 1}, {0, 2, 0}, {2, 0, 0}, false);   // z = +1, normal -z
-    Node sun;
-    sun.rotation = glm::angleAxis(-1.0, glm::dvec3(1, 0, 0)) *
-                   glm::angleAxis(0.3, glm::dvec3(0, 1, 0));  // shines down and sideways
-    b.s.nodes.push_back(sun);
-    Light l;
-    l.type = Light::Type::Directional;
-    l.intensity = 5.0f;
-    l.node = int(b.s.nodes.size()) - 1;
-    b.s.lights.push_back(l);
-    BakeOptions o;
-    o.samples = 32;
-    o.bounces = 3;
-    o.sky_radiance = glm::vec3(1.0f);
-    Result<BakeReport> r = bake_scene(b.s, o);
+    Result<BakeReport> r = bake_in_sun_and_sky(b);
     ASSERT_TRUE(r.ok()) << r.error().message;
     const BakedMap& m = r->maps[0];
     float max_inside = 0.0f, min_outside = 1e9f;
@@ -243,6 +252,135 @@ TEST(Bake, TexelsUnderABoxAreInvalidAndFilled) {
         if (!m.valid[cut]) continue;
         EXPECT_NEAR(m.raw[cut].r, m.raw[out].r, 0.25f * m.raw[out].r) << col;
     }
+}
+
+// The faces of the box [lo, hi] into mesh 1, facing out (inward: a room); bit f of `faces` keeps
+// face f (0: x = lo, 1: x = hi, 2: y = lo, 3: y = hi, 4: z = lo, 5: z = hi); the faces in
+// `lightmapped` go to mesh 0 instead, over the whole lightmap.
+void box(Builder& b, glm::vec3 lo, glm::vec3 hi, bool inward, unsigned faces = 63u,
+         unsigned lightmapped = 0u) {
+    const glm::vec3 dx(hi.x - lo.x, 0, 0), dy(0, hi.y - lo.y, 0), dz(0, 0, hi.z - lo.z);
+    struct Face {
+        glm::vec3 o, u, v;  // outward: u x v points out
+    };
+    const Face all[6] = {{lo, dz, dy}, {{hi.x, lo.y, lo.z}, dy, dz},
+                         {lo, dx, dz}, {{lo.x, hi.y, lo.z}, dz, dx},
+                         {lo, dy, dx}, {{lo.x, lo.y, hi.z}, dx, dy}};
+    for (unsigned f = 0; f < 6; ++f) {
+        if (!(faces & (1u << f))) continue;
+        const bool lm = (lightmapped & (1u << f)) != 0;
+        const Face& q = all[f];
+        if (inward)
+            b.quad(lm ? 0 : 1, q.o, q.v, q.u, lm);
+        else
+            b.quad(lm ? 0 : 1, q.o, q.u, q.v, lm);
+    }
+}
+
+// Two closed rooms of single-sided walls facing in, back to back on the plane x = 0 (room B's
+// wall there faces -x, room A's +x), room A lit by a point light: room A's shared wall bakes as
+// it does with the rooms 1 mm apart (both 11.4337). Before, with room B's triangles first, its
+// validity rays met room B's wall as a back face and pushed the samples behind it into dark room
+// B: all 256 texels invalid, mean 0; with the validity fix alone, paths that reached the shared
+// wall were absorbed by room B's back face where Embree returned it: mean 9.72 (-15 %).
+TEST(Bake, RoomsSharingAWallPlaneBakeLikeRoomsApart) {
+    // other_first: room B's triangles come before room A's lightmapped wall in the traced
+    // geometry, so a query that meets both walls at the same distance may return room B's.
+    auto shared_wall = [](float gap, bool other_first) {
+        Builder b(glm::vec3(0.6f), glm::vec3(0.6f), 16);
+        box(b, {0, 0, 0}, {2, 2, 2}, true, 63u, 1u);   // room A; its wall x = 0 lightmapped
+        box(b, {-2 - gap, 0, 0}, {-gap, 2, 2}, true);  // room B, unlit
+        if (other_first) std::swap(b.s.roots[0], b.s.roots[1]);
+        b.point_light({1.3f, 1.2f, 0.9f}, 10.0f);
+        BakeOptions o;
+        o.samples = 64;
+        o.threads = 2;
+        Result<BakeReport> r = bake_scene(b.s, o);
+        EXPECT_TRUE(r.ok()) << r.error().message;
+        const BakedMap& m = r->maps[0];
+        double sum = 0.0;
+        for (const glm::vec3& e : m.final_e) sum += double(e.r);
+        std::printf(
+            "gap %g m, %s first: shared wall mean E %.4f, %zu invalid texels, %zu "
+            "pushed samples\n",
+            double(gap), other_first ? "room B" : "room A", sum / double(m.final_e.size()),
+            m.invalid, m.pushed_samples);
+        EXPECT_EQ(m.covered, m.final_e.size());
+        return std::pair(sum / double(m.final_e.size()), m.invalid);
+    };
+    for (bool other_first : {false, true}) {
+        const auto [touching, touching_invalid] = shared_wall(0.0f, other_first);
+        const auto [apart, apart_invalid] = shared_wall(1e-3f, other_first);
+        EXPECT_GT(apart, 1.0);
+        EXPECT_NEAR(touching, apart, 0.01 * apart) << other_first;
+        EXPECT_EQ(touching_invalid, apart_invalid) << other_first;
+    }
+}
+
+// A room of thick walls (closed boxes 0.3 m thick, single-sided faces out, no bottoms) and a
+// ceiling slab, lit from outside by a sun and a sky. The walls' inner faces (|x| or |z| = 0.93)
+// and outer faces (1.23) cut through floor texels (edges every 0.125 m from -1.5); every texel
+// wholly inside stays dark, the ones next to the cut texels included, and the floor outside is
+// lit. (ClosedRoomLitFromOutsideIsDarkInside puts its walls on texel edges, so no texel is cut.)
+TEST(Bake, WallsOffTexelEdgesLeaveTheTexelsInsideThemDark) {
+    const int size = 24;  // floor 3 m -> 0.125 m texels
+    const float a = 0.93f, c = 1.23f, h = 2.0f;
+    Builder b(glm::vec3(0.8f), glm::vec3(0.8f), size);
+    b.quad(0, {-1.5f, 0, -1.5f}, {0, 0, 3}, {3, 0, 0}, true);
+    const unsigned no_bottom = 63u & ~4u;
+    box(b, {a, 0, -c}, {c, h, c}, false, no_bottom);
+    box(b, {-c, 0, -c}, {-a, h, c}, false, no_bottom);
+    box(b, {-a, 0, a}, {a, h, c}, false, no_bottom);
+    box(b, {-a, 0, -c}, {a, h, -a}, false, no_bottom);
+    box(b, {-c, h, -c}, {c, h + 0.3f, c}, false);  // ceiling slab, on the walls
+    Result<BakeReport> r = bake_in_sun_and_sky(b);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    const BakedMap& m = r->maps[0];
+    // Texel (x, y): z in [-1.5 + 3x/size, ...], x in [-1.5 + 3y/size, ...].
+    auto lo = [&](int i) { return -1.5f + 3.0f * float(i) / size; };
+    auto hi = [&](int i) { return lo(i + 1); };
+    auto inside = [&](int x, int y) {  // wholly in the room
+        return lo(y) > -a && hi(y) < a && lo(x) > -a && hi(x) < a;
+    };
+    auto meets_room = [&](int x, int y) {
+        return hi(y) > -a && lo(y) < a && hi(x) > -a && lo(x) < a;
+    };
+    auto outside = [&](int x, int y) {  // wholly beyond the walls
+        return lo(y) > c || hi(y) < -c || lo(x) > c || hi(x) < -c;
+    };
+    auto meets_outside = [&](int x, int y) {
+        return hi(y) > c || lo(y) < -c || hi(x) > c || lo(x) < -c;
+    };
+    float min_outside = 1e9f;
+    for (int y = 0; y < size; ++y)
+        for (int x = 0; x < size; ++x)
+            if (outside(x, y)) min_outside = std::min(min_outside, m.raw[size_t(y) * size + x].r);
+    EXPECT_GT(min_outside, 0.3f * kPi);
+    // Wholly inside: dark, the ring next to the texels the inner faces cut included (no light
+    // through the wall from denoising or filling). The cut texels themselves are counted and
+    // reported, not checked: some still mix the two sides (docs/baking.md, planned).
+    size_t inside_count = 0, inner_cut = 0, inner_leaks = 0, outer_cut = 0, outer_dark = 0;
+    for (int y = 0; y < size; ++y)
+        for (int x = 0; x < size; ++x) {
+            const size_t i = size_t(y) * size + x;
+            if (inside(x, y)) {
+                ++inside_count;
+                EXPECT_LT(m.final_e[i].r, 1e-3f * min_outside) << x << "," << y << " inside";
+            } else if (meets_room(x, y)) {
+                ++inner_cut;
+                inner_leaks += m.final_e[i].r >= 1e-3f * min_outside ? 1 : 0;
+            } else if (meets_outside(x, y) && !outside(x, y)) {
+                ++outer_cut;
+                outer_dark += m.final_e[i].r < 0.75f * min_outside ? 1 : 0;
+            }
+        }
+    std::printf(
+        "texels cut by an inner face: %zu of %zu lit; by an outer face: %zu of %zu below "
+        "0.75 x the darkest outside texel\n",
+        inner_leaks, inner_cut, outer_dark, outer_cut);
+    EXPECT_EQ(inside_count, 196u);  // 14 x 14
+    EXPECT_EQ(inner_cut, 60u);      // the ring of the 16 x 16 texels that meet the room
+    EXPECT_EQ(outer_cut, 76u);      // the ring of the 20 x 20 texels that do not lie wholly outside
 }
 
 // A plane cut into two charts along x = 0, lit by a point light off to one side: without seam

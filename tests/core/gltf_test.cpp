@@ -343,6 +343,40 @@ TEST(Gltf, WritesTheExtensionsItUsesAndPositionBounds) {
     EXPECT_EQ(doc["images"][0]["mimeType"], "image/png");
 }
 
+// MOZ_lightmap.extras.encoding: "RGBM" is written for RGBM lightmaps and read back; files
+// without it (all older ones) read as linear; another value is an error naming the material.
+TEST(Gltf, LightmapEncodingRoundTripsAndOldFilesReadAsLinear) {
+    TempDir dir;
+    Scene in = make_scene();
+    ASSERT_EQ(in.materials[0].lightmap.encoding, LightmapEncoding::Linear);
+    const fs::path linear = dir / "linear.glb", rgbm = dir / "rgbm.glb";
+    ASSERT_TRUE(save_glb(in, linear).ok());
+    in.materials[0].lightmap.encoding = LightmapEncoding::Rgbm;
+    ASSERT_TRUE(save_glb(in, rgbm).ok());
+    auto json_of = [](const std::string& glb) {
+        uint32_t json_length = 0;
+        std::memcpy(&json_length, glb.data() + 12, 4);
+        return Json::parse(glb.substr(20, json_length));
+    };
+    const Json a = json_of(read_bytes(linear)), b = json_of(read_bytes(rgbm));
+    EXPECT_FALSE(a["materials"][0]["extensions"]["MOZ_lightmap"].contains("extras"));
+    EXPECT_EQ(b["materials"][0]["extensions"]["MOZ_lightmap"]["extras"]["encoding"], "RGBM");
+    Result<Scene> la = load_gltf(linear), lb = load_gltf(rgbm);
+    ASSERT_TRUE(la.ok() && lb.ok());
+    EXPECT_EQ(la->materials[0].lightmap.encoding, LightmapEncoding::Linear);
+    EXPECT_EQ(lb->materials[0].lightmap.encoding, LightmapEncoding::Rgbm);
+
+    Json doc = Json::parse(
+        read_bytes(fs::path(HMDNODE_SOURCE_DIR) / "tests/data/gltf/triangle_data_uri.gltf"));
+    doc["materials"][0]["extensions"]["MOZ_lightmap"] = {{"index", 0},
+                                                         {"extras", {{"encoding", "LogLuv"}}}};
+    const std::string msg = load_error(dir, "encoding.gltf", doc.dump());
+    EXPECT_NE(msg.find("MOZ_lightmap: extras.encoding is not \"linear\" or \"RGBM\""),
+              std::string::npos)
+        << msg;
+    EXPECT_NE(msg.find("material 0"), std::string::npos) << msg;
+}
+
 TEST(Gltf, LoadedSceneFlattensIntoTheLodChain) {
     TempDir dir;
     const fs::path path = dir / "scene.glb";

@@ -68,17 +68,20 @@ TEST(BakeCmd, BakesTheCornellBoxWithSummaryReportAndExr) {
     ASSERT_EQ(j["maps"].size(), 1u);
     const std::string exr = j["maps"][0]["exr"].get<std::string>();
     EXPECT_EQ(fs::path(exr), d / "out.lightmap0.exr");
-    // The EXR master holds linear E; the PNG in the glTF is the same map scaled by intensity.
+    // The EXR master holds linear E; the PNG in the glTF is the same map, RGBM-encoded with the
+    // range `intensity`: E = rgb/255 * a/255 * intensity within half a step of rgb.
     Result<HdrImage> master = read_exr(exr);
     ASSERT_TRUE(master.ok()) << master.error().message;
     ASSERT_EQ(master->width, out->textures[0].width);
     ASSERT_EQ(master->height, out->textures[0].height);
     const float intensity = out->materials[0].lightmap.intensity;
+    EXPECT_EQ(out->materials[0].lightmap.encoding, LightmapEncoding::Rgbm);
     size_t compared = 0;
     for (size_t i = 0; i < master->rgb.size(); ++i)
         for (int c = 0; c < 3; ++c) {
-            const float png = out->textures[0].rgba8[4 * i + c] / 255.0f * intensity;
-            EXPECT_NEAR(png, master->rgb[i][c], 0.51f / 255.0f * intensity + 1e-6f);
+            const float m = out->textures[0].rgba8[4 * i + 3] / 255.0f * intensity;
+            const float png = out->textures[0].rgba8[4 * i + c] / 255.0f * m;
+            EXPECT_NEAR(png, master->rgb[i][c], 0.51f / 255.0f * m + 1e-6f);
             ++compared;
         }
     EXPECT_GT(compared, 0u);

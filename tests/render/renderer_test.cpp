@@ -204,6 +204,46 @@ TEST(VulkanRenderer, LightmappedQuadIsAlbedoTimesIrradianceOverPi) {
     }
 }
 
+// An RGBM lightmap (MOZ_lightmap.extras.encoding "RGBM"): E = rgb/255 * a/255 * intensity. Texels
+// 0-1 hold E = 1e-3 of the range (rgb 65, a 1; linear 8-bit would store 0), texels 2-3 the range
+// itself (255, 255). Where uv1 falls between the two dim texels the pixel is albedo * E / pi
+// within 2 %; halfway between a dim and a bright texel it is the mean of the two decoded values
+// (the renderer decodes before filtering; filtering rgb and a apart would read 37 % low).
+TEST(VulkanRenderer, RgbmLightmapKeepsTheDarkEndAndIsDecodedBeforeFiltering) {
+    const float range = 628.0f;
+    Scene scene;
+    Texture lm;
+    lm.width = 4;
+    lm.height = 1;
+    lm.rgba8 = {65, 65, 65, 1, 65, 65, 65, 1, 255, 255, 255, 255, 255, 255, 255, 255};
+    scene.textures.push_back(lm);
+    const double dim = 1e-3 * range, bright = range;  // the E the texels stand for
+    const float albedo[2] = {1.0f, 0.002f};
+    const float u[2] = {0.25f, 0.5f};  // between texels 0 and 1; halfway from 1 to 2
+    const double expected[2] = {albedo[0] * dim / kPiD, albedo[1] * 0.5 * (dim + bright) / kPiD};
+    for (int i = 0; i < 2; ++i) {
+        Material m = flat({albedo[i], albedo[i], albedo[i], 1.0f});
+        m.lightmap = {0, 1, range, LightmapEncoding::Rgbm};
+        scene.materials.push_back(m);
+        Primitive p = quad(-2, -2, 2, 2, -1, i);
+        p.uv1.assign(4, {u[i], 0.5f});
+        scene.meshes.push_back(mesh_of(p));
+    }
+    auto r = make_renderer(32, 32);
+    ASSERT_TRUE(r);
+    ASSERT_TRUE(r->upload(scene).ok());
+    for (int i = 0; i < 2; ++i) {
+        const DrawItem item{i, glm::mat4(1.0f)};
+        StereoImage img = render_ok(*r, straight_views(), {&item, 1});
+        for (int eye = 0; eye < 2; ++eye)
+            for (int c = 0; c < 3; ++c) {
+                const double got = srgb_to_linear(img.eye[eye].at(16, 16)[c]);
+                EXPECT_NEAR(got, expected[i], 0.02 * expected[i])
+                    << (i == 0 ? "dim texel" : "between dim and bright") << " eye " << eye;
+            }
+    }
+}
+
 TEST(VulkanRenderer, TextureUsedAsBaseColourAndLightmapIsDecodedOnceEachWay) {
     // One texture, sRGB-decoded as base colour and read as linear UNORM as the lightmap.
     const int v = 180;

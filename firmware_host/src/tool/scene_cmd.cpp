@@ -48,8 +48,9 @@ void print_scene_info(const std::filesystem::path& path, const Scene& scene) {
                     m.base_color_factor.g, m.base_color_factor.b, m.base_color_factor.a);
         if (m.base_color_texture >= 0) std::printf(" texture %d", m.base_color_texture);
         if (m.lightmap.texture >= 0)
-            std::printf(" lightmap %d (TEXCOORD_%d, intensity %.3f)", m.lightmap.texture,
-                        m.lightmap.tex_coord, m.lightmap.intensity);
+            std::printf(" lightmap %d (TEXCOORD_%d, intensity %.3f%s)", m.lightmap.texture,
+                        m.lightmap.tex_coord, m.lightmap.intensity,
+                        m.lightmap.encoding == LightmapEncoding::Rgbm ? ", RGBM" : "");
         if (m.double_sided) std::printf(" double-sided");
         std::printf("\n");
     }

@@ -1,10 +1,10 @@
 // The bake pipeline (docs/baking.md): UV atlas -> texel rasterisation -> texel validity /
 // back-face push-off -> path-traced irradiance per texel -> dilation of invalid and gutter texels
-// -> edge-aware A-trous denoise -> seam blending -> encoding (EXR master + scaled PNG in the glTF
+// -> edge-aware A-trous denoise -> seam blending -> encoding (EXR master + RGBM PNG in the glTF
 // with MOZ_lightmap.intensity), and per-vertex _LIGHT_0 for the primitives without a lightmap (or
 // all, with `vertex`).
 //
-// Stored quantity: linear irradiance E (texel x intensity); the renderer's diffuse is
+// Stored quantity: linear irradiance E (RGBM texel x intensity); the renderer's diffuse is
 // albedo x E / pi (docs/formats.md). Vertex light: _LIGHT_0 = E (float, Primitive::light).
 //
 // Deterministic: texel t of map m draws its random numbers from Pcg32(seed, hash(m, t)), so a
@@ -51,10 +51,13 @@ struct BakeOptions {
     // clamped to it (firefly suppression; biased). 0: off, the unbiased estimate.
     float firefly_factor = 0.0f;
     int vertex_samples = 0;  // paths per vertex-oracle call (0: samples)
-    // MOZ_lightmap.intensity = this quantile of the texels' max channel: the 8-bit range goes to
-    // the bulk of the map and the brightest 0.1 % (e.g. next to a bulb) clamp in the PNG (the EXR
-    // master keeps them). 1: the maximum, nothing clamps.
+    // MOZ_lightmap.intensity = this quantile of the texels' max channel: the RGBM range (the
+    // precision bound holds down to 1e-3 of it) goes to the bulk of the map and the brightest
+    // 0.1 % (e.g. next to a bulb) clamp in the PNG (the EXR master keeps them). 1: the maximum,
+    // nothing clamps.
     double intensity_percentile = 0.999;
+    // How the glTF's lightmap texels hold E (RGBM: 8-bit HDR, decoded by the renderer).
+    LightmapEncoding lightmap_encoding = LightmapEncoding::Rgbm;
     std::string exr_prefix;  // non-empty: write <prefix><k>.exr (linear E) per map
 };
 

@@ -19,12 +19,19 @@ struct Texture {
     std::vector<uint8_t> rgba8;  // decoded RGBA8, rows top to bottom (glTF uv (0,0) = top-left)
 };
 
-// MOZ_lightmap {index, texCoord, intensity}: texels hold linear irradiance E scaled into [0,1];
-// the renderer's diffuse light is albedo * E / pi with E = texel * intensity (see docs/formats.md).
+// How a lightmap's RGBA8 texels hold irradiance (MOZ_lightmap.extras.encoding, docs/formats.md):
+// Linear: E = rgb * intensity (rgb in [0, 1], alpha unused; files without the field);
+// Rgbm: E = rgb * a * intensity (a shared multiplier in alpha: 8-bit HDR that keeps <= 0.8 %
+// relative error down to 1e-3 of intensity).
+enum class LightmapEncoding { Linear, Rgbm };
+
+// MOZ_lightmap {index, texCoord, intensity}: texels hold linear irradiance E scaled into [0,1]
+// (as `encoding` says); the renderer's diffuse light is albedo * E / pi (see docs/formats.md).
 struct Lightmap {
     int texture = -1;
     int tex_coord = 1;
     float intensity = 1.0f;
+    LightmapEncoding encoding = LightmapEncoding::Linear;
 };
 
 struct Material {
