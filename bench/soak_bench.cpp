@@ -178,8 +178,11 @@ int main(int argc, char** argv) {
         std::this_thread::sleep_until(next);
         Sample s;
         s.minutes = std::chrono::duration<double>(Wall::now() - t0).count() / 60.0;
+        // note: /proc first: a control client's connection is closed by the daemon at its next
+        // frame, and counting it would be noise.
+        alive = read_status(pid, &s);
         s.frames = frames_now();
-        alive = read_status(pid, &s) && s.frames >= 0;
+        alive = alive && s.frames >= 0;
         if (!alive) break;
         samples.push_back(s);
         std::printf("%8.2f %10.0f %5.0f %8.0f %10lld\n", s.minutes, s.rss_kib, s.fds, s.threads,
@@ -203,6 +206,13 @@ int main(int argc, char** argv) {
     const Sample &first = steady.front(), &last = steady.back();
     const double rss_slope = slope(steady, &Sample::rss_kib);
     const double fd_slope = slope(steady, &Sample::fds);
+    // Growth: the most fds open in the second half above the most in the first (a status write's
+    // temporary file can be open at a sample; a leak raises the maximum).
+    double fd_max_first = 0, fd_max_second = 0;
+    for (size_t i = 0; i < steady.size(); ++i) {
+        double& m = i < steady.size() / 2 ? fd_max_first : fd_max_second;
+        m = std::max(m, steady[i].fds);
+    }
     double thr_min = first.threads, thr_max = first.threads;
     for (const Sample& s : steady)
         thr_min = std::min(thr_min, s.threads), thr_max = std::max(thr_max, s.threads);
@@ -225,8 +235,11 @@ int main(int argc, char** argv) {
                   "| RSS (KiB) | %.0f | %.0f | %+.2f KiB/min | < 1 KiB/min | %s |\n", first.rss_kib,
                   last.rss_kib, rss_slope, rss_slope < 1.0 ? "yes" : "no");
     out += buf;
-    std::snprintf(buf, sizeof buf, "| open fds | %.0f | %.0f | %+.3f fds/min | 0 growth | %s |\n",
-                  first.fds, last.fds, fd_slope, last.fds <= first.fds ? "yes" : "no");
+    std::snprintf(
+        buf, sizeof buf,
+        "| open fds | %.0f | %.0f | %+.3f fds/min (max %.0f, then %.0f) | 0 growth | %s |\n",
+        first.fds, last.fds, fd_slope, fd_max_first, fd_max_second,
+        fd_max_second <= fd_max_first ? "yes" : "no");
     out += buf;
     std::snprintf(buf, sizeof buf,
                   "| threads | %.0f | %.0f | min %.0f, max %.0f | constant | %s |\n", first.threads,
