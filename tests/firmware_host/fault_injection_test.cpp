@@ -23,8 +23,6 @@
 #include <nlohmann/json.hpp>
 #include "firmware_host/command_run.hpp"
 
-extern char** environ;
-
 namespace fs = std::filesystem;
 
 namespace {
@@ -41,22 +39,6 @@ size_t count(const std::string& text, const std::string& what) {
     size_t n = 0;
     for (size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
     return n;
-}
-
-// Starts `args` (argv[0] the program) with stdout and stderr to `log`.
-pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {
-    std::vector<std::string> a = args;
-    std::vector<char*> argv;
-    for (std::string& s : a) argv.push_back(s.data());
-    argv.push_back(nullptr);
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_adddup2(&fa, 1, 2);
-    pid_t pid = -1;
-    if (posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ) != 0) pid = -1;
-    posix_spawn_file_actions_destroy(&fa);
-    return pid;
 }
 
 // The process's CPU time in clock ticks (utime + stime, /proc/PID/stat); -1 when it is gone or a
@@ -98,7 +80,7 @@ std::vector<std::string> files_in(const fs::path& dir) {
 void expect_sigterm_leaves_nothing(const std::vector<std::string>& args, const fs::path& out_dir,
                                    const std::function<bool(pid_t)>& in_the_middle) {
     const fs::path log = out_dir.parent_path() / (out_dir.filename().string() + ".log");
-    const pid_t pid = spawn(args, log);
+    const pid_t pid = hmdnode::test::spawn(args, log);
     ASSERT_GT(pid, 0);
     const bool reached = wait_for(pid, [&] { return in_the_middle(pid); });
     ::kill(pid, SIGTERM);
@@ -161,8 +143,8 @@ TEST(FaultInjection, SceneFileReplacedUnderTheRunningDaemonChangesNothing) {
     fs::copy_file(kScene, dir / "scene.glb");
     std::ofstream(dir / "hmdnoded.json")
         << sim_config(dir / "scene.glb", dir / "status.json").dump(1);
-    const pid_t pid =
-        spawn({HMDNODE_DAEMON, "--config", (dir / "hmdnoded.json").string()}, dir / "log");
+    const pid_t pid = hmdnode::test::spawn(
+        {HMDNODE_DAEMON, "--config", (dir / "hmdnoded.json").string()}, dir / "log");
     ASSERT_GT(pid, 0);
     auto frames = [&]() -> int64_t {
         const nlohmann::json s =
