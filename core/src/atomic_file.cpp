@@ -1,16 +1,86 @@
 #include "hmdnode/core/atomic_file.hpp"
 
 #include <fcntl.h>
+#include <pthread.h>
+#include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
+#include <csignal>
 #include <cstring>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <string>
 
 namespace hmdnode {
+namespace {
+
+// The temporary files in flight: a slot is claimed with `state` 0 -> 1 (being filled), published
+// as 2 (its path complete) and freed with 0. The handler reads only published slots.
+constexpr int kSlots = 16;
+constexpr size_t kPathMax = 4096;
+struct Slot {
+    std::atomic<int> state{0};
+    char path[kPathMax];
+};
+Slot g_slots[kSlots];
+
+void remove_temporaries_and_die(int sig) {
+    for (Slot& s : g_slots)
+        if (s.state.load() == 2) ::unlink(s.path);
+    std::signal(sig, SIG_DFL);
+    ::raise(sig);
+}
+
+}  // namespace
+
+TemporaryFileGuard::TemporaryFileGuard(const std::string& path) {
+    if (path.size() >= kPathMax) return;
+    for (int i = 0; i < kSlots; ++i) {
+        int expected = 0;
+        if (g_slots[i].state.compare_exchange_strong(expected, 1)) {
+            std::memcpy(g_slots[i].path, path.c_str(), path.size() + 1);
+            g_slots[i].state.store(2);
+            slot_ = i;
+            return;
+        }
+    }
+}
+
+TemporaryFileGuard::~TemporaryFileGuard() {
+    if (slot_ >= 0) g_slots[slot_].state.store(0);
+}
+
+namespace {
+
+// mkstemp and its registration with the termination signals blocked, so no moment leaves the
+// file on disk unregistered.
+int make_temporary(std::string& tmpl, std::optional<TemporaryFileGuard>* guard) {
+    sigset_t block, old;
+    sigemptyset(&block);
+    for (int sig : {SIGTERM, SIGINT, SIGHUP}) sigaddset(&block, sig);
+    pthread_sigmask(SIG_BLOCK, &block, &old);
+    const int fd = mkstemp(tmpl.data());
+    const int saved = errno;
+    if (fd >= 0) guard->emplace(tmpl);
+    pthread_sigmask(SIG_SETMASK, &old, nullptr);
+    errno = saved;
+    return fd;
+}
+
+}  // namespace
+
+void remove_temporaries_on_termination() {
+    struct sigaction sa {};
+    sa.sa_handler = remove_temporaries_and_die;
+    sigemptyset(&sa.sa_mask);
+    // note: the other two blocked while one is handled, so the table is unlinked once.
+    for (int sig : {SIGTERM, SIGINT, SIGHUP}) sigaddset(&sa.sa_mask, sig);
+    for (int sig : {SIGTERM, SIGINT, SIGHUP}) sigaction(sig, &sa, nullptr);
+}
 
 Status write_file_atomically(const std::filesystem::path& path, std::string_view bytes) {
     std::filesystem::path dir = path.parent_path().empty() ? "." : path.parent_path();
@@ -18,7 +88,8 @@ Status write_file_atomically(const std::filesystem::path& path, std::string_view
     if (!std::filesystem::is_directory(dir, ec))
         return make_error(path.string() + ": directory " + dir.string() + " does not exist");
     std::string tmpl = (dir / ("." + path.filename().string() + ".tmp.XXXXXX")).string();
-    int fd = mkstemp(tmpl.data());
+    std::optional<TemporaryFileGuard> guard;
+    int fd = make_temporary(tmpl, &guard);
     if (fd < 0)
         return make_error(path.string() +
                           ": cannot create temporary file: " + std::strerror(errno));
@@ -55,7 +126,8 @@ Status check_output_file(const std::filesystem::path& path) {
     if (!std::filesystem::is_directory(dir, ec))
         return make_error(path.string() + ": directory " + dir.string() + " does not exist");
     std::string tmpl = (dir / ("." + path.filename().string() + ".check.XXXXXX")).string();
-    const int fd = mkstemp(tmpl.data());
+    std::optional<TemporaryFileGuard> guard;
+    const int fd = make_temporary(tmpl, &guard);
     if (fd < 0)
         return make_error(path.string() + ": cannot create a file in " + dir.string() + ": " +
                           std::strerror(errno));

@@ -2,12 +2,17 @@
 // code and output, and make an empty scratch directory.
 #pragma once
 
+#include <fcntl.h>
+#include <spawn.h>
 #include <sys/wait.h>
 
 #include <array>
 #include <cstdio>
 #include <filesystem>
 #include <string>
+#include <vector>
+
+extern char** environ;
 
 namespace hmdnode::test {
 
@@ -27,6 +32,24 @@ inline CommandRun run(const std::string& cmd) {
     const int st = pclose(p);
     r.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
     return r;
+}
+
+// Starts `args` (argv[0] the program's path) in the background with stdout and stderr to `log`,
+// in the environment `envp` (null: this process's); -1 when it cannot start.
+inline pid_t spawn(const std::vector<std::string>& args, const std::filesystem::path& log,
+                   char** envp = nullptr) {
+    std::vector<std::string> a = args;
+    std::vector<char*> argv;
+    for (std::string& s : a) argv.push_back(s.data());
+    argv.push_back(nullptr);
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_adddup2(&fa, 1, 2);
+    pid_t pid = -1;
+    if (posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), envp ? envp : environ) != 0) pid = -1;
+    posix_spawn_file_actions_destroy(&fa);
+    return pid;
 }
 
 // An empty directory <tmp>/<name>, removed first if it exists.

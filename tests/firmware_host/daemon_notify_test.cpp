@@ -94,17 +94,7 @@ pid_t spawn_daemon(const fs::path& config, const fs::path& sock, const std::stri
     envp.push_back(nullptr);
     std::vector<std::string> args = {HMDNODE_DAEMON, "--config", config.string()};
     if (!max_frames.empty()) args.insert(args.end(), {"--max-frames", max_frames});
-    std::vector<char*> argv;
-    for (std::string& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_adddup2(&fa, 1, 2);
-    pid_t pid = -1;
-    if (posix_spawn(&pid, HMDNODE_DAEMON, &fa, nullptr, argv.data(), envp.data()) != 0) pid = -1;
-    posix_spawn_file_actions_destroy(&fa);
-    return pid;
+    return hmdnode::test::spawn(args, log, envp.data());
 }
 
 int wait_exit(pid_t pid) {

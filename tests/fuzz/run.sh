@@ -2,13 +2,14 @@
 # Configures and builds the fuzz build of this project (HMDNODE_FUZZ=ON, tests/fuzz/CMakeLists.txt:
 # one libFuzzer executable per tests/fuzz/*_fuzz.cpp, linked to the libraries' own CMake targets,
 # all compiled by clang++ with the fuzzer's coverage and -fsanitize=address,undefined) in
-# WORK_DIR/build, then runs each harness for FUZZ_SECONDS (default 6) seconds on its seeds.
+# WORK_DIR/build, then runs each harness for FUZZ_SECONDS (default 10) seconds on its seeds: the
+# committed ones (tests/fuzz/seeds/<harness>/) and those made below from the data.
 # Usage: run.sh CMAKE GENERATOR CLANGXX SOURCE_DIR WORK_DIR   (FUZZ_JOBS: build jobs, default 2)
 # Exit 77 (CTest: skipped) when clang++ cannot link libFuzzer; says so on stderr. A harness that
 # does not build, or finds a crash, fails the run.
 set -eu
 CMAKE="$1"; GEN="$2"; CXX="$3"; SRC="$4"; WORK="$5"
-SECONDS_EACH="${FUZZ_SECONDS:-6}"
+SECONDS_EACH="${FUZZ_SECONDS:-10}"
 mkdir -p "$WORK"
 
 printf '#include <cstdint>\n#include <cstddef>\nextern "C" int LLVMFuzzerTestOneInput(const uint8_t*, size_t) { return 0; }\n' \
@@ -34,7 +35,10 @@ if ! { "$CMAKE" -S "$SRC" -B "$WORK/build" -G "$GEN" -DCMAKE_BUILD_TYPE=Debug \
   exit 1
 fi
 HARNESSES=$(for f in "$SRC"/tests/fuzz/*_fuzz.cpp; do basename "$f" .cpp; done)
-for f in $HARNESSES; do mkdir -p "$WORK/corpus/$f"; done
+for f in $HARNESSES; do
+  mkdir -p "$WORK/corpus/$f"
+  if [ -d "$SRC/tests/fuzz/seeds/$f" ]; then cp "$SRC/tests/fuzz/seeds/$f"/* "$WORK/corpus/$f/"; fi
+done
 
 # Seeds: a valid prefix of the real capture (plain and gzip'd) (data/traces).
 if [ -f "$SRC/data/traces/vive_cal.pcap.gz" ]; then

@@ -2,7 +2,9 @@
 
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <set>
+#include <type_traits>
 
 #include <nlohmann/json.hpp>
 
@@ -38,8 +40,26 @@ struct Reader {
     template <class T>
     void get(const json& obj, const char* key, T* out) {
         if (!obj.contains(key)) return;
+        const json& v = obj.at(key);
+        if constexpr (std::is_integral_v<T> && !std::is_same_v<T, bool>) {
+            // note: nlohmann converts a float or an out-of-range integer with a bare cast
+            // (undefined for 1e30); an integer field takes an integer that fits.
+            const bool fits =
+                v.is_number_unsigned()
+                    ? v.get<uint64_t>() <= uint64_t(std::numeric_limits<T>::max())
+                    : v.is_number_integer() &&
+                          v.get<int64_t>() >= int64_t(std::numeric_limits<T>::min()) &&
+                          (std::is_unsigned_v<T> ||
+                           v.get<int64_t>() <= int64_t(std::numeric_limits<T>::max()));
+            if (!fits) {
+                fail(std::string("\"") + key + "\" must be an integer from " +
+                     std::to_string(std::numeric_limits<T>::min()) + " to " +
+                     std::to_string(std::numeric_limits<T>::max()));
+                return;
+            }
+        }
         try {
-            *out = obj.at(key).get<T>();
+            *out = v.get<T>();
         } catch (const json::exception&) {
             fail(std::string("\"") + key + "\" has the wrong type");
         }
@@ -122,15 +142,20 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
             if (!serial.empty()) c.tracker_device.serial = serial;
         }
         if (!trace.empty()) c.trace = resolve(trace);
-        c.tracker.latency_ns = int64_t(latency_us * 1000.0);
-        c.tracker.jitter_ns = int64_t(jitter_us * 1000.0);
+        // note: checked before the conversion, which overflows (undefined) for absurd values.
+        if (!(latency_us >= 0.0 && latency_us <= kMaxTrackerDelayUs && jitter_us >= 0.0 &&
+              jitter_us <= kMaxTrackerDelayUs))
+            r.fail("tracker.latency_us and tracker.jitter_us must be between 0 and " +
+                   std::to_string(int(kMaxTrackerDelayUs)) + " (a second)");
+        else {
+            c.tracker.latency_ns = int64_t(latency_us * 1000.0);
+            c.tracker.jitter_ns = int64_t(jitter_us * 1000.0);
+        }
         if (!(c.tracker.resample_hz >= 0.0 && c.tracker.resample_hz <= kMaxResampleHz))
             r.fail("tracker.resample_hz must be between 0 (as recorded) and " +
                    std::to_string(int(kMaxResampleHz)) + " Hz");
         if (!(c.tracker.noise_deg >= 0.0 && c.tracker.noise_deg <= 180.0))
             r.fail("tracker.noise_deg must be between 0 and 180");
-        if (latency_us < 0.0 || jitter_us < 0.0)
-            r.fail("tracker.latency_us and tracker.jitter_us must be >= 0");
     }
     json d = j.value("display", json::object());
     if (r.check_keys(d, "display",
@@ -148,8 +173,10 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         if (type != "mock")
             r.fail("display.type \"" + type +
                    "\" is not available in this build (available: mock)");
-        c.display.persistence_ns = ms_to_ns(persistence_ms);
-        if (persistence_ms < 0.0) r.fail("display.persistence_ms must be >= 0");
+        if (!(persistence_ms >= 0.0 && persistence_ms <= 1000.0))
+            r.fail("display.persistence_ms must be between 0 and 1000");
+        else
+            c.display.persistence_ns = ms_to_ns(persistence_ms);
         if (c.display.refresh_hz > 0.0)
             if (Status st = check_persistence(c.display); !st.ok())
                 r.fail("display.persistence_ms " + st.error().message);
@@ -192,7 +219,8 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         r.get(s, "path", &sp);
         r.get(s, "every_s", &c.status_every_s);
         if (!sp.empty()) c.status_path = resolve(sp);
-        if (!(c.status_every_s > 0.0)) r.fail("status.every_s must be > 0");
+        if (!(c.status_every_s > 0.0 && c.status_every_s <= 86400.0))
+            r.fail("status.every_s must be > 0 and at most 86400 (a day)");
     }
     if (const char* rd = std::getenv("RUNTIME_DIRECTORY"); rd && *rd && !std::strchr(rd, ':'))
         c.control_path = std::filesystem::path(rd) / "control";

@@ -33,6 +33,7 @@
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/gltf.hpp"
 #include "hmdnode/core/trace.hpp"
+#include "hmdnode/firmware_host/control_protocol.hpp"
 #include "hmdnode/firmware_host/control_socket.hpp"
 #include "hmdnode/firmware_host/node.hpp"
 #include "hmdnode/firmware_host/replay.hpp"
@@ -210,6 +211,7 @@ int main(int argc, char** argv) {
     for (std::vector<double>* v : {&lat, &render_ms, &warp_ms})
         v->reserve(size_t(cfg->status_every_s * dc.refresh_hz * 2.0) + 16);
     FrameRecord rec;
+    bool status_failing = false;  // the last status write failed (said once)
 
     // The control socket, served between frames (docs/daemon.md, "Control socket").
     DaemonMetrics metrics;
@@ -219,47 +221,43 @@ int main(int argc, char** argv) {
     std::unique_ptr<ControlServer> control;
     if (!cfg->control_path.empty()) {
         auto handler = [&](const nlohmann::json& c) -> nlohmann::json {
-            const std::string cmd = c["cmd"].get<std::string>();
-            if (cmd == "status")
-                return {{"ok", true},
-                        {"frames", frames},
-                        {"errors", errors},
-                        {"ready", ready},
-                        {"paused", paused},
-                        {"has_pose", node.has_pose()},
-                        {"predict", node.config().predict},
-                        {"lod_tolerance_px", node.config().lod.tolerance_px},
-                        {"window", last_window}};
-            if (cmd == "metrics") {
-                std::optional<DeviceTrackerStatus> ts;
-                if (device_tracker) ts = device_tracker->status();
-                return {{"ok", true}, {"metrics", metrics.prometheus(ts ? &*ts : nullptr)}};
-            }
-            if (cmd == "pause" || cmd == "resume") {
-                paused = cmd == "pause";
-                spdlog::info("control: {}", cmd);
-                return {{"ok", true}, {"paused", paused}};
-            }
-            if (cmd == "set") {
-                const std::string key = c.value("key", "");
-                const nlohmann::json v = c.value("value", nlohmann::json());
-                if (key == "predict" && v.is_boolean()) {
-                    node.set_predict(v.get<bool>());
-                } else if (key == "lod_tolerance_px" && v.is_number()) {
-                    if (Status st = node.set_lod_tolerance_px(v.get<double>()); !st.ok())
-                        return {{"ok", false}, {"error", st.error().message}};
-                } else {
-                    return {{"ok", false},
-                            {"error",
-                             "set: give \"key\": \"predict\" with a boolean value, or "
-                             "\"lod_tolerance_px\" with a number >= 0"}};
+            using Kind = ControlCommand::Kind;
+            Result<ControlCommand> cmd = parse_control_command(c);
+            if (!cmd.ok()) return {{"ok", false}, {"error", cmd.error().message}};
+            switch (cmd->kind) {
+                case Kind::status:
+                    return {{"ok", true},
+                            {"frames", frames},
+                            {"errors", errors},
+                            {"ready", ready},
+                            {"paused", paused},
+                            {"has_pose", node.has_pose()},
+                            {"predict", node.config().predict},
+                            {"lod_tolerance_px", node.config().lod.tolerance_px},
+                            {"window", last_window}};
+                case Kind::metrics: {
+                    std::optional<DeviceTrackerStatus> ts;
+                    if (device_tracker) ts = device_tracker->status();
+                    return {{"ok", true}, {"metrics", metrics.prometheus(ts ? &*ts : nullptr)}};
                 }
-                spdlog::info("control: set {} {}", key, v.dump());
-                return {{"ok", true}, {"key", key}, {"value", v}};
+                case Kind::pause:
+                case Kind::resume:
+                    paused = cmd->kind == Kind::pause;
+                    spdlog::info("control: {}", paused ? "pause" : "resume");
+                    return {{"ok", true}, {"paused", paused}};
+                case Kind::set_predict:
+                    node.set_predict(cmd->predict);
+                    spdlog::info("control: set predict {}", cmd->predict);
+                    return {{"ok", true}, {"key", "predict"}, {"value", cmd->predict}};
+                case Kind::set_lod_tolerance_px:
+                    if (Status st = node.set_lod_tolerance_px(cmd->lod_tolerance_px); !st.ok())
+                        return {{"ok", false}, {"error", st.error().message}};
+                    spdlog::info("control: set lod_tolerance_px {}", cmd->lod_tolerance_px);
+                    return {{"ok", true},
+                            {"key", "lod_tolerance_px"},
+                            {"value", cmd->lod_tolerance_px}};
             }
-            return {
-                {"ok", false},
-                {"error", "unknown command \"" + cmd + "\" (status, metrics, pause, resume, set)"}};
+            return {{"ok", false}, {"error", "unhandled command"}};
         };
         Result<std::unique_ptr<ControlServer>> cs = ControlServer::open(cfg->control_path, handler);
         if (!cs.ok()) {
@@ -422,9 +420,19 @@ int main(int argc, char** argv) {
                     spdlog::warn("tracker disconnected ({}); holding the last pose", ts.last_error);
             }
             last_window = s;
-            if (!cfg->status_path.empty())
-                if (Status ws = write_file_atomically(cfg->status_path, s.dump(1)); !ws.ok())
-                    spdlog::warn("{}", ws.error().message);
+            // A status file that cannot be written (its directory read-only, full or gone) does
+            // not stop the loop: said once when it starts failing, once when it works again.
+            if (!cfg->status_path.empty()) {
+                const Status ws = write_file_atomically(
+                    cfg->status_path,
+                    s.dump(1, ' ', false, nlohmann::json::error_handler_t::replace));
+                if (!ws.ok() && !status_failing)
+                    spdlog::warn("status file: {}; the loop goes on, retried every {} s",
+                                 ws.error().message, cfg->status_every_s);
+                else if (ws.ok() && status_failing)
+                    spdlog::info("status file: {} written again", cfg->status_path.string());
+                status_failing = !ws.ok();
+            }
             notifier.notify(fmt::format(
                 "STATUS=frames {}, on time {}, MTP p50 {:.1f} ms p99 {:.1f} ms, render p50 {:.1f} "
                 "ms, errors {}{}",

@@ -9,7 +9,6 @@
 
 #include <cerrno>
 #include <cstring>
-#include <exception>
 
 namespace hmdnode {
 namespace {
@@ -54,7 +53,10 @@ Result<std::unique_ptr<ControlServer>> ControlServer::open(const std::filesystem
 }
 
 void ControlServer::reply(Client& c, const nlohmann::json& j) {
-    const std::string line = j.dump() + "\n";
+    // note: replace, not throw: a reply may carry a device's or the system's text, which need not
+    // be UTF-8 (last_error).
+    const std::string line =
+        j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
     // note: a client that does not read its replies loses them; the loop never waits for it.
     (void)::send(c.fd, line.data(), line.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
 }
@@ -90,17 +92,7 @@ void ControlServer::serve() {
                 close_it = true;
                 break;
             }
-            nlohmann::json cmd = nlohmann::json::parse(line, nullptr, false);
-            if (cmd.is_discarded() || !cmd.is_object() || !cmd.contains("cmd") ||
-                !cmd["cmd"].is_string())
-                reply(c, {{"ok", false},
-                          {"error", "not a command: give one JSON object with \"cmd\" a line"}});
-            else
-                try {
-                    reply(c, handler_(cmd));
-                } catch (const std::exception& e) {  // a field of the wrong type, say
-                    reply(c, {{"ok", false}, {"error", std::string("bad command: ") + e.what()}});
-                }
+            reply(c, answer_control_line(line, handler_));
         }
         if (!close_it && c.in.size() > kMaxLine) {
             reply(c, {{"ok", false}, {"error", "command longer than 4096 bytes"}});

@@ -135,18 +135,6 @@ ReplaySummary summarize_vsyncs(const std::vector<FrameRecord>& frames,
     return s;
 }
 
-Status check_persistence(const MockDisplayConfig& display) {
-    const double period_ms = 1e3 / display.refresh_hz;
-    if (!(ns_to_ms(display.persistence_ns) <= period_ms)) {
-        char msg[160];
-        std::snprintf(msg, sizeof msg,
-                      "%.3f ms is longer than the refresh period (%.3f ms at %g Hz)",
-                      ns_to_ms(display.persistence_ns), period_ms, display.refresh_hz);
-        return make_error(msg);
-    }
-    return {};
-}
-
 Status check_replay_options(const ReplayOptions& opt) {
     if (!opt.report.empty())
         if (Status st = check_output_file(opt.report); !st.ok())

@@ -3,10 +3,14 @@
 
 #include <CLI/CLI.hpp>
 
+#include "hmdnode/core/atomic_file.hpp"
 #include "tool/cli_checks.hpp"
 #include "tool/commands.hpp"
 
 int main(int argc, char** argv) {
+    // SIGTERM/SIGINT/SIGHUP in the middle of a command: the temporary file of an output being
+    // written is removed, then the process ends by the signal (README, "Exit status").
+    hmdnode::remove_temporaries_on_termination();
     CLI::App app{"hmdnode: the tools of the hmdnode head-mounted display rendering node"};
     app.require_subcommand(1);
     hmdnode::tool::register_commands(app);

@@ -68,9 +68,9 @@ void add_replay_command(CLI::App& app) {
                   "Gaussian orientation noise (deg, std dev)")
         ->check(CLI::Range(0.0, 180.0));
     c->add_option("--latency-us", *latency_us, "Tracker transport latency (us)")
-        ->check(CLI::NonNegativeNumber);
+        ->check(CLI::Range(0.0, kMaxTrackerDelayUs));
     c->add_option("--jitter-us", *jitter_us, "Tracker arrival jitter (us, uniform)")
-        ->check(CLI::NonNegativeNumber);
+        ->check(CLI::Range(0.0, kMaxTrackerDelayUs));
     c->add_option("--seed", opt->tracker.seed, "Seed for noise and jitter");
     c->add_option("--lod-tolerance-px", opt->node.lod.tolerance_px,
                   "LOD pixel tolerance at the gaze point")

@@ -103,4 +103,16 @@ Result<std::unique_ptr<Display>> create_mock_display(Clock& clock,
     return std::unique_ptr<Display>(new MockDisplay(clock, config));
 }
 
+Status check_persistence(const MockDisplayConfig& display) {
+    const double period_ms = 1e3 / display.refresh_hz;
+    if (!(ns_to_ms(display.persistence_ns) <= period_ms)) {
+        char msg[160];
+        std::snprintf(msg, sizeof msg,
+                      "%.3f ms is longer than the refresh period (%.3f ms at %g Hz)",
+                      ns_to_ms(display.persistence_ns), period_ms, display.refresh_hz);
+        return make_error(msg);
+    }
+    return {};
+}
+
 }  // namespace hmdnode

@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "hmdnode/core/result.hpp"
+#include "hmdnode/firmware_host/control_protocol.hpp"
 
 namespace hmdnode {
 
@@ -24,7 +25,7 @@ class ControlServer {
     static constexpr size_t kMaxLine = 4096;
 
     // Maps a command (a JSON object with "cmd") to its reply object ("ok": true/false, ...).
-    using Handler = std::function<nlohmann::json(const nlohmann::json& command)>;
+    using Handler = ControlHandler;
 
     // Binds `path` (a stale socket there is replaced), mode 0660 (the service user and its group).
     static Result<std::unique_ptr<ControlServer>> open(const std::filesystem::path& path,

@@ -122,9 +122,9 @@ nlohmann::json percentiles_json(const Percentiles& p);
 // up front, so an absurd rate would exhaust memory; 4 kHz is twice the fastest IMU report rate
 // of the devices in docs/hardware.md.
 inline constexpr double kMaxResampleHz = 4000.0;
-
-// A panel lit longer than its refresh period is not a panel: the error gives both figures.
-Status check_persistence(const MockDisplayConfig& display);
+// The largest simulated transport latency or jitter (us): a second. Larger values mean nothing for
+// a head tracker, and converting absurd ones to nanoseconds would overflow.
+inline constexpr double kMaxTrackerDelayUs = 1e6;
 
 // The options' values checked before any work (run_replay's first step): the report path can be
 // written (core's check_output_file), the persistence fits the period, the tracker's rate, noise,

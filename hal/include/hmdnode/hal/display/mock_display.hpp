@@ -23,6 +23,9 @@ struct MockDisplayConfig {
     int frames_every = 1;                // write every Nth presented frame
 };
 
+// A panel lit longer than its refresh period is not a panel: the error gives both figures.
+Status check_persistence(const MockDisplayConfig& display);
+
 // Fails when the configuration is invalid (size, rate) or frames_dir cannot be created.
 Result<std::unique_ptr<Display>> create_mock_display(Clock& clock, const MockDisplayConfig& config);
 

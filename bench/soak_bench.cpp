@@ -1,0 +1,258 @@
+// Soak benchmark (issue 24 item 5): hmdnoded as deployed -- its own process, a config on the
+// simulated clock (or the real one) with the simulated tracker, a status file and a control socket
+// -- runs for a given time while this program samples, every few seconds, its resident memory
+// (VmRSS), open file descriptors (/proc/PID/fd) and threads, and asks the control socket for
+// `status` and `metrics` (so the socket's own path is soaked too). It prints each sample and the
+// least-squares slopes after a warm-up (the first fifth of the run, at least one sample: caches,
+// the allocator's arenas and the pipeline settle) beside the targets: RSS < 1 KiB/min, no fd
+// growth, a constant thread count, no crash (the daemon exits 0 on SIGTERM at the end).
+//
+// Usage: bench_soak_bench [--minutes M=1] [--every S=5] [--clock sim|real] [--tracker
+//        sim-trace|sim-device] [--eye N=64] [--write-docs [--docs FILE=docs/benchmarks.md]]
+// --write-docs puts the table between <!-- soak-bench-table --> markers (bench/doc_table.hpp).
+// Cost: one daemon rendering two N x N eyes as fast as it can (sim clock) for M minutes.
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "doc_table.hpp"
+#include "hmdnode/firmware_host/control_socket.hpp"
+
+extern char** environ;
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace hmdnode;
+
+struct Sample {
+    double minutes = 0.0;  // since the first sample
+    double rss_kib = 0.0;
+    double fds = 0.0;
+    double threads = 0.0;
+    int64_t frames = 0;
+};
+
+// VmRSS (KiB) and Threads from /proc/PID/status; false when the process is gone.
+bool read_status(pid_t pid, Sample* s) {
+    std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+    bool rss = false, thr = false;
+    for (std::string line; std::getline(in, line);) {
+        if (line.rfind("VmRSS:", 0) == 0) rss = (s->rss_kib = std::atof(line.c_str() + 6)) > 0;
+        if (line.rfind("Threads:", 0) == 0) thr = (s->threads = std::atof(line.c_str() + 8)) > 0;
+    }
+    if (!rss || !thr) return false;
+    std::error_code ec;
+    size_t n = 0;
+    for (fs::directory_iterator it("/proc/" + std::to_string(pid) + "/fd", ec), end;
+         !ec && it != end; it.increment(ec))
+        ++n;
+    s->fds = double(n);
+    return !ec;
+}
+
+// Least-squares slope of y over x (per unit of x); 0 for fewer than two points.
+double slope(const std::vector<Sample>& v, double Sample::*y) {
+    if (v.size() < 2) return 0.0;
+    double mx = 0, my = 0;
+    for (const Sample& s : v) mx += s.minutes, my += s.*y;
+    mx /= double(v.size());
+    my /= double(v.size());
+    double sxy = 0, sxx = 0;
+    for (const Sample& s : v) {
+        sxy += (s.minutes - mx) * (s.*y - my);
+        sxx += (s.minutes - mx) * (s.minutes - mx);
+    }
+    return sxx > 0 ? sxy / sxx : 0.0;
+}
+
+int usage() {
+    std::fprintf(stderr,
+                 "usage: bench_soak_bench [--minutes M] [--every S] [--clock sim|real] "
+                 "[--tracker sim-trace|sim-device] [--eye N] [--write-docs [--docs FILE]]\n");
+    return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    double minutes = 1.0, every_s = 5.0;
+    int eye = 64;
+    std::string clock = "sim", tracker = "sim-trace",
+                docs = HMDNODE_SOURCE_DIR "/docs/benchmarks.md";
+    const bool write_docs = bench::wants_docs(argc, argv);
+    for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        const bool has_value = i + 1 < argc;
+        if (a == "--write-docs") continue;
+        if (!has_value) return usage();
+        const std::string v = argv[++i];
+        if (a == "--minutes")
+            minutes = std::atof(v.c_str());
+        else if (a == "--every")
+            every_s = std::atof(v.c_str());
+        else if (a == "--clock")
+            clock = v;
+        else if (a == "--tracker")
+            tracker = v;
+        else if (a == "--eye")
+            eye = std::atoi(v.c_str());
+        else if (a == "--docs")
+            docs = v;
+        else
+            return usage();
+    }
+    if (!(minutes > 0.0 && every_s > 0.0 && eye > 0) || (clock != "sim" && clock != "real") ||
+        (tracker != "sim-trace" && tracker != "sim-device"))
+        return usage();
+
+    const fs::path dir = fs::temp_directory_path() / ("hmdnode_soak_" + std::to_string(getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    nlohmann::json tr = {{"backend", tracker}, {"loop", true}};
+    tr["trace"] = HMDNODE_SOURCE_DIR "/data/traces/corbillon2018_user1.csv";
+    const nlohmann::json cfg = {
+        {"scene", HMDNODE_DEMO_SCENE},
+        {"clock", clock},
+        {"tracker", tr},
+        {"display", {{"eye_width", eye}, {"eye_height", eye}}},
+        {"status", {{"path", (dir / "status.json").string()}, {"every_s", 1.0}}},
+        {"control", {{"path", (dir / "control").string()}}}};
+    std::ofstream(dir / "hmdnoded.json") << cfg.dump(1);
+
+    std::string daemon = HMDNODE_DAEMON, config_arg = (dir / "hmdnoded.json").string(),
+                flag = "--config";
+    char* args[] = {daemon.data(), flag.data(), config_arg.data(), nullptr};
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    const std::string log = (dir / "log").string();
+    posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_adddup2(&fa, 1, 2);
+    pid_t pid = -1;
+    if (posix_spawn(&pid, daemon.c_str(), &fa, nullptr, args, environ) != 0) {
+        std::fprintf(stderr, "cannot start %s\n", daemon.c_str());
+        return 1;
+    }
+    posix_spawn_file_actions_destroy(&fa);
+
+    // Ready: the control socket answers with a presented frame.
+    using Wall = std::chrono::steady_clock;
+    const auto give_up = Wall::now() + std::chrono::seconds(120);
+    auto frames_now = [&]() -> int64_t {
+        Result<nlohmann::json> r = control_request(dir / "control", {{"cmd", "status"}}, 2000);
+        (void)control_request(dir / "control", {{"cmd", "metrics"}}, 2000);
+        return r.ok() && r->value("ok", false) ? r->value("frames", int64_t(0)) : -1;
+    };
+    while (frames_now() <= 0) {
+        int st = 0;
+        if (Wall::now() > give_up || waitpid(pid, &st, WNOHANG) == pid) {
+            std::fprintf(stderr, "the daemon did not become ready; its log: %s\n", log.c_str());
+            kill(pid, SIGTERM);
+            return 1;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+
+    std::printf("%8s %10s %5s %8s %10s\n", "minutes", "RSS KiB", "fds", "threads", "frames");
+    std::vector<Sample> samples;
+    const auto t0 = Wall::now();
+    const auto end = t0 + std::chrono::duration<double>(minutes * 60.0);
+    bool alive = true;
+    for (auto next = t0; alive; next += std::chrono::duration_cast<Wall::duration>(
+                                    std::chrono::duration<double>(every_s))) {
+        std::this_thread::sleep_until(next);
+        Sample s;
+        s.minutes = std::chrono::duration<double>(Wall::now() - t0).count() / 60.0;
+        // note: /proc first: a control client's connection is closed by the daemon at its next
+        // frame, and counting it would be noise.
+        alive = read_status(pid, &s);
+        s.frames = frames_now();
+        alive = alive && s.frames >= 0;
+        if (!alive) break;
+        samples.push_back(s);
+        std::printf("%8.2f %10.0f %5.0f %8.0f %10lld\n", s.minutes, s.rss_kib, s.fds, s.threads,
+                    static_cast<long long>(s.frames));
+        std::fflush(stdout);
+        if (next >= end) break;
+    }
+    kill(pid, SIGTERM);
+    int st = 0;
+    waitpid(pid, &st, 0);
+    const bool clean = alive && WIFEXITED(st) && WEXITSTATUS(st) == 0;
+
+    const size_t warm = std::max<size_t>(1, samples.size() / 5);
+    const std::vector<Sample> steady(samples.begin() + long(std::min(warm, samples.size())),
+                                     samples.end());
+    if (steady.size() < 2) {
+        std::fprintf(stderr, "too few samples after the warm-up (%zu); run longer\n",
+                     steady.size());
+        return 1;
+    }
+    const Sample &first = steady.front(), &last = steady.back();
+    const double rss_slope = slope(steady, &Sample::rss_kib);
+    const double fd_slope = slope(steady, &Sample::fds);
+    // Growth: the most fds open in the second half above the most in the first (a status write's
+    // temporary file can be open at a sample; a leak raises the maximum).
+    double fd_max_first = 0, fd_max_second = 0;
+    for (size_t i = 0; i < steady.size(); ++i) {
+        double& m = i < steady.size() / 2 ? fd_max_first : fd_max_second;
+        m = std::max(m, steady[i].fds);
+    }
+    double thr_min = first.threads, thr_max = first.threads;
+    for (const Sample& s : steady)
+        thr_min = std::min(thr_min, s.threads), thr_max = std::max(thr_max, s.threads);
+    const double fps = double(last.frames - first.frames) / ((last.minutes - first.minutes) * 60.0);
+
+    char buf[1024];
+    std::string out;
+    std::snprintf(
+        buf, sizeof buf,
+        "Measured by `build/release/bench/bench_soak_bench --minutes %g --every %g "
+        "--clock %s --tracker %s --eye %d` (%s; %s): hmdnoded on the demo scene, %zu "
+        "samples, the first %zu (%.1f min) a warm-up left out of the slopes; %.0f frames/s "
+        "over the measured part; the daemon %s.\n\n",
+        minutes, every_s, clock.c_str(), tracker.c_str(), eye, bench::build_kind(),
+        bench::machine_facts().c_str(), samples.size(), warm, first.minutes, fps,
+        clean ? "exited 0 on SIGTERM" : "DID NOT exit cleanly");
+    out += buf;
+    out += "| measure | first | last | slope | target | met |\n|---|---|---|---|---|---|\n";
+    std::snprintf(buf, sizeof buf,
+                  "| RSS (KiB) | %.0f | %.0f | %+.2f KiB/min | < 1 KiB/min | %s |\n", first.rss_kib,
+                  last.rss_kib, rss_slope, rss_slope < 1.0 ? "yes" : "no");
+    out += buf;
+    std::snprintf(
+        buf, sizeof buf,
+        "| open fds | %.0f | %.0f | %+.3f fds/min (max %.0f, then %.0f) | 0 growth | %s |\n",
+        first.fds, last.fds, fd_slope, fd_max_first, fd_max_second,
+        fd_max_second <= fd_max_first ? "yes" : "no");
+    out += buf;
+    std::snprintf(buf, sizeof buf,
+                  "| threads | %.0f | %.0f | min %.0f, max %.0f | constant | %s |\n", first.threads,
+                  last.threads, thr_min, thr_max, thr_min == thr_max ? "yes" : "no");
+    out += buf;
+    std::snprintf(buf, sizeof buf, "| crashes | | | %d | 0 | %s |\n", clean ? 0 : 1,
+                  clean ? "yes" : "no");
+    out += buf;
+    std::printf("\n%s", out.c_str());
+    if (clean)
+        fs::remove_all(dir);
+    else
+        std::fprintf(stderr, "the daemon's log: %s\n", log.c_str());
+    if (write_docs && !bench::write_doc_table(docs, "soak-bench-table", out)) return 1;
+    return clean ? 0 : 1;
+}

@@ -1,0 +1,66 @@
+// hmdnoded's config reader on values a fuzzer finds (tests/fuzz/daemon_config_fuzz.cpp): numbers
+// that do not fit the field are refused with the key named (exit 2), never converted with an
+// overflowing cast (undefined behaviour that UBSan reports).
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <tuple>
+
+#include <nlohmann/json.hpp>
+#include "firmware_host/command_run.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Runs the daemon on the demo config with `patch` merged in; returns its run.
+hmdnode::test::CommandRun run_with(const std::string& name, const nlohmann::json& patch) {
+    const fs::path dir = hmdnode::test::fresh_temp_dir("hmdnode_daemon_config_" + name);
+    nlohmann::json cfg = {
+        {"scene", HMDNODE_DEMO_SCENE},
+        {"clock", "sim"},
+        {"tracker", {{"trace", HMDNODE_SOURCE_DIR "/data/traces/corbillon2018_user1.csv"}}},
+        {"display", {{"eye_width", 32}, {"eye_height", 32}}}};
+    cfg.merge_patch(patch);
+    std::ofstream(dir / "hmdnoded.json") << cfg.dump(1);
+    return hmdnode::test::run(std::string(HMDNODE_DAEMON) + " --config " +
+                              (dir / "hmdnoded.json").string() + " --max-frames 1");
+}
+
+}  // namespace
+
+TEST(DaemonConfig, IntegerFieldsTakeIntegersThatFit) {
+    for (const auto& [name, patch, key] :
+         {std::tuple{"max_frames_float", nlohmann::json{{"max_frames", 1e30}}, "max_frames"},
+          std::tuple{"priority_huge", nlohmann::json{{"realtime_priority", 4294967296}},
+                     "realtime_priority"},
+          std::tuple{"eye_fraction", nlohmann::json{{"display", {{"eye_width", 32.5}}}},
+                     "eye_width"},
+          std::tuple{"mesh_negative_huge",
+                     nlohmann::json{{"node", {{"mesh", -9223372036854775807LL}}}}, "mesh"}}) {
+        const hmdnode::test::CommandRun r = run_with(name, patch);
+        EXPECT_EQ(r.code, 2) << name << ": " << r.output;
+        EXPECT_NE(r.output.find(std::string("\"") + key + "\" must be an integer"),
+                  std::string::npos)
+            << name << ": " << r.output;
+    }
+}
+
+TEST(DaemonConfig, DurationsOutOfRangeAreRefusedBeforeTheirConversion) {
+    for (const auto& [name, patch, key] :
+         {std::tuple{"latency", nlohmann::json{{"tracker", {{"latency_us", 1e300}}}},
+                     "tracker.latency_us"},
+          std::tuple{"jitter", nlohmann::json{{"tracker", {{"jitter_us", 2e6}}}},
+                     "tracker.jitter_us"},
+          std::tuple{"persistence", nlohmann::json{{"display", {{"persistence_ms", 1e300}}}},
+                     "display.persistence_ms"},
+          std::tuple{"status_every", nlohmann::json{{"status", {{"every_s", 1e300}}}},
+                     "status.every_s"}}) {
+        const hmdnode::test::CommandRun r = run_with(name, patch);
+        EXPECT_EQ(r.code, 2) << name << ": " << r.output;
+        EXPECT_NE(r.output.find(key), std::string::npos) << name << ": " << r.output;
+    }
+    EXPECT_EQ(run_with("good_latency", {{"tracker", {{"latency_us", 5000}}}}).code, 0);
+}
