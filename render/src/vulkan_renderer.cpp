@@ -45,6 +45,7 @@ class VulkanRenderer final : public Renderer {
     Result<RenderStats> render(const StereoViews& views, std::span<const DrawItem> items,
                                StereoImage* out_image) override;
     std::string device_name() const override { return ctx_->name; }
+    const char* backend_name() const override { return "vulkan"; }
     Status begin_frame(const StereoViews& views, std::span<const DrawItem> items) override;
     Result<bool> render_more(uint64_t max_triangles, size_t* items_rendered) override;
     Status set_warp(int panel_width, int panel_height, const DistortionMesh& left,
@@ -251,16 +252,9 @@ Result<WarpStats> VulkanRenderer::warp(const glm::dquat& delta, StereoImage* out
     if (!rendered_) return make_error("renderer: warp() before any render()");
     WarpStats stats;
     const int64_t t0 = now_ns();
-    // Per eye: display direction -> rendered head frame (delta) -> eye buffer clip x, y, w (rows
-    // 0, 1 and 3 of the projection; directions have w = 0, so the view's translation drops out).
-    const glm::mat3 rotation = glm::mat3_cast(glm::quat(delta));
     glm::mat4 reproject[2];
-    for (int e = 0; e < 2; ++e) {
-        const glm::mat4& p = rendered_projection_[e];
-        glm::mat3 p3;
-        for (int col = 0; col < 3; ++col) p3[col] = glm::vec3(p[col][0], p[col][1], p[col][3]);
-        reproject[e] = glm::mat4(p3 * rotation);
-    }
+    for (int e = 0; e < 2; ++e)
+        reproject[e] = gpu::warp_reprojection(rendered_projection_[e], delta);
     vkResetCommandBuffer(warp_cmd_, 0);
     VkCommandBufferBeginInfo begin{};
     begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
