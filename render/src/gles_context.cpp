@@ -186,30 +186,4 @@ void delete_vertex_array(GLuint name) {
     glDeleteVertexArrays(1, &name);
 }
 
-Texture gen_texture() {
-    GLuint n = 0;
-    glGenTextures(1, &n);
-    return Texture(n);
-}
-Buffer gen_buffer() {
-    GLuint n = 0;
-    glGenBuffers(1, &n);
-    return Buffer(n);
-}
-Framebuffer gen_framebuffer() {
-    GLuint n = 0;
-    glGenFramebuffers(1, &n);
-    return Framebuffer(n);
-}
-Renderbuffer gen_renderbuffer() {
-    GLuint n = 0;
-    glGenRenderbuffers(1, &n);
-    return Renderbuffer(n);
-}
-VertexArray gen_vertex_array() {
-    GLuint n = 0;
-    glGenVertexArrays(1, &n);
-    return VertexArray(n);
-}
-
 }  // namespace hmdnode::gles

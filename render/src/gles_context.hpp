@@ -83,10 +83,12 @@ using Renderbuffer = Handle<delete_renderbuffer>;
 using Program = Handle<delete_program>;
 using VertexArray = Handle<delete_vertex_array>;
 
-Texture gen_texture();
-Buffer gen_buffer();
-Framebuffer gen_framebuffer();
-Renderbuffer gen_renderbuffer();
-VertexArray gen_vertex_array();
+// A new object name from one of the glGen* functions, owned: make<Texture>(glGenTextures).
+template <class H>
+H make(void (*gen)(GLsizei, GLuint*)) {
+    GLuint name = 0;
+    gen(1, &name);
+    return H(name);
+}
 
 }  // namespace hmdnode::gles

@@ -17,12 +17,12 @@
 #include <EGL/egl.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cstddef>
 #include <cstring>
 #include <string>
 #include <vector>
 
+#include "frame_queue.hpp"
 #include "gles_context.hpp"
 #include "gles_scene.hpp"
 #include "gles_shaders.hpp"
@@ -39,11 +39,7 @@ constexpr GLenum kLowerLeft = 0x8CA1;
 constexpr GLenum kZeroToOne = 0x935F;
 using ClipControlFn = void (*)(GLenum origin, GLenum depth);
 
-int64_t now_ns() {
-    return std::chrono::duration_cast<std::chrono::nanoseconds>(
-               std::chrono::steady_clock::now().time_since_epoch())
-        .count();
-}
+using gpu::now_ns;
 
 class GlesRenderer final : public Renderer {
   public:
@@ -90,10 +86,7 @@ class GlesRenderer final : public Renderer {
     gles::VertexArray warp_vertex_array_[2];
     GLsizei warp_index_count_[2] = {0, 0};
     // The frame being rendered (into slot back_) and the last finished one (slot 1 - back_).
-    std::vector<DrawItem> frame_items_;
-    std::vector<uint64_t> frame_item_triangles_;
-    size_t frame_cursor_ = 0;
-    bool frame_open_ = false;
+    gpu::FrameQueue frame_;
     int back_ = 0;
     glm::mat4 frame_view_projection_[2]{};
     glm::mat4 frame_projection_[2]{};     // of the open frame
@@ -139,14 +132,14 @@ Status GlesRenderer::create_targets() {
                           std::to_string(std::min(max_texture, max_renderbuffer)) +
                           " pixels per side");
     for (int e = 0; e < 2; ++e) {
-        depth_[e] = gles::gen_renderbuffer();
+        depth_[e] = gles::make<gles::Renderbuffer>(glGenRenderbuffers);
         glBindRenderbuffer(GL_RENDERBUFFER, depth_[e]);
         glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT32F, w, h);
     }
     for (int slot = 0; slot < 2; ++slot)
         for (int e = 0; e < 2; ++e) {
             gles::Texture& color = color_[slot][e];
-            color = gles::gen_texture();
+            color = gles::make<gles::Texture>(glGenTextures);
             glBindTexture(GL_TEXTURE_2D, color);
             glTexStorage2D(GL_TEXTURE_2D, 1, GL_SRGB8_ALPHA8, w, h);
             // The warp's sampling: bilinear over the encoded bytes, clamped (it blacks out the
@@ -157,7 +150,7 @@ Status GlesRenderer::create_targets() {
             glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
             glTexParameteri(GL_TEXTURE_2D, kTextureSrgbDecode, GLint(kSkipDecode));
             gles::Framebuffer& fb = framebuffer_[slot][e];
-            fb = gles::gen_framebuffer();
+            fb = gles::make<gles::Framebuffer>(glGenFramebuffers);
             glBindFramebuffer(GL_FRAMEBUFFER, fb);
             glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, color, 0);
             glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER,
@@ -199,17 +192,10 @@ Status GlesRenderer::upload(const Scene& scene) {
 
 Status GlesRenderer::begin_frame(const StereoViews& views, std::span<const DrawItem> items) {
     if (Status s = ctx_->make_current(); !s) return s;
-    const size_t mesh_count = scene_ ? scene_->meshes.size() : 0;
-    frame_item_triangles_.clear();
-    for (const DrawItem& item : items) {
-        if (item.mesh < 0 || size_t(item.mesh) >= mesh_count)
-            return make_error("renderer: draw item refers to mesh " + std::to_string(item.mesh) +
-                              " but the uploaded scene has " + std::to_string(mesh_count));
-        frame_item_triangles_.push_back(scene_->meshes[size_t(item.mesh)].triangles);
-    }
-    frame_items_.assign(items.begin(), items.end());  // allocates only when the list grows
-    frame_cursor_ = 0;
-    frame_open_ = true;
+    if (Status s = frame_.begin(items, scene_ ? std::span<const gpu::MeshRange>(scene_->meshes)
+                                              : std::span<const gpu::MeshRange>());
+        !s)
+        return s;
     for (int e = 0; e < 2; ++e) {
         frame_view_projection_[e] = views.projection[e] * views.view[e];
         frame_projection_[e] = views.projection[e];
@@ -240,7 +226,7 @@ void GlesRenderer::draw_piece(size_t first, size_t last) {
         int cull = -1;  // unknown
         uint32_t bound_material = UINT32_MAX;
         for (size_t i = first; i < last; ++i) {
-            const DrawItem& item = frame_items_[i];
+            const DrawItem& item = frame_.items[i];
             const gpu::MeshRange& mesh = scene_->meshes[size_t(item.mesh)];
             if (mesh.primitive_count == 0) continue;
             glUniformMatrix4fv(u_world_, 1, GL_FALSE, &item.world[0][0]);
@@ -277,27 +263,19 @@ void GlesRenderer::draw_piece(size_t first, size_t last) {
 Result<bool> GlesRenderer::run_piece(uint64_t max_triangles, int64_t* wait_ns,
                                      size_t* items_rendered) {
     if (Status s = ctx_->make_current(); !s) return s.error();
-    if (!frame_open_) return make_error("renderer: render_more() without begin_frame()");
-    // At least one item, then items while the piece stays within max_triangles.
-    size_t last = frame_cursor_;
-    uint64_t triangles = 0;
-    do {
-        triangles += last < frame_items_.size() ? frame_item_triangles_[last] : 0;
-        ++last;
-    } while (last < frame_items_.size() &&
-             triangles + frame_item_triangles_[last] <= max_triangles);
-    last = std::min(last, frame_items_.size());
-    const bool done = last == frame_items_.size();
-    draw_piece(frame_cursor_, last);
+    if (!frame_.open) return make_error("renderer: render_more() without begin_frame()");
+    const size_t last = frame_.piece_end(max_triangles);
+    const bool done = last == frame_.items.size();
+    draw_piece(frame_.cursor, last);
     const int64_t t0 = now_ns();
     glFinish();
     if (wait_ns) *wait_ns = now_ns() - t0;
     if (Status s = gles::check_gl("frame"); !s) return s.error();
-    if (items_rendered) *items_rendered = last - frame_cursor_;
-    frame_cursor_ = last;
+    if (items_rendered) *items_rendered = last - frame_.cursor;
+    frame_.cursor = last;
     if (!done) return false;
     // The frame is complete: it becomes the one warp() reads.
-    frame_open_ = false;
+    frame_.open = false;
     rendered_ = true;
     for (int e = 0; e < 2; ++e) rendered_projection_[e] = frame_projection_[e];
     back_ = 1 - back_;
@@ -328,7 +306,7 @@ Result<RenderStats> GlesRenderer::render(const StereoViews& views, std::span<con
     RenderStats stats;
     const int64_t t0 = now_ns();
     if (Status s = begin_frame(views, items); !s) return s.error();
-    for (uint64_t t : frame_item_triangles_) stats.triangles += t;
+    stats.triangles = frame_.total_triangles();
     int64_t wait_ns = 0;
     auto done = run_piece(UINT64_MAX, &wait_ns, nullptr);
     if (!done) return done.error();
@@ -375,23 +353,23 @@ Status GlesRenderer::set_warp(int panel_width, int panel_height, const Distortio
 
     // 2. Panel textures and their framebuffers, the meshes.
     for (int e = 0; e < 2; ++e) {
-        panel_[e] = gles::gen_texture();
+        panel_[e] = gles::make<gles::Texture>(glGenTextures);
         glBindTexture(GL_TEXTURE_2D, panel_[e]);
         glTexStorage2D(GL_TEXTURE_2D, 1, GL_RGBA8, panel_width, panel_height);
-        panel_framebuffer_[e] = gles::gen_framebuffer();
+        panel_framebuffer_[e] = gles::make<gles::Framebuffer>(glGenFramebuffers);
         glBindFramebuffer(GL_FRAMEBUFFER, panel_framebuffer_[e]);
         glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, panel_[e], 0);
         if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
             return make_error("GLES: the panel framebuffer is incomplete");
 
-        warp_vertex_array_[e] = gles::gen_vertex_array();
+        warp_vertex_array_[e] = gles::make<gles::VertexArray>(glGenVertexArrays);
         glBindVertexArray(warp_vertex_array_[e]);
-        warp_vertices_[e] = gles::gen_buffer();
+        warp_vertices_[e] = gles::make<gles::Buffer>(glGenBuffers);
         glBindBuffer(GL_ARRAY_BUFFER, warp_vertices_[e]);
         glBufferData(GL_ARRAY_BUFFER,
                      GLsizeiptr(mesh[e]->vertices.size() * sizeof(DistortionVertex)),
                      mesh[e]->vertices.data(), GL_STATIC_DRAW);
-        warp_indices_[e] = gles::gen_buffer();
+        warp_indices_[e] = gles::make<gles::Buffer>(glGenBuffers);
         glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, warp_indices_[e]);
         glBufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(mesh[e]->indices.size() * 4),
                      mesh[e]->indices.data(), GL_STATIC_DRAW);

@@ -12,7 +12,7 @@ namespace {
 // Linear filtering of the base level only (the Vulkan samplers' maxLod 0).
 Texture make_texture(GLenum internal_format, int width, int height, const uint8_t* rgba8,
                      GLenum wrap) {
-    Texture t = gen_texture();
+    Texture t = make<Texture>(glGenTextures);
     glBindTexture(GL_TEXTURE_2D, t);
     glTexStorage2D(GL_TEXTURE_2D, 1, internal_format, width, height);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
@@ -47,13 +47,13 @@ Result<std::unique_ptr<GlesScene>> upload_scene(const Scene& scene) {
         for (uint32_t i = 0; i < p.index_count; ++i)
             geometry->indices[p.first_index + i] += uint32_t(p.vertex_offset);
     if (!geometry->vertices.empty()) {
-        out->vertex_array = gen_vertex_array();
+        out->vertex_array = make<VertexArray>(glGenVertexArrays);
         glBindVertexArray(out->vertex_array);
-        out->vertices = gen_buffer();
+        out->vertices = make<Buffer>(glGenBuffers);
         glBindBuffer(GL_ARRAY_BUFFER, out->vertices);
         glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(geometry->vertices.size() * sizeof(gpu::Vertex)),
                      geometry->vertices.data(), GL_STATIC_DRAW);
-        out->indices = gen_buffer();
+        out->indices = make<Buffer>(glGenBuffers);
         glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, out->indices);  // recorded in the vertex array
         glBufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(geometry->indices.size() * 4),
                      geometry->indices.data(), GL_STATIC_DRAW);
