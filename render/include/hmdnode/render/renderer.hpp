@@ -47,7 +47,8 @@ struct RenderStats {
     int64_t gpu_wait_ns = 0;    // submit to fence signalled
     int64_t readback_ns = 0;    // copy of both eyes into the output image (0 without one)
     int passes = 0;             // render passes: 1 = both eyes in one multiview pass,
-                                // 2 = one pass per eye (fallback for a broken driver multiview)
+                                // 2 = one pass per eye (Vulkan's fallback for a broken driver
+                                // multiview; always on the GLES backend)
 };
 
 struct WarpStats {
@@ -89,7 +90,8 @@ class Renderer {
     // true once the frame is complete, which then becomes the frame warp() reads. render() is
     // begin_frame() + render_more(all) + the read-back. A DrawItem whose mesh is not in the
     // uploaded scene is an Error of begin_frame(); begin_frame() while a frame is unfinished
-    // drops it. Each piece after the first costs a render pass that loads the attachments.
+    // drops it (a failing one too). Each piece after the first costs a render pass that loads the
+    // attachments.
     virtual Status begin_frame(const StereoViews& views, std::span<const DrawItem> items) = 0;
     // items_rendered (optional) receives the number of draw items of the piece.
     virtual Result<bool> render_more(uint64_t max_triangles, size_t* items_rendered = nullptr) = 0;
