@@ -660,7 +660,7 @@ Result<KmsModeRequest> parse_kms_mode(std::string_view text) {
     double hz = 0.0;
     int n = std::sscanf(s.c_str(), "%dx%d@%lf%c", &r.width, &r.height, &hz, &tail);
     const bool plain = n == 2 && s.find('@') == std::string::npos;
-    if (!(n == 3 || plain) || r.width < 1 || r.height < 1 || r.width > 16384 ||
+    if (!(n == 3 || plain) || s.find_first_not_of("0123456789x@.") != std::string::npos || r.width < 1 || r.height < 1 || r.width > 16384 ||
         r.height > 16384 || (n == 3 && !(hz >= 1.0 && hz <= 1000.0)))
         return make_error("\"" + s +
                           "\" is not WIDTHxHEIGHT@HZ (e.g. 2880x1600@90) or WIDTHxHEIGHT");
