@@ -14,7 +14,8 @@ bool instance_extension(const char* name) {
     uint32_t n = 0;
     if (vkEnumerateInstanceExtensionProperties(nullptr, &n, nullptr) != VK_SUCCESS) return false;
     std::vector<VkExtensionProperties> exts(n);
-    if (vkEnumerateInstanceExtensionProperties(nullptr, &n, exts.data()) != VK_SUCCESS) return false;
+    if (vkEnumerateInstanceExtensionProperties(nullptr, &n, exts.data()) != VK_SUCCESS)
+        return false;
     for (const VkExtensionProperties& e : exts)
         if (std::strcmp(e.extensionName, name) == 0) return true;
     return false;
@@ -85,14 +86,14 @@ Result<VulkanDisplayInfo> choose_vulkan_display(const std::vector<VulkanDisplayI
     std::string found;
     for (const VulkanDisplayInfo& d : displays)
         found += (found.empty() ? "" : ", ") + ("\"" + d.name + "\" on " + d.gpu);
-    return make_error(std::string("display.type vk-display: ") +
-                      (want.empty() ? "no single Vulkan display"
-                                    : "no single Vulkan display matches display.connector \"" +
-                                          want + "\"") +
-                      "; displays found: " + (found.empty() ? "none" : found) +
-                      (displays.empty() ? " (no driver exposes a display through VK_KHR_display; "
-                                          "lavapipe never does: use display.type \"kms\")"
-                                        : ""));
+    return make_error(
+        std::string("display.type vk-display: ") +
+        (want.empty() ? "no single Vulkan display"
+                      : "no single Vulkan display matches display.connector \"" + want + "\"") +
+        "; displays found: " + (found.empty() ? "none" : found) +
+        (displays.empty() ? " (no driver exposes a display through VK_KHR_display; "
+                            "lavapipe never does: use display.type \"kms\")"
+                          : ""));
 }
 
 }  // namespace hmdnode

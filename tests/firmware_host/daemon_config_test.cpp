@@ -72,8 +72,11 @@ TEST(DaemonConfig, DisplayTypesAndTheirFields) {
          {std::tuple{"type_unknown", nlohmann::json{{"display", {{"type", "x11"}}}},
                      "display.type \"x11\" is not one of mock, kms, vk-display"},
           std::tuple{"mode_bad",
-                     nlohmann::json{{"display", {{"type", "kms"}, {"mode", "2880x1600@"},
-                                                 {"eye_width", nullptr}, {"eye_height", nullptr}}}},
+                     nlohmann::json{{"display",
+                                     {{"type", "kms"},
+                                      {"mode", "2880x1600@"},
+                                      {"eye_width", nullptr},
+                                      {"eye_height", nullptr}}}},
                      "display.mode: \"2880x1600@\" is not WIDTHxHEIGHT@HZ"},
           std::tuple{"connector_on_mock", nlohmann::json{{"display", {{"connector", "DP-1"}}}},
                      "display.connector"},
@@ -81,17 +84,19 @@ TEST(DaemonConfig, DisplayTypesAndTheirFields) {
                      "display.type kms takes them from display.mode"},
           std::tuple{"kms_missing_device",
                      nlohmann::json{{"clock", "real"},
-                                    {"display", {{"type", "kms"},
-                                                 {"device", "/dev/dri/card-hmdnode-missing"},
-                                                 {"eye_width", nullptr},
-                                                 {"eye_height", nullptr}}}},
+                                    {"display",
+                                     {{"type", "kms"},
+                                      {"device", "/dev/dri/card-hmdnode-missing"},
+                                      {"eye_width", nullptr},
+                                      {"eye_height", nullptr}}}},
                      "/dev/dri/card-hmdnode-missing"},
-          std::tuple{"vk_display_none",
-                     nlohmann::json{{"clock", "real"},
-                                    {"display", {{"type", "vk-display"},
-                                                 {"eye_width", nullptr},
-                                                 {"eye_height", nullptr}}}},
-                     "displays found: none"}}) {
+          std::tuple{
+              "vk_display_none",
+              nlohmann::json{
+                  {"clock", "real"},
+                  {"display",
+                   {{"type", "vk-display"}, {"eye_width", nullptr}, {"eye_height", nullptr}}}},
+              "displays found: none"}}) {
         const hmdnode::test::CommandRun r = run_with(name, patch);
         EXPECT_EQ(r.code, 2) << name << ": " << r.output;
         EXPECT_NE(r.output.find(text), std::string::npos) << name << ": " << r.output;

@@ -17,8 +17,8 @@ std::vector<uint8_t> edid_block(const char* vendor = "VLV", uint16_t product = 0
     std::vector<uint8_t> e(128, 0);
     const uint8_t header[8] = {0x00, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0x00};
     std::copy(header, header + 8, e.begin());
-    const unsigned v = (unsigned(vendor[0] - 'A' + 1) << 10) | (unsigned(vendor[1] - 'A' + 1) << 5) |
-                       unsigned(vendor[2] - 'A' + 1);
+    const unsigned v = (unsigned(vendor[0] - 'A' + 1) << 10) |
+                       (unsigned(vendor[1] - 'A' + 1) << 5) | unsigned(vendor[2] - 'A' + 1);
     e[8] = uint8_t(v >> 8);
     e[9] = uint8_t(v);
     e[10] = uint8_t(product);

@@ -1,6 +1,6 @@
 // The real-kernel lane's guest program (docs/hardware.md). Run as
-// root inside a qemu guest with uhid, hid-generic, vivid and bochs loaded, it proves against the kernel's
-// own drivers:
+// root inside a qemu guest with uhid, hid-generic, vivid and bochs loaded, it proves against the
+// kernel's own drivers:
 //   1. the simulated reference tracker's firmware (SimReferenceFirmware) becomes a HID device
 //      through /dev/uhid (UHID_CREATE2 with the protocol's report descriptor, UHID_INPUT2 per
 //      report, UHID_GET_REPORT / UHID_SET_REPORT answered by the firmware);
@@ -11,7 +11,8 @@
 //      hotplug monitor (kernel uevents: no udevd in the guest) sees it come back, and the backend
 //      reads again within a second of the re-creation;
 //   4. our V4L2 backend streams a few frames from vivid's /dev/video0;
-//   5. our KMS display drives bochs-display's connector (qemu's EDID): atomic modeset, 300 page flips
+//   5. our KMS display drives bochs-display's connector (qemu's EDID): atomic modeset, 300 page
+//   flips
 //      of prepared frames with their events' times, the scanned-out buffer read back and compared.
 // Prints one line per check and a final "HMDNODE_KERNEL_LANE: PASS" or "...: FAIL"; exits 0 / 1.
 #include <fcntl.h>
@@ -32,8 +33,8 @@
 #include <vector>
 
 #include "hmdnode/hal/camera.hpp"
-#include "hmdnode/hal/display/kms_display.hpp"
 #include "hmdnode/hal/codec/reference_protocol.hpp"
+#include "hmdnode/hal/display/kms_display.hpp"
 #include "hmdnode/hal/sim/sim_reference_device.hpp"
 #include "hmdnode/hal/transport.hpp"
 
@@ -516,7 +517,8 @@ void kms_lane() {
     KmsDisplay& disp = **d;
     const DisplayInfo info = disp.info();
     std::vector<StereoImage> frames;
-    for (int i = 0; i < 8; ++i) frames.push_back(prepared_frame(info.eye_width, info.eye_height, i));
+    for (int i = 0; i < 8; ++i)
+        frames.push_back(prepared_frame(info.eye_width, info.eye_height, i));
 
     constexpr int kFlips = 300;
     std::vector<int64_t> stamps;
@@ -554,7 +556,8 @@ void kms_lane() {
             if (img->width != want.width || img->height != want.height)
                 diff = size_t(-1);
             else
-                for (size_t k = 0; k < want.pixels.size(); ++k) diff += img->pixels[k] != want.pixels[k];
+                for (size_t k = 0; k < want.pixels.size(); ++k)
+                    diff += img->pixels[k] != want.pixels[k];
             if (diff == 0) ++readback_ok;
             readback_detail = std::to_string(img->width) + "x" + std::to_string(img->height) +
                               ", " + std::to_string(diff == size_t(-1) ? 0 : diff) +
@@ -562,8 +565,7 @@ void kms_lane() {
         }
     }
     if (!flips_ok) return;
-    if (Status st = disp.finish(); st.ok())
-        stamps.push_back(disp.last_flip().timestamp_ns);
+    if (Status st = disp.finish(); st.ok()) stamps.push_back(disp.last_flip().timestamp_ns);
     bool monotonic = true;
     double sum = 0, sum2 = 0;
     std::vector<double> intervals;
@@ -585,11 +587,12 @@ void kms_lane() {
     // the display commits on its own timer at the mode's period. The pacing figures are reported,
     // not checked: a TCG guest on a loaded 2-core host is descheduled for tens of ms, so they
     // measure the host's load as much as the display (docs/hardware.md, "KMS output").
-    std::printf("[%7.3f s] info KMS pacing at %.3f Hz (period %.3f ms): flip interval median %.3f ms, "
-                "mean %.3f ms, sd %.3f ms, p99 %.3f ms; %d of %d presents missed their vsync; "
-                "commit to event %.3f ms, present() %.3f ms (means)\n",
-                ns_to_s(now_ns() - g_t0), info.refresh_hz, period_ms, median, mean, sd,
-                percentile(intervals, 0.99), missed, kFlips, flip_ms / kFlips, present_ms / kFlips);
+    std::printf(
+        "[%7.3f s] info KMS pacing at %.3f Hz (period %.3f ms): flip interval median %.3f ms, "
+        "mean %.3f ms, sd %.3f ms, p99 %.3f ms; %d of %d presents missed their vsync; "
+        "commit to event %.3f ms, present() %.3f ms (means)\n",
+        ns_to_s(now_ns() - g_t0), info.refresh_hz, period_ms, median, mean, sd,
+        percentile(intervals, 0.99), missed, kFlips, flip_ms / kFlips, present_ms / kFlips);
     check(readbacks > 0 && readback_ok == readbacks,
           "KMS scanned-out buffer read back (GETFB + map) equals the frame written",
           std::to_string(readback_ok) + "/" + std::to_string(readbacks) + " equal; " +
@@ -602,7 +605,8 @@ void kms_lane() {
 int main() {
     using namespace hmdnode;
     g_t0 = now_ns();
-    std::printf("hmdnode kernel lane: uhid -> hidraw -> hidapi, vivid -> V4L2, bochs-display -> KMS\n");
+    std::printf(
+        "hmdnode kernel lane: uhid -> hidraw -> hidapi, vivid -> V4L2, bochs-display -> KMS\n");
     hid_lane();
     camera_lane();
     kms_lane();

@@ -176,13 +176,17 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         r.get(d, "mode", &c.kms.mode);
         if (type != "mock" && type != "kms" && type != "vk-display")
             r.fail("display.type \"" + type + "\" is not one of mock, kms, vk-display");
-        if (type == "mock" && (d.contains("device") || d.contains("connector") || d.contains("mode")))
-            r.fail("display.device, display.connector and display.mode are for display.type kms "
-                   "or vk-display, not mock");
+        if (type == "mock" &&
+            (d.contains("device") || d.contains("connector") || d.contains("mode")))
+            r.fail(
+                "display.device, display.connector and display.mode are for display.type kms "
+                "or vk-display, not mock");
         if (type != "mock" && (d.contains("eye_width") || d.contains("eye_height") ||
                                d.contains("refresh_hz") || d.contains("frames_dir")))
-            r.fail("display.eye_width, eye_height, refresh_hz and frames_dir are the mock's; "
-                   "display.type " + type + " takes them from display.mode");
+            r.fail(
+                "display.eye_width, eye_height, refresh_hz and frames_dir are the mock's; "
+                "display.type " +
+                type + " takes them from display.mode");
         if (!c.kms.mode.empty())
             if (Result<KmsModeRequest> m = parse_kms_mode(c.kms.mode); !m.ok())
                 r.fail("display.mode: " + m.error().message);

@@ -329,7 +329,8 @@ int main(int argc, char** argv) {
                 if (next->display.eye_width != cfg->display.eye_width ||
                     next->display.eye_height != cfg->display.eye_height ||
                     next->display.refresh_hz != cfg->display.refresh_hz ||
-                    next->display_type != cfg->display_type || next->kms.device != cfg->kms.device ||
+                    next->display_type != cfg->display_type ||
+                    next->kms.device != cfg->kms.device ||
                     next->kms.connector != cfg->kms.connector || next->kms.mode != cfg->kms.mode)
                     needs_restart("display");
                 if (next->node.warp != cfg->node.warp ||

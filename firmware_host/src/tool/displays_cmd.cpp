@@ -29,8 +29,7 @@ void run_displays(const std::string& device, bool all_modes) {
             std::printf("  %s %s: %s", c.device.c_str(), c.name.c_str(), c.connection.c_str());
             if (c.edid)
                 std::printf(", edid:%s:%04X%s%s", c.edid->vendor.c_str(), c.edid->product,
-                            c.edid->monitor_name.empty() ? "" : " ",
-                            c.edid->monitor_name.c_str());
+                            c.edid->monitor_name.empty() ? "" : " ", c.edid->monitor_name.c_str());
             std::printf("%s\n", c.non_desktop ? ", non-desktop (a headset)" : "");
             const size_t shown = all_modes ? c.modes.size() : std::min<size_t>(c.modes.size(), 4);
             for (size_t i = 0; i < shown; ++i)

@@ -3,7 +3,8 @@
 //  1. Open /dev/dri/cardN, become DRM master, enable universal planes and atomic (else legacy).
 //  2. Pick the connector (name, EDID identity or non-desktop), its mode, a CRTC its encoders
 //     can drive and that CRTC's primary plane (XRGB8888).
-//  3. Three dumb buffers (CPU-mapped, XRGB8888) as framebuffers; set the mode with one atomic commit
+//  3. Three dumb buffers (CPU-mapped, XRGB8888) as framebuffers; set the mode with one atomic
+//  commit
 //     (ALLOW_MODESET) showing the first, black.
 //  4. present(): convert the stereo frame (RGBA8, side by side) into the back buffer, wait until
 //     the commit can make the target vsync, commit a page flip with DRM_MODE_PAGE_FLIP_EVENT and
@@ -37,7 +38,9 @@
 namespace hmdnode {
 namespace {
 
-std::string errno_text(int e) { return std::strerror(e); }
+std::string errno_text(int e) {
+    return std::strerror(e);
+}
 
 double mode_refresh_hz(const drmModeModeInfo& m) {
     if (m.htotal == 0 || m.vtotal == 0) return double(m.vrefresh);
@@ -55,9 +58,12 @@ std::string connector_name(const drmModeConnector& c) {
 
 const char* connection_name(drmModeConnection c) {
     switch (c) {
-    case DRM_MODE_CONNECTED: return "connected";
-    case DRM_MODE_DISCONNECTED: return "disconnected";
-    default: return "unknown";
+        case DRM_MODE_CONNECTED:
+            return "connected";
+        case DRM_MODE_DISCONNECTED:
+            return "disconnected";
+        default:
+            return "unknown";
     }
 }
 
@@ -95,9 +101,9 @@ std::vector<std::string> card_paths() {
 Result<int> open_card(const std::string& path) {
     int fd = open(path.c_str(), O_RDWR | O_CLOEXEC);
     if (fd < 0)
-        return make_error(path + ": " + errno_text(errno) +
-                          (errno == EACCES ? " (add the user to the video group: docs/udev.md)"
-                                           : ""));
+        return make_error(
+            path + ": " + errno_text(errno) +
+            (errno == EACCES ? " (add the user to the video group: docs/udev.md)" : ""));
     return fd;
 }
 
@@ -208,10 +214,12 @@ class KmsDisplayImpl final : public KmsDisplay {
         // Does the CRTC count vblanks? (virtio-gpu and bochs do not: the query fails.)
         drmVBlank vb{};
         vb.request.type = DRM_VBLANK_RELATIVE;
-        if (crtc_index_ == 1) vb.request.type = drmVBlankSeqType(vb.request.type | DRM_VBLANK_SECONDARY);
+        if (crtc_index_ == 1)
+            vb.request.type = drmVBlankSeqType(vb.request.type | DRM_VBLANK_SECONDARY);
         else if (crtc_index_ > 1)
-            vb.request.type = drmVBlankSeqType(
-                vb.request.type | ((crtc_index_ << DRM_VBLANK_HIGH_CRTC_SHIFT) & DRM_VBLANK_HIGH_CRTC_MASK));
+            vb.request.type =
+                drmVBlankSeqType(vb.request.type | ((crtc_index_ << DRM_VBLANK_HIGH_CRTC_SHIFT) &
+                                                    DRM_VBLANK_HIGH_CRTC_MASK));
         hw_vblank_ = drmWaitVBlank(fd_, &vb) == 0;
         anchor_ns_ = hw_vblank_ ? int64_t(vb.reply.tval_sec) * kNsPerSecond +
                                       int64_t(vb.reply.tval_usec) * 1000
@@ -258,14 +266,15 @@ class KmsDisplayImpl final : public KmsDisplay {
         if (atomic_) {
             drmModeAtomicReq* req = drmModeAtomicAlloc();
             drmModeAtomicAddProperty(req, plane_, plane_props_["FB_ID"].id, buffers_[back].fb);
-            rc = drmModeAtomicCommit(fd_, req,
-                                     DRM_MODE_PAGE_FLIP_EVENT | DRM_MODE_ATOMIC_NONBLOCK, this);
+            rc = drmModeAtomicCommit(fd_, req, DRM_MODE_PAGE_FLIP_EVENT | DRM_MODE_ATOMIC_NONBLOCK,
+                                     this);
             drmModeAtomicFree(req);
         } else {
             rc = drmModePageFlip(fd_, crtc_, buffers_[back].fb, DRM_MODE_PAGE_FLIP_EVENT, this);
         }
         if (rc != 0)
-            return make_error("kms display " + device_ + ": page flip failed: " + errno_text(errno));
+            return make_error("kms display " + device_ +
+                              ": page flip failed: " + errno_text(errno));
         flip_pending_ = true;
         pending_ = back;
         pending_commit_ns_ = commit_ns;
@@ -287,8 +296,9 @@ class KmsDisplayImpl final : public KmsDisplay {
             anchor_ns_ = t;  // re-anchored on the true vsync (drift between the clocks)
         } else {
             // No vblank: the frame counts for the grid vsync its commit latched for.
-            r.vsync_ns = commit_ns <= target_vsync_ns ? target_vsync_ns
-                                                      : next_vsync_ns(commit_ns + config_.latch_margin_ns - 1);
+            r.vsync_ns = commit_ns <= target_vsync_ns
+                             ? target_vsync_ns
+                             : next_vsync_ns(commit_ns + config_.latch_margin_ns - 1);
         }
         last_vsync_ns_ = r.vsync_ns;
         r.on_time = r.vsync_ns == target_vsync_ns;
@@ -297,9 +307,9 @@ class KmsDisplayImpl final : public KmsDisplay {
     }
 
     std::string modeset_path() const override {
-        return atomic_ ? "atomic" : config_.force_legacy
-                                        ? "legacy (forced by the configuration)"
-                                        : "legacy (no atomic modesetting on this driver)";
+        return atomic_                ? "atomic"
+               : config_.force_legacy ? "legacy (forced by the configuration)"
+                                      : "legacy (no atomic modesetting on this driver)";
     }
     bool hardware_vblank() const override { return hw_vblank_; }
     KmsMode mode() const override { return mode_info_; }
@@ -324,7 +334,9 @@ class KmsDisplayImpl final : public KmsDisplay {
         const uint32_t fb_id = c->buffer_id;
         drmModeFreeCrtc(c);
         drmModeFB* fb = drmModeGetFB(fd_, fb_id);
-        if (!fb) return make_error(where + ": GETFB " + std::to_string(fb_id) + ": " + errno_text(errno));
+        if (!fb)
+            return make_error(where + ": GETFB " + std::to_string(fb_id) + ": " +
+                              errno_text(errno));
         const uint32_t handle = fb->handle, pitch = fb->pitch;
         const int w = int(fb->width), h = int(fb->height);
         drmModeFreeFB(fb);
@@ -396,11 +408,10 @@ class KmsDisplayImpl final : public KmsDisplay {
         }
         Status st;
         if (pick < 0)
-            st = make_error(where + ": display.connector " +
-                            (want.empty() ? std::string("(not given)")
-                                          : "\"" + want + "\"") +
-                            " matches no single connected connector; connectors: " +
-                            describe_choice(all));
+            st = make_error(
+                where + ": display.connector " +
+                (want.empty() ? std::string("(not given)") : "\"" + want + "\"") +
+                " matches no single connected connector; connectors: " + describe_choice(all));
         else
             st = choose_mode_crtc_plane(where, res, *conns[size_t(pick)], all[size_t(pick)]);
         for (drmModeConnector* c : conns) drmModeFreeConnector(c);
@@ -460,10 +471,13 @@ class KmsDisplayImpl final : public KmsDisplay {
         for (uint32_t i = 0; planes && i < planes->count_planes && !plane_; ++i) {
             drmModePlane* p = drmModeGetPlane(fd_, planes->planes[i]);
             if (!p) continue;
-            std::map<std::string, Prop> props = object_props(fd_, p->plane_id, DRM_MODE_OBJECT_PLANE);
-            const bool primary = props.count("type") && props["type"].value == DRM_PLANE_TYPE_PRIMARY;
+            std::map<std::string, Prop> props =
+                object_props(fd_, p->plane_id, DRM_MODE_OBJECT_PLANE);
+            const bool primary =
+                props.count("type") && props["type"].value == DRM_PLANE_TYPE_PRIMARY;
             bool xrgb = false;
-            for (uint32_t f = 0; f < p->count_formats; ++f) xrgb = xrgb || p->formats[f] == DRM_FORMAT_XRGB8888;
+            for (uint32_t f = 0; f < p->count_formats; ++f)
+                xrgb = xrgb || p->formats[f] == DRM_FORMAT_XRGB8888;
             if (primary && xrgb && (p->possible_crtcs & (1u << crtc_index_))) {
                 plane_ = p->plane_id;
                 plane_props_ = props;
@@ -503,7 +517,8 @@ class KmsDisplayImpl final : public KmsDisplay {
             m.handle = b.handle;
             if (drmIoctl(fd_, DRM_IOCTL_MODE_MAP_DUMB, &m) != 0)
                 return make_error(where + ": MAP_DUMB: " + errno_text(errno));
-            void* p = mmap(nullptr, b.size, PROT_READ | PROT_WRITE, MAP_SHARED, fd_, off_t(m.offset));
+            void* p =
+                mmap(nullptr, b.size, PROT_READ | PROT_WRITE, MAP_SHARED, fd_, off_t(m.offset));
             if (p == MAP_FAILED) return make_error(where + ": mmap: " + errno_text(errno));
             b.map = static_cast<uint8_t*>(p);
             std::memset(b.map, 0, b.size);
@@ -646,7 +661,8 @@ Result<EdidIdentity> parse_edid_identity(const uint8_t* bytes, size_t size) {
     for (int d = 54; d + 18 <= 126; d += 18)
         if (bytes[d] == 0 && bytes[d + 1] == 0 && bytes[d + 3] == 0xfc) {
             for (int i = 5; i < 18 && bytes[d + i] != 0x0a; ++i)
-                if (bytes[d + i] >= 0x20 && bytes[d + i] < 0x7f) id.monitor_name += char(bytes[d + i]);
+                if (bytes[d + i] >= 0x20 && bytes[d + i] < 0x7f)
+                    id.monitor_name += char(bytes[d + i]);
             while (!id.monitor_name.empty() && id.monitor_name.back() == ' ')
                 id.monitor_name.pop_back();
         }
@@ -660,8 +676,9 @@ Result<KmsModeRequest> parse_kms_mode(std::string_view text) {
     double hz = 0.0;
     int n = std::sscanf(s.c_str(), "%dx%d@%lf%c", &r.width, &r.height, &hz, &tail);
     const bool plain = n == 2 && s.find('@') == std::string::npos;
-    if (!(n == 3 || plain) || s.find_first_not_of("0123456789x@.") != std::string::npos || r.width < 1 || r.height < 1 || r.width > 16384 ||
-        r.height > 16384 || (n == 3 && !(hz >= 1.0 && hz <= 1000.0)))
+    if (!(n == 3 || plain) || s.find_first_not_of("0123456789x@.") != std::string::npos ||
+        r.width < 1 || r.height < 1 || r.width > 16384 || r.height > 16384 ||
+        (n == 3 && !(hz >= 1.0 && hz <= 1000.0)))
         return make_error("\"" + s +
                           "\" is not WIDTHxHEIGHT@HZ (e.g. 2880x1600@90) or WIDTHxHEIGHT");
     r.refresh_hz = n == 3 ? hz : 0.0;
@@ -696,10 +713,11 @@ Result<std::unique_ptr<KmsDisplay>> create_kms_display(Clock& clock,
     if (!config.mode.empty())
         if (Result<KmsModeRequest> m = parse_kms_mode(config.mode); !m.ok())
             return make_error("display.mode: " + m.error().message);
-    std::vector<std::string> paths = config.device.empty() ? card_paths()
-                                                            : std::vector{config.device};
+    std::vector<std::string> paths =
+        config.device.empty() ? card_paths() : std::vector{config.device};
     if (paths.empty())
-        return make_error("kms display: no /dev/dri/card* (no KMS driver loaded; docs/hardware.md)");
+        return make_error(
+            "kms display: no /dev/dri/card* (no KMS driver loaded; docs/hardware.md)");
     std::string errors;
     for (const std::string& path : paths) {
         auto d = std::make_unique<KmsDisplayImpl>(clock, config);

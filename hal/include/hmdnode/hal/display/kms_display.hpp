@@ -28,8 +28,8 @@ struct KmsMode {
 // The identity in an EDID's base block: the PNP vendor (3 letters, bytes 8-9), the product code
 // (bytes 10-11, little endian) and the monitor name descriptor (tag 0xFC), when present.
 struct EdidIdentity {
-    std::string vendor;   // "VLV"
-    uint16_t product = 0; // 0x91a8
+    std::string vendor;    // "VLV"
+    uint16_t product = 0;  // 0x91a8
     std::string monitor_name;
 };
 
@@ -59,12 +59,12 @@ struct KmsConnectorInfo {
 Result<std::vector<KmsConnectorInfo>> list_kms_connectors(const std::string& device = "");
 
 struct KmsDisplayConfig {
-    std::string device;     // /dev/dri/cardN; empty: every card in turn
+    std::string device;  // /dev/dri/cardN; empty: every card in turn
     // Which connector: "DP-1" (a name as list_kms_connectors gives it), "edid:VLV:91A8" (vendor
     // and product code from the EDID), "non-desktop" (the one connector the kernel marks so);
     // empty: the non-desktop connector when exactly one is connected, else the only connected one.
     std::string connector;
-    std::string mode;       // "2880x1600@90"; empty: the connector's preferred mode
+    std::string mode;                    // "2880x1600@90"; empty: the connector's preferred mode
     int64_t latch_margin_ns = 500'000;   // a commit must reach the kernel this long before vblank
     int64_t persistence_ns = 2'000'000;  // how long a row glows (the panel's, for photon time)
     bool force_legacy = false;           // legacy SetCrtc/PageFlip even where atomic is offered
@@ -73,9 +73,9 @@ struct KmsDisplayConfig {
 // The timestamp and sequence of the last page-flip event (CLOCK_MONOTONIC, as the clock the
 // daemon runs on).
 struct KmsFlip {
-    uint64_t sequence = 0;        // the CRTC's vblank counter; 0 on drivers without vblank
-    int64_t timestamp_ns = 0;     // the event's time
-    int64_t commit_ns = 0;        // when the flip was committed
+    uint64_t sequence = 0;     // the CRTC's vblank counter; 0 on drivers without vblank
+    int64_t timestamp_ns = 0;  // the event's time
+    int64_t commit_ns = 0;     // when the flip was committed
 };
 
 class KmsDisplay : public Display {
