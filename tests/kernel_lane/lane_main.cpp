@@ -491,11 +491,14 @@ void kms_lane() {
                               c.edid->product);
                 listing += id;
             }
-            listing += " " + std::to_string(c.modes.size()) + " modes";
-            if (!c.modes.empty())
-                listing += fmt(", first %.2f Hz", c.modes[0].refresh_hz) + " " +
-                           std::to_string(c.modes[0].width) + "x" +
-                           std::to_string(c.modes[0].height);
+            char modes[96];
+            if (c.modes.empty())
+                std::snprintf(modes, sizeof modes, " no modes");
+            else
+                std::snprintf(modes, sizeof modes, " %zu modes, first %dx%d@%.2f Hz",
+                              c.modes.size(), c.modes[0].width, c.modes[0].height,
+                              c.modes[0].refresh_hz);
+            listing += modes;
             listing += "; ";
         }
     check(conns.ok() && !conns->empty(), "KMS connectors listed (bochs-display)",
