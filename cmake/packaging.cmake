@@ -1,7 +1,8 @@
 # The Debian package (CPack DEB): `cpack -G DEB` in a build tree configured with the prefix /usr
 # (the default) makes hmdnode_<version>_amd64.deb of what the install rules install
 # (firmware_host/CMakeLists.txt). Its Depends are the Debian runtime packages of the libraries
-# the executables link (dpkg-shlibdeps), plus the Vulkan driver, which is loaded, not linked.
+# the executables link (dpkg-shlibdeps: libdrm2 for the KMS display among them), plus the Vulkan
+# driver, which is loaded, not linked.
 set(CPACK_GENERATOR DEB)
 set(CPACK_PACKAGE_NAME hmdnode)
 set(CPACK_PACKAGE_VENDOR "hmdnode")
