@@ -43,6 +43,20 @@ TEST(KmsDisplay, ParsesEdidVendorProductAndName) {
     EXPECT_EQ(id->monitor_name, "Index HMD");
 }
 
+// Found by tests/fuzz/edid_fuzz.cpp: names from several descriptors were run together.
+TEST(KmsDisplay, TakesTheFirstMonitorNameDescriptorOnly) {
+    std::vector<uint8_t> e = edid_block();
+    const std::string other = "Second name\n";
+    e[90 + 3] = 0xfc;  // the third descriptor: another monitor name
+    for (size_t i = 0; i < other.size(); ++i) e[90 + 5 + i] = uint8_t(other[i]);
+    uint8_t sum = 0;
+    for (int i = 0; i < 127; ++i) sum = uint8_t(sum + e[size_t(i)]);
+    e[127] = uint8_t(256 - sum);
+    Result<EdidIdentity> id = parse_edid_identity(e.data(), e.size());
+    ASSERT_TRUE(id.ok()) << id.error().message;
+    EXPECT_EQ(id->monitor_name, "Index HMD");
+}
+
 TEST(KmsDisplay, RefusesBrokenEdidNamingTheByte) {
     std::vector<uint8_t> e = edid_block();
     EXPECT_NE(parse_edid_identity(e.data(), 100).error().message.find("100 bytes"),

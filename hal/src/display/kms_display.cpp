@@ -658,7 +658,8 @@ Result<EdidIdentity> parse_edid_identity(const uint8_t* bytes, size_t size) {
         id.vendor += char('A' + letter - 1);
     }
     id.product = uint16_t(bytes[10] | (unsigned(bytes[11]) << 8));
-    for (int d = 54; d + 18 <= 126; d += 18)
+    // note: the first monitor name descriptor only (a block may carry several).
+    for (int d = 54; d + 18 <= 126 && id.monitor_name.empty(); d += 18)
         if (bytes[d] == 0 && bytes[d + 1] == 0 && bytes[d + 3] == 0xfc) {
             for (int i = 5; i < 18 && bytes[d + i] != 0x0a; ++i)
                 if (bytes[d + i] >= 0x20 && bytes[d + i] < 0x7f)
