@@ -64,3 +64,41 @@ TEST(DaemonConfig, DurationsOutOfRangeAreRefusedBeforeTheirConversion) {
     }
     EXPECT_EQ(run_with("good_latency", {{"tracker", {{"latency_us", 5000}}}}).code, 0);
 }
+
+// display.type "kms" / "vk-display" (docs/daemon.md): errors name the field; a KMS display that
+// cannot be opened and a vk-display on lavapipe (no displays) are clear errors, exit 2.
+TEST(DaemonConfig, DisplayTypesAndTheirFields) {
+    for (const auto& [name, patch, text] :
+         {std::tuple{"type_unknown", nlohmann::json{{"display", {{"type", "x11"}}}},
+                     "display.type \"x11\" is not one of mock, kms, vk-display"},
+          std::tuple{"mode_bad",
+                     nlohmann::json{{"display",
+                                     {{"type", "kms"},
+                                      {"mode", "2880x1600@"},
+                                      {"eye_width", nullptr},
+                                      {"eye_height", nullptr}}}},
+                     "display.mode: \"2880x1600@\" is not WIDTHxHEIGHT@HZ"},
+          std::tuple{"connector_on_mock", nlohmann::json{{"display", {{"connector", "DP-1"}}}},
+                     "display.connector"},
+          std::tuple{"eye_on_kms", nlohmann::json{{"display", {{"type", "kms"}}}},
+                     "display.type kms takes them from display.mode"},
+          std::tuple{"kms_missing_device",
+                     nlohmann::json{{"clock", "real"},
+                                    {"display",
+                                     {{"type", "kms"},
+                                      {"device", "/dev/dri/card-hmdnode-missing"},
+                                      {"eye_width", nullptr},
+                                      {"eye_height", nullptr}}}},
+                     "/dev/dri/card-hmdnode-missing"},
+          std::tuple{
+              "vk_display_none",
+              nlohmann::json{
+                  {"clock", "real"},
+                  {"display",
+                   {{"type", "vk-display"}, {"eye_width", nullptr}, {"eye_height", nullptr}}}},
+              "displays found: none"}}) {
+        const hmdnode::test::CommandRun r = run_with(name, patch);
+        EXPECT_EQ(r.code, 2) << name << ": " << r.output;
+        EXPECT_NE(r.output.find(text), std::string::npos) << name << ": " << r.output;
+    }
+}

@@ -1,6 +1,6 @@
 #!/bin/sh
 # Builds the real-kernel lane's initramfs (uncompressed newc cpio): busybox, the kernel modules of
-# uhid/hid-generic and vivid (with their dependencies, in load order, from the same kernel as
+# uhid/hid-generic, vivid and bochs (with their dependencies, in load order, from the same kernel as
 # the image qemu boots), the lane program with its shared libraries, and an /init that loads the
 # modules, runs the program and powers off. docs/hardware.md.
 #
@@ -24,7 +24,7 @@ for a in sh mount insmod poweroff echo cat ls sleep mkdir; do ln -s busybox "$ro
 # Modules in load order, each once; .xz/.zst decompressed (busybox insmod cannot).
 
 : >"$root/modules/load.list"
-for m in hid-generic uhid vivid; do
+for m in hid-generic uhid vivid bochs; do
     modprobe -S "$kver" --show-depends "$m" | while read -r verb path rest; do
         [ "$verb" = insmod ] || continue
         name=$(basename "$path")

@@ -66,6 +66,7 @@ log="$work/serial.log"
 # shellcheck disable=SC2086
 timeout 110 qemu-system-x86_64 -accel tcg -cpu max -m 1024 -smp 2 -nodefaults -no-user-config \
     -display none -serial stdio -no-reboot $bios -kernel "$kernel" -initrd "$initrd" \
+    -device bochs-display,edid=on,xres=320,yres=240,refresh_rate=60000 \
     -append "console=ttyS0 quiet panic=-1 mitigations=off" </dev/null >"$log" 2>&1
 qemu_status=$?
 end=$(date +%s.%N)

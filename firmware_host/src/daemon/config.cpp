@@ -160,8 +160,9 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
     json d = j.value("display", json::object());
     if (r.check_keys(d, "display",
                      {"type", "eye_width", "eye_height", "refresh_hz", "persistence_ms",
-                      "frames_dir", "frames_every"})) {
-        std::string type = "mock", frames_dir;
+                      "frames_dir", "frames_every", "device", "connector", "mode"})) {
+        std::string& type = c.display_type;
+        std::string frames_dir;
         double persistence_ms = 2.0;
         r.get(d, "type", &type);
         r.get(d, "eye_width", &c.display.eye_width);
@@ -170,13 +171,29 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         r.get(d, "persistence_ms", &persistence_ms);
         r.get(d, "frames_dir", &frames_dir);
         r.get(d, "frames_every", &c.display.frames_every);
-        if (type != "mock")
-            r.fail("display.type \"" + type +
-                   "\" is not available in this build (available: mock)");
+        r.get(d, "device", &c.kms.device);
+        r.get(d, "connector", &c.kms.connector);
+        r.get(d, "mode", &c.kms.mode);
+        if (type != "mock" && type != "kms" && type != "vk-display")
+            r.fail("display.type \"" + type + "\" is not one of mock, kms, vk-display");
+        if (type == "mock" &&
+            (d.contains("device") || d.contains("connector") || d.contains("mode")))
+            r.fail(
+                "display.device, display.connector and display.mode are for display.type kms "
+                "or vk-display, not mock");
+        if (type != "mock" && (d.contains("eye_width") || d.contains("eye_height") ||
+                               d.contains("refresh_hz") || d.contains("frames_dir")))
+            r.fail(
+                "display.eye_width, eye_height, refresh_hz and frames_dir are the mock's; "
+                "display.type " +
+                type + " takes them from display.mode");
+        if (!c.kms.mode.empty())
+            if (Result<KmsModeRequest> m = parse_kms_mode(c.kms.mode); !m.ok())
+                r.fail("display.mode: " + m.error().message);
         if (!(persistence_ms >= 0.0 && persistence_ms <= 1000.0))
             r.fail("display.persistence_ms must be between 0 and 1000");
         else
-            c.display.persistence_ns = ms_to_ns(persistence_ms);
+            c.display.persistence_ns = c.kms.persistence_ns = ms_to_ns(persistence_ms);
         if (c.display.refresh_hz > 0.0)
             if (Status st = check_persistence(c.display); !st.ok())
                 r.fail("display.persistence_ms " + st.error().message);

@@ -6,6 +6,7 @@
 
 #include "hmdnode/core/result.hpp"
 #include "hmdnode/firmware_host/node.hpp"
+#include "hmdnode/hal/display/kms_display.hpp"
 #include "hmdnode/hal/display/mock_display.hpp"
 #include "hmdnode/hal/sim/sim_tracker.hpp"
 #include "hmdnode/hal/transport.hpp"
@@ -24,9 +25,13 @@ struct DaemonConfig {
     // its motion is `trace` when given, else synthetic).
     std::string tracker_backend = "sim-trace";
     DeviceFilter tracker_device;  // "device": "VID:PID", "serial"
+    // "display": {"type": "mock" | "kms" | "vk-display", ...} (docs/daemon.md). The mock's
+    // figures are in `display`; kms and vk-display take theirs from the connector's mode.
+    std::string display_type = "mock";
     MockDisplayConfig display;
     // "renderer": {"backend": "vulkan" | "gles"}; empty: HMDNODE_RENDERER, else "vulkan".
     std::string renderer_backend;
+    KmsDisplayConfig kms;  // device, connector, mode (connector also names a vk-display display)
     NodeConfig node;
     std::filesystem::path status_path;  // empty: none
     double status_every_s = 5.0;

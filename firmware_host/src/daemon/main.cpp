@@ -37,8 +37,10 @@
 #include "hmdnode/firmware_host/control_socket.hpp"
 #include "hmdnode/firmware_host/node.hpp"
 #include "hmdnode/firmware_host/replay.hpp"
+#include "hmdnode/hal/display/kms_display.hpp"
 #include "hmdnode/hal/sim/sim_reference_device.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
+#include "hmdnode/render/vk_display.hpp"
 #include "tool/cli_checks.hpp"
 
 namespace {
@@ -134,12 +136,41 @@ int main(int argc, char** argv) {
         spdlog::error("tracker {}: {}", cfg->tracker_backend, tracker.error().message);
         return 2;
     }
+    // The display (display.type): the mock, a KMS connector, or a VK_KHR_display display (listed
+    // and chosen; its present path is planned). kms and vk-display take the eye size and the
+    // refresh from the connector's mode.
     MockDisplayConfig dc = cfg->display;
     dc.vsync_epoch_ns = clock->now_ns();
-    Result<std::unique_ptr<Display>> display = create_mock_display(*clock, dc);
+    auto make_display = [&]() -> Result<std::unique_ptr<Display>> {
+        if (cfg->display_type == "kms") {
+            auto k = create_kms_display(*clock, cfg->kms);
+            if (!k.ok()) return k.error();
+            spdlog::info("display: {} {}x{}@{:.3f} Hz, {} modeset{}", (*k)->info().name,
+                         (*k)->mode().width, (*k)->mode().height, (*k)->mode().refresh_hz,
+                         (*k)->modeset_path(),
+                         (*k)->hardware_vblank() ? "" : ", no vblank interrupt: flips on a timer");
+            return std::unique_ptr<Display>(std::move(*k));
+        }
+        if (cfg->display_type == "vk-display") {
+            auto list = list_vulkan_displays();
+            if (!list.ok()) return list.error();
+            auto d = choose_vulkan_display(*list, cfg->kms.connector);
+            if (!d.ok()) return d.error();
+            return make_error("display.type vk-display: display \"" + d->name + "\" on " + d->gpu +
+                              " found, but presenting through VK_KHR_display is planned, not "
+                              "built (docs/hardware.md); use display.type \"kms\"");
+        }
+        return create_mock_display(*clock, dc);
+    };
+    Result<std::unique_ptr<Display>> display = make_display();
     if (!display.ok()) {
         spdlog::error("{}", display.error().message);
         return 2;
+    }
+    if (cfg->display_type != "mock") {
+        dc.eye_width = (*display)->info().eye_width;
+        dc.eye_height = (*display)->info().eye_height;
+        dc.refresh_hz = (*display)->info().refresh_hz;
     }
     RendererConfig rc;
     rc.eye_width = dc.eye_width;
@@ -150,9 +181,10 @@ int main(int argc, char** argv) {
         spdlog::error("{}", renderer.error().message);
         return 2;
     }
-    // Pixels come back to the CPU only for the frames the mock display writes.
+    // Pixels come back to the CPU for a KMS display (scanned out from dumb buffers) and for the
+    // frames the mock display writes.
     NodeConfig nc = cfg->node;
-    nc.read_back = nc.read_back && !dc.frames_dir.empty();
+    nc.read_back = nc.read_back && (cfg->display_type != "mock" || !dc.frames_dir.empty());
     NodeRuntime node(*clock, **tracker, **display, **renderer, *scene, nc);
     if (Status st = node.start(); !st.ok()) {
         spdlog::error("{}", st.error().message);
@@ -300,7 +332,10 @@ int main(int argc, char** argv) {
                     needs_restart("tracker");
                 if (next->display.eye_width != cfg->display.eye_width ||
                     next->display.eye_height != cfg->display.eye_height ||
-                    next->display.refresh_hz != cfg->display.refresh_hz)
+                    next->display.refresh_hz != cfg->display.refresh_hz ||
+                    next->display_type != cfg->display_type ||
+                    next->kms.device != cfg->kms.device ||
+                    next->kms.connector != cfg->kms.connector || next->kms.mode != cfg->kms.mode)
                     needs_restart("display");
                 if (next->node.warp != cfg->node.warp ||
                     next->node.distortion != cfg->node.distortion)

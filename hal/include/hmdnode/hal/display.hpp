@@ -1,8 +1,9 @@
 // The display interface of the hardware abstraction layer: vsync timing, presentation of a
 // finished stereo frame, and feedback on which vsync each present lands on (what a KMS page-flip
 // event or VK_GOOGLE_display_timing / VK_KHR_present_wait report on real hardware), so that pacing
-// never targets a vsync that an earlier frame already holds. Backend: the mock headset
-// (display/mock_display.hpp); direct-mode output (KMS, VK_KHR_display) is planned.
+// never targets a vsync that an earlier frame already holds. Backends: the mock headset
+// (display/mock_display.hpp) and KMS direct output (display/kms_display.hpp); VK_KHR_display
+// output is planned (render/vk_display.hpp lists its displays).
 #pragma once
 
 #include <cstdint>
