@@ -25,6 +25,7 @@ struct DaemonConfig {
     std::string tracker_backend = "sim-trace";
     DeviceFilter tracker_device;  // "device": "VID:PID", "serial"
     MockDisplayConfig display;
+    int msaa_samples = 1;  // "display": {"msaa": 1 | 4}: samples per eye-buffer pixel
     NodeConfig node;
     std::filesystem::path status_path;  // empty: none
     double status_every_s = 5.0;
