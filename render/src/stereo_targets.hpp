@@ -11,7 +11,7 @@
 // image, so the warp and the read-back only ever see resolved pixels. The multisampled images are
 // shared by both slots: only the frame being rendered uses them.
 // note: not resolve attachments: Mesa 22.3 lavapipe resolves a per-eye pass's layer-1 view into
-// garbage (tests/render/fade_msaa_test.cpp caught it), and a frame in pieces needs one resolve,
+// garbage (tests/render/renderer_test.cpp caught it), and a frame in pieces needs one resolve,
 // not one per piece.
 // Created once per renderer; memory: eye_width * eye_height * 2 * (8 colour + 4 read-back +
 // 4 * samples depth + 4 * samples multisampled colour when samples > 1) bytes.
