@@ -7,6 +7,13 @@
 //   then:        rgb += emissiveFactor (emitted radiance, relative to white)
 // Writes linear colour with alpha 1; the sRGB attachment encodes. Cost: one or two texture
 // fetches per fragment (five with an RGBM lightmap).
+//
+// LOD cross-fade (docs/lod-selection.md, "No pops"): in the pipelines built with kDithered, a draw
+// keeps only part of its pixels, a screen-door mask over a 4x4 ordered-dither (Bayer) tile of
+// ranks 0..15: dither = +k keeps the pixels of rank < k, dither = -k those of rank >= k (0: all).
+// The old level drawn with -k and the new one with +k cover each pixel exactly once. The mask is
+// per pixel (discard drops all of a pixel's MSAA samples). Pipelines without kDithered compile the
+// test away, so ordinary draws keep early depth testing.
 #version 450
 
 layout(set = 1, binding = 0) uniform sampler2D base_color_texture;  // sRGB view, repeat
@@ -18,6 +25,11 @@ layout(set = 1, binding = 2) uniform MaterialConstants {
     vec4 lightmap;
     vec4 emissive;  // rgb = emissiveFactor
 } material;
+
+layout(constant_id = 0) const bool kDithered = false;
+layout(push_constant) uniform Fade {
+    layout(offset = 68) int dither;  // after the vertex stage's world matrix and view_base
+} fade;
 
 layout(location = 0) in vec2 in_uv0;
 layout(location = 1) in vec2 in_uv1;
@@ -46,7 +58,15 @@ vec3 rgbm_bilinear(vec2 uv) {
                f.y);
 }
 
+// Bayer's 4x4 ordered-dither ranks: any k consecutive ranks spread evenly over the tile.
+const int kBayer4[16] = int[16](0, 8, 2, 10, 12, 4, 14, 6, 3, 11, 1, 9, 15, 7, 13, 5);
+
 void main() {
+    if (kDithered && fade.dither != 0) {
+        ivec2 p = ivec2(gl_FragCoord.xy) & 3;
+        int rank = kBayer4[p.y * 4 + p.x];
+        if ((rank < abs(fade.dither)) != (fade.dither > 0)) discard;
+    }
     vec4 albedo = material.base_color_factor * texture(base_color_texture, in_uv0) * in_color;
     vec3 rgb = albedo.rgb * in_light;
     // note: the branch is uniform per draw (a material constant), so the implicit derivatives of

@@ -21,6 +21,12 @@ Status FrameQueue::begin(std::span<const DrawItem> draw, std::span<const MeshRan
             return make_error("renderer: draw item refers to mesh " + std::to_string(item.mesh) +
                               " but the uploaded scene has " + std::to_string(meshes.size()));
         }
+        if (item.dither < -kMaxDither || item.dither > kMaxDither) {
+            open = false;
+            return make_error("renderer: draw item dither " + std::to_string(item.dither) +
+                              " is outside -" + std::to_string(kMaxDither) + ".." +
+                              std::to_string(kMaxDither));
+        }
         triangles.push_back(meshes[size_t(item.mesh)].triangles);
     }
     items.assign(draw.begin(), draw.end());  // allocates only when the list grows

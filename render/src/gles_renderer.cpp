@@ -51,6 +51,7 @@ class GlesRenderer final : public Renderer {
                                StereoImage* out_image) override;
     std::string device_name() const override { return ctx_->renderer; }
     const char* backend_name() const override { return "gles"; }
+    int msaa_samples() const override { return config_.msaa_samples; }
     Status begin_frame(const StereoViews& views, std::span<const DrawItem> items) override;
     Result<bool> render_more(uint64_t max_triangles, size_t* items_rendered) override;
     Status set_warp(int panel_width, int panel_height, const DistortionMesh& left,
@@ -69,12 +70,19 @@ class GlesRenderer final : public Renderer {
 
     RendererConfig config_;
     std::unique_ptr<gles::EglContext> ctx_;  // first: destroyed last
-    gles::Program scene_program_;
-    GLint u_view_projection_ = -1, u_world_ = -1, u_base_color_factor_ = -1, u_lightmap_ = -1,
-          u_emissive_ = -1;
+    // The scene's program and its uniforms: [0] plain, [1] with the cross-fade's dither test.
+    struct SceneProgram {
+        gles::Program program;
+        GLint view_projection = -1, world = -1, base_color_factor = -1, lightmap = -1,
+              emissive = -1, dither = -1;
+    } scene_program_[2];
     gles::Texture color_[2][2];  // [slot][eye], sRGB
     gles::Renderbuffer depth_[2];
-    gles::Framebuffer framebuffer_[2][2];     // [slot][eye]
+    gles::Framebuffer framebuffer_[2][2];  // [slot][eye]
+    // 4x MSAA: the frame is drawn into these (colour and depth per eye) and resolved into the
+    // slot's colour texture by a blit after its last piece.
+    gles::Renderbuffer msaa_color_[2], msaa_depth_[2];
+    gles::Framebuffer msaa_framebuffer_[2];
     std::unique_ptr<gles::GlesScene> scene_;  // null before the first upload
     // Late warp.
     gles::Program warp_program_;
@@ -98,6 +106,9 @@ Result<std::unique_ptr<Renderer>> GlesRenderer::create(const RendererConfig& con
     if (config.eye_width < 1 || config.eye_height < 1)
         return make_error("renderer: eye buffer " + std::to_string(config.eye_width) + "x" +
                           std::to_string(config.eye_height) + " is empty");
+    if (config.msaa_samples != 1 && config.msaa_samples != 4)
+        return make_error("GLES: MSAA sample count " + std::to_string(config.msaa_samples) +
+                          " (1 or 4)");
     auto r = std::unique_ptr<GlesRenderer>(new GlesRenderer());
     r->config_ = config;
     auto ctx = gles::EglContext::create();
@@ -136,6 +147,32 @@ Status GlesRenderer::create_targets() {
         glBindRenderbuffer(GL_RENDERBUFFER, depth_[e]);
         glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT32F, w, h);
     }
+    if (config_.msaa_samples > 1) {
+        GLint max_samples = 0;
+        glGetInternalformativ(GL_RENDERBUFFER, GL_SRGB8_ALPHA8, GL_SAMPLES, 1, &max_samples);
+        if (max_samples < config_.msaa_samples)
+            return make_error("GLES: " + std::to_string(config_.msaa_samples) +
+                              "x MSAA is not offered for sRGB colour (at most " +
+                              std::to_string(max_samples) + ")");
+        for (int e = 0; e < 2; ++e) {
+            msaa_color_[e] = gles::make<gles::Renderbuffer>(glGenRenderbuffers);
+            glBindRenderbuffer(GL_RENDERBUFFER, msaa_color_[e]);
+            glRenderbufferStorageMultisample(GL_RENDERBUFFER, config_.msaa_samples, GL_SRGB8_ALPHA8,
+                                             w, h);
+            msaa_depth_[e] = gles::make<gles::Renderbuffer>(glGenRenderbuffers);
+            glBindRenderbuffer(GL_RENDERBUFFER, msaa_depth_[e]);
+            glRenderbufferStorageMultisample(GL_RENDERBUFFER, config_.msaa_samples,
+                                             GL_DEPTH_COMPONENT32F, w, h);
+            msaa_framebuffer_[e] = gles::make<gles::Framebuffer>(glGenFramebuffers);
+            glBindFramebuffer(GL_FRAMEBUFFER, msaa_framebuffer_[e]);
+            glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER,
+                                      msaa_color_[e]);
+            glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER,
+                                      msaa_depth_[e]);
+            if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+                return make_error("GLES: the 4x MSAA eye framebuffer is incomplete");
+        }
+    }
     for (int slot = 0; slot < 2; ++slot)
         for (int e = 0; e < 2; ++e) {
             gles::Texture& color = color_[slot][e];
@@ -166,20 +203,28 @@ Status GlesRenderer::create_targets() {
 }
 
 Status GlesRenderer::create_scene_program() {
-    auto program = gles::build_program(gles::kSceneVertex, gles::kSceneFragment, "scene");
-    if (!program) return program.error();
-    scene_program_ = gles::Program(*program);
-    const GLuint p = scene_program_;
-    u_view_projection_ = glGetUniformLocation(p, "u_view_projection");
-    u_world_ = glGetUniformLocation(p, "u_world");
-    u_base_color_factor_ = glGetUniformLocation(p, "u_base_color_factor");
-    u_lightmap_ = glGetUniformLocation(p, "u_lightmap");
-    u_emissive_ = glGetUniformLocation(p, "u_emissive");
-    glUseProgram(p);
-    glUniform1i(glGetUniformLocation(p, "base_color_texture"), 0);
-    glUniform1i(glGetUniformLocation(p, "lightmap_texture"), 1);
+    for (int dithered = 0; dithered < 2; ++dithered) {
+        // The dithered variant: DITHERED defined right after the #version line.
+        std::string fragment = gles::kSceneFragment;
+        if (dithered) fragment.insert(fragment.find('\n') + 1, "#define DITHERED 1\n");
+        auto program = gles::build_program(gles::kSceneVertex, fragment.c_str(),
+                                           dithered ? "scene (dithered)" : "scene");
+        if (!program) return program.error();
+        SceneProgram& sp = scene_program_[dithered];
+        sp.program = gles::Program(*program);
+        const GLuint p = sp.program;
+        sp.view_projection = glGetUniformLocation(p, "u_view_projection");
+        sp.world = glGetUniformLocation(p, "u_world");
+        sp.base_color_factor = glGetUniformLocation(p, "u_base_color_factor");
+        sp.lightmap = glGetUniformLocation(p, "u_lightmap");
+        sp.emissive = glGetUniformLocation(p, "u_emissive");
+        sp.dither = glGetUniformLocation(p, "u_dither");
+        glUseProgram(p);
+        glUniform1i(glGetUniformLocation(p, "base_color_texture"), 0);
+        glUniform1i(glGetUniformLocation(p, "lightmap_texture"), 1);
+    }
     glUseProgram(0);
-    return gles::check_gl("scene program");
+    return gles::check_gl("scene programs");
 }
 
 Status GlesRenderer::upload(const Scene& scene) {
@@ -210,11 +255,11 @@ void GlesRenderer::draw_piece(size_t first, size_t last) {
     glDepthMask(GL_TRUE);
     glFrontFace(GL_CW);  // glTF's counter-clockwise, through Vulkan's y-down projection
     glCullFace(GL_BACK);
-    glUseProgram(scene_program_);
     const bool drawable = scene_ && scene_->vertex_array.get() != 0;
     if (drawable) glBindVertexArray(scene_->vertex_array);
+    const bool msaa = config_.msaa_samples > 1;
     for (int e = 0; e < 2; ++e) {
-        glBindFramebuffer(GL_FRAMEBUFFER, framebuffer_[back_][e]);
+        glBindFramebuffer(GL_FRAMEBUFFER, msaa ? msaa_framebuffer_[e] : framebuffer_[back_][e]);
         if (first == 0) {
             const glm::vec4& c = config_.clear_color;
             glClearColor(c.r, c.g, c.b, c.a);
@@ -222,14 +267,24 @@ void GlesRenderer::draw_piece(size_t first, size_t last) {
             glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
         }
         if (!drawable || first == last) continue;
-        glUniformMatrix4fv(u_view_projection_, 1, GL_FALSE, &frame_view_projection_[e][0][0]);
         int cull = -1;  // unknown
         uint32_t bound_material = UINT32_MAX;
+        int bound_program = -1;
         for (size_t i = first; i < last; ++i) {
             const DrawItem& item = frame_.items[i];
             const gpu::MeshRange& mesh = scene_->meshes[size_t(item.mesh)];
             if (mesh.primitive_count == 0) continue;
-            glUniformMatrix4fv(u_world_, 1, GL_FALSE, &item.world[0][0]);
+            const int program = item.dither != 0 ? 1 : 0;
+            const SceneProgram& sp = scene_program_[program];
+            if (program != bound_program) {
+                glUseProgram(sp.program);
+                glUniformMatrix4fv(sp.view_projection, 1, GL_FALSE,
+                                   &frame_view_projection_[e][0][0]);
+                bound_program = program;
+                bound_material = UINT32_MAX;  // the uniforms are the program's own
+            }
+            if (program) glUniform1i(sp.dither, item.dither);
+            glUniformMatrix4fv(sp.world, 1, GL_FALSE, &item.world[0][0]);
             for (uint32_t p = 0; p < mesh.primitive_count; ++p) {
                 const gpu::PrimitiveRange& prim = scene_->primitives[mesh.first_primitive + p];
                 const int want_cull = prim.double_sided ? 0 : 1;
@@ -242,9 +297,9 @@ void GlesRenderer::draw_piece(size_t first, size_t last) {
                 }
                 if (prim.material != bound_material) {
                     const gles::GlesMaterial& m = scene_->materials[prim.material];
-                    glUniform4fv(u_base_color_factor_, 1, &m.constants.base_color_factor[0]);
-                    glUniform4fv(u_lightmap_, 1, &m.constants.lightmap[0]);
-                    glUniform4fv(u_emissive_, 1, &m.constants.emissive[0]);
+                    glUniform4fv(sp.base_color_factor, 1, &m.constants.base_color_factor[0]);
+                    glUniform4fv(sp.lightmap, 1, &m.constants.lightmap[0]);
+                    glUniform4fv(sp.emissive, 1, &m.constants.emissive[0]);
                     glActiveTexture(GL_TEXTURE0);
                     glBindTexture(GL_TEXTURE_2D, m.base_color);
                     glActiveTexture(GL_TEXTURE1);
@@ -267,6 +322,13 @@ Result<bool> GlesRenderer::run_piece(uint64_t max_triangles, int64_t* wait_ns,
     const size_t last = frame_.piece_end(max_triangles);
     const bool done = last == frame_.items.size();
     draw_piece(frame_.cursor, last);
+    if (done && config_.msaa_samples > 1)
+        for (int e = 0; e < 2; ++e) {  // the resolve, before the warp or a read-back reads it
+            glBindFramebuffer(GL_READ_FRAMEBUFFER, msaa_framebuffer_[e]);
+            glBindFramebuffer(GL_DRAW_FRAMEBUFFER, framebuffer_[back_][e]);
+            glBlitFramebuffer(0, 0, config_.eye_width, config_.eye_height, 0, 0, config_.eye_width,
+                              config_.eye_height, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+        }
     const int64_t t0 = now_ns();
     glFinish();
     if (wait_ns) *wait_ns = now_ns() - t0;

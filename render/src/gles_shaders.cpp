@@ -56,7 +56,21 @@ vec3 rgbm_bilinear(vec2 uv) {
                mix(rgbm_texel(p + ivec2(0, 1), size), rgbm_texel(p + ivec2(1, 1), size), f.x),
                f.y);
 }
+// The LOD cross-fade's screen-door mask, as scene.frag: u_dither = +k keeps the pixels of rank < k
+// in Bayer's 4x4 tile, -k those of rank >= k, 0 all. Only in the program built with DITHERED
+// (a discard in the shader would cost every draw its early depth test).
+#ifdef DITHERED
+uniform int u_dither;
+const int kBayer4[16] = int[16](0, 8, 2, 10, 12, 4, 14, 6, 3, 11, 1, 9, 15, 7, 13, 5);
+#endif
 void main() {
+#ifdef DITHERED
+    if (u_dither != 0) {
+        ivec2 p = ivec2(gl_FragCoord.xy) & 3;
+        int rank = kBayer4[p.y * 4 + p.x];
+        if ((rank < abs(u_dither)) != (u_dither > 0)) discard;
+    }
+#endif
     vec4 albedo = u_base_color_factor * texture(base_color_texture, v_uv0) * v_color;
     vec3 rgb = albedo.rgb * v_light;
     if (u_lightmap.z > 0.5) {

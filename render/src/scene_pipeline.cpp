@@ -20,7 +20,8 @@ const uint32_t kSceneFrag[] =
 
 }  // namespace
 
-Result<ScenePipeline> create_scene_pipeline(const DeviceContext& ctx, VkRenderPass render_pass) {
+Result<ScenePipeline> create_scene_pipeline(const DeviceContext& ctx, VkRenderPass render_pass,
+                                            VkSampleCountFlagBits samples) {
     ScenePipeline p;
 
     // 1. Layouts.
@@ -38,13 +39,15 @@ Result<ScenePipeline> create_scene_pipeline(const DeviceContext& ctx, VkRenderPa
     p.material_layout = std::move(*material_layout);
 
     const VkDescriptorSetLayout sets[2] = {p.frame_layout, p.material_layout};
-    const VkPushConstantRange push{VK_SHADER_STAGE_VERTEX_BIT, 0, kPushConstantBytes};
+    const VkPushConstantRange push[2] = {
+        {VK_SHADER_STAGE_VERTEX_BIT, 0, kVertexPushBytes},
+        {VK_SHADER_STAGE_FRAGMENT_BIT, offsetof(DrawConstants, dither), sizeof(int32_t)}};
     VkPipelineLayoutCreateInfo layout_info{};
     layout_info.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
     layout_info.setLayoutCount = 2;
     layout_info.pSetLayouts = sets;
-    layout_info.pushConstantRangeCount = 1;
-    layout_info.pPushConstantRanges = &push;
+    layout_info.pushConstantRangeCount = 2;
+    layout_info.pPushConstantRanges = push;
     VkPipelineLayout layout = VK_NULL_HANDLE;
     HMDNODE_VK_TRY(vkCreatePipelineLayout(ctx.device, &layout_info, nullptr, &layout),
                    "vkCreatePipelineLayout");
@@ -100,7 +103,7 @@ Result<ScenePipeline> create_scene_pipeline(const DeviceContext& ctx, VkRenderPa
 
     VkPipelineMultisampleStateCreateInfo multisample{};
     multisample.sType = VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO;
-    multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+    multisample.rasterizationSamples = samples;
 
     VkPipelineDepthStencilStateCreateInfo depth{};
     depth.sType = VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO;
@@ -138,16 +141,26 @@ Result<ScenePipeline> create_scene_pipeline(const DeviceContext& ctx, VkRenderPa
     info.renderPass = render_pass;
     info.subpass = 0;
 
+    // The fragment shader's kDithered (constant_id 0, a 32-bit bool).
+    const VkSpecializationMapEntry dithered_entry{0, 0, sizeof(VkBool32)};
+    VkBool32 dithered = VK_FALSE;
+    VkSpecializationInfo specialization{1, &dithered_entry, sizeof(VkBool32), &dithered};
+    stages[1].pSpecializationInfo = &specialization;
+
     VkPipeline pipeline = VK_NULL_HANDLE;
-    HMDNODE_VK_TRY(
-        vkCreateGraphicsPipelines(ctx.device, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline),
-        "vkCreateGraphicsPipelines (single-sided)");
-    p.single_sided = Pipeline(ctx.device, pipeline);
-    raster.cullMode = VK_CULL_MODE_NONE;
-    HMDNODE_VK_TRY(
-        vkCreateGraphicsPipelines(ctx.device, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline),
-        "vkCreateGraphicsPipelines (double-sided)");
-    p.double_sided = Pipeline(ctx.device, pipeline);
+    for (VkBool32 d : {VK_FALSE, VK_TRUE}) {
+        dithered = d;
+        raster.cullMode = VK_CULL_MODE_BACK_BIT;
+        HMDNODE_VK_TRY(
+            vkCreateGraphicsPipelines(ctx.device, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline),
+            "vkCreateGraphicsPipelines (single-sided)");
+        (d ? p.single_sided_dithered : p.single_sided) = Pipeline(ctx.device, pipeline);
+        raster.cullMode = VK_CULL_MODE_NONE;
+        HMDNODE_VK_TRY(
+            vkCreateGraphicsPipelines(ctx.device, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline),
+            "vkCreateGraphicsPipelines (double-sided)");
+        (d ? p.double_sided_dithered : p.double_sided) = Pipeline(ctx.device, pipeline);
+    }
     return p;
 }
 

@@ -18,11 +18,12 @@ bool supports(const DeviceContext& ctx, VkFormat format, VkFormatFeatureFlags fe
     return (props.optimalTilingFeatures & features) == features;
 }
 
+// Attachments: 0 colour (with samples > 1 the multisampled image), 1 depth.
 Result<RenderPass> create_render_pass(const DeviceContext& ctx, VkFormat depth_format,
-                                      bool multiview, bool load) {
+                                      bool multiview, bool load, VkSampleCountFlagBits samples) {
     VkAttachmentDescription attachments[2]{};
     attachments[0].format = kColorFormat;
-    attachments[0].samples = VK_SAMPLE_COUNT_1_BIT;
+    attachments[0].samples = samples;
     attachments[0].loadOp = load ? VK_ATTACHMENT_LOAD_OP_LOAD : VK_ATTACHMENT_LOAD_OP_CLEAR;
     attachments[0].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
     attachments[0].stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
@@ -31,7 +32,7 @@ Result<RenderPass> create_render_pass(const DeviceContext& ctx, VkFormat depth_f
         load ? VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED;
     attachments[0].finalLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
     attachments[1].format = depth_format;
-    attachments[1].samples = VK_SAMPLE_COUNT_1_BIT;
+    attachments[1].samples = samples;
     attachments[1].loadOp = load ? VK_ATTACHMENT_LOAD_OP_LOAD : VK_ATTACHMENT_LOAD_OP_CLEAR;
     attachments[1].storeOp = VK_ATTACHMENT_STORE_OP_STORE;  // a later piece of the frame loads it
     attachments[1].stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
@@ -95,7 +96,7 @@ Result<RenderPass> create_render_pass(const DeviceContext& ctx, VkFormat depth_f
 }  // namespace
 
 Result<StereoTargets> create_stereo_targets(const DeviceContext& ctx, uint32_t width,
-                                            uint32_t height, bool multiview) {
+                                            uint32_t height, bool multiview, int samples) {
     assert(width >= 1 && height >= 1);
     const VkPhysicalDeviceLimits& limits = ctx.properties.limits;
     if (width > limits.maxFramebufferWidth || height > limits.maxFramebufferHeight)
@@ -103,10 +104,19 @@ Result<StereoTargets> create_stereo_targets(const DeviceContext& ctx, uint32_t w
                           std::to_string(height) + " exceeds the device's framebuffer limit " +
                           std::to_string(limits.maxFramebufferWidth) + "x" +
                           std::to_string(limits.maxFramebufferHeight));
+    if (samples != 1 && samples != 4)
+        return make_error("Vulkan: MSAA sample count " + std::to_string(samples) +
+                          " is not 1 or 4");
     StereoTargets t;
     t.width = width;
     t.height = height;
     t.multiview = multiview;
+    t.samples = samples == 4 ? VK_SAMPLE_COUNT_4_BIT : VK_SAMPLE_COUNT_1_BIT;
+    const bool msaa = samples > 1;
+    if (msaa && !(limits.framebufferColorSampleCounts & limits.framebufferDepthSampleCounts &
+                  VK_SAMPLE_COUNT_4_BIT))
+        return make_error("Vulkan: " + ctx.name +
+                          " cannot render 4x MSAA colour and depth (use --msaa 1)");
 
     if (!supports(ctx, kColorFormat,
                   VK_FORMAT_FEATURE_COLOR_ATTACHMENT_BIT | VK_FORMAT_FEATURE_TRANSFER_SRC_BIT))
@@ -121,24 +131,35 @@ Result<StereoTargets> create_stereo_targets(const DeviceContext& ctx, uint32_t w
         return make_error("Vulkan: no depth format is renderable on " + ctx.name);
 
     for (int slot = 0; slot < 2; ++slot) {
-        auto color = create_image(ctx,
-                                  {width, height, 2, kColorFormat,
-                                   VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT |
-                                       VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
-                                   VK_IMAGE_CREATE_MUTABLE_FORMAT_BIT},
-                                  "stereo colour target");
+        auto color =
+            create_image(ctx,
+                         {width, height, 2, kColorFormat,
+                          VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT |
+                              VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
+                          VK_IMAGE_CREATE_MUTABLE_FORMAT_BIT},
+                         "stereo colour target");
         if (!color) return color.error();
         t.color[slot] = std::move(*color);
     }
-    auto depth = create_image(
-        ctx, {width, height, 2, t.depth_format, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, 0},
-        "stereo depth target");
+    auto depth = create_image(ctx,
+                              {width, height, 2, t.depth_format,
+                               VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, 0, t.samples},
+                              "stereo depth target");
     if (!depth) return depth.error();
     t.depth = std::move(*depth);
-    auto pass = create_render_pass(ctx, t.depth_format, multiview, false);
+    if (msaa) {
+        auto color = create_image(
+            ctx,
+            {width, height, 2, kColorFormat,
+             VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT, 0, t.samples},
+            "stereo multisampled colour target");
+        if (!color) return color.error();
+        t.color_msaa = std::move(*color);
+    }
+    auto pass = create_render_pass(ctx, t.depth_format, multiview, false, t.samples);
     if (!pass) return pass.error();
     t.render_pass = std::move(*pass);
-    auto load_pass = create_render_pass(ctx, t.depth_format, multiview, true);
+    auto load_pass = create_render_pass(ctx, t.depth_format, multiview, true, t.samples);
     if (!load_pass) return load_pass.error();
     t.render_pass_load = std::move(*load_pass);
 
@@ -149,13 +170,20 @@ Result<StereoTargets> create_stereo_targets(const DeviceContext& ctx, uint32_t w
                                       "stereo depth target", base, count);
         if (!depth_view) return depth_view.error();
         t.depth_view[v] = std::move(*depth_view);
+        if (msaa) {
+            auto view = create_view(ctx, t.color_msaa, kColorFormat, VK_IMAGE_ASPECT_COLOR_BIT,
+                                    "stereo multisampled colour target", base, count);
+            if (!view) return view.error();
+            t.color_msaa_view[v] = std::move(*view);
+        }
         for (int slot = 0; slot < 2; ++slot) {
             auto color_view =
                 create_view(ctx, t.color[slot], kColorFormat, VK_IMAGE_ASPECT_COLOR_BIT,
                             "stereo colour target", base, count);
             if (!color_view) return color_view.error();
             t.color_view[slot][v] = std::move(*color_view);
-            VkImageView views[2] = {t.color_view[slot][v], t.depth_view[v]};
+            const VkImageView views[2] = {msaa ? t.color_msaa_view[v] : t.color_view[slot][v],
+                                          t.depth_view[v]};
             VkFramebufferCreateInfo fb{};
             fb.sType = VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO;
             fb.renderPass = t.render_pass;
@@ -177,6 +205,38 @@ Result<StereoTargets> create_stereo_targets(const DeviceContext& ctx, uint32_t w
     if (!readback) return readback.error();
     t.readback = std::move(*readback);
     return t;
+}
+
+void record_resolve(VkCommandBuffer cmd, const StereoTargets& t, int slot) {
+    if (t.samples == VK_SAMPLE_COUNT_1_BIT) return;
+    const VkImageSubresourceRange range{VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 2};
+    VkImageMemoryBarrier barrier{};
+    barrier.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+    barrier.srcAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT;
+    barrier.dstAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    barrier.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;  // overwritten whole
+    barrier.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+    barrier.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    barrier.image = t.color[slot].get();
+    barrier.subresourceRange = range;
+    vkCmdPipelineBarrier(cmd,
+                         VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                         VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0, nullptr, 1, &barrier);
+    VkImageResolve region{};
+    region.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 2};
+    region.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 2};
+    region.extent = {t.width, t.height, 1};
+    vkCmdResolveImage(cmd, t.color_msaa.get(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                      t.color[slot].get(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+    // The read-back copy and the warp's sampling (after its own layout change) read it next.
+    barrier.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    barrier.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_SHADER_READ_BIT;
+    barrier.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+    barrier.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                         VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, 0,
+                         0, nullptr, 0, nullptr, 1, &barrier);
 }
 
 }  // namespace hmdnode::vk

@@ -111,6 +111,7 @@ struct ImageDesc {
     VkFormat format = VK_FORMAT_R8G8B8A8_UNORM;
     VkImageUsageFlags usage = 0;
     VkImageCreateFlags flags = 0;  // e.g. MUTABLE_FORMAT for sRGB + UNORM views of one image
+    VkSampleCountFlagBits samples = VK_SAMPLE_COUNT_1_BIT;  // > 1: a multisampled attachment
 };
 
 // A 2D (array) image with optimal tiling in device-local memory.

@@ -42,6 +42,7 @@ class VulkanRenderer final : public Renderer {
                                StereoImage* out_image) override;
     std::string device_name() const override { return ctx_->name; }
     const char* backend_name() const override { return "vulkan"; }
+    int msaa_samples() const override { return config_.msaa_samples; }
     Status begin_frame(const StereoViews& views, std::span<const DrawItem> items) override;
     Result<bool> render_more(uint64_t max_triangles, size_t* items_rendered) override;
     Status set_warp(int panel_width, int panel_height, const DistortionMesh& left,
@@ -149,11 +150,12 @@ Status VulkanRenderer::build_frame_path(bool multiview) {
     vkDeviceWaitIdle(ctx.device);
     frame_pool_.reset();
     frame_set_ = VK_NULL_HANDLE;
-    auto targets = vk::create_stereo_targets(ctx, uint32_t(config_.eye_width),
-                                             uint32_t(config_.eye_height), multiview);
+    auto targets =
+        vk::create_stereo_targets(ctx, uint32_t(config_.eye_width), uint32_t(config_.eye_height),
+                                  multiview, config_.msaa_samples);
     if (!targets) return targets.error();
     targets_ = std::move(*targets);
-    auto pipeline = vk::create_scene_pipeline(ctx, targets_.render_pass);
+    auto pipeline = vk::create_scene_pipeline(ctx, targets_.render_pass, targets_.samples);
     if (!pipeline) return pipeline.error();
     pipeline_ = std::move(*pipeline);
 
@@ -367,10 +369,16 @@ void VulkanRenderer::record_draws(std::span<const DrawItem> items, uint32_t view
         if (mesh.primitive_count == 0) continue;
         vkCmdPushConstants(cmd_, pipeline_.layout, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(glm::mat4),
                            &item.world);
+        const bool dithered = item.dither != 0;
+        if (dithered)
+            vkCmdPushConstants(cmd_, pipeline_.layout, VK_SHADER_STAGE_FRAGMENT_BIT,
+                               offsetof(vk::DrawConstants, dither), sizeof(int32_t), &item.dither);
         for (uint32_t p = 0; p < mesh.primitive_count; ++p) {
             const vk::GpuPrimitive& prim = scene_->primitives[mesh.first_primitive + p];
             const VkPipeline pipeline =
-                prim.double_sided ? pipeline_.double_sided.get() : pipeline_.single_sided.get();
+                prim.double_sided
+                    ? (dithered ? pipeline_.double_sided_dithered : pipeline_.double_sided).get()
+                    : (dithered ? pipeline_.single_sided_dithered : pipeline_.single_sided).get();
             if (pipeline != bound_pipeline) {
                 vkCmdBindPipeline(cmd_, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
                 bound_pipeline = pipeline;
@@ -409,6 +417,8 @@ void VulkanRenderer::record(size_t first, size_t last, bool read_back) {
         vkCmdEndRenderPass(cmd_);
     }
 
+    // MSAA: the finished frame's samples resolved into the slot before anything reads it.
+    if (last == frame_.items.size()) vk::record_resolve(cmd_, targets_, back_);
     // Both layers: the buffer holds layer 0 (left) then layer 1 (right).
     if (read_back)
         vk::record_copy_to_host(cmd_, targets_.color[back_].get(), targets_.width, targets_.height,

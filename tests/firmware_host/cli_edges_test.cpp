@@ -173,7 +173,9 @@ TEST(CliEdges, TheDaemonRefusesTheSameValuesInItsConfigNamingTheKey) {
                            {"/tracker/noise_deg", -1.0, "tracker.noise_deg"},
                            {"/display/persistence_ms", 20.0, "display.persistence_ms"},
                            {"/node/lod_tolerance_px", -1.0, "node.lod_tolerance_px"},
-                           {"/node/lod_allocator", "iga", "node.lod_allocator"}}) {
+                           {"/node/lod_allocator", "iga", "node.lod_allocator"},
+                           {"/node/lod_fade_frames", 16, "node.lod_fade_frames"},
+                           {"/display/msaa", 2, "display.msaa"}}) {
         nlohmann::json cfg = good;
         cfg[nlohmann::json::json_pointer(c.pointer)] = c.value;
         std::ofstream(dir / "hmdnoded.json") << cfg.dump(1);

@@ -185,6 +185,8 @@ TEST(Daemon, RunsTheFrameLoopFromAConfigFileAndWritesStatus) {
     EXPECT_GT(s["triangles"].get<int>(), 0);
     EXPECT_GE(s["lod_switches"].get<int>(), 0);
     EXPECT_EQ(s["renderer_backend"], "vulkan");
+    EXPECT_EQ(s["lod_pops"].get<int>(), 0);  // level changes cross-fade by default
+    EXPECT_EQ(s["lod_pops_per_min"].get<double>(), 0.0);
     EXPECT_NE(r.output.find("stopped after 120 frames"), std::string::npos) << r.output;
 }
 

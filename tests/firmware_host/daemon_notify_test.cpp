@@ -343,7 +343,9 @@ TEST_F(DaemonControl, CommandsAnswerAndBadOnesDoNotDisturbTheLoop) {
     for (const char* part :
          {"# TYPE hmdnode_frames_total counter\nhmdnode_frames_total ",
           "hmdnode_missed_vsyncs_total ", "hmdnode_motion_to_photon_seconds_bucket{le=\"+Inf\"} ",
-          "hmdnode_render_seconds_count ", "hmdnode_triangles "})
+          "hmdnode_render_seconds_count ", "hmdnode_triangles ",
+          "# TYPE hmdnode_lod_pops_total counter\nhmdnode_lod_pops_total 0\n",
+          "hmdnode_lod_transitions_total ", "hmdnode_lod_pops_per_minute 0\n"})
         EXPECT_NE(m.output.find(part), std::string::npos) << part << "\n" << m.output;
 
     // Bad commands: replies, and the loop goes on.

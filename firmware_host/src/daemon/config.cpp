@@ -160,7 +160,7 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
     json d = j.value("display", json::object());
     if (r.check_keys(d, "display",
                      {"type", "eye_width", "eye_height", "refresh_hz", "persistence_ms",
-                      "frames_dir", "frames_every", "device", "connector", "mode"})) {
+                      "frames_dir", "frames_every", "device", "connector", "mode", "msaa"})) {
         std::string& type = c.display_type;
         std::string frames_dir;
         double persistence_ms = 2.0;
@@ -174,6 +174,8 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         r.get(d, "device", &c.kms.device);
         r.get(d, "connector", &c.kms.connector);
         r.get(d, "mode", &c.kms.mode);
+        r.get(d, "msaa", &c.msaa_samples);
+        if (c.msaa_samples != 1 && c.msaa_samples != 4) r.fail("display.msaa must be 1 or 4");
         if (type != "mock" && type != "kms" && type != "vk-display")
             r.fail("display.type \"" + type + "\" is not one of mock, kms, vk-display");
         if (type == "mock" &&
@@ -202,7 +204,7 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
     json n = j.value("node", json::object());
     if (r.check_keys(n, "node",
                      {"ipd_m", "predict", "lod_tolerance_px", "head_height_m", "warp", "distortion",
-                      "headset", "mesh", "lod_allocator"})) {
+                      "headset", "mesh", "lod_allocator", "lod_fade_frames"})) {
         std::string headset;
         std::string allocator = lod_allocator_name(c.node.lod_allocator);
         int mesh = c.node.mesh_cols;
@@ -215,6 +217,10 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         r.get(n, "headset", &headset);
         r.get(n, "mesh", &mesh);
         r.get(n, "lod_allocator", &allocator);
+        r.get(n, "lod_fade_frames", &c.node.lod_fade_frames);
+        if (c.node.lod_fade_frames < 0 || c.node.lod_fade_frames > kMaxLodFadeFrames)
+            r.fail("node.lod_fade_frames must be between 0 (off) and " +
+                   std::to_string(kMaxLodFadeFrames));
         if (std::optional<LodAllocator> a = parse_lod_allocator(allocator))
             c.node.lod_allocator = *a;
         else

@@ -32,6 +32,7 @@ struct DaemonConfig {
     // "renderer": {"backend": "vulkan" | "gles"}; empty: HMDNODE_RENDERER, else "vulkan".
     std::string renderer_backend;
     KmsDisplayConfig kms;  // device, connector, mode (connector also names a vk-display display)
+    int msaa_samples = 1;  // "display": {"msaa": 1 | 4}: samples per eye-buffer pixel
     NodeConfig node;
     std::filesystem::path status_path;  // empty: none
     double status_every_s = 5.0;

@@ -176,6 +176,7 @@ int main(int argc, char** argv) {
     rc.eye_width = dc.eye_width;
     rc.eye_height = dc.eye_height;
     rc.backend = cfg->renderer_backend;
+    rc.msaa_samples = cfg->msaa_samples;
     Result<std::unique_ptr<Renderer>> renderer = create_renderer(rc);
     if (!renderer.ok()) {
         spdlog::error("{}", renderer.error().message);
@@ -201,13 +202,13 @@ int main(int argc, char** argv) {
     }
     spdlog::info(
         "hmdnoded: scene {} ({} objects), tracker {} {} ({} trace samples), {}x{} per eye at {} "
-        "Hz, renderer {} ({})",
+        "Hz, renderer {} ({}, {}x MSAA)",
         cfg->scene.string(), node.objects().size(), cfg->tracker_backend,
         cfg->tracker_backend == "sim-trace"
             ? cfg->trace.string()
             : format_vid_pid(cfg->tracker_device.vendor_id, cfg->tracker_device.product_id),
         trace ? trace->samples.size() : 0, dc.eye_width, dc.eye_height, dc.refresh_hz,
-        (*renderer)->device_name(), (*renderer)->backend_name());
+        (*renderer)->device_name(), (*renderer)->backend_name(), (*renderer)->msaa_samples());
     const std::string renderer_backend = (*renderer)->backend_name();
 
     // The frame loop's thread only (this one): the renderer's worker threads exist already and
@@ -335,13 +336,16 @@ int main(int argc, char** argv) {
                     next->display.refresh_hz != cfg->display.refresh_hz ||
                     next->display_type != cfg->display_type ||
                     next->kms.device != cfg->kms.device ||
-                    next->kms.connector != cfg->kms.connector || next->kms.mode != cfg->kms.mode)
+                    next->kms.connector != cfg->kms.connector || next->kms.mode != cfg->kms.mode ||
+                    next->msaa_samples != cfg->msaa_samples)
                     needs_restart("display");
                 if (next->node.warp != cfg->node.warp ||
                     next->node.distortion != cfg->node.distortion)
                     needs_restart("node.warp/distortion");
                 if (next->node.lod_allocator != cfg->node.lod_allocator)
                     needs_restart("node.lod_allocator");
+                if (next->node.lod_fade_frames != cfg->node.lod_fade_frames)
+                    needs_restart("node.lod_fade_frames");
                 if (next->control_path != cfg->control_path) needs_restart("control");
                 spdlog::info("reload: applied predict, lod_tolerance_px, status{}{}",
                              restart.empty() ? "" : "; needs a restart to change: ", restart);
@@ -441,7 +445,9 @@ int main(int argc, char** argv) {
                 {"warp_ms", percentiles_json(percentiles(warp_ms))},
                 {"triangles", metrics.triangles},
                 {"lod_switches", metrics.lod_switches},
-                {"renderer_backend", renderer_backend}};
+                {"renderer_backend", renderer_backend},
+                {"lod_pops", metrics.lod_pops},
+                {"lod_pops_per_min", metrics.lod_pops_per_min()}};
             if (device_tracker) {
                 // Recovery figures: a replug shows as a disconnect and the gap it left.
                 const DeviceTrackerStatus ts = device_tracker->status();

@@ -16,6 +16,8 @@ void Histogram::observe(double seconds) {
 
 void DaemonMetrics::add_frame(const FrameRecord& rec, bool first) {
     ++frames;
+    if (first) first_photon_ns = rec.photon_time_ns;
+    last_photon_ns = rec.photon_time_ns;
     vsyncs += 1 + uint64_t(first ? 0 : rec.missed_vsyncs_before);
     missed_vsyncs += uint64_t(first ? 0 : rec.missed_vsyncs_before) + (rec.on_time ? 0 : 1);
     late_frames += rec.late;
@@ -24,11 +26,18 @@ void DaemonMetrics::add_frame(const FrameRecord& rec, bool first) {
     if (rec.kind == FrameKind::new_frame) {
         render.observe(rec.render_ms * 1e-3);
         triangles = rec.triangles;
+        lod_pops += rec.lod_pops;
+        lod_transitions += rec.lod_transitions;
         if (last_levels.size() == rec.levels.size())
             for (size_t i = 0; i < rec.levels.size(); ++i)
                 lod_switches += rec.levels[i] != last_levels[i];
         last_levels = rec.levels;  // note: same size after the first frame: no allocation
     }
+}
+
+double DaemonMetrics::lod_pops_per_min() const {
+    const double minutes = double(last_photon_ns - first_photon_ns) * 1e-9 / 60.0;
+    return minutes > 0.0 ? double(lod_pops) / minutes : 0.0;
 }
 
 namespace {
@@ -65,6 +74,11 @@ std::string DaemonMetrics::prometheus(const DeviceTrackerStatus* t) const {
     counter(out, "hmdnode_rewarps_total", "Re-warps of the previous frame.", rewarps);
     counter(out, "hmdnode_lod_switches_total", "Changes of an object's LOD level between frames.",
             lod_switches);
+    counter(out, "hmdnode_lod_pops_total",
+            "Visible LOD level changes shown without a cross-fade (pops).", lod_pops);
+    counter(out, "hmdnode_lod_transitions_total", "LOD cross-fades begun.", lod_transitions);
+    gauge(out, "hmdnode_lod_pops_per_minute", "LOD pops per minute since the first present.",
+          lod_pops_per_min());
     gauge(out, "hmdnode_triangles", "Triangles of the last new frame.", double(triangles));
     histogram(out, "hmdnode_motion_to_photon_seconds",
               "Motion-to-photon latency of each present (panel centre, mid-persistence).", mtp);

@@ -28,6 +28,11 @@ struct DaemonMetrics {
     uint64_t frames = 0, errors = 0, no_pose_frames = 0;
     uint64_t vsyncs = 0, missed_vsyncs = 0, late_frames = 0, rewarps = 0;
     uint64_t lod_switches = 0;
+    // Visible LOD level changes without a cross-fade, and cross-fades begun
+    // (docs/lod-selection.md, "No pops"); pops per minute over the presents' span.
+    uint64_t lod_pops = 0, lod_transitions = 0;
+    int64_t first_photon_ns = 0, last_photon_ns = 0;
+    double lod_pops_per_min() const;
     uint64_t triangles = 0;  // of the last new frame
     Histogram mtp, render;
     std::vector<int> last_levels;

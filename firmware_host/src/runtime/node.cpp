@@ -97,13 +97,16 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
       render_costs_(config.pacing.window),
       warp_costs_(config.pacing.window),
       total_costs_(config.pacing.window),
-      feedback_(config.lod_feedback) {
+      feedback_(config.lod_feedback),
+      fade_(0, 0) {
     objects_ = flatten_objects(scene);
     // note: the smear of a head turn lasts as long as the panel glows.
     LodSelectorParams lod = config.lod;
     if (const int64_t persistence = display_.info().persistence_ns; persistence > 0)
         lod.persistence_s = double(persistence) * 1e-9;
     selector_ = LodSelector(objects_.size(), lod);
+    fade_ = LodCrossFade(objects_.size(), config.lod_fade_frames);
+    fade_steps_.resize(objects_.size());
     level_errors_.resize(objects_.size());
     level_triangles_.resize(objects_.size());
     for (size_t i = 0; i < objects_.size(); ++i)
@@ -114,8 +117,8 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
     candidates_.reserve(objects_.size());
     candidate_objects_.reserve(objects_.size());
     allocated_.reserve(objects_.size());
-    draws_.reserve(objects_.size());
-    draw_triangles_.reserve(objects_.size());
+    draws_.reserve(2 * objects_.size());  // a cross-fading object is drawn twice
+    draw_triangles_.reserve(2 * objects_.size());
     order_.reserve(objects_.size());
     frame_levels_.resize(objects_.size());
     frame_eccentricity_.resize(objects_.size());
@@ -239,6 +242,7 @@ uint64_t NodeRuntime::select_and_sort(const Pose& head, const StereoViews& views
         if (!in_eye(0, o.bounds_center, o.bounds_radius) &&
             !in_eye(1, o.bounds_center, o.bounds_radius)) {
             ++rec->culled;
+            fade_.hide(i);
             continue;
         }
         candidate_objects_.push_back(i);
@@ -266,10 +270,19 @@ uint64_t NodeRuntime::select_and_sort(const Pose& head, const StereoViews& views
         b.coarsened = a.coarsened;
         b.limited = a.limited;
     }
+    // Level changes of visible objects become cross-fades (both levels drawn, complementary
+    // masks) instead of pops; the record shows the level fading in.
     uint64_t triangles = 0;
+    open_fade_ = FadeCounts{};
     for (size_t i : candidate_objects_) {
         const SceneObject& o = objects_[i];
-        triangles += o.levels[size_t(rec->levels[i])].triangles;
+        const LodFadeStep& step = fade_steps_[i] = fade_.update(i, rec->levels[i]);
+        rec->levels[i] = step.draws[0].level;
+        for (int d = 0; d < step.count; ++d)
+            triangles += o.levels[size_t(step.draws[d].level)].triangles;
+        open_fade_.fading += step.count > 1;
+        open_fade_.transitions += step.started;
+        open_fade_.pops += step.popped;
         order_.emplace_back(glm::length(o.bounds_center - head.position) - o.bounds_radius, i);
     }
     // Front to back: nearest first saves fill on lavapipe.
@@ -278,9 +291,12 @@ uint64_t NodeRuntime::select_and_sort(const Pose& head, const StereoViews& views
     draw_triangles_.clear();
     for (const auto& [dist, i] : order_) {
         const SceneObject& o = objects_[i];
-        const LodLevel& l = o.levels[rec->levels[i]];
-        draws_.push_back(DrawItem{l.mesh, glm::mat4(o.world)});
-        draw_triangles_.push_back(l.triangles);
+        const LodFadeStep& step = fade_steps_[i];
+        for (int d = 0; d < step.count; ++d) {
+            const LodLevel& l = o.levels[size_t(step.draws[d].level)];
+            draws_.push_back(DrawItem{l.mesh, glm::mat4(o.world), step.draws[d].dither});
+            draw_triangles_.push_back(l.triangles);
+        }
     }
     return triangles;
 }
@@ -460,6 +476,7 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
         r.render_ms = 0.0;
         r.lod_budget_ms = r.predicted_render_ms = std::numeric_limits<double>::quiet_NaN();
         r.lod_coarsened = 0;
+        r.lod_fading = r.lod_transitions = r.lod_pops = 0;
         r.levels.assign(frame_levels_.begin(), frame_levels_.end());
         r.eccentricity_deg.assign(frame_eccentricity_.begin(), frame_eccentricity_.end());
         r.frame_cost_ms = ns_to_ms(clock_.now_ns() - wake);
@@ -575,6 +592,7 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
     if (config_.lod_allocator == LodAllocator::greedy && !open_budget_.learning)
         feedback_.update(measured_ms, open_budget_.target_ms, open_budget_.limited);
     frame_budget_ = open_budget_;
+    frame_fade_ = open_fade_;
     has_frame_ = true;
     ++render_index_;
     frame_pose_ = open_pose_;
@@ -601,6 +619,9 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
     r.lod_budget_ms = frame_budget_.budget_ms;
     r.predicted_render_ms = frame_budget_.predicted_ms;
     r.lod_coarsened = frame_budget_.coarsened;
+    r.lod_fading = frame_fade_.fading;
+    r.lod_transitions = frame_fade_.transitions;
+    r.lod_pops = frame_fade_.pops;
     r.levels.assign(frame_levels_.begin(), frame_levels_.end());
     r.eccentricity_deg.assign(frame_eccentricity_.begin(), frame_eccentricity_.end());
     r.frame_cost_ms = ns_to_ms(clock_.now_ns() - open_wake_ns_);

@@ -105,6 +105,9 @@ ReplaySummary summarize_vsyncs(const std::vector<FrameRecord>& frames,
             ren.push_back(f.render_ms);
             tri += double(f.triangles);
             s.late_frames += f.late ? 1 : 0;
+            s.lod_pops += f.lod_pops;
+            s.lod_transitions += f.lod_transitions;
+            s.lod_fading_frames += f.lod_fading > 0;
         } else {
             ++s.rewarps;
         }
@@ -113,6 +116,10 @@ ReplaySummary summarize_vsyncs(const std::vector<FrameRecord>& frames,
     s.render_ms = percentiles(ren);
     s.warp_ms = percentiles(warp);
     s.triangles_mean = s.new_frames ? tri / double(s.new_frames) : 0.0;
+    if (frames.size() > 1 && frames.back().photon_time_ns > frames.front().photon_time_ns)
+        s.lod_pops_per_min =
+            double(s.lod_pops) /
+            (ns_to_s(frames.back().photon_time_ns - frames.front().photon_time_ns) / 60.0);
     if (vsyncs.empty()) return s;
     std::vector<double> lat, reg;
     size_t good = 0, run = 0;
@@ -151,6 +158,12 @@ Status check_replay_options(const ReplayOptions& opt) {
     if (!(opt.node.lod.tolerance_px >= 0.0) || !std::isfinite(opt.node.lod.tolerance_px))
         return make_error("LOD tolerance " + std::to_string(opt.node.lod.tolerance_px) +
                           " px must be a finite number >= 0");
+    if (opt.node.lod_fade_frames < 0 || opt.node.lod_fade_frames > kMaxLodFadeFrames)
+        return make_error("LOD fade frames " + std::to_string(opt.node.lod_fade_frames) +
+                          " is not between 0 and " + std::to_string(kMaxLodFadeFrames));
+    if (opt.renderer.msaa_samples != 1 && opt.renderer.msaa_samples != 4)
+        return make_error("MSAA samples " + std::to_string(opt.renderer.msaa_samples) +
+                          " is not 1 or 4");
     if (!(opt.start_s >= 0.0 && opt.duration_s >= 0.0) || !std::isfinite(opt.start_s) ||
         !std::isfinite(opt.duration_s))
         return make_error("start and duration must be finite and >= 0");
@@ -271,6 +284,7 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     result.mesh_cols = node.mesh_cols();
     result.mesh_rows = node.mesh_rows();
     result.lod_allocator = opt.node.lod_allocator;
+    result.msaa_samples = (*renderer)->msaa_samples();
     for (const SceneObject& o : node.objects()) result.object_names.push_back(o.name);
     FrameRecord rec;
     // A capture's --duration: the frames whose wake-up falls within it (a trace's ends the trace).
@@ -352,6 +366,10 @@ nlohmann::json replay_summary_json(const ReplaySummary& s) {
             {"lod_cost_fit_ms", fit},
             {"on_time_rate", s.on_time_rate},
             {"triangles_mean", s.triangles_mean},
+            {"lod_pops", s.lod_pops},
+            {"lod_pops_per_min", finite_or_null(s.lod_pops_per_min)},
+            {"lod_transitions", s.lod_transitions},
+            {"lod_fading_frames", s.lod_fading_frames},
             {"replayed_s", s.replayed_s},
             {"wall_s", s.wall_s}};
 }
@@ -385,6 +403,9 @@ nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& 
                           {"lod_budget_ms", finite_or_null(f.lod_budget_ms)},
                           {"predicted_render_ms", finite_or_null(f.predicted_render_ms)},
                           {"lod_coarsened", f.lod_coarsened},
+                          {"lod_fading", f.lod_fading},
+                          {"lod_transitions", f.lod_transitions},
+                          {"lod_pops", f.lod_pops},
                           {"render_ms", f.render_ms},
                           {"warp_ms", f.warp_ms},
                           {"frame_cost_ms", f.frame_cost_ms}});
@@ -406,6 +427,8 @@ nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& 
             {"prediction", opt.node.predict},
             {"warp", opt.node.warp},
             {"lod_allocator", lod_allocator_name(r.lod_allocator)},
+            {"lod_fade_frames", opt.node.lod_fade_frames},
+            {"msaa_samples", r.msaa_samples},
             {"distortion", opt.node.distortion ? json(opt.node.headset.name) : json(nullptr)},
             {"distortion_mesh", {r.mesh_cols, r.mesh_rows}},
             {"objects", r.object_names},
@@ -456,8 +479,12 @@ std::string replay_summary_table(const ReplayResult& r) {
             s.frame_cost_calibrated ? "calibrated on this renderer at start-up" : "given");
         out << buf;
     }
-    std::snprintf(buf, sizeof buf, "triangles per new frame %.0f (mean), LOD allocator %s",
-                  s.triangles_mean, lod_allocator_name(r.lod_allocator));
+    std::snprintf(buf, sizeof buf,
+                  "triangles per new frame %.0f (mean), LOD allocator %s, %zu LOD cross-fades, "
+                  "%zu pops (%.1f per minute), MSAA %dx",
+                  s.triangles_mean, lod_allocator_name(r.lod_allocator), s.lod_transitions,
+                  s.lod_pops, std::isfinite(s.lod_pops_per_min) ? s.lod_pops_per_min : 0.0,
+                  r.msaa_samples);
     out << buf;
     if (s.lod_cost_fit) {
         std::snprintf(buf, sizeof buf, ", learned render cost %.2f ms + %.3f ms per 1k triangles",

@@ -82,6 +82,13 @@ void add_replay_command(CLI::App& app) {
                   "LOD allocator: threshold (the perceptual selector's levels) or greedy (coarsen "
                   "them until the learned render cost fits the frame budget)")
         ->check(CLI::IsMember({"threshold", "greedy"}));
+    c->add_option("--lod-fade-frames", opt->node.lod_fade_frames,
+                  "New frames a visible LOD level change cross-fades over (dithered, both levels "
+                  "drawn; 0: off, changes pop; default 3)")
+        ->check(CLI::Range(0, kMaxLodFadeFrames));
+    c->add_option("--msaa", opt->renderer.msaa_samples,
+                  "Samples per eye-buffer pixel: 1, or 4 (MSAA, resolved before the warp)")
+        ->check(CLI::IsMember({1, 4}));
     c->add_flag("--no-warp", *no_warp,
                 "No late warp: show each frame as rendered (a missed vsync repeats the old one)");
     c->add_flag("--no-distortion", *no_distortion,

@@ -26,6 +26,7 @@
 #include "hmdnode/hal/display.hpp"
 #include "hmdnode/hal/tracker.hpp"
 #include "hmdnode/lod/budget.hpp"
+#include "hmdnode/lod/cross_fade.hpp"
 #include "hmdnode/lod/selector.hpp"
 #include "hmdnode/render/lens.hpp"
 #include "hmdnode/render/renderer.hpp"
@@ -81,6 +82,10 @@ struct NodeConfig {
     // that lets a new frame make every vsync, less room for the estimates' error.
     double lod_budget_headroom = 0.1;
     BudgetFeedbackParams lod_feedback;
+    // A visible object's level change is a dithered cross-fade over this many new frames (both
+    // levels drawn with complementary screen-door masks; 0: off, changes pop; at most
+    // kMaxLodFadeFrames). docs/lod-selection.md, "No pops".
+    int lod_fade_frames = 3;
     // Late warp: the finished frame is reprojected to the newest pose just before the latch, and
     // re-warped for a vsync that gets no new frame. Off: the frame is shown as rendered.
     bool warp = true;
@@ -136,7 +141,14 @@ struct FrameRecord {
     double lod_budget_ms = std::numeric_limits<double>::quiet_NaN();
     double predicted_render_ms = std::numeric_limits<double>::quiet_NaN();
     size_t lod_coarsened = 0;
-    std::vector<int> levels;               // LOD level per object (index as in objects())
+    // LOD transitions of this new frame (0 for a re-warp): objects drawn at two levels (a
+    // cross-fade in progress), transitions begun, and pops (a drawn object's level changed from
+    // the previous new frame's without a cross-fade; docs/lod-selection.md).
+    size_t lod_fading = 0;
+    size_t lod_transitions = 0;
+    size_t lod_pops = 0;
+    std::vector<int> levels;  // LOD level per object (index as in objects()); while an object
+                              // cross-fades, the level fading in
     std::vector<double> eccentricity_deg;  // per object
     Pose shown_pose;                       // the head pose the shown image was made for
 };
@@ -307,6 +319,13 @@ class NodeRuntime {
     FrameCostFit cost_fit_;
     BudgetFeedback feedback_;
     GreedyLodAllocator allocator_;
+    // Level changes as cross-fades; the open and the finished frame's counts (FrameRecord).
+    LodCrossFade fade_;
+    struct FadeCounts {
+        size_t fading = 0, transitions = 0, pops = 0;
+    };
+    FadeCounts open_fade_, frame_fade_;
+    std::vector<LodFadeStep> fade_steps_;  // per object, this frame's (drawn objects only)
     std::vector<std::vector<uint64_t>> level_triangles_;  // per object, per level
     std::vector<BudgetCandidate> candidates_;
     std::vector<size_t> candidate_objects_;

@@ -68,6 +68,13 @@ struct ReplaySummary {
     Percentiles warp_ms;
     double on_time_rate = 0.0;    // vsyncs that showed a new or re-warped frame on time / vsyncs
     double triangles_mean = 0.0;  // per new frame
+    // LOD level changes (docs/lod-selection.md, "No pops"): pops (a visible change without a
+    // cross-fade), cross-fades begun, new frames that drew some object at two levels, and pops
+    // per minute of the presents' span (NaN for a run shorter than a frame).
+    size_t lod_pops = 0;
+    size_t lod_transitions = 0;
+    size_t lod_fading_frames = 0;
+    double lod_pops_per_min = std::numeric_limits<double>::quiet_NaN();
     std::optional<FrameCostModel> frame_cost_model;  // simulated clock: the model used
     bool frame_cost_calibrated = false;
     // The render cost the node learned for LOD over the run (FrameCostFit), when it rendered.
@@ -112,6 +119,7 @@ struct ReplayResult {
     size_t trace_samples = 0;
     int mesh_cols = 0, mesh_rows = 0;  // the distortion mesh in use
     LodAllocator lod_allocator = LodAllocator::threshold;
+    int msaa_samples = 1;  // of the renderer's eye buffers
 };
 
 Percentiles percentiles(std::vector<double> values);

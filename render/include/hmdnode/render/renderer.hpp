@@ -27,12 +27,22 @@ struct RendererConfig {
     bool validation = false;  // enable VK_LAYER_KHRONOS_validation when installed (else ignored)
     // "vulkan" or "gles"; empty: the HMDNODE_RENDERER environment variable, else "vulkan".
     std::string backend;
+    // Samples per pixel of the eye buffers: 1, or 4 (MSAA, resolved before the warp reads them;
+    // an Error of creation where the device cannot).
+    int msaa_samples = 1;
 };
+
+// Largest |DrawItem::dither|: the screen-door mask is a 4x4 tile of ranks 0..15.
+inline constexpr int kMaxDither = 15;
 
 // One draw: a mesh of the uploaded scene (all its primitives) with a world matrix.
 struct DrawItem {
     int mesh = -1;
     glm::mat4 world{1.0f};
+    // The LOD cross-fade's screen-door mask (docs/lod-selection.md): 0 draws every pixel; +k
+    // (1..kMaxDither) only the pixels whose rank in a 4x4 ordered-dither tile is < k (k/16 of
+    // them), -k exactly the others. Two items with +k and -k cover each pixel exactly once.
+    int dither = 0;
 };
 
 // Per-eye matrices for one stereo frame, eye 0 = left.
@@ -77,9 +87,9 @@ class Renderer {
     // Renders both eyes (one multiview pass; see RenderStats::passes) and, when out_image is not
     // null, reads both eyes back into it (eye[0] = left, eye[1] = right, rows top to bottom; the
     // vectors are resized only when the eye size changes). Draws exactly the given items, in the
-    // given order, and waits for the GPU. A DrawItem whose mesh is not in the uploaded scene is an
-    // Error (nothing is drawn). After a lost device or a GPU timeout every later call returns an
-    // Error.
+    // given order, and waits for the GPU. A DrawItem whose mesh is not in the uploaded scene, or
+    // whose |dither| exceeds kMaxDither, is an Error (nothing is drawn). After a lost device or a
+    // GPU timeout every later call returns an Error.
     virtual Result<RenderStats> render(const StereoViews& views, std::span<const DrawItem> items,
                                        StereoImage* out_image) = 0;
 
@@ -116,6 +126,8 @@ class Renderer {
     virtual std::string device_name() const = 0;
     // "vulkan" or "gles" (what reports call renderer_backend).
     virtual const char* backend_name() const = 0;
+    // Samples per eye-buffer pixel (RendererConfig::msaa_samples).
+    virtual int msaa_samples() const { return 1; }
 };
 
 // The backend names create_renderer() accepts, for usage texts: "vulkan|gles".
