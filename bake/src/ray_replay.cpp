@@ -120,8 +120,8 @@ uint64_t single(RTCScene scene, const RecordedRay& x) {
     return rh.hit.geomID != RTC_INVALID_GEOMETRY_ID ? 1 : 0;
 }
 
-template <typename Packet, typename HitPacket>
-void fill8(Packet& p, const RecordedRay* rays, int n, int valid[8]) {
+// Up to 8 rays into a packet; lanes past n repeat the last ray and are masked off.
+void fill8(RTCRay8& p, const RecordedRay* rays, int n, int valid[8]) {
     for (int i = 0; i < 8; ++i) {
         const RecordedRay& x = rays[std::min(i, n - 1)];
         valid[i] = i < n ? -1 : 0;
@@ -138,7 +138,6 @@ void fill8(Packet& p, const RecordedRay* rays, int n, int valid[8]) {
         p.id[i] = 0;
         p.flags[i] = 0;
     }
-    (void)sizeof(HitPacket);
 }
 
 // A chunk's shadow and short rays grouped (in order) by kind, cast as packets or streams; the
@@ -165,7 +164,7 @@ uint64_t grouped(RTCScene scene, const RecordedRay* rays, size_t n, ReplayMode m
             for (int i = 0; i < m; ++i) buf[i] = *shadow[b + size_t(i)];
             alignas(32) RTCRay8 p;
             alignas(32) int valid[8];
-            fill8<RTCRay8, RTCRay8>(p, buf, m, valid);
+            fill8(p, buf, m, valid);
             rtcOccluded8(valid, scene, &ctx, &p);
             for (int i = 0; i < m; ++i) hits += p.tfar[i] < 0.0f ? 1 : 0;
         }
@@ -174,7 +173,7 @@ uint64_t grouped(RTCScene scene, const RecordedRay* rays, size_t n, ReplayMode m
             for (int i = 0; i < m; ++i) buf[i] = *shorts[b + size_t(i)];
             alignas(32) RTCRayHit8 p;
             alignas(32) int valid[8];
-            fill8<RTCRay8, RTCRay8>(p.ray, buf, m, valid);
+            fill8(p.ray, buf, m, valid);
             for (int i = 0; i < 8; ++i) {
                 p.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
                 p.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
