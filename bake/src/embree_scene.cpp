@@ -6,6 +6,7 @@
 // contexts that set it, so plain queries are unchanged.
 #include "embree_scene.hpp"
 
+#include <cmath>
 #include <cstring>
 #include <limits>
 
@@ -91,6 +92,7 @@ std::optional<EmbreeHit> intersect_with(RTCScene scene, RTCIntersectContext* ctx
 
 std::optional<EmbreeHit> EmbreeScene::intersect(const glm::vec3& o, const glm::vec3& d,
                                                 float t_near, float t_far) const {
+    maybe_record(o, d, t_near, t_far, std::isinf(t_far) ? 0 : 1);
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     return intersect_with(scene_, &ctx, o, d, t_near, t_far);
@@ -99,6 +101,7 @@ std::optional<EmbreeHit> EmbreeScene::intersect(const glm::vec3& o, const glm::v
 std::optional<EmbreeHit> EmbreeScene::intersect_skipping(const glm::vec3& o, const glm::vec3& d,
                                                          float t_near, float t_far,
                                                          uint32_t skip) const {
+    maybe_record(o, d, t_near, t_far, 3);
     SkipContext c;
     rtcInitIntersectContext(&c.ctx);
     c.ctx.filter = skip_filter;
@@ -108,6 +111,7 @@ std::optional<EmbreeHit> EmbreeScene::intersect_skipping(const glm::vec3& o, con
 
 bool EmbreeScene::occluded(const glm::vec3& o, const glm::vec3& d, float t_near,
                            float t_far) const {
+    maybe_record(o, d, t_near, t_far, 2);
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     RTCRay r;

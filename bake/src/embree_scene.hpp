@@ -3,6 +3,7 @@
 // context filter that skips one triangle for intersect_skipping).
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -11,6 +12,7 @@
 #include <embree3/rtcore.h>
 #include <glm/glm.hpp>
 
+#include "hmdnode/bake/path_tracer.hpp"
 #include "hmdnode/core/result.hpp"
 
 namespace hmdnode::detail {
@@ -39,9 +41,24 @@ class EmbreeScene {
     std::optional<EmbreeHit> intersect_skipping(const glm::vec3& o, const glm::vec3& d,
                                                 float t_near, float t_far, uint32_t skip) const;
 
+    RTCScene handle() const { return scene_; }  // for the replay (ray_replay.cpp)
+
   private:
     RTCDevice device_ = nullptr;
     RTCScene scene_ = nullptr;
 };
+
+// ray_replay.cpp: the recorded rays through raw Embree (PathTracer::replay_rays).
+ReplayTiming replay(const EmbreeScene& embree, const std::vector<RecordedRay>& rays, int threads,
+                    ReplayMode mode);
+
+// ray_replay.cpp: keeps the ray when a recording is on (start_ray_recording). Kind as
+// hmdnode::RayKind: 0 bounce, 1 short, 2 shadow, 3 coplanar.
+extern std::atomic<uint32_t> g_record_every;
+void record_ray(const glm::vec3& o, const glm::vec3& d, float t_near, float t_far, int kind);
+inline void maybe_record(const glm::vec3& o, const glm::vec3& d, float t_near, float t_far,
+                         int kind) {
+    if (g_record_every.load(std::memory_order_relaxed) != 0) record_ray(o, d, t_near, t_far, kind);
+}
 
 }  // namespace hmdnode::detail

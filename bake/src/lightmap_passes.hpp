@@ -41,6 +41,16 @@ void atrous_denoise(std::vector<glm::vec3>& texels, const std::vector<uint8_t>& 
                     const std::vector<float>& stddev, int width, int height, int iterations,
                     float sigma_position_m, float sigma_luminance);
 
+// variance_atrous.cpp: variance-guided A-trous (SVGF's spatial filter, Schied et al. 2017) for
+// the indirect light: `iterations` passes with step 2^i over the texels with mask != 0; the
+// luminance stop is exp(-|l - l'| / (sigma_luminance x sqrt(blurred variance) + eps)) with
+// `variance` the per-texel variance of the mean (filtered along, updated in place); taps farther
+// in 3-D than 1.5 x their uv distance + one texel (`texel_m` metres) are skipped (chart borders).
+void variance_atrous(std::vector<glm::vec3>& texels, std::vector<float>& variance,
+                     const std::vector<uint8_t>& mask, const std::vector<glm::vec3>& normals,
+                     const std::vector<glm::vec3>& positions, int width, int height, int iterations,
+                     float texel_m, float sigma_luminance);
+
 // seam_blend.cpp: for every edge shared in 3-D (positions equal within 10 um) by two triangles of
 // primitives lightmapped into `texture` but split in uv1, samples the edge at 2 points per texel
 // on both sides and moves the texels of the two bilinear footprints so both sides read their mean

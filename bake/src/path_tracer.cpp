@@ -265,10 +265,13 @@ struct PathTracer::Impl {
         return m.emission * (cos_s / pdf_l * w);
     }
 
-    // Irradiance at (p, n) with up to `bounces` reflections.
+    // Irradiance at (p, n) with up to `bounces` reflections. With `indirect`, the part that
+    // reflected at least once (everything after the first hit's emission) goes there instead.
     glm::vec3 irradiance(const glm::vec3& p, const glm::vec3& n, Pcg32& rng, uint64_t* rays,
-                         int bounces) const {
+                         int bounces, glm::vec3* indirect = nullptr) const {
         glm::vec3 e = punctual(p, n, rays) + emitter_sample(p, n, rng, rays);
+        glm::vec3 reflected(0.0f);
+        glm::vec3* acc = &e;  // where contributions go: direct until the first reflection
         // Continuation: radiance along a cosine-sampled direction, times pi.
         glm::vec3 x = p, nx = n;
         glm::vec3 d = cosine_sample(nx, rng);
@@ -279,7 +282,7 @@ struct PathTracer::Impl {
             std::optional<TraceHit> h =
                 intersect(x + nx * offset(x), d, 0.0f, std::numeric_limits<float>::infinity());
             if (!h) {
-                e += beta * options.sky_radiance;
+                *acc += beta * options.sky_radiance;
                 break;
             }
             const TriMaterial& m = mats[material[h->triangle]];
@@ -288,7 +291,7 @@ struct PathTracer::Impl {
             if (m.emission.x > 0.0f || m.emission.y > 0.0f || m.emission.z > 0.0f) {
                 const float pdf_l = light_pdf(h->triangle, h->t, glm::dot(ns, -d));
                 const float w = pdf_b / (pdf_b + pdf_l);
-                e += beta * m.emission * w;
+                *acc += beta * m.emission * w;
             }
             if (bounces >= 0 && k + 1 > bounces) break;
             const glm::vec3 a = albedo(h->triangle, h->u, h->v);
@@ -296,7 +299,8 @@ struct PathTracer::Impl {
             x = x + nx * offset(x) + d * h->t;
             nx = ns;
             beta *= a / kPi;
-            e += beta * (punctual(x, nx, rays) + emitter_sample(x, nx, rng, rays));
+            acc = indirect ? &reflected : &e;
+            *acc += beta * (punctual(x, nx, rays) + emitter_sample(x, nx, rng, rays));
             beta *= kPi;  // cosine sampling: f cos / pdf = albedo
             if (k + 1 >= options.rr_min_bounces) {
                 const float q = std::min(0.95f, max3(beta) / kPi);
@@ -306,6 +310,7 @@ struct PathTracer::Impl {
             d = cosine_sample(nx, rng);
             pdf_b = glm::dot(nx, d) / kPi;
         }
+        if (indirect) *indirect = reflected;
         return e;
     }
 };
@@ -437,6 +442,11 @@ glm::vec3 PathTracer::irradiance(const glm::vec3& p, const glm::vec3& n, Pcg32& 
     return impl_->irradiance(p, n, rng, rays, impl_->options.bounces);
 }
 
+glm::vec3 PathTracer::irradiance_split(const glm::vec3& p, const glm::vec3& n, Pcg32& rng,
+                                       glm::vec3& indirect, uint64_t* rays) const {
+    return impl_->irradiance(p, n, rng, rays, impl_->options.bounces, &indirect);
+}
+
 glm::vec3 PathTracer::direct_irradiance(const glm::vec3& p, const glm::vec3& n, Pcg32& rng,
                                         uint64_t* rays) const {
     return impl_->irradiance(p, n, rng, rays, 0);
@@ -512,6 +522,11 @@ glm::vec3 PathTracer::bounds_max() const {
 }
 const std::vector<std::string>& PathTracer::warnings() const {
     return impl_->warnings;
+}
+
+ReplayTiming PathTracer::replay_rays(const std::vector<RecordedRay>& rays, int threads,
+                                     ReplayMode mode) const {
+    return detail::replay(impl_->embree, rays, threads, mode);
 }
 
 double PathTracer::raw_rays_per_second(size_t count, int threads, uint64_t seed) const {

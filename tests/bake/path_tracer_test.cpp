@@ -9,6 +9,8 @@
 #include <numbers>
 #include <vector>
 
+#include "hmdnode/bake/bake.hpp"
+#include "hmdnode/bake/cornell_box.hpp"
 #include "hmdnode/bake/path_tracer.hpp"
 
 namespace hmdnode {
@@ -295,6 +297,64 @@ TEST(PathTracer, SameSeedSameResult) {
     for (int i = 0; i < 100; ++i)
         EXPECT_EQ(t->irradiance({0, -0.5f, 0}, {0, 1, 0}, a),
                   t->irradiance({0, -0.5f, 0}, {0, 1, 0}, b));
+}
+
+// irradiance_split is the same estimate as irradiance (same random numbers) cut in two: the
+// direct part is the furnace's first term pi Le, the indirect part its other terms,
+// pi Le rho / (1 - rho) on average.
+TEST(PathTracer, SplitIrradianceIsTheSameEstimateInTwoParts) {
+    const float rho = 0.5f;
+    Scene s = furnace(rho, 1.0f);
+    Result<PathTracer> t = PathTracer::build(s, PathTracerOptions{});
+    ASSERT_TRUE(t.ok());
+    Pcg32 a(5, 17), b(5, 17);
+    double direct = 0.0, indirect = 0.0;
+    const int n = 20000;
+    for (int i = 0; i < n; ++i) {
+        glm::vec3 ind(0.0f);
+        const glm::vec3 d = t->irradiance_split({0, -0.5f, 0}, {0, 1, 0}, a, ind);
+        const glm::vec3 whole = t->irradiance({0, -0.5f, 0}, {0, 1, 0}, b);
+        ASSERT_NEAR(d.g + ind.g, whole.g, 1e-4f * (1.0f + whole.g)) << i;
+        direct += d.g;
+        indirect += ind.g;
+    }
+    EXPECT_NEAR(direct / n, kPi, 0.02 * kPi);
+    EXPECT_NEAR(indirect / n, kPi * rho / (1 - rho), 0.03 * kPi * rho / (1 - rho));
+}
+
+// The throughput bench's reference: rays recorded during a bake (every kind the baker casts) and
+// replayed through raw Embree give the same answers as single rays, packets of 8 and streams.
+TEST(PathTracer, RecordedRaysReplayAlikeAsSinglePacketAndStream) {
+    Scene s = cornell_box_scene(16.0);
+    Result<PathTracer> t = PathTracer::build(s, PathTracerOptions{});
+    ASSERT_TRUE(t.ok());
+    BakeOptions o;
+    o.samples = 4;
+    o.threads = 2;
+    start_ray_recording(1);
+    Result<BakeReport> r = bake_scene(s, o);
+    const std::vector<RecordedRay> rays = stop_ray_recording();
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    size_t mix[4] = {0, 0, 0, 0};
+    for (const RecordedRay& x : rays) ++mix[int(x.kind)];
+    EXPECT_GT(mix[int(RayKind::Bounce)], 0u);
+    EXPECT_GT(mix[int(RayKind::Shadow)], 0u);
+    EXPECT_GT(mix[int(RayKind::Short)], 0u);
+    // Every ray the bake counted was recorded (coplanar re-queries are not in its count).
+    EXPECT_EQ(rays.size() - mix[int(RayKind::Coplanar)], r->rays);
+    const ReplayTiming single = t->replay_rays(rays, 2, ReplayMode::Single);
+    const ReplayTiming packet = t->replay_rays(rays, 1, ReplayMode::Packet8);
+    const ReplayTiming stream = t->replay_rays(rays, 2, ReplayMode::Stream);
+    EXPECT_EQ(single.rays, rays.size());
+    EXPECT_GT(single.hits, 0u);
+    EXPECT_EQ(packet.hits, single.hits);
+    EXPECT_EQ(stream.hits, single.hits);
+    start_ray_recording(4);  // every 4th of each thread
+    Scene s2 = cornell_box_scene(16.0);
+    o.threads = 1;
+    ASSERT_TRUE(bake_scene(s2, o).ok());
+    const size_t quarter = stop_ray_recording().size();
+    EXPECT_NEAR(double(quarter), double(rays.size()) / 4.0, 0.01 * double(rays.size()));
 }
 
 }  // namespace

@@ -445,22 +445,10 @@ Result<Scene> make_demo_scene(const fs::path& data_dir, std::string* out_summary
     }
     const double t_lod = seconds_since(t_lod0);
 
-    // Bake: global illumination by the Embree path tracer (docs/baking.md "Demo scene"), with
-    // modest settings so the build-time generation stays under ten seconds: 32 paths per texel
-    // with fireflies clamped and 5 A-trous iterations (8 paths left visible grain on the ceiling,
-    // which only bounced light reaches), 2 per vertex sample, 2 bounces;
-    // the lightmap's 8-bit range is set by the 98th percentile texel (the insides of the lamp
-    // shades clamp). Deterministic for any thread count.
+    // Bake: global illumination by the Embree path tracer at demo_bake_options()
+    // (demo_scene.hpp, docs/baking.md "Demo scene"). Deterministic for any thread count.
     const Clock::time_point t_bake0 = Clock::now();
-    BakeOptions bake_opt;
-    bake_opt.samples = 32;
-    bake_opt.firefly_factor = 4.0f;
-    bake_opt.vertex_samples = 2;
-    bake_opt.bounces = 2;
-    bake_opt.validity_rays = 4;
-    bake_opt.denoise_iterations = 5;
-    bake_opt.intensity_percentile = 0.98;
-    bake_opt.seed = 1;
+    const BakeOptions bake_opt = demo_bake_options();
     Result<BakeReport> baked = bake_scene(b.scene, bake_opt);
     if (!baked) return make_error("demo scene: " + baked.error().message);
     const double t_bake = seconds_since(t_bake0);

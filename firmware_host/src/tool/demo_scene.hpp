@@ -9,10 +9,31 @@
 #include <filesystem>
 #include <string>
 
+#include "hmdnode/bake/bake.hpp"
 #include "hmdnode/core/result.hpp"
 #include "hmdnode/core/scene.hpp"
 
 namespace hmdnode {
+
+// The bake settings of the demo scene (docs/baking.md "Demo scene"), modest so that the
+// build-time generation stays a matter of seconds: 32 paths per texel with the indirect part's
+// fireflies clamped (factor 8), the direct light filtered by 5 edge-aware A-trous passes and the
+// indirect light by 5 variance-guided ones, 2 paths per vertex sample, 2 bounces, 4 validity rays,
+// the lightmap's 8-bit range set by the 98th percentile texel (the insides of the lamp shades
+// clamp). Shared with bench/bake_noise_bench.cpp, which rebakes the room with them.
+inline BakeOptions demo_bake_options() {
+    BakeOptions o;
+    o.samples = 32;
+    o.firefly_factor = 8.0f;
+    o.vertex_samples = 2;
+    o.bounces = 2;
+    o.validity_rays = 4;
+    o.denoise_iterations = 5;
+    o.indirect_denoise_iterations = 5;
+    o.intensity_percentile = 0.98;
+    o.seed = 1;
+    return o;
+}
 
 // Builds the scene in memory from data_dir/meshes/{stanford-bunny,spot}.obj, LOD chains and bake
 // included. out_summary (optional) receives a human-readable summary: objects, levels with

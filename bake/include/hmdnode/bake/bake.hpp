@@ -45,11 +45,22 @@ struct BakeOptions {
     float validity_threshold = 0.1f;  // invalid when more of its rays see back faces (Unity's
                                       // default backface tolerance 0.9)
     int dilate_rings = 4;
-    int denoise_iterations = 3;  // 0: off
-    int seam_iterations = 64;    // seam-blend sweeps (0: off)
-    // > 0 (and samples >= 4): a path brighter than this x the mean of the texel's other paths is
-    // clamped to it (firefly suppression; biased). 0: off, the unbiased estimate.
+    int denoise_iterations = 3;  // 0: off (no filter at all)
+    // > 0: the direct and the indirect light are filtered apart, the direct light by the
+    // edge-aware A-trous above (denoise_iterations passes) and the indirect light, which is smooth
+    // but noisy, by a variance-guided A-trous (SVGF's, this many passes); 0: one edge-aware A-trous
+    // over their sum.
+    int indirect_denoise_iterations = 5;
+    int seam_iterations = 64;  // seam-blend sweeps (0: off)
+    // > 0 (and samples >= 4): firefly suppression. A path whose indirect part (the light that
+    // reflected at least once) is brighter than this x the mean indirect part of the texel's
+    // other paths (all but the brightest) is clamped to it; direct light is never touched.
+    // Biased (dark) by a bounded amount: <= 0.5 % of the mean in the furnace at factor 4
+    // (docs/baking.md "Noise"). 0: off, the unbiased estimate.
     float firefly_factor = 0.0f;
+    // false: the clamp acts on the whole path (direct + indirect), as before the split; kept so
+    // that the noise bench can show the old result.
+    bool firefly_indirect_only = true;
     int vertex_samples = 0;  // paths per vertex-oracle call (0: samples)
     // MOZ_lightmap.intensity = this quantile of the texels' max channel: the RGBM range (the
     // precision bound holds down to 1e-3 of it) goes to the bulk of the map and the brightest

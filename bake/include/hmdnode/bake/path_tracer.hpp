@@ -83,6 +83,38 @@ void parallel_for(size_t count, int threads, size_t chunk,
                   const std::function<void(size_t i, int thread)>& fn);
 int resolve_threads(int threads);
 
+// Ray recording, for the throughput bench (bench/bake_replay_bench.cpp): between start and stop,
+// every `every`-th ray that each thread casts through any PathTracer is kept (origin, direction,
+// interval, kind), so the baker's own ray mix can be replayed through raw Embree. Off, it costs
+// one relaxed atomic load per ray. Not reentrant: one recording at a time in the process.
+enum class RayKind : uint8_t {
+    Bounce,    // nearest hit, unbounded: path continuations and camera rays
+    Short,     // nearest hit, bounded: the validity pass's rays (1.5 texels)
+    Shadow,    // any hit (rtcOccluded1): punctual lights and emitter samples
+    Coplanar,  // the second nearest-hit query past a back face on a shared wall plane
+};
+struct RecordedRay {
+    glm::vec3 origin{0.0f};
+    float t_near = 0.0f;
+    glm::vec3 dir{0.0f};
+    float t_far = 0.0f;
+    RayKind kind = RayKind::Bounce;
+};
+void start_ray_recording(uint32_t every);
+std::vector<RecordedRay> stop_ray_recording();  // the rays kept, every thread's
+
+// How PathTracer::replay_rays casts: Single: rtcIntersect1 / rtcOccluded1 per ray (what the
+// baker does); Packet8: shadow and short rays in packets of 8 (rtcOccluded8 / rtcIntersect8,
+// consecutive rays of a kind), the rest single; Stream: shadow and short rays as streams of 64
+// (rtcOccluded1M / rtcIntersect1M), the rest single.
+enum class ReplayMode { Single, Packet8, Stream };
+struct ReplayTiming {
+    uint64_t rays = 0;
+    uint64_t hits = 0;  // nearest hits found plus occluded shadow rays (a checksum)
+    double wall_seconds = 0.0;
+    double cpu_seconds = 0.0;  // the process's CPU time over the replay
+};
+
 class PathTracer {
   public:
     // Errors: a non-finite world position (mesh, primitive and vertex named), Embree failing.
@@ -96,6 +128,12 @@ class PathTracer {
                          uint64_t* rays = nullptr) const;
     glm::vec3 radiance(const glm::vec3& origin, const glm::vec3& dir, Pcg32& rng,
                        uint64_t* rays = nullptr) const;
+    // The same estimate as irradiance() (same random numbers, same sum) in two parts: returns
+    // the light that reached p straight from an emitter, a punctual light or the sky, and sets
+    // `indirect` to the light that reflected at least once on its way (what firefly clamping and
+    // the bake's second filter pass act on).
+    glm::vec3 irradiance_split(const glm::vec3& p, const glm::vec3& n, Pcg32& rng,
+                               glm::vec3& indirect, uint64_t* rays = nullptr) const;
     // Direct light only (punctual lights + emitters by NEE + sky by one cosine sample).
     glm::vec3 direct_irradiance(const glm::vec3& p, const glm::vec3& n, Pcg32& rng,
                                 uint64_t* rays = nullptr) const;
@@ -122,6 +160,10 @@ class PathTracer {
     // The limit for the benchmark: `count` rays with origins uniform in the scene bounds and
     // uniform directions, plain rtcIntersect1 on `threads` threads. Returns rays per second.
     double raw_rays_per_second(size_t count, int threads, uint64_t seed) const;
+    // The recorded rays through raw Embree on this tracer's scene (build it from the same scene
+    // as the bake that recorded them), on `threads` threads, in chunks of 4096 in order.
+    ReplayTiming replay_rays(const std::vector<RecordedRay>& rays, int threads,
+                             ReplayMode mode) const;
 
   private:
     struct Impl;
