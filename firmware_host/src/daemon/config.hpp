@@ -25,6 +25,8 @@ struct DaemonConfig {
     std::string tracker_backend = "sim-trace";
     DeviceFilter tracker_device;  // "device": "VID:PID", "serial"
     MockDisplayConfig display;
+    // "renderer": {"backend": "vulkan" | "gles"}; empty: HMDNODE_RENDERER, else "vulkan".
+    std::string renderer_backend;
     NodeConfig node;
     std::filesystem::path status_path;  // empty: none
     double status_every_s = 5.0;

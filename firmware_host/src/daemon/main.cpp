@@ -144,7 +144,8 @@ int main(int argc, char** argv) {
     RendererConfig rc;
     rc.eye_width = dc.eye_width;
     rc.eye_height = dc.eye_height;
-    Result<std::unique_ptr<Renderer>> renderer = create_vulkan_renderer(rc);
+    rc.backend = cfg->renderer_backend;
+    Result<std::unique_ptr<Renderer>> renderer = create_renderer(rc);
     if (!renderer.ok()) {
         spdlog::error("{}", renderer.error().message);
         return 2;
@@ -168,13 +169,14 @@ int main(int argc, char** argv) {
     }
     spdlog::info(
         "hmdnoded: scene {} ({} objects), tracker {} {} ({} trace samples), {}x{} per eye at {} "
-        "Hz, renderer {}",
+        "Hz, renderer {} ({})",
         cfg->scene.string(), node.objects().size(), cfg->tracker_backend,
         cfg->tracker_backend == "sim-trace"
             ? cfg->trace.string()
             : format_vid_pid(cfg->tracker_device.vendor_id, cfg->tracker_device.product_id),
         trace ? trace->samples.size() : 0, dc.eye_width, dc.eye_height, dc.refresh_hz,
-        (*renderer)->device_name());
+        (*renderer)->device_name(), (*renderer)->backend_name());
+    const std::string renderer_backend = (*renderer)->backend_name();
 
     // The frame loop's thread only (this one): the renderer's worker threads exist already and
     // keep the default policy; threads created from here on start with it (reset on fork).
@@ -234,6 +236,7 @@ int main(int argc, char** argv) {
                             {"has_pose", node.has_pose()},
                             {"predict", node.config().predict},
                             {"lod_tolerance_px", node.config().lod.tolerance_px},
+                            {"renderer_backend", renderer_backend},
                             {"window", last_window}};
                 case Kind::metrics: {
                     std::optional<DeviceTrackerStatus> ts;
@@ -288,6 +291,7 @@ int main(int argc, char** argv) {
                     restart += (restart.empty() ? "" : ", ") + std::string(what);
                 };
                 if (next->scene != cfg->scene) needs_restart("scene");
+                if (next->renderer_backend != cfg->renderer_backend) needs_restart("renderer");
                 if (next->simulated_clock != cfg->simulated_clock) needs_restart("clock");
                 if (next->tracker_backend != cfg->tracker_backend || next->trace != cfg->trace ||
                     !(next->tracker_device.vendor_id == cfg->tracker_device.vendor_id &&
@@ -401,7 +405,8 @@ int main(int argc, char** argv) {
                 {"render_ms", percentiles_json(percentiles(render_ms))},
                 {"warp_ms", percentiles_json(percentiles(warp_ms))},
                 {"triangles", metrics.triangles},
-                {"lod_switches", metrics.lod_switches}};
+                {"lod_switches", metrics.lod_switches},
+                {"renderer_backend", renderer_backend}};
             if (device_tracker) {
                 // Recovery figures: a replug shows as a disconnect and the gap it left.
                 const DeviceTrackerStatus ts = device_tracker->status();

@@ -220,7 +220,7 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     RendererConfig rc = opt.renderer;
     rc.eye_width = dc.eye_width;
     rc.eye_height = dc.eye_height;
-    Result<std::unique_ptr<Renderer>> renderer = create_vulkan_renderer(rc);
+    Result<std::unique_ptr<Renderer>> renderer = create_renderer(rc);
     if (!renderer.ok()) return renderer.error();
 
     // Pixels come back to the CPU only for the frames the mock display writes; a real display
@@ -267,6 +267,7 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
 
     ReplayResult result;
     result.device_name = (*renderer)->device_name();
+    result.renderer_backend = (*renderer)->backend_name();
     result.mesh_cols = node.mesh_cols();
     result.mesh_rows = node.mesh_rows();
     result.lod_allocator = opt.node.lod_allocator;
@@ -394,6 +395,7 @@ nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& 
             {"trace", opt.trace.string()},
             {"clock", opt.simulated_clock ? "sim" : "real"},
             {"renderer", r.device_name},
+            {"renderer_backend", r.renderer_backend},
             {"display",
              {{"eye_width", opt.display.eye_width},
               {"eye_height", opt.display.eye_height},
