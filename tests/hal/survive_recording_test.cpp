@@ -129,12 +129,15 @@ TEST(SurviveRecording, AMalformedLineIsAnErrorNamingTheLine) {
 
 TEST(SurviveRecording, ACutLastLineIsSkippedWithAWarning) {
     std::string text = kConfig + imu_line(0.200, 1000, -7166, 1) + imu_line(0.201, 49000, -7170, 2);
+    const size_t cut_at = text.size();
     text += "0.202 T20 i 3 97000 -7180.000000 -43";  // the recorder stopped mid-line
     auto r = parse_survive_recording(text, "cut.rec", "T20");
     ASSERT_TRUE(r.ok()) << r.error().message;
     EXPECT_EQ(r->imu.size(), 2u);
     ASSERT_EQ(r->warnings.size(), 1u);
-    EXPECT_NE(r->warnings[0].find("cut.rec:4: the last line is cut short"), std::string::npos)
+    EXPECT_NE(r->warnings[0].find("cut.rec:4: the last line (at byte " + std::to_string(cut_at) +
+                                  ") is cut short"),
+              std::string::npos)
         << r->warnings[0];
 }
 

@@ -247,6 +247,7 @@ Result<SurviveRecording> parse_survive_recording(const std::string& text, const 
         const bool cut = end == std::string::npos;  // no newline: maybe a cut last line
         if (cut) end = text.size();
         const std::string_view line(text.data() + pos, end - pos);
+        const size_t line_at = pos;
         pos = end + 1;
         ++line_no;
         ++rec.lines;
@@ -263,7 +264,8 @@ Result<SurviveRecording> parse_survive_recording(const std::string& text, const 
         if (err.empty()) continue;
         const std::string where = source + ":" + std::to_string(line_no) + ": ";
         if (cut) {
-            rec.warnings.push_back(where + "the last line is cut short (" + err + "); skipped");
+            rec.warnings.push_back(where + "the last line (at byte " + std::to_string(line_at) +
+                                   ") is cut short (" + err + "); skipped");
             continue;
         }
         return make_error(where + err);
