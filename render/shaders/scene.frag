@@ -62,7 +62,14 @@ vec3 rgbm_bilinear(vec2 uv) {
 const int kBayer4[16] = int[16](0, 8, 2, 10, 12, 4, 14, 6, 3, 11, 1, 9, 15, 7, 13, 5);
 
 void main() {
-    if (kDithered && fade.dither != 0) {
+    // note: lavapipe of Mesa 22.x "inlines" a uniform that alone decides a branch: it compiles a
+    // new shader whenever such a value changes (each material or dither switch, every frame) and
+    // keeps every one of them (about 1 MB and several ms each: the daemon grew by gigabytes). So
+    // each branch below also reads `live` (gl_FragCoord.w > 0: true for every fragment), which
+    // no driver can fold, and ints are combined with & (no short circuit, no branch on the
+    // uniform part alone). tests/render/renderer_test.cpp holds the memory flat.
+    const int live = int(gl_FragCoord.w > 0.0);
+    if (kDithered && (int(fade.dither != 0) & live) != 0) {
         ivec2 p = ivec2(gl_FragCoord.xy) & 3;
         int rank = kBayer4[p.y * 4 + p.x];
         if ((rank < abs(fade.dither)) != (fade.dither > 0)) discard;
@@ -71,10 +78,13 @@ void main() {
     vec3 rgb = albedo.rgb * in_light;
     // note: the branch is uniform per draw (a material constant), so the implicit derivatives of
     // the lightmap fetch stay defined.
-    if (material.lightmap.z > 0.5) {
+    if ((int(material.lightmap.z > 0.5) & live) != 0) {
         vec2 uv = material.lightmap.y > 0.5 ? in_uv1 : in_uv0;
-        vec3 texel =
-            material.lightmap.w > 0.5 ? rgbm_bilinear(uv) : texture(lightmap_texture, uv).rgb;
+        vec3 texel;
+        if ((int(material.lightmap.w > 0.5) & live) != 0)
+            texel = rgbm_bilinear(uv);
+        else
+            texel = texture(lightmap_texture, uv).rgb;
         vec3 irradiance = texel * material.lightmap.x;
         rgb = albedo.rgb * irradiance * kInvPi;
     }
