@@ -4,6 +4,7 @@
 // the error against time. Docs: docs/tracking.md §8.
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <string>
 
@@ -22,6 +23,7 @@ namespace {
 
 struct EvalArgs {
     std::string reference, estimate, report, plot;
+    std::string time_offset = "0";  // "auto" or milliseconds
     OrientationEvalOptions options;
 };
 
@@ -92,8 +94,20 @@ std::string error_plot_svg(const OrientationEval& e, const std::string& title) {
     return s;
 }
 
-void run_eval(const EvalArgs& args) {
+void run_eval(EvalArgs args) {
     const char* cmd = "hmdnode tracking eval";
+    if (args.time_offset == "auto") {
+        args.options.fit_time_offset = true;
+    } else {
+        char* end = nullptr;
+        const double ms = std::strtod(args.time_offset.c_str(), &end);
+        if (args.time_offset.empty() || *end != '\0' || !std::isfinite(ms)) {
+            std::fprintf(stderr, "%s: --time-offset \"%s\" is neither auto nor milliseconds\n", cmd,
+                         args.time_offset.c_str());
+            return set_exit_code(2);
+        }
+        args.options.time_offset_s = ms * 1e-3;
+    }
     if (!check_outputs(cmd, {{"--report", args.report}, {"--plot", args.plot}}))
         return set_exit_code(1);
     auto ref = read_trace_csv(args.reference);
@@ -122,7 +136,14 @@ void run_eval(const EvalArgs& args) {
          {{"error_deg", percentiles(e->error)},
           {"tilt_error_deg", percentiles(e->tilt)},
           {"heading_error_deg", percentiles(e->heading)},
-          {"samples", e->samples}}}};
+          {"samples", e->samples},
+          {"time_offset_ms", std::round(double(e->time_offset_ns) * 1e-3) / 1e3},
+          {"time_offset_fitted", args.options.fit_time_offset}}}};
+    if (e->time_offset_at_range_limit)
+        std::fprintf(stderr,
+                     "%s: warning: the fitted time offset %.3f ms is at the edge of the search "
+                     "range (+-%.0f ms; --max-time-offset widens it)\n",
+                     cmd, double(e->time_offset_ns) * 1e-6, args.options.max_time_offset_s * 1e3);
     if (!args.report.empty()) {
         Status st = write_file_atomically(args.report, report.dump(2) + "\n");
         if (!st.ok()) {
@@ -149,6 +170,9 @@ void run_eval(const EvalArgs& args) {
     row("orientation", e->error);
     row("tilt", e->tilt);
     row("heading", e->heading);
+    std::printf("  time offset: %.3f ms (%s; estimate time + offset = reference time)\n",
+                double(e->time_offset_ns) * 1e-6,
+                args.options.fit_time_offset ? "fitted" : "given");
     auto angle = [](const glm::dquat& q) {
         return 2.0 * std::acos(std::min(1.0, std::abs(q.w))) * 180.0 / 3.14159265358979323846;
     };
@@ -178,6 +202,14 @@ void add_tracking_command(CLI::App& app) {
         ->capture_default_str();
     eval->add_option("--duration", args->options.duration_s, "Window length in seconds (0: all)")
         ->check(CLI::NonNegativeNumber)
+        ->capture_default_str();
+    eval->add_option("--time-offset", args->time_offset,
+                     "Estimate time + offset = reference time: milliseconds, or auto to fit it "
+                     "with the rotations")
+        ->capture_default_str();
+    eval->add_option("--max-time-offset", args->options.max_time_offset_s,
+                     "Search range of --time-offset auto, +- seconds")
+        ->check(CLI::PositiveNumber)
         ->capture_default_str();
     eval->callback([args] { run_eval(*args); });
 }
