@@ -6,8 +6,11 @@
 // tilt re-alignment after them).
 //
 // What it cannot know: the gyro bias about the world vertical is unobservable while the device
-// moves (gravity does not see it); only a still window observes it, and a constant turn slower than
-// still_max_bias_rad_s with no tremor is indistinguishable from a still device with that bias.
+// moves (gravity does not see it); only a still window observes it. The first still window may set
+// a bias up to still_max_bias_rad_s (a sensor's uncalibrated bias); later ones move it by at most
+// still_max_bias_change_rad_s (temperature drift), so a slow turn after a still period is not
+// eaten. A constant turn with no tremor from the very start, slower than still_max_bias_rad_s,
+// is indistinguishable from a still device with that bias.
 // heading_bias_observed() says whether a still window has measured it.
 //
 // Frames (docs/DESIGN.md, docs/tracker-protocol.md): the head frame is x right, y up, z backward
@@ -40,9 +43,14 @@ struct ImuFusionConfig {
     double still_accel_std_m_s2 = 0.06;       // per-axis std over the window, at most
     double still_block_spread_rad_s = 0.002;  // a block's mean gyro vs the window's, at most
     double still_tilt_change_rad = 0.003;     // gravity direction, first vs last block, at most
-    double still_max_bias_rad_s = 0.0175;  // |mean gyro| above this is motion, not bias (1 deg/s)
-    double still_bias_tau_s = 1.0;         // bias follows the still window's mean gyro
-    double max_bias_rad_s = 0.05;          // bias estimate clamp (per axis)
+    // The first still window's |mean gyro| above this is motion, not bias (3 deg/s: a real Index
+    // reads 1.35 deg/s at rest after its factory calibration, data/traces/compare-test-index).
+    double still_max_bias_rad_s = 0.05;
+    // Once a still window has set the bias, one whose mean departs from it by more than this is a
+    // slow turn, not bias (0.2 deg/s: bias drifts with temperature, slowly).
+    double still_max_bias_change_rad_s = 0.0035;
+    double still_bias_tau_s = 1.0;  // bias follows the still window's mean gyro
+    double max_bias_rad_s = 0.05;   // bias estimate clamp (per axis)
     // After a saturated gyro sample the orientation has lost an unknown rotation: the initial
     // (fast) gravity gain re-aligns tilt for this long, and no bias is learnt meanwhile.
     int64_t saturation_recovery_ns = 500'000'000;
