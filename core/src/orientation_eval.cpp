@@ -207,7 +207,9 @@ Result<OrientationEval> evaluate_orientation(const Trace& reference, const Trace
                 best = off;
             }
         }
-        double lo = double(best - kStep), hi = double(best + kStep);
+        const int64_t edge = (range_ns / kStep) * kStep;
+        double lo = double(std::max(best - kStep, -edge)),
+               hi = double(std::min(best + kStep, edge));
         const double g = (std::sqrt(5.0) - 1.0) / 2.0;
         double x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo);
         double f1 = cost_at(std::llround(x1), 20), f2 = cost_at(std::llround(x2), 20);
@@ -227,7 +229,7 @@ Result<OrientationEval> evaluate_orientation(const Trace& reference, const Trace
             }
         }
         offset_ns = std::llround((lo + hi) / 2.0);
-        r.time_offset_at_range_limit = std::llabs(best) >= (range_ns / kStep) * kStep;
+        r.time_offset_at_range_limit = std::llabs(best) >= edge;
     }
     r.time_offset_ns = offset_ns;
     collect(offset_ns, 0, &times, &ref);
