@@ -403,6 +403,8 @@ void finish_tracker_recording(const RecordArgs& args, const std::string& label,
                 static_cast<unsigned long long>(st.codec.missing_samples));
     if (!st.codec_warning.empty())
         std::fprintf(stderr, "hmdnode record: warning: %s\n", st.codec_warning.c_str());
+    if (!st.codec_info.empty())
+        std::printf("  %-24s %s\n", "IMU calibration", st.codec_info.c_str());
     if (st.codec.saturated_samples || st.codec.stale_first_dropped)
         std::printf("  %-24s %llu saturated (axis at full scale), %llu stale first dropped\n",
                     "IMU samples not trusted",
