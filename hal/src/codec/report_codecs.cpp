@@ -110,6 +110,12 @@ class ViveCodec final : public ReportCodec {
     // product-string warning in configure()).
     void read_device_configuration(Transport& t) {
         calibration_.reset();
+        if (t.replayed()) {
+            info_ =
+                "factory calibration not read (a capture answers each feature report with its "
+                "first recorded answer: the chunked configuration read cannot be replayed)";
+            return;
+        }
         auto json = read_lighthouse_config(t);
         if (!json) {
             info_ = "factory calibration not read (" + json.error().message + ")";
