@@ -75,10 +75,72 @@ ErrorPercentiles error_percentiles(std::vector<double> v) {
     return p;
 }
 
+namespace {
+
+// Least-squares W, B for fixed sample pairs (orientation_eval.hpp).
+class AlignmentFit {
+  public:
+    AlignmentFit(const std::vector<glm::dquat>& ref, const std::vector<glm::dquat>& est)
+        : ref_(ref), est_(est) {}
+
+    double cost(const glm::dquat& w, const glm::dquat& b) const {
+        double c = 0;
+        for (size_t i = 0; i < ref_.size(); ++i) {
+            const double d = glm::dot(ref_[i], w * est_[i] * b);
+            c += 1.0 - d * d;
+        }
+        return c;
+    }
+    // One round of the alternation; returns how far B moved (radians).
+    double round(glm::dquat& w, glm::dquat& b, bool first) const {
+        Mat4 mw{};
+        for (size_t i = 0; i < ref_.size(); ++i)
+            add_outer(mw, ref_[i] * glm::conjugate(est_[i] * b));
+        w = quaternion_mean(mw, first ? ref_[0] * glm::conjugate(est_[0] * b) : w);
+        Mat4 mb{};
+        for (size_t i = 0; i < ref_.size(); ++i)
+            add_outer(mb, glm::conjugate(w * est_[i]) * ref_[i]);
+        const glm::dquat before = b;
+        b = quaternion_mean(mb, b);
+        return 2.0 * std::acos(std::min(1.0, std::abs(glm::dot(before, b))));
+    }
+    // From the 24 cube rotations as starting B, then refined until B stops moving (the
+    // alternation converges linearly: W and B are coupled).
+    double global(glm::dquat& w_out, glm::dquat& b_out) const {
+        double best = INFINITY;
+        for (const glm::dquat& b0 : cube_rotations()) {
+            glm::dquat b = b0, w(1, 0, 0, 0);
+            for (int it = 0; it < 30; ++it) round(w, b, it == 0);
+            const double c = cost(w, b);
+            if (c < best) {
+                best = c;
+                w_out = w;
+                b_out = b;
+            }
+        }
+        for (int it = 0; it < 5000; ++it)
+            if (round(w_out, b_out, false) < 1e-11) break;
+        return cost(w_out, b_out);
+    }
+    // `rounds` rounds from a given W, B (a nearby time offset's fit).
+    double local(glm::dquat w, glm::dquat b, int rounds) const {
+        for (int it = 0; it < rounds; ++it) round(w, b, false);
+        return cost(w, b);
+    }
+
+  private:
+    const std::vector<glm::dquat>& ref_;
+    const std::vector<glm::dquat>& est_;
+};
+
+}  // namespace
+
 Result<OrientationEval> evaluate_orientation(const Trace& reference, const Trace& estimate,
                                              const OrientationEvalOptions& options) {
     if (!(options.start_s >= 0) || !(options.duration_s >= 0))
         return make_error("the window's start and duration must not be negative");
+    if (!(options.max_time_offset_s > 0) || !std::isfinite(options.time_offset_s))
+        return make_error("the time offset must be finite and its search range positive");
     if (reference.samples.empty() || estimate.samples.empty())
         return make_error(reference.samples.empty() ? "the reference has no samples"
                                                     : "the estimate has no samples");
@@ -87,59 +149,95 @@ Result<OrientationEval> evaluate_orientation(const Trace& reference, const Trace
     r.window_end_ns = options.duration_s > 0
                           ? r.window_start_ns + int64_t(std::llround(options.duration_s * 1e9))
                           : reference.end_ns();
-    std::vector<glm::dquat> ref, est;
-    for (const TraceSample& s : reference.samples) {
-        if (s.time_ns < r.window_start_ns || s.time_ns > r.window_end_ns) continue;
-        if (s.time_ns < estimate.start_ns() || s.time_ns > estimate.end_ns()) continue;
-        r.time_ns.push_back(s.time_ns);
-        ref.push_back(glm::normalize(s.orientation));
-        est.push_back(glm::normalize(estimate.pose_at(s.time_ns).orientation));
-    }
-    if (ref.size() < 10) {
+    // Reference samples in the window whose estimate, `margin` either side, is inside its span.
+    auto collect = [&](int64_t offset_ns, int64_t margin_ns, std::vector<int64_t>* times,
+                       std::vector<glm::dquat>* ref) {
+        times->clear();
+        ref->clear();
+        for (const TraceSample& s : reference.samples) {
+            if (s.time_ns < r.window_start_ns || s.time_ns > r.window_end_ns) continue;
+            const int64_t t = s.time_ns - offset_ns;
+            if (t - margin_ns < estimate.start_ns() || t + margin_ns > estimate.end_ns()) continue;
+            times->push_back(s.time_ns);
+            ref->push_back(glm::normalize(s.orientation));
+        }
+    };
+    auto estimate_at = [&](const std::vector<int64_t>& times, int64_t offset_ns,
+                           std::vector<glm::dquat>* est) {
+        est->resize(times.size());
+        for (size_t i = 0; i < times.size(); ++i)
+            (*est)[i] = glm::normalize(estimate.pose_at(times[i] - offset_ns).orientation);
+    };
+    auto too_few = [&](size_t n) {
         char buf[256];
         std::snprintf(buf, sizeof buf,
                       "%zu reference samples in the window [%.3f, %.3f] s inside the estimate's "
                       "span [%.3f, %.3f] s (at least 10 needed; do the traces share a timeline?)",
-                      ref.size(), ns_to_s(r.window_start_ns), ns_to_s(r.window_end_ns),
+                      n, ns_to_s(r.window_start_ns), ns_to_s(r.window_end_ns),
                       ns_to_s(estimate.start_ns()), ns_to_s(estimate.end_ns()));
         return make_error(buf);
-    }
-    const size_t n = ref.size();
+    };
 
-    auto cost = [&](const glm::dquat& w, const glm::dquat& b) {
-        double c = 0;
-        for (size_t i = 0; i < n; ++i) {
-            const double d = glm::dot(ref[i], w * est[i] * b);
-            c += 1.0 - d * d;
+    std::vector<int64_t> times;
+    std::vector<glm::dquat> ref, est;
+    int64_t offset_ns = int64_t(std::llround(options.time_offset_s * 1e9));
+    if (options.fit_time_offset) {
+        // The time offset: a grid of 1 ms steps over +-max_time_offset_s (each offset's W, B a few
+        // rounds from the zero offset's fit: the alignment hardly depends on the offset), then a
+        // golden-section search in the best step's neighbourhood, to 1 us. The same samples
+        // throughout: those inside the estimate's span at every offset searched.
+        const int64_t range_ns = int64_t(std::llround(options.max_time_offset_s * 1e9));
+        collect(0, range_ns, &times, &ref);
+        if (ref.size() < 10) return too_few(ref.size());
+        estimate_at(times, 0, &est);
+        AlignmentFit fit(ref, est);
+        glm::dquat w0, b0;
+        fit.global(w0, b0);
+        auto cost_at = [&](int64_t off, int rounds) {
+            estimate_at(times, off, &est);
+            return fit.local(w0, b0, rounds);
+        };
+        constexpr int64_t kStep = 1'000'000;
+        int64_t best = 0;
+        double best_cost = INFINITY;
+        for (int64_t off = -(range_ns / kStep) * kStep; off <= range_ns; off += kStep) {
+            const double c = cost_at(off, 3);
+            if (c < best_cost) {
+                best_cost = c;
+                best = off;
+            }
         }
-        return c;
-    };
-    // One round of the alternation; returns how far B moved (radians).
-    auto round = [&](glm::dquat& w, glm::dquat& b, bool first) {
-        Mat4 mw{};
-        for (size_t i = 0; i < n; ++i) add_outer(mw, ref[i] * glm::conjugate(est[i] * b));
-        w = quaternion_mean(mw, first ? ref[0] * glm::conjugate(est[0] * b) : w);
-        Mat4 mb{};
-        for (size_t i = 0; i < n; ++i) add_outer(mb, glm::conjugate(w * est[i]) * ref[i]);
-        const glm::dquat before = b;
-        b = quaternion_mean(mb, b);
-        return 2.0 * std::acos(std::min(1.0, std::abs(glm::dot(before, b))));
-    };
-    double best = INFINITY;
-    for (const glm::dquat& b0 : cube_rotations()) {
-        glm::dquat b = b0, w(1, 0, 0, 0);
-        for (int it = 0; it < 30; ++it) round(w, b, it == 0);
-        const double c = cost(w, b);
-        if (c < best) {
-            best = c;
-            r.world_alignment = w;
-            r.body_alignment = b;
+        const int64_t edge = (range_ns / kStep) * kStep;
+        double lo = double(std::max(best - kStep, -edge)),
+               hi = double(std::min(best + kStep, edge));
+        const double g = (std::sqrt(5.0) - 1.0) / 2.0;
+        double x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo);
+        double f1 = cost_at(std::llround(x1), 20), f2 = cost_at(std::llround(x2), 20);
+        while (hi - lo > 1000.0) {
+            if (f1 < f2) {
+                hi = x2;
+                x2 = x1;
+                f2 = f1;
+                x1 = hi - g * (hi - lo);
+                f1 = cost_at(std::llround(x1), 20);
+            } else {
+                lo = x1;
+                x1 = x2;
+                f1 = f2;
+                x2 = lo + g * (hi - lo);
+                f2 = cost_at(std::llround(x2), 20);
+            }
         }
+        offset_ns = std::llround((lo + hi) / 2.0);
+        r.time_offset_at_range_limit = std::llabs(best) >= edge;
     }
-    // The alternation converges linearly (W and B are coupled): refine the best start until B
-    // stops moving.
-    for (int it = 0; it < 5000; ++it)
-        if (round(r.world_alignment, r.body_alignment, false) < 1e-11) break;
+    r.time_offset_ns = offset_ns;
+    collect(offset_ns, 0, &times, &ref);
+    if (ref.size() < 10) return too_few(ref.size());
+    estimate_at(times, offset_ns, &est);
+    r.time_ns = times;
+    const size_t n = ref.size();
+    AlignmentFit(ref, est).global(r.world_alignment, r.body_alignment);
 
     const glm::dquat& w = r.world_alignment;
     const glm::dvec3 up(0, 1, 0);

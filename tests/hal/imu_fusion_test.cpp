@@ -101,8 +101,7 @@ TEST(ImuFusion, HeadShakesWithTiltAxisBiasAndNoiseConvergeAndStayWithinBounds) {
 }
 
 // A session of shakes with pauses: the pauses teach the yaw-axis bias, so heading drift stays
-// bounded too (a yaw bias is unobservable from gravity while the head stays upright). The bias is
-// within still_max_bias_rad_s (1 deg/s), the most a still window takes for bias.
+// bounded too (a yaw bias is unobservable from gravity while the head stays upright).
 TEST(ImuFusion, ShakesWithPausesLearnTheYawBiasAndBoundHeadingDrift) {
     ImuFusion f;
     const glm::dvec3 bias(0.01, -0.008, 0.006);
@@ -254,17 +253,38 @@ TEST(ImuFusion, SlowTurnIsNotEatenAsBias) {
     }
 }
 
-// A bias about the vertical axis larger than still_max_bias_rad_s cannot be told from a slow turn:
-// it is not learnt, the heading drifts by it, and heading_bias_observed() says so.
+// A still device with the gyro bias a real Index shows at rest after its factory calibration
+// (1.35 deg/s, mostly about the vertical: data/traces/compare-test-index.rec.gz, its first 8 s):
+// the first still window takes it, so the heading holds (the former 1 deg/s limit on any still
+// window left it unlearnt and the heading drifted by 1.26 deg/s on that recording).
+TEST(ImuFusion, TheIndexsRestBiasIsLearntFromTheFirstStillWindow) {
+    ImuFusion f;
+    const glm::dvec3 bias(-0.0022, -0.0218, 0.0082);  // rad/s, head frame, as measured
+    run([](double) { return glm::dvec3(0); }, glm::dquat(1, 0, 0, 0), 3.0, 1e9, bias, 0.0012, 0.02,
+        f);
+    EXPECT_TRUE(f.heading_bias_observed());
+    EXPECT_LT(glm::length(f.gyro_bias() - bias), 2e-4);
+    // 10 s more at rest (the run's clock goes on from 3 s): the heading holds.
+    const glm::dquat held = f.orientation();
+    std::mt19937_64 rng(5);
+    std::normal_distribution<double> n01(0.0, 1.0);
+    for (int i = 3001; i <= 13000; ++i)
+        f.update(int64_t(i) * 1'000'000, bias + 0.0012 * glm::dvec3(n01(rng), n01(rng), n01(rng)),
+                 glm::dvec3(0, kG, 0) + 0.02 * glm::dvec3(n01(rng), n01(rng), n01(rng)));
+    EXPECT_LT(angle_deg(held, f.orientation()), 0.2);
+}
+
+// A bias about the vertical axis larger than still_max_bias_rad_s (3 deg/s) is not a bias any
+// gyro has: it is not learnt, the heading drifts by it, and heading_bias_observed() says so.
 TEST(ImuFusion, YawBiasBeyondTheStillLimitIsReportedUnobservedNotGuessed) {
     ImuFusion f;
-    const double b = 2.0 * kPi / 180.0;  // 2 deg/s about the vertical
+    const double b = 4.0 * kPi / 180.0;  // 4 deg/s about the vertical
     run([](double) { return glm::dvec3(0); }, glm::dquat(1, 0, 0, 0), 10.0, 1e9,
         glm::dvec3(0, b, 0), 0.0, 0.0, f);
     EXPECT_FALSE(f.heading_bias_observed());
     EXPECT_NEAR(f.gyro_bias().y, 0.0, 1e-9);
     const glm::dquat q = f.orientation();
-    EXPECT_NEAR(2.0 * std::atan2(q.y, q.w) * 180.0 / kPi, 20.0, 0.05);  // 2 deg/s for 10 s
+    EXPECT_NEAR(2.0 * std::atan2(q.y, q.w) * 180.0 / kPi, 40.0, 0.1);  // 4 deg/s for 10 s
 }
 
 // A fast yank beyond the gyro's full scale: the clipped samples are counted, no bias is learnt

@@ -28,6 +28,7 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -62,6 +63,8 @@ struct RecordArgs {
     std::string backend = "hidapi";
     std::string from;
     std::string reference_out;
+    std::string reference_time = "imu";  // imu: the IMU sample a POSE follows; recorded: its TIME
+    std::string fusion = "mahony";       // or gyro: the gyro integrated, no gravity correction
     bool sim_clock = false;
     bool duration_given = false;
 };
@@ -256,6 +259,9 @@ struct TrackerRecording {
     uint64_t non_increasing = 0;  // dropped: time not strictly increasing
     std::string failure;          // the device went away
     double seconds = 0.0;         // on the recording clock
+    // With keep_arrivals: a report's arrival time (from t0) -> the row time of its newest sample.
+    bool keep_arrivals = false;
+    std::unordered_map<int64_t, int64_t> row_time_of_arrival;
 };
 
 // Appends one delivered sample as a trace row (times from t0; a column group in every row or
@@ -285,6 +291,7 @@ void append_row(const TrackerSample& t, int64_t t0, TrackerRecording* rec) {
     s.accel = group(t.accel, &TraceSample::accel);
     s.position = group(t.position, &TraceSample::position);
     rows.push_back(s);
+    if (rec->keep_arrivals) rec->row_time_of_arrival[t.arrival_ns - t0] = s.time_ns;
 }
 
 // The longest wait for the first pose of a device (or a capture) before giving up with an error.
@@ -296,8 +303,10 @@ constexpr int64_t kFirstPoseTimeoutNs = 5 * kNsPerSecond;
 // cannot be opened, or gives no pose within kFirstPoseTimeoutNs, ends it with a failure.
 // `origin`, when given, is the clock time that row time 0 stands for (a recording's own timeline).
 TrackerRecording record_tracker(DeviceTracker& tracker, Clock& clock, int64_t start, int64_t end,
-                                std::optional<int64_t> origin = std::nullopt) {
+                                std::optional<int64_t> origin = std::nullopt,
+                                bool keep_arrivals = false) {
     TrackerRecording rec;
+    rec.keep_arrivals = keep_arrivals;
     std::vector<TrackerSample> buf(1024);
     std::optional<int64_t> t0 = origin;
     if (!t0 && !clock.is_simulated()) t0 = start;
@@ -394,6 +403,8 @@ void finish_tracker_recording(const RecordArgs& args, const std::string& label,
                 static_cast<unsigned long long>(st.codec.missing_samples));
     if (!st.codec_warning.empty())
         std::fprintf(stderr, "hmdnode record: warning: %s\n", st.codec_warning.c_str());
+    if (!st.codec_info.empty())
+        std::printf("  %-24s %s\n", "IMU calibration", st.codec_info.c_str());
     if (st.codec.saturated_samples || st.codec.stale_first_dropped)
         std::printf("  %-24s %llu saturated (axis at full scale), %llu stale first dropped\n",
                     "IMU samples not trusted",
@@ -453,19 +464,34 @@ void run_record_capture(const RecordArgs& args, const DeviceFilter& filter) {
                              "capture " + args.from, rec, st, nullptr);
 }
 
-// --reference-out: a libsurvive recording's lighthouse-solved poses (POSE lines) as a trace on the
-// recording's timeline (libsurvive's world, z up, and its object frame: `hmdnode tracking eval`
-// fits both rotations). Lines whose time does not increase are skipped and counted.
+// --reference-out: a libsurvive recording's lighthouse-solved poses (POSE lines) as a trace
+// (libsurvive's world, z up, and its object frame: `hmdnode tracking eval` fits both rotations).
+// libsurvive emits a POSE right after the IMU sample whose TIME it carries (every POSE of the
+// bundled recording shares its TIME with an `i` line), its state predicted to that sample's
+// instant; with `imu_row_time` (TIME of an IMU line -> the fused row of that sample) a pose gets
+// that row's time: the instant the sample was taken by the device clock, on the fused trace's
+// timeline, free of the USB arrival jitter and delay in TIME. Without it, the pose's TIME. Poses
+// whose time does not increase, or (with the map) that follow no IMU line, are skipped and counted.
 Status write_survive_reference(const SurviveRecording& rec, const std::string& path,
-                               size_t* skipped) {
+                               const std::unordered_map<int64_t, int64_t>* imu_row_time,
+                               size_t* skipped, size_t* unmatched) {
     Trace t;
     for (const SurvivePose& p : rec.poses) {
-        if (!t.samples.empty() && p.host_time_ns <= t.samples.back().time_ns) {
+        int64_t time = p.host_time_ns;
+        if (imu_row_time) {
+            auto it = imu_row_time->find(p.host_time_ns);
+            if (it == imu_row_time->end()) {
+                ++*unmatched;
+                continue;
+            }
+            time = it->second;
+        }
+        if (!t.samples.empty() && time <= t.samples.back().time_ns) {
             ++*skipped;
             continue;
         }
         TraceSample s;
-        s.time_ns = p.host_time_ns;
+        s.time_ns = time;
         s.orientation = t.samples.empty()
                             ? p.orientation
                             : same_hemisphere(p.orientation, t.samples.back().orientation);
@@ -476,9 +502,42 @@ Status write_survive_reference(const SurviveRecording& rec, const std::string& p
         return make_error(rec.device + ": " + std::to_string(t.samples.size()) +
                           " lighthouse pose(s) (POSE lines) in the recording: --reference-out " +
                           path + " not written");
-    t.comments.push_back("lighthouse-solved poses (libsurvive POSE lines) of " + rec.device +
-                         ", libsurvive's world frame (z up), time = the recording's TIME");
+    t.comments.push_back(
+        "lighthouse-solved poses (libsurvive POSE lines) of " + rec.device +
+        ", libsurvive's world frame (z up), time = " +
+        (imu_row_time ? "the instant of the IMU sample each follows, on the fused trace's timeline"
+                      : "the recording's TIME"));
     return write_trace_csv(t, path);
+}
+
+// The recording's IMU samples with an axis at full scale, as trace comments
+// `saturated_ns FIRST LAST COUNT` (runs of such samples less than 50 ms apart; row times):
+// `hmdnode tracking eval` reports the error without the intervals they disturb.
+void add_saturation_comments(const SurviveRecording& rec,
+                             const std::unordered_map<int64_t, int64_t>& row_time, Trace* trace) {
+    auto full = [](const std::array<int16_t, 3>& v) {
+        for (int16_t c : v)
+            if (c == 32767 || c == -32768) return true;
+        return false;
+    };
+    int64_t first = 0, last = 0;
+    int count = 0;
+    auto flush = [&] {
+        if (count > 0)
+            trace->comments.push_back("saturated_ns " + std::to_string(first) + " " +
+                                      std::to_string(last) + " " + std::to_string(count));
+        count = 0;
+    };
+    for (const SurviveImuLine& l : rec.imu) {
+        if (!full(l.gyro) && !full(l.accel)) continue;
+        auto it = row_time.find(l.host_time_ns);
+        if (it == row_time.end()) continue;
+        if (count > 0 && it->second - last > 50 * kNsPerMs) flush();
+        if (count == 0) first = it->second;
+        last = it->second;
+        ++count;
+    }
+    flush();
 }
 
 // --backend rec --from FILE.rec[.gz] --device NAME: a libsurvive recording's IMU samples through
@@ -505,7 +564,11 @@ void run_record_survive(const RecordArgs& args) {
     auto rec = std::make_shared<const SurviveRecording>(std::move(*loaded));
     SimulatedClock clock(kNsPerSecond);
     const int64_t start = clock.now_ns();
-    auto tracker = create_survive_tracker(rec, clock, start);
+    ImuFusionConfig fusion;
+    if (args.fusion == "gyro") {  // the gyro integrated (still-window bias kept), no gravity
+        fusion.kp = fusion.ki = fusion.init_kp = fusion.init_ki = 0.0;
+    }
+    auto tracker = create_survive_tracker(rec, clock, start, fusion);
     if (!tracker.ok()) return fail(tracker.error().message);
     if (Status st = (*tracker)->start(); !st.ok()) return fail(st.error().message);
     const int64_t end = args.duration_given && args.duration_s > 0
@@ -513,7 +576,11 @@ void run_record_survive(const RecordArgs& args) {
                             : std::numeric_limits<int64_t>::max();
     // The tracker's host times are the recording's shifted so its first IMU line is at `start`.
     TrackerRecording out =
-        record_tracker(**tracker, clock, start, end, start - rec->imu.front().host_time_ns);
+        record_tracker(**tracker, clock, start, end, start - rec->imu.front().host_time_ns, true);
+    add_saturation_comments(*rec, out.row_time_of_arrival, &out.trace);
+    if (args.fusion == "gyro")
+        out.trace.comments.push_back(
+            "--fusion gyro: the gyro integrated with the still-window bias, no gravity correction");
     out.seconds = ns_to_s(clock.now_ns() - start);
     const DeviceTrackerStatus st = (*tracker)->status();
     finish_tracker_recording(
@@ -525,14 +592,21 @@ void run_record_survive(const RecordArgs& args) {
                                 : "none (no CONFIG line)");
     if (exit_code() != 0) return;  // the fused trace was not written: neither is the reference
     if (!args.reference_out.empty()) {
-        size_t skipped = 0;
-        Status w = write_survive_reference(*rec, args.reference_out, &skipped);
+        size_t skipped = 0, unmatched = 0;
+        Status w = write_survive_reference(
+            *rec, args.reference_out,
+            args.reference_time == "imu" ? &out.row_time_of_arrival : nullptr, &skipped,
+            &unmatched);
         if (!w.ok()) {
             std::fprintf(stderr, "hmdnode record: %s\n", w.error().message.c_str());
             return set_exit_code(1);
         }
-        std::printf("  %-24s %s (%zu lighthouse poses, %zu with a repeated time skipped)\n",
-                    "reference", args.reference_out.c_str(), rec->poses.size() - skipped, skipped);
+        std::printf(
+            "  %-24s %s (%zu lighthouse poses at %s; %zu with a repeated time, %zu following no "
+            "IMU sample, skipped)\n",
+            "reference", args.reference_out.c_str(), rec->poses.size() - skipped - unmatched,
+            args.reference_time == "imu" ? "their IMU sample's instant" : "their TIME", skipped,
+            unmatched);
     }
 }
 
@@ -571,6 +645,8 @@ void run_record(const RecordArgs& args) {
         return usage_error("--from needs --backend capture or rec");
     if (!args.reference_out.empty() && args.backend != "rec")
         return usage_error("--reference-out needs --backend rec (a recording's lighthouse poses)");
+    if (args.fusion != "mahony" && args.backend != "rec")
+        return usage_error("--fusion gyro needs --backend rec");
     if (!check_outputs("hmdnode record", {{"--out", args.out},
                                           {"--capture", args.capture},
                                           {"--reference-out", args.reference_out}}))
@@ -792,6 +868,16 @@ void add_record_command(CLI::App& app) {
                     "with --backend rec: the libsurvive recording (.rec or .rec.gz)");
     rec->add_option("--reference-out", args->reference_out,
                     "With --backend rec: trace CSV of the recording's lighthouse poses");
+    rec->add_option("--reference-time", args->reference_time,
+                    "With --reference-out: imu (a pose at the instant of the IMU sample it "
+                    "follows, on the fused timeline) or recorded (its TIME)")
+        ->check(CLI::IsMember({"imu", "recorded"}))
+        ->capture_default_str();
+    rec->add_option("--fusion", args->fusion,
+                    "With --backend rec: mahony (the tracker's fusion) or gyro (the gyro "
+                    "integrated, no gravity correction: the fusion's share of an error)")
+        ->check(CLI::IsMember({"mahony", "gyro"}))
+        ->capture_default_str();
     rec->callback([args, duration] {
         args->duration_given = duration->count() > 0;
         run_record(*args);

@@ -4,6 +4,7 @@
 // the error against time. Docs: docs/tracking.md §8.
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <string>
 
@@ -22,12 +23,34 @@ namespace {
 
 struct EvalArgs {
     std::string reference, estimate, report, plot;
+    std::string time_offset = "0";  // "auto" or milliseconds
     OrientationEvalOptions options;
 };
 
 nlohmann::json percentiles(const ErrorPercentiles& p) {
     auto r = [](double v) { return std::round(v * 1e4) / 1e4; };
     return {{"p50", r(p.p50)}, {"p95", r(p.p95)}, {"max", r(p.max)}};
+}
+
+// Intervals the estimate marks as disturbed by saturated IMU samples (`hmdnode record --backend
+// rec` writes comments `saturated_ns FIRST LAST COUNT`, estimate times), widened to what they
+// disturb: 50 ms before (the slerp between samples), 0.5 s after (the fusion's recovery).
+struct Saturation {
+    std::vector<std::pair<int64_t, int64_t>> intervals;  // disturbed spans, estimate times
+    uint64_t samples = 0;                                // saturated IMU samples
+};
+
+Saturation saturation_of(const Trace& est) {
+    Saturation sat;
+    for (const std::string& c : est.comments) {
+        long long first = 0, last = 0;
+        unsigned long long count = 0;
+        if (std::sscanf(c.c_str(), " saturated_ns %lld %lld %llu", &first, &last, &count) != 3)
+            continue;
+        sat.intervals.emplace_back(first - 50 * kNsPerMs, last + 500 * kNsPerMs);
+        sat.samples += count;
+    }
+    return sat;
 }
 
 nlohmann::json quat_wxyz(const glm::dquat& q) {
@@ -92,8 +115,20 @@ std::string error_plot_svg(const OrientationEval& e, const std::string& title) {
     return s;
 }
 
-void run_eval(const EvalArgs& args) {
+void run_eval(EvalArgs args) {
     const char* cmd = "hmdnode tracking eval";
+    if (args.time_offset == "auto") {
+        args.options.fit_time_offset = true;
+    } else {
+        char* end = nullptr;
+        const double ms = std::strtod(args.time_offset.c_str(), &end);
+        if (args.time_offset.empty() || *end != '\0' || !std::isfinite(ms)) {
+            std::fprintf(stderr, "%s: --time-offset \"%s\" is neither auto nor milliseconds\n", cmd,
+                         args.time_offset.c_str());
+            return set_exit_code(2);
+        }
+        args.options.time_offset_s = ms * 1e-3;
+    }
     if (!check_outputs(cmd, {{"--report", args.report}, {"--plot", args.plot}}))
         return set_exit_code(1);
     auto ref = read_trace_csv(args.reference);
@@ -111,6 +146,18 @@ void run_eval(const EvalArgs& args) {
         std::fprintf(stderr, "%s: %s\n", cmd, e.error().message.c_str());
         return set_exit_code(1);
     }
+    // The same alignment and offset, the reference samples in the disturbed intervals left out.
+    const Saturation sat = saturation_of(*est);
+    std::vector<double> err_ex, tilt_ex, heading_ex;
+    for (size_t i = 0; i < e->samples; ++i) {
+        const int64_t t = e->time_ns[i] - e->time_offset_ns;
+        bool disturbed = false;
+        for (const auto& [a, b] : sat.intervals) disturbed |= t >= a && t <= b;
+        if (disturbed) continue;
+        err_ex.push_back(e->error_deg[i]);
+        tilt_ex.push_back(e->tilt_deg[i]);
+        heading_ex.push_back(e->heading_deg[i]);
+    }
     nlohmann::json report = {
         {"reference", args.reference},
         {"estimate", args.estimate},
@@ -122,7 +169,23 @@ void run_eval(const EvalArgs& args) {
          {{"error_deg", percentiles(e->error)},
           {"tilt_error_deg", percentiles(e->tilt)},
           {"heading_error_deg", percentiles(e->heading)},
-          {"samples", e->samples}}}};
+          {"samples", e->samples},
+          {"time_offset_ms", std::round(double(e->time_offset_ns) * 1e-3) / 1e3},
+          {"time_offset_fitted", args.options.fit_time_offset}}}};
+    if (!sat.intervals.empty())
+        report["summary"]["excluding_saturation"] = {
+            {"error_deg", percentiles(error_percentiles(err_ex))},
+            {"tilt_error_deg", percentiles(error_percentiles(tilt_ex))},
+            {"heading_error_deg", percentiles(error_percentiles(heading_ex))},
+            {"samples", err_ex.size()},
+            {"excluded_samples", e->samples - err_ex.size()},
+            {"saturated_imu_samples", sat.samples},
+            {"intervals", sat.intervals.size()}};
+    if (e->time_offset_at_range_limit)
+        std::fprintf(stderr,
+                     "%s: warning: the fitted time offset %.3f ms is at the edge of the search "
+                     "range (+-%.0f ms; --max-time-offset widens it)\n",
+                     cmd, double(e->time_offset_ns) * 1e-6, args.options.max_time_offset_s * 1e3);
     if (!args.report.empty()) {
         Status st = write_file_atomically(args.report, report.dump(2) + "\n");
         if (!st.ok()) {
@@ -149,6 +212,19 @@ void run_eval(const EvalArgs& args) {
     row("orientation", e->error);
     row("tilt", e->tilt);
     row("heading", e->heading);
+    if (!sat.intervals.empty()) {
+        std::printf(
+            "  without the %zu interval(s) disturbed by %llu saturated IMU samples (%zu "
+            "reference samples left out, %zu kept):\n",
+            sat.intervals.size(), static_cast<unsigned long long>(sat.samples),
+            e->samples - err_ex.size(), err_ex.size());
+        row("orientation", error_percentiles(err_ex));
+        row("tilt", error_percentiles(tilt_ex));
+        row("heading", error_percentiles(heading_ex));
+    }
+    std::printf("  time offset: %.3f ms (%s; estimate time + offset = reference time)\n",
+                double(e->time_offset_ns) * 1e-6,
+                args.options.fit_time_offset ? "fitted" : "given");
     auto angle = [](const glm::dquat& q) {
         return 2.0 * std::acos(std::min(1.0, std::abs(q.w))) * 180.0 / 3.14159265358979323846;
     };
@@ -178,6 +254,14 @@ void add_tracking_command(CLI::App& app) {
         ->capture_default_str();
     eval->add_option("--duration", args->options.duration_s, "Window length in seconds (0: all)")
         ->check(CLI::NonNegativeNumber)
+        ->capture_default_str();
+    eval->add_option("--time-offset", args->time_offset,
+                     "Estimate time + offset = reference time: milliseconds, or auto to fit it "
+                     "with the rotations")
+        ->capture_default_str();
+    eval->add_option("--max-time-offset", args->options.max_time_offset_s,
+                     "Search range of --time-offset auto, +- seconds")
+        ->check(CLI::PositiveNumber)
         ->capture_default_str();
     eval->callback([args] { run_eval(*args); });
 }

@@ -5,11 +5,15 @@
 #include <cmath>
 #include <optional>
 
+#include <nlohmann/json.hpp>
+
+#include "hmdnode/hal/codec/lighthouse_config.hpp"
 #include "hmdnode/hal/codec/reference_protocol.hpp"
 #include "hmdnode/hal/codec/rift_imu.hpp"
 #include "hmdnode/hal/codec/vive_imu.hpp"
 #include "hmdnode/hal/tracking/clock_sync.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
+#include "hmdnode/hal/tracking/survive_recording.hpp"
 
 namespace hmdnode {
 namespace {
@@ -54,6 +58,7 @@ class ViveCodec final : public ReportCodec {
     }
     void configure(Transport& t) override {
         warning_.clear();
+        if (!calibration_from_recording_) read_device_configuration(t);
         if (variant_ == vive::Variant::Index && !calibration_) {
             // 28de:2300 is the Index's and also a Vive Pro's, whose IMU axes differ; only the
             // product string tells them apart. This codec decodes the Index's axes only, so any
@@ -87,8 +92,10 @@ class ViveCodec final : public ReportCodec {
     }
     bool set_imu_calibration(const ImuCalibration& c) override {
         calibration_ = c;
+        calibration_from_recording_ = true;
         return true;
     }
+    std::string info() const override { return info_; }
     CodecCounters counters() const override {
         CodecCounters c = base_;
         accumulate(c, dec_.counters());
@@ -97,6 +104,45 @@ class ViveCodec final : public ReportCodec {
     std::string warning() const override { return warning_; }
 
   private:
+    // The device's own configuration (feature reports 0x10/0x11): its factory IMU calibration and
+    // IMU axes, which replace the variant's fixed mapping (so a Vive Pro on 28de:2300 gets its own
+    // axes, not the Index's). A device that does not answer keeps the fixed mapping (and the
+    // product-string warning in configure()).
+    void read_device_configuration(Transport& t) {
+        calibration_.reset();
+        if (t.replayed()) {
+            info_ =
+                "factory calibration not read (a capture answers each feature report with its "
+                "first recorded answer: the chunked configuration read cannot be replayed)";
+            return;
+        }
+        auto json = read_lighthouse_config(t);
+        if (!json) {
+            info_ = "factory calibration not read (" + json.error().message + ")";
+            return;
+        }
+        const nlohmann::json j = nlohmann::json::parse(*json, nullptr, false);
+        std::string model;
+        if (j.is_object() && j.contains("model_number") && j["model_number"].is_string())
+            model = j["model_number"].get<std::string>();
+        const LighthouseModel kind = lighthouse_model(model);
+        auto cal = parse_imu_calibration_json(*json, "the device's configuration");
+        if (!cal) {
+            info_ = "factory calibration not applied (" + cal.error().message + ")";
+            return;
+        }
+        const bool hmd = kind == LighthouseModel::Index || kind == LighthouseModel::VivePro;
+        if (hmd && !(j.contains("head") && j["head"].is_object())) {
+            info_ = "factory calibration not applied (model \"" + model +
+                    "\": an HMD configuration without its \"head\" axes)";
+            return;
+        }
+        calibration_ = *cal;
+        info_ = "factory calibration and IMU axes read from the device (model \"" +
+                (model.empty() ? std::string("?") : model) + "\"" +
+                (kind == LighthouseModel::VivePro ? ", a Vive Pro" : "") + ")";
+    }
+
     // The factory calibration in the IMU's own axes, then its axes (from the device's
     // configuration) to the head frame instead of the variant's fixed mapping.
     void calibrate(DeviceSample& d) const {
@@ -159,6 +205,8 @@ class ViveCodec final : public ReportCodec {
     bool confirmed_ = false;
     int empty_reports_ = 0;  // IMU reports with no new slot since the held sample
     std::string warning_;
+    std::string info_;
+    bool calibration_from_recording_ = false;
     std::optional<ImuCalibration> calibration_;
 };
 

@@ -116,6 +116,7 @@ class DeviceTrackerImpl final : public DeviceTracker {
                 codec_->configure(*transport_);
                 std::lock_guard lock(mutex_);
                 status_.codec_warning = codec_->warning();
+                status_.codec_info = codec_->info();
                 ++status_.opens;
                 status_.connected = true;
                 info_.serial = transport_->id().serial;

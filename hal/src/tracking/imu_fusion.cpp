@@ -12,12 +12,13 @@
 // accelerometer per-axis standard deviations are at the noise floor, no block's mean rate departs
 // from the window's (a rate change), the gravity direction of its
 // first and last blocks agree, |a| is near g and |mean gyro| is within the largest bias a sensor
-// can have; then the bias relaxes toward the window's mean gyro, which observes the vertical-axis
-// bias too. A rate above still_max_bias_rad_s is never taken for bias, however steady, so a slow
-// turn is not eaten; a steady turn below it without tremor cannot be told from bias (documented,
-// docs/tracking.md §3); (4) a gyro sample at full scale is integrated as read (a lower bound of
-// the true rate), counted, and followed by a recovery period with the fast gravity gain and no
-// bias learning; (5) the integral uses the sample's dt, clamped to max_dt_ns across gaps.
+// can have (the first still window) or within the drift a bias can have from the one learnt (later
+// windows); then the bias relaxes toward the window's mean gyro, which observes the vertical-axis
+// bias too. A slow turn after a still period is not eaten; a steady turn without tremor from the
+// start cannot be told from bias (documented, docs/tracking.md §3); (4) a gyro sample at full scale
+// is integrated as read (a lower bound of the true rate), counted, and followed by a recovery
+// period with the fast gravity gain and no bias learning; (5) the integral uses the sample's dt,
+// clamped to max_dt_ns across gaps.
 #include "hmdnode/hal/tracking/imu_fusion.hpp"
 
 #include <algorithm>
@@ -101,7 +102,9 @@ void ImuFusion::close_block(bool init_phase) {
         g_std_max <= config_.still_gyro_std_rad_s && spread <= config_.still_block_spread_rad_s &&
         a_std_max <= config_.still_accel_std_m_s2 && tilt_change <= config_.still_tilt_change_rad &&
         std::abs(glm::length(a_mean) - config_.gravity) < 0.02 * config_.gravity &&
-        glm::length(g_mean) <= config_.still_max_bias_rad_s;
+        glm::length(g_mean) <= config_.still_max_bias_rad_s &&
+        (still_ns_ == 0 || std::abs(glm::dot(g_mean - bias_, a_mean / glm::length(a_mean))) <=
+                               config_.still_max_bias_change_rad_s);
     if (!still_) return;
     const double block_s = double(config_.still_block_ns) * 1e-9;
     const double tau = init_phase ? config_.still_bias_tau_s * 0.1 : config_.still_bias_tau_s;
@@ -131,7 +134,12 @@ void ImuFusion::update(int64_t time_ns, const glm::dvec3& gyro, const glm::dvec3
     const double dt = double(dt_ns) * 1e-9;
     const bool init_phase = time_ns - first_ns_ < config_.init_duration_ns;
     const bool recovering = time_ns < recover_until_ns_;
-    const double kp = init_phase || recovering ? config_.init_kp : config_.kp;
+    // Under rotation the accelerometer reads centripetal and tangential acceleration too (the IMU
+    // sits off the rotation axis) and a timing error turns into tilt: the gravity gain falls with
+    // the rate, kp / (1 + (|w| / w0)^2).
+    const double w_ratio = glm::length(gyro - bias_) / config_.kp_rate_scale_rad_s;
+    const double kp =
+        (init_phase || recovering ? config_.init_kp : config_.kp) / (1.0 + w_ratio * w_ratio);
     const double ki = recovering ? 0.0 : init_phase ? config_.init_ki : config_.ki;
 
     glm::dvec3 e(0.0);

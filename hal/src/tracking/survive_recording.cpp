@@ -310,8 +310,10 @@ std::unique_ptr<TransportBackend> create_survive_backend(
 }
 
 Result<std::unique_ptr<DeviceTracker>> create_survive_tracker(
-    std::shared_ptr<const SurviveRecording> rec, Clock& clock, int64_t first_report_host_ns) {
+    std::shared_ptr<const SurviveRecording> rec, Clock& clock, int64_t first_report_host_ns,
+    const ImuFusionConfig& fusion) {
     DeviceTrackerConfig cfg;
+    cfg.fusion = fusion;
     cfg.filter.vendor_id = vive::kVendorId;
     cfg.filter.product_id = vive::kIndexProductId;
     cfg.first_report_host_ns = first_report_host_ns;

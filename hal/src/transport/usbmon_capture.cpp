@@ -252,6 +252,7 @@ class CaptureTransport final : public Transport {
     Status set_feature(std::span<const uint8_t>) override { return {}; }
     Status write_output(std::span<const uint8_t>) override { return {}; }
     bool finished() const override { return cursor_ >= cap_->packets.size(); }
+    bool replayed() const override { return true; }
 
   private:
     // Moves the cursor to the next completed, successful interrupt-IN transfer with data.

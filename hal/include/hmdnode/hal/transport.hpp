@@ -69,6 +69,9 @@ class Transport {
     // True once the transport has nothing more to give (end of a replayed capture); a live
     // device never finishes, it fails.
     virtual bool finished() const { return false; }
+    // True for a replayed capture: its feature reports are the first answer of each id the capture
+    // holds, not a device's exchange (a multi-report read such as a configuration cannot run).
+    virtual bool replayed() const { return false; }
 };
 
 // A device arriving or leaving, as a hotplug monitor saw it.

@@ -84,6 +84,8 @@ class ReportCodec {
     // After configure(): what the codec could not be sure of for this device (empty: nothing),
     // e.g. a product id two devices share with different IMU axes.
     virtual std::string warning() const { return {}; }
+    // After configure(): where the IMU calibration came from (empty: the codec has none to read).
+    virtual std::string info() const { return {}; }
     // Before the first open: the device's factory calibration (from its configuration or a
     // recording's), applied to every IMU sample from then on; its axes replace the codec's own
     // mapping. False when the codec has no IMU to calibrate.
@@ -127,6 +129,7 @@ struct DeviceTrackerStatus {
     uint64_t clock_resets = 0;
     CodecCounters codec;
     std::string codec_warning;  // ReportCodec::warning() after the last open
+    std::string codec_info;     // ReportCodec::info() after the last open
     std::string last_error;
 };
 

@@ -6,8 +6,11 @@
 // tilt re-alignment after them).
 //
 // What it cannot know: the gyro bias about the world vertical is unobservable while the device
-// moves (gravity does not see it); only a still window observes it, and a constant turn slower than
-// still_max_bias_rad_s with no tremor is indistinguishable from a still device with that bias.
+// moves (gravity does not see it); only a still window observes it. The first still window may set
+// a bias up to still_max_bias_rad_s (a sensor's uncalibrated bias); later ones move it by at most
+// still_max_bias_change_rad_s (temperature drift), so a slow turn after a still period is not
+// eaten. A constant turn with no tremor from the very start, slower than still_max_bias_rad_s,
+// is indistinguishable from a still device with that bias.
 // heading_bias_observed() says whether a still window has measured it.
 //
 // Frames (docs/DESIGN.md, docs/tracker-protocol.md): the head frame is x right, y up, z backward
@@ -32,7 +35,13 @@ struct ImuFusionConfig {
     double init_ki = 0.5;
     int64_t init_duration_ns = 500'000'000;
     double gravity = 9.80665;  // m/s^2
-    double accel_gate = 0.10;  // no gravity correction when | |a| - g | > gate * g
+    // No gravity correction when | |a| - g | > gate * g. 2 %: in head motion of several g, 0.1 g
+    // across gravity moves the "up" it pulls toward by 5.7 deg (the former 10 % gate cost 1.9 deg
+    // of tilt p95 on data/traces/compare-test-index.rec.gz); at rest |a| is within 0.4 % of g.
+    double accel_gate = 0.02;
+    // w0: the gravity gain is kp / (1 + (|w| / w0)^2): under rotation the accelerometer also reads
+    // the centripetal and tangential acceleration of an IMU off the rotation axis.
+    double kp_rate_scale_rad_s = 1.0;
     // Stillness: blocks of still_block_ns; the last still_blocks of them form the window.
     int64_t still_block_ns = 100'000'000;
     int still_blocks = 10;                    // 1 s window
@@ -40,9 +49,14 @@ struct ImuFusionConfig {
     double still_accel_std_m_s2 = 0.06;       // per-axis std over the window, at most
     double still_block_spread_rad_s = 0.002;  // a block's mean gyro vs the window's, at most
     double still_tilt_change_rad = 0.003;     // gravity direction, first vs last block, at most
-    double still_max_bias_rad_s = 0.0175;  // |mean gyro| above this is motion, not bias (1 deg/s)
-    double still_bias_tau_s = 1.0;         // bias follows the still window's mean gyro
-    double max_bias_rad_s = 0.05;          // bias estimate clamp (per axis)
+    // The first still window's |mean gyro| above this is motion, not bias (3 deg/s: a real Index
+    // reads 1.35 deg/s at rest after its factory calibration, data/traces/compare-test-index).
+    double still_max_bias_rad_s = 0.05;
+    // Once a still window has set the bias, one whose mean departs from it by more than this is a
+    // slow turn, not bias (0.2 deg/s: bias drifts with temperature, slowly).
+    double still_max_bias_change_rad_s = 0.0035;
+    double still_bias_tau_s = 1.0;  // bias follows the still window's mean gyro
+    double max_bias_rad_s = 0.05;   // bias estimate clamp (per axis)
     // After a saturated gyro sample the orientation has lost an unknown rotation: the initial
     // (fast) gravity gain re-aligns tilt for this long, and no bias is learnt meanwhile.
     int64_t saturation_recovery_ns = 500'000'000;

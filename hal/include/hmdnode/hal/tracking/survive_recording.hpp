@@ -82,6 +82,7 @@ std::unique_ptr<TransportBackend> create_survive_backend(
 // `hmdnode record --backend rec`: a device tracker over the recording's IMU (Index codec with the
 // recording's calibration, clock sync, fusion), its first report arriving at first_report_host_ns.
 Result<std::unique_ptr<DeviceTracker>> create_survive_tracker(
-    std::shared_ptr<const SurviveRecording> rec, Clock& clock, int64_t first_report_host_ns);
+    std::shared_ptr<const SurviveRecording> rec, Clock& clock, int64_t first_report_host_ns,
+    const ImuFusionConfig& fusion = {});
 
 }  // namespace hmdnode
