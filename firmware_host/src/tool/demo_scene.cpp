@@ -237,8 +237,8 @@ Primitive uv_sphere(float radius, int slices, int stacks) {
     return p;
 }
 
-// Translates a primitive so that its bounding box's bottom centre is at the origin; returns the
-// box size.
+}  // namespace
+
 glm::vec3 stand_on_origin(Primitive* p) {
     glm::vec3 lo(1e30f), hi(-1e30f);
     for (const glm::vec3& v : p->positions) {
@@ -249,8 +249,6 @@ glm::vec3 stand_on_origin(Primitive* p) {
     for (glm::vec3& v : p->positions) v -= offset;
     return hi - lo;
 }
-
-}  // namespace
 
 LodLevels make_lod_levels(const Primitive& base, const std::vector<size_t>& targets) {
     LodLevels out;

@@ -10,10 +10,16 @@
 #include <string>
 #include <vector>
 
+#include <glm/glm.hpp>
+
 #include "hmdnode/core/result.hpp"
 #include "hmdnode/core/scene.hpp"
 
 namespace hmdnode {
+
+// Translates a primitive so that its bounding box's bottom centre is at the origin; returns the
+// box size.
+glm::vec3 stand_on_origin(Primitive* p);
 
 // An LOD chain as `hmdnode lod` makes it: levels[0] = base, then one QEM level per target
 // triangle count (lod/simplify.hpp; vertex clustering if QEM fails), errors[k] = level k's

@@ -64,18 +64,6 @@ const int kGroup[] = {0, 0, 0, 1, 2};
 
 constexpr double kSpacing = 2.5, kClearing = 2.0;
 
-// Translates so that the bounding box's bottom centre is at the origin; returns the box size.
-glm::vec3 stand_on_origin(Primitive* p) {
-    glm::vec3 lo(1e30f), hi(-1e30f);
-    for (const glm::vec3& v : p->positions) {
-        lo = glm::min(lo, v);
-        hi = glm::max(hi, v);
-    }
-    const glm::vec3 offset(0.5f * (lo.x + hi.x), lo.y, 0.5f * (lo.z + hi.z));
-    for (glm::vec3& v : p->positions) v -= offset;
-    return hi - lo;
-}
-
 Primitive quad_xz(float half, int material) {
     Primitive p;
     p.positions = {{-half, 0, half}, {half, 0, half}, {half, 0, -half}, {-half, 0, -half}};
