@@ -17,11 +17,13 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <string>
 #include <tuple>
 #include <vector>
 
 #include "doc_table.hpp"
+#include "hmdnode/core/gltf.hpp"
 #include "hmdnode/firmware_host/render_bench.hpp"
 #include "hmdnode/firmware_host/replay.hpp"
 
@@ -79,8 +81,26 @@ int main(int argc, char** argv) {
     }
     const std::string trace = HMDNODE_SOURCE_DIR "/data/traces/corbillon2018_user1.csv";
     const std::string demo = HMDNODE_BINARY_DIR "/data/demo_room.glb";
-    std::string out = "machine: " + bench::machine_facts() + "; " + bench::build_kind() + "\n\n";
+    std::string out = "machine: " + bench::machine_facts() + "; " + bench::build_kind() + "\n";
     char line[512];
+    {
+        Result<Scene> s = load_gltf(heavy);
+        if (!s.ok()) {
+            std::fprintf(stderr, "%s\n", s.error().message.c_str());
+            return 1;
+        }
+        size_t objects = 0, full = 0, coarse = 0;
+        for (const SceneObject& o : flatten_objects(*s)) {
+            ++objects;
+            full += o.levels.front().triangles;
+            coarse += o.levels.back().triangles;
+        }
+        std::snprintf(line, sizeof line,
+                      "heavy scene: %s, %zu objects, %zu triangles at full detail, %zu at the "
+                      "coarsest levels\n\n",
+                      std::filesystem::path(heavy).filename().c_str(), objects, full, coarse);
+        out += line;
+    }
 
     // 1. Pose-identical frames.
     out += "LOD (auto, threshold) against full detail, 360x400 per eye, bundled trace\n";
