@@ -47,4 +47,17 @@ double pixels_per_radian(const EyeFov& fov, int height_px) {
     return double(height_px) / (fov.tan_up - fov.tan_down);
 }
 
+bool sphere_in_frustum(const glm::dmat4& view, const EyeFov& fov, double near_m,
+                       const glm::dvec3& center, double radius) {
+    const glm::dvec3 p = glm::dvec3(view * glm::dvec4(center, 1.0));
+    const double d = -p.z;  // depth along the eye's view direction
+    if (d < near_m - radius) return false;
+    auto outside = [&](double coord, double t, double sign) {
+        // note: the side plane coord = t * d, its outward normal's sign
+        return sign * (coord - t * d) / std::sqrt(1.0 + t * t) > radius;
+    };
+    return !(outside(p.x, fov.tan_right, 1.0) || outside(p.x, fov.tan_left, -1.0) ||
+             outside(p.y, fov.tan_up, 1.0) || outside(p.y, fov.tan_down, -1.0));
+}
+
 }  // namespace hmdnode

@@ -220,16 +220,7 @@ uint64_t NodeRuntime::select_and_sort(const Pose& head, const StereoViews& views
     // (the rendered field, warp margin included) is not drawn; it keeps its level for hysteresis.
     const glm::dmat4 view[2] = {glm::dmat4(views.view[0]), glm::dmat4(views.view[1])};
     auto in_eye = [&](int e, const glm::dvec3& c, double r) {
-        const glm::dvec3 p = glm::dvec3(view[e] * glm::dvec4(c, 1.0));
-        const EyeFov& f = render_rig_.eye[e];
-        const double d = -p.z;  // depth along the eye's view direction
-        if (d < render_rig_.near_m - r) return false;
-        auto outside = [&](double coord, double t, double sign) {
-            // note: the side plane coord = t * d, its outward normal's sign
-            return sign * (coord - t * d) / std::sqrt(1.0 + t * t) > r;
-        };
-        return !(outside(p.x, f.tan_right, 1.0) || outside(p.x, f.tan_left, -1.0) ||
-                 outside(p.y, f.tan_up, 1.0) || outside(p.y, f.tan_down, -1.0));
+        return sphere_in_frustum(view[e], render_rig_.eye[e], render_rig_.near_m, c, r);
     };
     candidates_.clear();
     candidate_objects_.clear();

@@ -240,6 +240,7 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     // scans the panel image out itself.
     NodeConfig nc = opt.node;
     nc.read_back = nc.read_back && !dc.frames_dir.empty();
+    std::unique_ptr<Tracker> restarted;  // see below; outlives the node that reads it
     NodeRuntime node(*clock, **tracker, **display, **renderer, *scene, nc);
     if (Status st = node.start(); !st.ok()) return st.error();
     // The simulated clock's frame cost: given, or measured on this renderer now (the simulated
@@ -260,6 +261,16 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
         }
         node.set_sim_cost(*cost_model);
     }
+    // On the system clock the calibration above takes real time (seconds on a heavy scene) that
+    // would come out of the trace: the trace starts again now, on a fresh tracker.
+    int64_t trace_host_start = host_start;
+    if (!opt.simulated_clock && trace) {
+        tc.host_start_ns = trace_host_start = clock->now_ns();
+        Result<std::unique_ptr<Tracker>> t = create_sim_tracker(trace, *clock, tc);
+        if (!t.ok()) return make_error(opt.trace.string() + ": " + t.error().message);
+        restarted = std::move(*t);
+        if (Status st = node.replace_tracker(*restarted); !st.ok()) return st.error();
+    }
 
     // Truth for registration error: the trace itself, slerped, at the photon time.
     const int64_t trace_t0 = trace ? trace->start_ns() + tc.start_offset_ns : 0;
@@ -269,7 +280,7 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
                                   : trace->end_ns();
     TruthFn truth = [&](int64_t host_ns) -> std::optional<TruthPose> {
         if (!trace) return std::nullopt;
-        const int64_t t = host_ns - host_start + trace_t0;
+        const int64_t t = host_ns - trace_host_start + trace_t0;
         if (t > trace_end) return std::nullopt;  // past the recording: no truth
         const Pose p = trace->pose_at(t);
         TruthPose tp;
@@ -312,7 +323,7 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
         return make_error(opt.capture.string() + ": --start " + start +
                           " s is past the capture's last sample");
     }
-    result.trace_samples = (*tracker)->counters().samples_delivered;
+    result.trace_samples = (restarted ? *restarted : **tracker).counters().samples_delivered;
 
     result.period_ns = (*display)->info().period_ns;
     result.vsyncs =

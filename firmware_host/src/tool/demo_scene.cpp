@@ -237,8 +237,8 @@ Primitive uv_sphere(float radius, int slices, int stacks) {
     return p;
 }
 
-// Translates a primitive so that its bounding box's bottom centre is at the origin; returns the
-// box size.
+}  // namespace
+
 glm::vec3 stand_on_origin(Primitive* p) {
     glm::vec3 lo(1e30f), hi(-1e30f);
     for (const glm::vec3& v : p->positions) {
@@ -249,6 +249,50 @@ glm::vec3 stand_on_origin(Primitive* p) {
     for (glm::vec3& v : p->positions) v -= offset;
     return hi - lo;
 }
+
+LodLevels make_lod_levels(const Primitive& base, const std::vector<size_t>& targets) {
+    LodLevels out;
+    glm::vec3 lo(1e30f), hi(-1e30f);
+    for (const glm::vec3& v : base.positions) {
+        lo = glm::min(lo, v);
+        hi = glm::max(hi, v);
+    }
+    out.diameter_m = glm::length(hi - lo);
+    out.levels.push_back(base);
+    out.errors.push_back(0.0);
+    // Levels by the LOD generator's QEM (lod/simplify.hpp, all targets in one pass), each with
+    // its measured symmetric Hausdorff distance to level 0 (lod/mesh_distance.hpp) as its error;
+    // uniform-grid clustering with its displacement bound only if QEM fails.
+    Result<std::vector<SimplifiedLevel>> made = simplify(base, "qem", targets);
+    MeshDistanceOptions distance;
+    distance.samples = 100'000;  // keeps the build-time generation within a few seconds
+    for (size_t k = 0; k < targets.size(); ++k) {
+        if (made.ok()) {
+            out.levels.push_back(std::move((*made)[k].primitive));
+            out.errors.push_back(
+                measure_mesh_distance(base, out.levels.back(), distance).hausdorff);
+        } else {
+            ClusteredLevel lvl = cluster_to_triangle_count(base, targets[k]);
+            out.levels.push_back(std::move(lvl.primitive));
+            out.errors.push_back(lvl.max_displacement_m);
+        }
+    }
+    return out;
+}
+
+std::vector<double> lod_screen_coverage(const LodLevels& chain) {
+    // Coverage (fraction of the screen height) below which level k+1's error projects under the
+    // tolerance: diameter / error_{k+1} * tolerance; the last level is kept down to 0.
+    std::vector<double> coverage;
+    const std::vector<double>& errors = chain.errors;
+    for (size_t k = 0; k + 1 < errors.size(); ++k)
+        coverage.push_back(std::min(
+            1.0, errors[k + 1] > 0.0 ? chain.diameter_m * kToleranceScreen / errors[k + 1] : 1.0));
+    coverage.push_back(0.0);
+    return coverage;
+}
+
+namespace {
 
 struct LevelReport {
     size_t triangles = 0;
@@ -272,51 +316,20 @@ ObjectReport add_lod_object(Builder& b, const std::string& name, Primitive base,
     b.scene.nodes[n0].geometric_error_m = 0.0;
     report.levels.push_back(LevelReport{base.triangle_count(), 0.0, 0.0});
 
-    glm::vec3 lo(1e30f), hi(-1e30f);
-    for (const glm::vec3& v : base.positions) {
-        lo = glm::min(lo, v);
-        hi = glm::max(hi, v);
-    }
-    const double diameter = glm::length(hi - lo);
-    std::vector<double> errors{0.0};
-    // Levels by the LOD generator's QEM (lod/simplify.hpp, all targets in one pass), each with
-    // its measured symmetric Hausdorff distance to level 0 (lod/mesh_distance.hpp) as its error;
-    // uniform-grid clustering with its displacement bound only if QEM fails.
-    std::vector<Primitive> levels;
-    std::vector<double> level_errors;
-    Result<std::vector<SimplifiedLevel>> made = simplify(base, "qem", targets);
-    MeshDistanceOptions distance;
-    distance.samples = 100'000;  // keeps the build-time generation within a few seconds
+    LodLevels chain = make_lod_levels(base, targets);
     for (size_t k = 0; k < targets.size(); ++k) {
-        if (made.ok()) {
-            levels.push_back(std::move((*made)[k].primitive));
-            level_errors.push_back(measure_mesh_distance(base, levels.back(), distance).hausdorff);
-        } else {
-            ClusteredLevel lvl = cluster_to_triangle_count(base, targets[k]);
-            levels.push_back(std::move(lvl.primitive));
-            level_errors.push_back(lvl.max_displacement_m);
-        }
-    }
-    for (size_t k = 0; k < targets.size(); ++k) {
-        const double error_m = level_errors[k];
+        const double error_m = chain.errors[k + 1];
         const std::string lname = name + "_lod" + std::to_string(k + 1);
         int mk = b.mesh(lname);
-        levels[k].material = material;
-        b.scene.meshes[mk].primitives.push_back(std::move(levels[k]));
+        chain.levels[k + 1].material = material;
+        b.scene.meshes[mk].primitives.push_back(std::move(chain.levels[k + 1]));
         int nk = b.node(lname, mk, at, yaw_deg, scale, /*root=*/false);
         b.scene.nodes[nk].geometric_error_m = error_m;
         b.scene.nodes[n0].lod_ids.push_back(nk);
-        errors.push_back(error_m);
         report.levels.push_back(
             LevelReport{b.scene.meshes[mk].triangle_count(), error_m, error_m * scale});
     }
-    // Coverage (fraction of the screen height) below which level k+1's error projects under the
-    // tolerance: diameter / error_{k+1} * tolerance; the last level is kept down to 0.
-    std::vector<double>& coverage = b.scene.nodes[n0].screen_coverage;
-    for (size_t k = 0; k + 1 < errors.size(); ++k)
-        coverage.push_back(
-            std::min(1.0, errors[k + 1] > 0.0 ? diameter * kToleranceScreen / errors[k + 1] : 1.0));
-    coverage.push_back(0.0);
+    b.scene.nodes[n0].screen_coverage = lod_screen_coverage(chain);
     return report;
 }
 

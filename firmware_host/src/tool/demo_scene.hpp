@@ -8,6 +8,9 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
 
 #include "hmdnode/bake/bake.hpp"
 #include "hmdnode/core/result.hpp"
@@ -34,6 +37,23 @@ inline BakeOptions demo_bake_options() {
     o.seed = 1;
     return o;
 }
+
+// Translates a primitive so that its bounding box's bottom centre is at the origin; returns the
+// box size.
+glm::vec3 stand_on_origin(Primitive* p);
+
+// An LOD chain as `hmdnode lod` makes it: levels[0] = base, then one QEM level per target
+// triangle count (lod/simplify.hpp; vertex clustering if QEM fails), errors[k] = level k's
+// measured Hausdorff distance to level 0 (mesh units; 0 for level 0).
+struct LodLevels {
+    std::vector<Primitive> levels;
+    std::vector<double> errors;
+    double diameter_m = 0.0;  // of base's bounding box, mesh units
+};
+LodLevels make_lod_levels(const Primitive& base, const std::vector<size_t>& targets);
+// MSFT_screencoverage for a chain: level k+1 from where its error projects under 1/1000 of the
+// screen height; the last level down to 0.
+std::vector<double> lod_screen_coverage(const LodLevels& chain);
 
 // Builds the scene in memory from data_dir/meshes/{stanford-bunny,spot}.obj, LOD chains and bake
 // included. out_summary (optional) receives a human-readable summary: objects, levels with

@@ -8,6 +8,7 @@
 #include "tool/cli_checks.hpp"
 #include "tool/commands.hpp"
 #include "tool/demo_scene.hpp"
+#include "tool/stress_scene.hpp"
 
 namespace hmdnode::tool {
 namespace {
@@ -99,6 +100,39 @@ void add_scene_command(CLI::App& app) {
             return;
         }
         std::fputs(summary.c_str(), stdout);
+    });
+
+    auto stress_data = std::make_shared<std::string>();
+    auto stress_out = std::make_shared<std::string>();
+    auto stress_opt = std::make_shared<StressSceneOptions>();
+    CLI::App* stress = scene->add_subcommand(
+        "stress",
+        "Generate a heavy LOD scene: COPIES x 5 objects (bunny, spot, fandisk from DIR/meshes) "
+        "with LOD chains and converged vertex light, tens of millions of triangles at full detail");
+    stress->add_option("--data", *stress_data, "Data directory holding meshes/*.obj")->required();
+    stress->add_option("--out", *stress_out, "Scene to write (.glb)")->required();
+    stress
+        ->add_option("--copies", stress_opt->copies,
+                     "Groups of 3 bunnies, a spot and a fandisk (default 100: 500 objects)")
+        ->check(CLI::Range(1, 100000));
+    stress
+        ->add_option("--vertex-samples", stress_opt->vertex_samples,
+                     "Bake paths per vertex (default 256)")
+        ->check(CLI::Range(1, 1 << 16));
+    stress->add_option("--seed", stress_opt->seed, "Seed of the placement");
+    stress->callback([=] {
+        if (!check_outputs("hmdnode scene stress", {{"--out", *stress_out}}))
+            return set_exit_code(1);
+        std::string summary;
+        Result<Scene> s = make_stress_scene(*stress_data, *stress_opt, &summary);
+        Status st = s.ok() ? save_glb(*s, *stress_out) : Status(s.error());
+        if (!st) {
+            std::fprintf(stderr, "hmdnode scene stress: error: %s\n", st.error().message.c_str());
+            set_exit_code(1);
+            return;
+        }
+        std::fputs(summary.c_str(), stdout);
+        std::printf("wrote %s\n", stress_out->c_str());
     });
 
     auto file = std::make_shared<std::string>();

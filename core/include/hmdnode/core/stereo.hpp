@@ -30,5 +30,10 @@ glm::mat4 eye_view_matrix(const StereoRig& rig, const Pose& head, int eye);
 glm::mat4 eye_projection(const EyeFov& fov, double near_m, double far_m);
 // Pixels per radian at the centre of the eye image of the given height.
 double pixels_per_radian(const EyeFov& fov, int height_px);
+// Whether a sphere (world centre, radius) reaches into an eye's frustum: `view` is the eye's
+// world-to-eye matrix, the frustum the fov's four side planes and the near plane (no far plane).
+// Conservative near the frustum's edges (a sphere beyond two planes' corner may count as inside).
+bool sphere_in_frustum(const glm::dmat4& view, const EyeFov& fov, double near_m,
+                       const glm::dvec3& center, double radius);
 
 }  // namespace hmdnode

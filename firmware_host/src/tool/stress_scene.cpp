@@ -1,0 +1,273 @@
+// The heavy scene behind `hmdnode scene stress`: what an LOD allocator needs to be measured on
+// (issue 21 item 5). Hundreds of objects whose full detail no software renderer draws at 90 Hz,
+// so that frame time depends on the levels chosen.
+//
+// Geometry: per model one LOD chain (make_lod_levels: QEM levels with their measured Hausdorff
+// error, as `hmdnode lod` makes them), its meshes shared by every copy (glTF instancing: a copy is
+// a node with its own transform and MSFT_lod nodes pointing at the shared level meshes), so the
+// file and the GPU hold each level once while the draws count every copy's triangles.
+//
+// Light: converged per-vertex irradiance (_LIGHT_0) from one path-traced bake (bake/) of each
+// level standing alone on a ground plane under a sun and a sky, with `vertex_samples` paths per
+// vertex (256 by default: the per-vertex noise is then below an 8-bit step, where the demo's 2
+// paths glitter). Because the copies share meshes they share that light: self-shadowing and
+// ground occlusion are baked, shadows between objects are not.
+//
+// Placement: the nearest grid cells (2.5 m apart) around the origin beyond 2 m, jittered and
+// turned at random (Pcg32 from `seed`), sized 0.6-1.2 m.
+//
+// Cost: the chains O(T log T) per model (T source triangles), the bake O(V * vertex_samples *
+// path length) rays for the V vertices of all levels (~60,000), placement O(objects).
+#include "tool/stress_scene.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include <glm/gtc/quaternion.hpp>
+
+#include "hmdnode/bake/bake.hpp"
+#include "hmdnode/bake/path_tracer.hpp"
+#include "hmdnode/core/obj.hpp"
+#include "tool/demo_scene.hpp"
+
+namespace hmdnode {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t0) {
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+struct Model {
+    const char* name;
+    const char* file;
+    glm::vec3 albedo;
+    double height_m;  // typical height of a copy
+    std::vector<size_t> targets;
+};
+
+// Bunny 69,451 triangles, spot 5,856, fandisk 12,946 (data/meshes/README.md).
+const Model kModels[] = {
+    {"bunny", "stanford-bunny.obj", {0.78f, 0.66f, 0.52f}, 0.9, {16000, 4000, 1000, 300}},
+    {"spot", "spot.obj", {0.85f, 0.84f, 0.82f}, 1.0, {1500, 400, 120}},
+    {"fandisk", "fandisk.obj", {0.45f, 0.55f, 0.70f}, 0.8, {3000, 800, 200}},
+};
+// Per copy: three bunnies, one spot, one fandisk.
+const int kGroup[] = {0, 0, 0, 1, 2};
+
+constexpr double kSpacing = 2.5, kClearing = 2.0;
+
+Primitive quad_xz(float half, int material) {
+    Primitive p;
+    p.positions = {{-half, 0, half}, {half, 0, half}, {half, 0, -half}, {-half, 0, -half}};
+    p.normals.assign(4, glm::vec3(0, 1, 0));
+    p.indices = {0, 1, 2, 0, 2, 3};
+    p.material = material;
+    return p;
+}
+
+void add_sun_and_sky(Scene* s, BakeOptions* o) {
+    Node sun;
+    sun.name = "sun";
+    sun.rotation =
+        glm::angleAxis(-0.9, glm::dvec3(1, 0, 0)) * glm::angleAxis(0.5, glm::dvec3(0, 1, 0));
+    s->nodes.push_back(sun);
+    Light l;
+    l.name = "sun";
+    l.type = Light::Type::Directional;
+    l.color = {1.0f, 0.95f, 0.85f};
+    l.intensity = 1.6f;  // lux; with the sky, a lit top face shows about its albedo
+    l.node = int(s->nodes.size()) - 1;
+    s->lights.push_back(l);
+    o->sky_radiance = glm::vec3(0.42f, 0.48f, 0.58f);
+}
+
+}  // namespace
+
+Result<Scene> make_stress_scene(const fs::path& data_dir, const StressSceneOptions& opt,
+                                std::string* out_summary) {
+    if (opt.copies < 1) return make_error("stress scene: --copies must be at least 1");
+    const Clock::time_point t0 = Clock::now();
+    // Chains, one per model, each level scaled to metres is done by the copies' nodes.
+    std::vector<LodLevels> chains;
+    std::vector<double> model_scale;
+    for (const Model& m : kModels) {
+        Result<Mesh> mesh = load_obj(data_dir / "meshes" / m.file);
+        if (!mesh) return mesh.error();
+        if (mesh->primitives.empty())
+            return make_error((data_dir / "meshes" / m.file).string() + ": no triangles");
+        Primitive p = mesh->primitives[0];
+        p.uv0.clear();
+        p.uv1.clear();
+        const glm::vec3 size = stand_on_origin(&p);
+        if (!(size.y > 0.0f))
+            return make_error((data_dir / "meshes" / m.file).string() + ": flat mesh");
+        model_scale.push_back(m.height_m / size.y);
+        chains.push_back(make_lod_levels(p, m.targets));
+    }
+    const double t_lod = seconds_since(t0);
+
+    // The bake: every level of every model alone on a ground plane, 8 m apart (far enough that
+    // the sun's shadows do not reach a neighbour), at its copies' typical size.
+    const Clock::time_point t_bake0 = Clock::now();
+    Scene studio;
+    for (const Model& m : kModels) {
+        Material mat;
+        mat.name = std::string(m.name) + "_vertex_lit";
+        mat.base_color_factor = glm::vec4(m.albedo, 1.0f);
+        studio.materials.push_back(mat);
+    }
+    Material ground_mat;
+    ground_mat.name = "ground";
+    ground_mat.base_color_factor = glm::vec4(0.35f, 0.36f, 0.33f, 1.0f);
+    studio.materials.push_back(ground_mat);
+    const int ground_material = int(studio.materials.size()) - 1;
+    int slot = 0;
+    for (size_t mi = 0; mi < chains.size(); ++mi)
+        for (Primitive& level : chains[mi].levels) {
+            level.material = int(mi);
+            Mesh mesh;
+            mesh.name = std::string(kModels[mi].name) + "_studio";
+            mesh.primitives.push_back(level);
+            Node n;
+            n.name = mesh.name;
+            studio.meshes.push_back(std::move(mesh));
+            n.mesh = int(studio.meshes.size()) - 1;
+            n.translation = glm::dvec3(8.0 * slot++, 0.0, 0.0);
+            n.scale = glm::dvec3(model_scale[mi]);
+            studio.nodes.push_back(n);
+            studio.roots.push_back(int(studio.nodes.size()) - 1);
+        }
+    {
+        Mesh g;
+        g.name = "ground";
+        g.primitives.push_back(quad_xz(500.0f, ground_material));
+        studio.meshes.push_back(std::move(g));
+        Node n;
+        n.name = "ground";
+        n.mesh = int(studio.meshes.size()) - 1;
+        studio.nodes.push_back(n);
+        studio.roots.push_back(int(studio.nodes.size()) - 1);
+    }
+    BakeOptions bake;
+    bake.vertex = true;
+    bake.samples = opt.vertex_samples;
+    bake.vertex_samples = opt.vertex_samples;
+    bake.bounces = 3;
+    bake.two_sided = false;
+    bake.seed = 1;
+    add_sun_and_sky(&studio, &bake);
+    Result<BakeReport> baked = bake_scene(studio, bake);
+    if (!baked) return make_error("stress scene: " + baked.error().message);
+    const double t_bake = seconds_since(t_bake0);
+
+    // The scene: the baked level meshes, shared by the copies, and a ground plane lit as the
+    // studio's far ground is (sun and open sky).
+    Scene s;
+    s.materials = studio.materials;
+    std::vector<std::vector<int>> level_mesh(chains.size());
+    size_t studio_mesh = 0;
+    for (size_t mi = 0; mi < chains.size(); ++mi)
+        for (size_t k = 0; k < chains[mi].levels.size(); ++k) {
+            Mesh mesh = studio.meshes[studio_mesh++];
+            mesh.name = std::string(kModels[mi].name) + (k ? "_lod" + std::to_string(k) : "");
+            s.meshes.push_back(std::move(mesh));
+            level_mesh[mi].push_back(int(s.meshes.size()) - 1);
+        }
+    {
+        Mesh g = studio.meshes[studio_mesh];
+        g.primitives[0].positions = quad_xz(200.0f, ground_material).positions;
+        s.meshes.push_back(std::move(g));
+        Node n;
+        n.name = "ground";
+        n.mesh = int(s.meshes.size()) - 1;
+        s.nodes.push_back(n);
+        s.roots.push_back(0);
+    }
+
+    // Cells nearest the origin first (ties by angle, so the order is total), beyond the clearing.
+    const int objects = opt.copies * int(std::size(kGroup));
+    struct Cell {
+        double x, z, r, a;
+    };
+    std::vector<Cell> cells;
+    const int reach = int(std::ceil(std::sqrt(double(objects)) / 2.0)) + 3;
+    for (int i = -reach; i <= reach; ++i)
+        for (int j = -reach; j <= reach; ++j) {
+            const double x = i * kSpacing, z = j * kSpacing, r = std::hypot(x, z);
+            if (r >= kClearing) cells.push_back(Cell{x, z, r, std::atan2(z, x)});
+        }
+    std::sort(cells.begin(), cells.end(),
+              [](const Cell& a, const Cell& b) { return a.r != b.r ? a.r < b.r : a.a < b.a; });
+    if (cells.size() < size_t(objects)) return make_error("stress scene: placement grid too small");
+    Pcg32 rng(opt.seed, 0x5712e55);
+    size_t full_triangles = 0, coarse_triangles = 0;
+    for (int o = 0; o < objects; ++o) {
+        const size_t mi = size_t(kGroup[o % int(std::size(kGroup))]);
+        const Cell& c = cells[size_t(o)];
+        const double jx = (rng.uniform() - 0.5) * 0.8, jz = (rng.uniform() - 0.5) * 0.8;
+        const double yaw = rng.uniform() * 2.0 * std::numbers::pi;
+        const double size = 0.65 + 0.55 * rng.uniform();  // of the model's typical height
+        const double scale = model_scale[mi] * size;
+        const std::string name = std::string(kModels[mi].name) + "_" + std::to_string(o);
+        auto add_node = [&](const std::string& nname, int mesh, double error) {
+            Node n;
+            n.name = nname;
+            n.mesh = mesh;
+            n.translation = glm::dvec3(c.x + jx, 0.0, c.z + jz);
+            n.rotation = glm::angleAxis(yaw, glm::dvec3(0, 1, 0));
+            n.scale = glm::dvec3(scale);
+            n.geometric_error_m = error;
+            s.nodes.push_back(n);
+            return int(s.nodes.size()) - 1;
+        };
+        const LodLevels& chain = chains[mi];
+        const int n0 = add_node(name, level_mesh[mi][0], 0.0);
+        s.roots.push_back(n0);
+        for (size_t k = 1; k < chain.levels.size(); ++k) {
+            // note: add_node grows s.nodes, so the level's index is taken before n0 is indexed
+            const int nk =
+                add_node(name + "_lod" + std::to_string(k), level_mesh[mi][k], chain.errors[k]);
+            s.nodes[size_t(n0)].lod_ids.push_back(nk);
+        }
+        s.nodes[size_t(n0)].screen_coverage = lod_screen_coverage(chain);
+        full_triangles += chain.levels.front().triangle_count();
+        coarse_triangles += chain.levels.back().triangle_count();
+    }
+
+    if (out_summary) {
+        std::string out;
+        char line[320];
+        auto add = [&](const char* fmt, auto... args) {
+            std::snprintf(line, sizeof line, fmt, args...);
+            out += line;
+        };
+        add("stress scene: %d objects (%d copies of 3 bunnies, a spot, a fandisk) on a %.1f m grid "
+            "out to %.1f m\n",
+            objects, opt.copies, kSpacing, cells[size_t(objects) - 1].r);
+        add("triangles: %zu at full detail, %zu at the coarsest levels\n", full_triangles,
+            coarse_triangles);
+        for (size_t mi = 0; mi < chains.size(); ++mi) {
+            add("  %-8s", kModels[mi].name);
+            for (size_t k = 0; k < chains[mi].levels.size(); ++k)
+                add("%s L%zu %zu tris, err %.4f m", k ? " |" : "", k,
+                    chains[mi].levels[k].triangle_count(), chains[mi].errors[k] * model_scale[mi]);
+            out += "\n";
+        }
+        add("bake: %d paths per vertex, %zu vertices, %.1f M rays (%.1f M rays/s)\n",
+            opt.vertex_samples, baked->vertices, double(baked->rays) / 1e6,
+            baked->rays_per_second / 1e6);
+        add("time: lod %.2f s, bake %.2f s, total %.2f s\n", t_lod, t_bake, seconds_since(t0));
+        *out_summary = std::move(out);
+    }
+    return s;
+}
+
+}  // namespace hmdnode
