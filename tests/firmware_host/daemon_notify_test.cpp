@@ -117,7 +117,7 @@ nlohmann::json trace_config() {
     return {{"scene", HMDNODE_DEMO_SCENE},
             {"clock", "real"},
             {"tracker",
-             {{"backend", "sim-trace"},
+             {{"backend", "trace"},
               {"trace", HMDNODE_SOURCE_DIR "/data/traces/corbillon2018_user1.csv"}}},
             {"display", {{"eye_width", 32}, {"eye_height", 32}}}};
 }

@@ -96,7 +96,7 @@ void expect_sigterm_leaves_nothing(const std::vector<std::string>& args, const f
 nlohmann::json sim_config(const fs::path& scene, const fs::path& status) {
     return {{"scene", scene.string()},
             {"clock", "sim"},
-            {"tracker", {{"backend", "sim-trace"}, {"trace", kTrace}, {"loop", true}}},
+            {"tracker", {{"backend", "trace"}, {"trace", kTrace}, {"loop", true}}},
             {"display", {{"eye_width", 32}, {"eye_height", 32}}},
             {"status", {{"path", status.string()}, {"every_s", 0.05}}},
             {"control", {{"path", ""}}}};
