@@ -207,6 +207,12 @@ int main(int argc, char** argv) {
             using Kind = ControlCommand::Kind;
             Result<ControlCommand> cmd = parse_control_command(c);
             if (!cmd.ok()) return {{"ok", false}, {"error", cmd.error().message}};
+            // A numeric setting's reply, once the node has taken (or refused) it.
+            auto setting = [](const char* key, double value, const Status& st) -> nlohmann::json {
+                if (!st.ok()) return {{"ok", false}, {"error", st.error().message}};
+                spdlog::info("control: set {} {}", key, value);
+                return {{"ok", true}, {"key", key}, {"value", value}};
+            };
             switch (cmd->kind) {
                 case Kind::status:
                     return {{"ok", true},
@@ -261,22 +267,13 @@ int main(int argc, char** argv) {
                     spdlog::info("control: set warp {}", cmd->warp);
                     return {{"ok", true}, {"key", "warp"}, {"value", cmd->warp}};
                 case Kind::set_prediction_ms:
-                    if (Status st = node.set_prediction_offset_ms(cmd->prediction_ms); !st.ok())
-                        return {{"ok", false}, {"error", st.error().message}};
-                    spdlog::info("control: set prediction_ms {}", cmd->prediction_ms);
-                    return {{"ok", true}, {"key", "prediction_ms"}, {"value", cmd->prediction_ms}};
+                    return setting("prediction_ms", cmd->prediction_ms,
+                                   node.set_prediction_offset_ms(cmd->prediction_ms));
                 case Kind::set_lod_bias:
-                    if (Status st = node.set_lod_bias(cmd->lod_bias); !st.ok())
-                        return {{"ok", false}, {"error", st.error().message}};
-                    spdlog::info("control: set lod_bias {}", cmd->lod_bias);
-                    return {{"ok", true}, {"key", "lod_bias"}, {"value", cmd->lod_bias}};
+                    return setting("lod_bias", cmd->lod_bias, node.set_lod_bias(cmd->lod_bias));
                 case Kind::set_lod_tolerance_px:
-                    if (Status st = node.set_lod_tolerance_px(cmd->lod_tolerance_px); !st.ok())
-                        return {{"ok", false}, {"error", st.error().message}};
-                    spdlog::info("control: set lod_tolerance_px {}", cmd->lod_tolerance_px);
-                    return {{"ok", true},
-                            {"key", "lod_tolerance_px"},
-                            {"value", cmd->lod_tolerance_px}};
+                    return setting("lod_tolerance_px", cmd->lod_tolerance_px,
+                                   node.set_lod_tolerance_px(cmd->lod_tolerance_px));
             }
             return {{"ok", false}, {"error", "unhandled command"}};
         };
