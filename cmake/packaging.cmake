@@ -1,7 +1,8 @@
 # The Debian package (CPack DEB): `cpack -G DEB` in a build tree configured with the prefix /usr
 # (the default) makes hmdnode_<version>_amd64.deb of what the install rules install
 # (firmware_host/CMakeLists.txt). Its Depends are the Debian runtime packages of the libraries
-# the executables link (dpkg-shlibdeps), plus the Vulkan driver, which is loaded, not linked.
+# the executables link (dpkg-shlibdeps: libvulkan1, libegl1, libgles2 among them), plus the Vulkan
+# driver and Mesa's EGL vendor library (the GLES backend), which are loaded, not linked.
 set(CPACK_GENERATOR DEB)
 set(CPACK_PACKAGE_NAME hmdnode)
 set(CPACK_PACKAGE_VENDOR "hmdnode")
@@ -15,7 +16,7 @@ set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)  # hmdnode_<version>_<arch>.deb
 set(CPACK_DEBIAN_PACKAGE_MAINTAINER "hmdnode maintainers <hmdnode@localhost>")
 set(CPACK_DEBIAN_PACKAGE_SECTION misc)
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
-set(CPACK_DEBIAN_PACKAGE_DEPENDS "mesa-vulkan-drivers | vulkan-icd")
+set(CPACK_DEBIAN_PACKAGE_DEPENDS "mesa-vulkan-drivers | vulkan-icd, libegl-mesa0 | libegl-vendor")
 set(CPACK_DEBIAN_PACKAGE_RECOMMENDS "systemd, udev")
 # note: the maintainer scripts and the config as a conffile (an edited config survives upgrades).
 file(WRITE ${CMAKE_BINARY_DIR}/packaging/conffiles "/etc/hmdnode/hmdnoded.json\n")

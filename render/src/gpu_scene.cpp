@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <cstring>
-#include <numbers>
 #include <string>
 
 #include "scene_pipeline.hpp"
@@ -13,54 +12,6 @@
 
 namespace hmdnode::vk {
 namespace {
-
-std::string where(size_t mesh, size_t prim) {
-    return "mesh " + std::to_string(mesh) + " primitive " + std::to_string(prim);
-}
-
-Status validate(const Scene& scene, uint32_t max_dim) {
-    const auto bad_texture = [&](int t) { return t < -1 || t >= int(scene.textures.size()); };
-    for (size_t m = 0; m < scene.materials.size(); ++m) {
-        const Material& mat = scene.materials[m];
-        if (bad_texture(mat.base_color_texture) || bad_texture(mat.lightmap.texture))
-            return make_error("scene: material " + std::to_string(m) + " (" + mat.name +
-                              ") refers to a texture that does not exist");
-    }
-    for (size_t t = 0; t < scene.textures.size(); ++t) {
-        const Texture& tex = scene.textures[t];
-        if (tex.width < 1 || tex.height < 1 ||
-            tex.rgba8.size() != size_t(tex.width) * size_t(tex.height) * 4)
-            return make_error("scene: texture " + std::to_string(t) + " (" + tex.name + ") is " +
-                              std::to_string(tex.width) + "x" + std::to_string(tex.height) +
-                              " but holds " + std::to_string(tex.rgba8.size()) + " bytes");
-        if (uint32_t(tex.width) > max_dim || uint32_t(tex.height) > max_dim)
-            return make_error("scene: texture " + std::to_string(t) + " (" + tex.name +
-                              ") exceeds the device's limit of " + std::to_string(max_dim) +
-                              " texels per side");
-    }
-    for (size_t m = 0; m < scene.meshes.size(); ++m) {
-        for (size_t p = 0; p < scene.meshes[m].primitives.size(); ++p) {
-            const Primitive& prim = scene.meshes[m].primitives[p];
-            const size_t n = prim.positions.size();
-            const auto bad_size = [n](size_t s) { return s != 0 && s != n; };
-            if (bad_size(prim.normals.size()) || bad_size(prim.uv0.size()) ||
-                bad_size(prim.uv1.size()) || bad_size(prim.colors.size()) ||
-                bad_size(prim.light.size()))
-                return make_error("scene: " + where(m, p) +
-                                  ": an attribute count differs from the position count");
-            if (prim.indices.size() % 3 != 0)
-                return make_error("scene: " + where(m, p) + ": index count is not a multiple of 3");
-            for (uint32_t i : prim.indices)
-                if (i >= n)
-                    return make_error("scene: " + where(m, p) + ": index " + std::to_string(i) +
-                                      " out of range (" + std::to_string(n) + " vertices)");
-            if (prim.material < -1 || prim.material >= int(scene.materials.size()))
-                return make_error("scene: " + where(m, p) + ": material " +
-                                  std::to_string(prim.material) + " does not exist");
-        }
-    }
-    return Status::success();
-}
 
 Result<Sampler> create_sampler(const DeviceContext& ctx, VkSamplerAddressMode address) {
     VkSamplerCreateInfo info{};
@@ -152,11 +103,8 @@ void record_texture_copies(VkCommandBuffer cmd, VkBuffer staging,
 Status upload_textures(DeviceContext& ctx, const Scene& scene, GpuScene& out) {
     // 1. Which views each texture needs.
     const size_t n = scene.textures.size();
-    std::vector<uint8_t> srgb(n, 0), unorm(n, 0);
-    for (const Material& m : scene.materials) {
-        if (m.base_color_texture >= 0) srgb[m.base_color_texture] = 1;
-        if (m.lightmap.texture >= 0) unorm[m.lightmap.texture] = 1;
-    }
+    std::vector<uint8_t> srgb, unorm;
+    gpu::texture_uses(scene, srgb, unorm);
 
     // 2. Images, and their place in one staging buffer (the white fallback first).
     const uint8_t white_texel[4] = {255, 255, 255, 255};
@@ -195,49 +143,12 @@ Status upload_textures(DeviceContext& ctx, const Scene& scene, GpuScene& out) {
 }
 
 Status upload_geometry(DeviceContext& ctx, const Scene& scene, GpuScene& out) {
-    size_t vertex_count = 0, index_count = 0;
-    for (const Mesh& mesh : scene.meshes)
-        for (const Primitive& p : mesh.primitives)
-            if (!p.indices.empty()) {
-                vertex_count += p.positions.size();
-                index_count += p.indices.size();
-            }
-    if (vertex_count > size_t(INT32_MAX) || index_count > size_t(UINT32_MAX))
-        return make_error("scene: too many vertices or indices for 32-bit offsets");
-
-    std::vector<Vertex> vertices;
-    std::vector<uint32_t> indices;
-    vertices.reserve(vertex_count);
-    indices.reserve(index_count);
-    const uint32_t default_material = uint32_t(scene.materials.size());
-    for (const Mesh& mesh : scene.meshes) {
-        GpuMesh gm;
-        gm.first_primitive = uint32_t(out.primitives.size());
-        for (const Primitive& p : mesh.primitives) {
-            if (p.indices.empty()) continue;
-            GpuPrimitive gp;
-            gp.first_index = uint32_t(indices.size());
-            gp.index_count = uint32_t(p.indices.size());
-            gp.vertex_offset = int32_t(vertices.size());
-            gp.material = p.material >= 0 ? uint32_t(p.material) : default_material;
-            gp.double_sided = p.material >= 0 && scene.materials[p.material].double_sided;
-            for (size_t v = 0; v < p.positions.size(); ++v) {
-                Vertex& out_v = vertices.emplace_back();
-                out_v.position = p.positions[v];
-                out_v.normal = p.normals.empty() ? glm::vec3(0, 0, 1) : p.normals[v];
-                out_v.uv0 = p.uv0.empty() ? glm::vec2(0) : p.uv0[v];
-                out_v.uv1 = p.uv1.empty() ? glm::vec2(0) : p.uv1[v];
-                out_v.color = p.colors.empty() ? glm::vec4(1) : p.colors[v];
-                out_v.light =
-                    p.light.empty() ? glm::vec3(1) : p.light[v] / std::numbers::pi_v<float>;
-            }
-            indices.insert(indices.end(), p.indices.begin(), p.indices.end());
-            gm.triangles += p.triangle_count();
-            out.primitives.push_back(gp);
-        }
-        gm.primitive_count = uint32_t(out.primitives.size()) - gm.first_primitive;
-        out.meshes.push_back(gm);
-    }
+    auto geometry = gpu::build_scene_geometry(scene);
+    if (!geometry) return geometry.error();
+    const std::vector<gpu::Vertex>& vertices = geometry->vertices;
+    const std::vector<uint32_t>& indices = geometry->indices;
+    out.primitives = std::move(geometry->primitives);
+    out.meshes = std::move(geometry->meshes);
     if (vertices.empty()) return Status::success();
 
     auto vb = create_buffer_with_data(ctx, std::as_bytes(std::span(vertices)),
@@ -263,12 +174,7 @@ Status create_materials(DeviceContext& ctx, const Scene& scene, VkDescriptorSetL
     for (uint32_t i = 0; i < count; ++i) {
         const Material fallback;
         const Material& m = i < scene.materials.size() ? scene.materials[i] : fallback;
-        MaterialConstants c;
-        c.base_color_factor = m.base_color_factor;
-        c.lightmap = glm::vec4(m.lightmap.intensity, m.lightmap.tex_coord == 1 ? 1.0f : 0.0f,
-                               m.lightmap.texture >= 0 ? 1.0f : 0.0f,
-                               m.lightmap.encoding == LightmapEncoding::Rgbm ? 1.0f : 0.0f);
-        c.emissive = glm::vec4(m.emissive_factor, 0.0f);
+        const MaterialConstants c = gpu::material_constants(m);
         std::memcpy(constants.data() + i * out.material_stride, &c, sizeof(c));
     }
     auto buffer = create_buffer_with_data(ctx, constants, VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
@@ -342,7 +248,8 @@ Status create_materials(DeviceContext& ctx, const Scene& scene, VkDescriptorSetL
 
 Result<std::unique_ptr<GpuScene>> upload_scene(DeviceContext& ctx, const Scene& scene,
                                                VkDescriptorSetLayout material_layout) {
-    if (Status s = validate(scene, ctx.properties.limits.maxImageDimension2D); !s) return s.error();
+    if (Status s = gpu::validate_scene(scene, ctx.properties.limits.maxImageDimension2D); !s)
+        return s.error();
     auto out = std::make_unique<GpuScene>();
     if (Status s = upload_geometry(ctx, scene, *out); !s) return s.error();
     if (Status s = upload_textures(ctx, scene, *out); !s) return s.error();

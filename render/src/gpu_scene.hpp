@@ -8,23 +8,13 @@
 #include <vector>
 
 #include "hmdnode/core/scene.hpp"
+#include "scene_geometry.hpp"
 #include "vk_memory.hpp"
 
 namespace hmdnode::vk {
 
-struct GpuPrimitive {
-    uint32_t first_index = 0;
-    uint32_t index_count = 0;
-    int32_t vertex_offset = 0;
-    uint32_t material = 0;  // index into GpuScene::material_sets (the default material is last)
-    bool double_sided = false;
-};
-
-struct GpuMesh {
-    uint32_t first_primitive = 0;
-    uint32_t primitive_count = 0;
-    uint64_t triangles = 0;
-};
+using GpuPrimitive = gpu::PrimitiveRange;
+using GpuMesh = gpu::MeshRange;
 
 struct GpuTexture {
     Image image;           // empty when no material uses the texture

@@ -8,21 +8,12 @@
 
 #include <glm/glm.hpp>
 
+#include "scene_geometry.hpp"
 #include "vk_memory.hpp"
 
 namespace hmdnode::vk {
 
-// Interleaved vertex, 56 bytes. Missing attributes get defaults: normal (0,0,1), uv (0,0),
-// colour (1,1,1,1).
-struct Vertex {
-    glm::vec3 position;
-    glm::vec3 normal;  // not read by the scene shaders today; kept for later lighting passes
-    glm::vec2 uv0;
-    glm::vec2 uv1;
-    glm::vec4 color;
-    glm::vec3 light;  // _LIGHT_0 / pi (baked diffuse light), 1 when absent (unlit)
-};
-static_assert(sizeof(Vertex) == 68);
+using gpu::Vertex;
 
 // Set 0, binding 0 (std140).
 struct FrameConstants {
@@ -30,11 +21,7 @@ struct FrameConstants {
 };
 
 // Set 1, binding 2 (std140).
-struct MaterialConstants {
-    glm::vec4 base_color_factor;
-    glm::vec4 lightmap;  // x intensity, y uv set (0/1), z 1 when lightmapped, w unused
-    glm::vec4 emissive;  // rgb emissiveFactor (linear radiance relative to white), w unused
-};
+using gpu::MaterialConstants;
 
 // Push constants: world is pushed per draw (offset 0), view_base per pass (offset 64).
 struct DrawConstants {

@@ -9,13 +9,13 @@
 // ordinary pass per eye layer, same shaders (view_base push constant). On lavapipe it loses
 // little, since llvmpipe repeats the vertex work per view anyway (docs/DESIGN.md §9).
 // HMDNODE_VK_MULTIVIEW=1 forces multiview without the probe, =0 forces per-eye passes.
-#include <chrono>
 #include <cstddef>
 #include <cstdlib>
 #include <cstring>
 #include <optional>
 #include <string>
 
+#include "frame_queue.hpp"
 #include "gpu_scene.hpp"
 #include "hmdnode/render/renderer.hpp"
 #include "scene_pipeline.hpp"
@@ -30,11 +30,7 @@ namespace {
 
 constexpr uint64_t kFenceTimeoutNs = 20'000'000'000;  // a frame that takes 20 s is a hung GPU
 
-int64_t now_ns() {
-    return std::chrono::duration_cast<std::chrono::nanoseconds>(
-               std::chrono::steady_clock::now().time_since_epoch())
-        .count();
-}
+using gpu::now_ns;
 
 class VulkanRenderer final : public Renderer {
   public:
@@ -45,6 +41,7 @@ class VulkanRenderer final : public Renderer {
     Result<RenderStats> render(const StereoViews& views, std::span<const DrawItem> items,
                                StereoImage* out_image) override;
     std::string device_name() const override { return ctx_->name; }
+    const char* backend_name() const override { return "vulkan"; }
     Status begin_frame(const StereoViews& views, std::span<const DrawItem> items) override;
     Result<bool> render_more(uint64_t max_triangles, size_t* items_rendered) override;
     Status set_warp(int panel_width, int panel_height, const DistortionMesh& left,
@@ -90,10 +87,7 @@ class VulkanRenderer final : public Renderer {
     int panel_width_ = 0, panel_height_ = 0;
     DistortionMesh warp_mesh_[2];
     // The frame being rendered (into slot back_) and the last finished one (slot 1 - back_).
-    std::vector<DrawItem> frame_items_;
-    std::vector<uint64_t> frame_item_triangles_;
-    size_t frame_cursor_ = 0;
-    bool frame_open_ = false;
+    gpu::FrameQueue frame_;
     int back_ = 0;
     glm::mat4 frame_projection_[2]{};        // of the open frame
     glm::mat4 rendered_projection_[2]{};     // of the finished frame
@@ -191,7 +185,7 @@ Status VulkanRenderer::build_frame_path(bool multiview) {
     write.pBufferInfo = &buffer_info;
     vkUpdateDescriptorSets(ctx.device, 1, &write, 0, nullptr);
     rendered_ = false;
-    frame_open_ = false;
+    frame_.open = false;
     eyes_sampled_[0] = eyes_sampled_[1] = false;
     return build_warp_pass();
 }
@@ -251,16 +245,9 @@ Result<WarpStats> VulkanRenderer::warp(const glm::dquat& delta, StereoImage* out
     if (!rendered_) return make_error("renderer: warp() before any render()");
     WarpStats stats;
     const int64_t t0 = now_ns();
-    // Per eye: display direction -> rendered head frame (delta) -> eye buffer clip x, y, w (rows
-    // 0, 1 and 3 of the projection; directions have w = 0, so the view's translation drops out).
-    const glm::mat3 rotation = glm::mat3_cast(glm::quat(delta));
     glm::mat4 reproject[2];
-    for (int e = 0; e < 2; ++e) {
-        const glm::mat4& p = rendered_projection_[e];
-        glm::mat3 p3;
-        for (int col = 0; col < 3; ++col) p3[col] = glm::vec3(p[col][0], p[col][1], p[col][3]);
-        reproject[e] = glm::mat4(p3 * rotation);
-    }
+    for (int e = 0; e < 2; ++e)
+        reproject[e] = gpu::warp_reprojection(rendered_projection_[e], delta);
     vkResetCommandBuffer(warp_cmd_, 0);
     VkCommandBufferBeginInfo begin{};
     begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
@@ -408,7 +395,7 @@ void VulkanRenderer::record(size_t first, size_t last, bool read_back) {
     const glm::vec4& c = config_.clear_color;
     clears[0].color = {{c.r, c.g, c.b, c.a}};
     clears[1].depthStencil = {1.0f, 0};
-    const std::span<const DrawItem> items(frame_items_.data() + first, last - first);
+    const std::span<const DrawItem> items(frame_.items.data() + first, last - first);
     for (int p = 0; p < targets_.pass_count(); ++p) {
         VkRenderPassBeginInfo pass{};
         pass.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
@@ -431,17 +418,10 @@ void VulkanRenderer::record(size_t first, size_t last, bool read_back) {
 
 Status VulkanRenderer::begin_frame(const StereoViews& views, std::span<const DrawItem> items) {
     if (!lost_.empty()) return make_error(lost_);
-    const size_t mesh_count = scene_ ? scene_->meshes.size() : 0;
-    frame_item_triangles_.clear();
-    for (const DrawItem& item : items) {
-        if (item.mesh < 0 || size_t(item.mesh) >= mesh_count)
-            return make_error("renderer: draw item refers to mesh " + std::to_string(item.mesh) +
-                              " but the uploaded scene has " + std::to_string(mesh_count));
-        frame_item_triangles_.push_back(scene_->meshes[size_t(item.mesh)].triangles);
-    }
-    frame_items_.assign(items.begin(), items.end());  // allocates only when the list grows
-    frame_cursor_ = 0;
-    frame_open_ = true;
+    if (Status s = frame_.begin(items, scene_ ? std::span<const gpu::MeshRange>(scene_->meshes)
+                                              : std::span<const gpu::MeshRange>());
+        !s)
+        return s;
     vk::FrameConstants frame;
     for (int e = 0; e < 2; ++e) {
         frame.view_projection[e] = views.projection[e] * views.view[e];
@@ -454,28 +434,20 @@ Status VulkanRenderer::begin_frame(const StereoViews& views, std::span<const Dra
 Result<bool> VulkanRenderer::run_piece(uint64_t max_triangles, bool read_back, int64_t* wait_ns,
                                        size_t* items_rendered) {
     if (!lost_.empty()) return make_error(lost_);
-    if (!frame_open_) return make_error("renderer: render_more() without begin_frame()");
-    // At least one item, then items while the piece stays within max_triangles.
-    size_t last = frame_cursor_;
-    uint64_t triangles = 0;
-    do {
-        triangles += last < frame_items_.size() ? frame_item_triangles_[last] : 0;
-        ++last;
-    } while (last < frame_items_.size() &&
-             triangles + frame_item_triangles_[last] <= max_triangles);
-    last = std::min(last, frame_items_.size());
-    const bool done = last == frame_items_.size();
-    record(frame_cursor_, last, read_back && done);
+    if (!frame_.open) return make_error("renderer: render_more() without begin_frame()");
+    const size_t last = frame_.piece_end(max_triangles);
+    const bool done = last == frame_.items.size();
+    record(frame_.cursor, last, read_back && done);
     const VkFence fence = fence_;
     if (Status st = submit(cmd_, fence, "frame"); !st) return st.error();
     const int64_t t0 = now_ns();
     if (Status s = wait(fence, "vkWaitForFences (frame)"); !s) return s.error();
     if (wait_ns) *wait_ns = now_ns() - t0;
-    if (items_rendered) *items_rendered = last - frame_cursor_;
-    frame_cursor_ = last;
+    if (items_rendered) *items_rendered = last - frame_.cursor;
+    frame_.cursor = last;
     if (!done) return false;
     // The frame is complete: it becomes the one warp() reads, in TRANSFER_SRC_OPTIMAL.
-    frame_open_ = false;
+    frame_.open = false;
     rendered_ = true;
     eyes_sampled_[back_] = false;
     for (int e = 0; e < 2; ++e) rendered_projection_[e] = frame_projection_[e];
@@ -505,7 +477,7 @@ Result<RenderStats> VulkanRenderer::render(const StereoViews& views,
     RenderStats stats;
     const int64_t t0 = now_ns();
     if (Status s = begin_frame(views, items); !s) return s.error();
-    for (uint64_t t : frame_item_triangles_) stats.triangles += t;
+    stats.triangles = frame_.total_triangles();
     int64_t wait_ns = 0;
     // The whole frame in one piece.
     auto done = run_piece(UINT64_MAX, out_image != nullptr, &wait_ns, nullptr);

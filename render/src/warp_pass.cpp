@@ -6,6 +6,7 @@
 #include <cstring>
 #include <string>
 
+#include "scene_geometry.hpp"
 #include "vk_check.hpp"
 #include "vk_shader.hpp"
 
@@ -72,13 +73,6 @@ Result<RenderPass> create_panel_render_pass(const DeviceContext& ctx) {
     HMDNODE_VK_TRY(vkCreateRenderPass(ctx.device, &info, nullptr, &pass),
                    "vkCreateRenderPass (warp)");
     return RenderPass(ctx.device, pass);
-}
-
-// True when every vertex shows one direction for all three colours (no chromatic aberration).
-bool channels_agree(const DistortionMesh& m) {
-    for (const DistortionVertex& v : m.vertices)
-        if (v.tangent[0] != v.tangent[1] || v.tangent[2] != v.tangent[1]) return false;
-    return true;
 }
 
 Result<Pipeline> create_warp_pipeline(const DeviceContext& ctx, VkPipelineLayout layout,
@@ -283,7 +277,7 @@ Result<WarpPass> create_warp_pass(DeviceContext& ctx, const Image eyes[2], uint3
     HMDNODE_VK_TRY(vkCreatePipelineLayout(ctx.device, &layout_info, nullptr, &layout),
                    "vkCreatePipelineLayout (warp)");
     w.layout = PipelineLayout(ctx.device, layout);
-    w.mono = channels_agree(mesh[0]) && channels_agree(mesh[1]);
+    w.mono = gpu::channels_agree(mesh[0]) && gpu::channels_agree(mesh[1]);
     auto pipeline = create_warp_pipeline(ctx, w.layout, w.render_pass, w.mono);
     if (!pipeline) return pipeline.error();
     w.pipeline = std::move(*pipeline);
@@ -291,13 +285,7 @@ Result<WarpPass> create_warp_pass(DeviceContext& ctx, const Image eyes[2], uint3
     // 4. The meshes.
     for (int e = 0; e < 2; ++e) {
         const DistortionMesh& m = mesh[e];
-        if (m.vertices.empty() || m.indices.empty())
-            return make_error("warp: the distortion mesh of eye " + std::to_string(e) +
-                              " is empty");
-        for (uint32_t i : m.indices)
-            if (i >= m.vertices.size())
-                return make_error("warp: the distortion mesh of eye " + std::to_string(e) +
-                                  " has an index past its vertices");
+        if (Status s = gpu::check_distortion_mesh(m, e); !s) return s.error();
         auto vb = create_buffer_with_data(ctx, std::as_bytes(std::span(m.vertices)),
                                           VK_BUFFER_USAGE_VERTEX_BUFFER_BIT, "distortion mesh");
         if (!vb) return vb.error();

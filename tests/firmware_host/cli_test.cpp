@@ -74,6 +74,28 @@ TEST(Cli, ReplaysTheBundledRealTrace) {
     EXPECT_GT(p50, floor_ms);
     EXPECT_LT(p50, floor_ms + 0.43 + 20.0);  // at most the floor with the initial margin + a gap
     EXPECT_LT(j["summary"]["registration_error_deg"]["p50"].get<double>(), 2.0);
+    EXPECT_EQ(j["renderer_backend"], "vulkan");
+}
+
+TEST(Cli, ReplayRendersOnTheBackendItIsGivenAndReportsIt) {
+    fs::path dir = temp_dir("gles");
+    CommandRun r = run(replay_cmd(kScene, kTrace, dir / "report.json") +
+                       " --renderer gles --frame-cost-ms 4 --warp-cost-ms 0.5");
+    ASSERT_EQ(r.code, 0) << r.output;
+    std::ifstream in(dir / "report.json");
+    nlohmann::json j = nlohmann::json::parse(in);
+    EXPECT_EQ(j["renderer_backend"], "gles");
+    EXPECT_EQ(j["summary"]["missed_vsyncs"].get<int>(), 0);
+    // An unknown backend is a usage error; from the environment, a clear error.
+    r = run(replay_cmd(kScene, kTrace, dir / "bad.json") + " --renderer metal");
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("--renderer"), std::string::npos) << r.output;
+    r = run("HMDNODE_RENDERER=metal " + replay_cmd(kScene, kTrace, dir / "bad.json"));
+    EXPECT_NE(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("HMDNODE_RENDERER: unknown renderer backend \"metal\""),
+              std::string::npos)
+        << r.output;
+    EXPECT_FALSE(fs::exists(dir / "bad.json"));
 }
 
 TEST(Cli, TraceWithAMissingColumnFails) {
@@ -162,7 +184,33 @@ TEST(Daemon, RunsTheFrameLoopFromAConfigFileAndWritesStatus) {
     EXPECT_GT(s["time_unix_s"].get<double>(), 1.7e9);  // written after 2023
     EXPECT_GT(s["triangles"].get<int>(), 0);
     EXPECT_GE(s["lod_switches"].get<int>(), 0);
+    EXPECT_EQ(s["renderer_backend"], "vulkan");
     EXPECT_NE(r.output.find("stopped after 120 frames"), std::string::npos) << r.output;
+}
+
+TEST(Daemon, RendersOnTheConfiguredBackendAndRefusesAnUnknownOne) {
+    fs::path dir = temp_dir("daemon_gles");
+    nlohmann::json cfg = {{"scene", kScene},
+                          {"clock", "sim"},
+                          {"tracker", {{"type", "sim"}, {"trace", kTrace}}},
+                          {"display", {{"eye_width", 32}, {"eye_height", 32}}},
+                          {"renderer", {{"backend", "gles"}}},
+                          {"status", {{"path", (dir / "status.json").string()}, {"every_s", 0.2}}}};
+    write(dir / "hmdnoded.json", cfg.dump(1));
+    CommandRun r = run(std::string(HMDNODE_DAEMON) + " --config " +
+                       (dir / "hmdnoded.json").string() + " --max-frames 40");
+    ASSERT_EQ(r.code, 0) << r.output;
+    std::ifstream in(dir / "status.json");
+    nlohmann::json s = nlohmann::json::parse(in);
+    EXPECT_EQ(s["renderer_backend"], "gles");
+    EXPECT_GT(s["triangles"].get<int>(), 0);
+    cfg["renderer"]["backend"] = "metal";
+    write(dir / "hmdnoded.json", cfg.dump(1));
+    r = run(std::string(HMDNODE_DAEMON) + " --config " + (dir / "hmdnoded.json").string());
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.output.find("renderer.backend \"metal\" is not one of vulkan, gles"),
+              std::string::npos)
+        << r.output;
 }
 
 TEST(Daemon, BadConfigNamesTheKeyAndExitsNonZero) {

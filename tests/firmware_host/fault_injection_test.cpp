@@ -104,10 +104,12 @@ nlohmann::json sim_config(const fs::path& scene, const fs::path& status) {
 
 // The daemon on `cfg` for 240 frames (about 53 status windows): it runs them all, exits 0, and
 // says once why the status file cannot be written.
-void expect_status_failure_said_once(const fs::path& dir, const nlohmann::json& cfg) {
+// `prefix` runs before the daemon in the same shell (limits, traps).
+void expect_status_failure_said_once(const fs::path& dir, const nlohmann::json& cfg,
+                                     const std::string& prefix = "") {
     std::ofstream(dir / "hmdnoded.json") << cfg.dump(1);
     const hmdnode::test::CommandRun r =
-        hmdnode::test::run(std::string(HMDNODE_DAEMON) + " --config " +
+        hmdnode::test::run(prefix + "exec " + std::string(HMDNODE_DAEMON) + " --config " +
                            (dir / "hmdnoded.json").string() + " --max-frames 240");
     ASSERT_EQ(r.code, 0) << r.output;
     EXPECT_NE(r.output.find("stopped after 240 frames (0 failed)"), std::string::npos) << r.output;
@@ -134,6 +136,18 @@ TEST(FaultInjection, StatusDirectoryMissingKeepsTheLoopAndIsSaidOnce) {
     // note: a regular file where the directory should be: no user, root included, can write there.
     std::ofstream(dir / "status") << "not a directory";
     expect_status_failure_said_once(dir, sim_config(kScene, dir / "status" / "status.json"));
+}
+
+TEST(FaultInjection, StatusFileSystemFullKeepsTheLoopAndIsSaidOnce) {
+    // A full file system, for every user (root included): RLIMIT_FSIZE 0 makes every write of a
+    // byte to a file fail with EFBIG, as ENOSPC would; SIGXFSZ ignored (inherited across exec) so
+    // the write fails instead of killing the process.
+    const fs::path dir = hmdnode::test::fresh_temp_dir("hmdnode_fault_status_full");
+    expect_status_failure_said_once(dir, sim_config(kScene, dir / "status.json"),
+                                    "trap '' XFSZ; ulimit -f 0; ");
+    EXPECT_FALSE(fs::exists(dir / "status.json"));
+    for (const auto& e : fs::directory_iterator(dir))
+        EXPECT_EQ(e.path().filename(), "hmdnoded.json") << "a partial file was left: " << e.path();
 }
 
 TEST(FaultInjection, SceneFileReplacedUnderTheRunningDaemonChangesNothing) {

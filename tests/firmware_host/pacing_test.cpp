@@ -58,6 +58,7 @@ class ScriptedRenderer final : public Renderer {
         return WarpStats{};
     }
     std::string device_name() const override { return "scripted"; }
+    const char* backend_name() const override { return "scripted"; }
     int renders() const { return renders_; }
     int pieces() const { return pieces_; }
 

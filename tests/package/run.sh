@@ -36,7 +36,8 @@ done
 
 depends=$(dpkg-deb -f "$deb" Depends)
 echo "Depends: $depends"
-for p in libvulkan1 libhidapi-hidraw0 libusb-1.0-0 libudev1 libpcap0.8 libspdlog mesa-vulkan-drivers; do
+for p in libvulkan1 libegl1 libgles2 libegl-mesa0 libhidapi-hidraw0 libusb-1.0-0 libudev1 libpcap0.8 \
+         libspdlog mesa-vulkan-drivers; do
   echo "$depends" | grep -q "$p" || fail "Depends lacks $p"
 done
 dpkg-deb -I "$deb" conffiles | grep -qx /etc/hmdnode/hmdnoded.json || fail "config not a conffile"

@@ -20,7 +20,7 @@ std::unique_ptr<Renderer> make_renderer(int width, int height) {
     RendererConfig config;
     config.eye_width = width;
     config.eye_height = height;
-    auto r = create_vulkan_renderer(config);
+    auto r = create_renderer(config);
     EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message);
     return r.ok() ? std::move(r.value()) : nullptr;
 }

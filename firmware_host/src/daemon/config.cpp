@@ -89,7 +89,7 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
 
     if (!r.check_keys(j, "",
                       {"scene", "clock", "max_frames", "tracker", "display", "node", "status",
-                       "realtime_priority", "control"}))
+                       "realtime_priority", "control", "renderer"}))
         return make_error(r.error);
     std::string scene, clock = "real";
     r.get(j, "scene", &scene);
@@ -224,6 +224,13 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
             else
                 c.node.headset = *p;
         }
+    }
+    json rend = j.value("renderer", json::object());
+    if (r.check_keys(rend, "renderer", {"backend"})) {
+        r.get(rend, "backend", &c.renderer_backend);
+        if (c.renderer_backend != "vulkan" && c.renderer_backend != "gles" &&
+            !c.renderer_backend.empty())
+            r.fail("renderer.backend \"" + c.renderer_backend + "\" is not one of vulkan, gles");
     }
     json s = j.value("status", json::object());
     if (r.check_keys(s, "status", {"path", "every_s"})) {

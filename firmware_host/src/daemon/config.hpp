@@ -33,6 +33,8 @@ struct DaemonConfig {
     DeviceFilter tracker_device;  // `device` parsed (not for rec)
     std::string display_type = "mock";
     MockDisplayConfig display;
+    // "renderer": {"backend": "vulkan" | "gles"}; empty: HMDNODE_RENDERER, else "vulkan".
+    std::string renderer_backend;
     NodeConfig node;
     std::filesystem::path status_path;  // empty: none
     double status_every_s = 5.0;

@@ -128,7 +128,9 @@ int main(int argc, char** argv) {
         return 2;
     }
     const MockDisplayConfig& dc = cfg->display;
-    Result<std::unique_ptr<Renderer>> renderer = make_renderer({}, (*display)->info(), keys);
+    RendererSpec rs;
+    rs.type = cfg->renderer_backend;
+    Result<std::unique_ptr<Renderer>> renderer = make_renderer(rs, (*display)->info(), keys);
     if (!renderer.ok()) {
         spdlog::error("{}", renderer.error().message);
         return 2;
@@ -153,10 +155,11 @@ int main(int argc, char** argv) {
     }
     spdlog::info(
         "hmdnoded: scene {} ({} objects), tracker {}: {} ({} trace samples), display {} {}x{} per "
-        "eye at {} Hz, renderer {}",
+        "eye at {} Hz, renderer {} ({})",
         cfg->scene.string(), node.objects().size(), tracker_backend_name(cfg->tracker_backend),
         tracker_label, trace ? trace->samples.size() : 0, cfg->display_type, dc.eye_width,
-        dc.eye_height, dc.refresh_hz, (*renderer)->device_name());
+        dc.eye_height, dc.refresh_hz, (*renderer)->device_name(), (*renderer)->backend_name());
+    const std::string renderer_backend = (*renderer)->backend_name();
 
     // The frame loop's thread only (this one): the renderer's worker threads exist already and
     // keep the default policy; threads created from here on start with it (reset on fork).
@@ -230,6 +233,7 @@ int main(int argc, char** argv) {
                             {"objects", node.objects().size()},
                             {"scene_loading", loader.busy()},
                             {"scene_error", scene_error},
+                            {"renderer_backend", renderer_backend},
                             {"window", last_window}};
                 case Kind::metrics: {
                     std::optional<DeviceTrackerStatus> ts;
@@ -345,6 +349,7 @@ int main(int argc, char** argv) {
                     scene_note = "; reading the scene " + next->scene.string();
                 }
                 cfg->scene = next->scene;
+                if (next->renderer_backend != cfg->renderer_backend) needs_restart("renderer");
                 if (next->simulated_clock != cfg->simulated_clock) needs_restart("clock");
                 if (next->tracker_backend != cfg->tracker_backend || next->trace != cfg->trace ||
                     next->from != cfg->from || next->device != cfg->device ||
@@ -453,7 +458,8 @@ int main(int argc, char** argv) {
                 {"render_ms", percentiles_json(percentiles(render_ms))},
                 {"warp_ms", percentiles_json(percentiles(warp_ms))},
                 {"triangles", metrics.triangles},
-                {"lod_switches", metrics.lod_switches}};
+                {"lod_switches", metrics.lod_switches},
+                {"renderer_backend", renderer_backend}};
             if (device_tracker) {
                 // Recovery figures: a replug shows as a disconnect and the gap it left.
                 const DeviceTrackerStatus ts = device_tracker->status();

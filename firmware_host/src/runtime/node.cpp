@@ -280,7 +280,8 @@ Pose NodeRuntime::predict(int64_t photon_time_ns) const {
     return head;
 }
 
-uint64_t NodeRuntime::select_and_sort(const Pose& head, FrameRecord* rec, double target_ms) {
+uint64_t NodeRuntime::select_and_sort(const Pose& head, const StereoViews& views, FrameRecord* rec,
+                                      double target_ms) {
     const glm::dvec3 omega = history_.angular_velocity();
     LodViewer viewer;
     viewer.eye_position = head.position;
@@ -294,8 +295,7 @@ uint64_t NodeRuntime::select_and_sort(const Pose& head, FrameRecord* rec, double
     order_.clear();
     // Per-eye frustum culling: an object whose bounding sphere lies outside both eyes' frusta
     // (the rendered field, warp margin included) is not drawn; it keeps its level for hysteresis.
-    glm::dmat4 view[2];
-    for (int e = 0; e < 2; ++e) view[e] = glm::dmat4(eye_view_matrix(render_rig_, head, e));
+    const glm::dmat4 view[2] = {glm::dmat4(views.view[0]), glm::dmat4(views.view[1])};
     auto in_eye = [&](int e, const glm::dvec3& c, double r) {
         const glm::dvec3 p = glm::dvec3(view[e] * glm::dvec4(c, 1.0));
         const EyeFov& f = render_rig_.eye[e];
@@ -570,11 +570,11 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
         // for the estimates' error.
         const double target_ms = ns_to_ms(std::max<int64_t>(0, info.period_ns - warp_est)) *
                                  (1.0 - config_.lod_budget_headroom);
-        open_triangles_ = select_and_sort(open_pose_, &r, target_ms);
+        const StereoViews views = views_for(open_pose_);
+        open_triangles_ = select_and_sort(open_pose_, views, &r, target_ms);
         std::copy(r.levels.begin(), r.levels.end(), open_levels_.begin());
         std::copy(r.eccentricity_deg.begin(), r.eccentricity_deg.end(), open_eccentricity_.begin());
-        if (Status st = renderer_.begin_frame(views_for(open_pose_), draws_); !st.ok())
-            return st.error();
+        if (Status st = renderer_.begin_frame(views, draws_); !st.ok()) return st.error();
         open_ = true;
         open_cursor_ = 0;
         open_rewarps_ = 0;

@@ -266,6 +266,7 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
 
     ReplayResult result;
     result.device_name = (*renderer)->device_name();
+    result.renderer_backend = (*renderer)->backend_name();
     result.mesh_cols = node.mesh_cols();
     result.mesh_rows = node.mesh_rows();
     result.lod_allocator = opt.node.lod_allocator;
@@ -397,6 +398,7 @@ nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& 
             {"from", opt.from.string()},
             {"clock", opt.simulated_clock ? "sim" : "real"},
             {"renderer", r.device_name},
+            {"renderer_backend", r.renderer_backend},
             {"display",
              {{"eye_width", opt.display.eye_width},
               {"eye_height", opt.display.eye_height},

@@ -108,13 +108,14 @@ Result<std::unique_ptr<Display>> make_display(const DisplaySpec& spec, Clock& cl
 
 Result<std::unique_ptr<Renderer>> make_renderer(const RendererSpec& spec, const DisplayInfo& panel,
                                                 const WiringKeys& keys) {
-    if (spec.type != "vulkan")
-        return make_error(keys.renderer + " \"" + spec.type +
-                          "\" is not available (available: " + kRendererNames + ")");
     RendererConfig rc = spec.config;
+    if (!spec.type.empty()) rc.backend = spec.type;
+    // The backend named, else HMDNODE_RENDERER's, else vulkan (render/renderer.hpp).
+    if (Result<std::string> b = resolve_renderer_backend(rc); !b.ok())
+        return make_error(keys.renderer + ": " + b.error().message);
     rc.eye_width = panel.eye_width;
     rc.eye_height = panel.eye_height;
-    return create_vulkan_renderer(rc);
+    return create_renderer(rc);
 }
 
 }  // namespace hmdnode

@@ -62,6 +62,9 @@ void add_replay_command(CLI::App& app) {
     c->add_option("--duration", opt->duration_s, "Replay this many seconds (0: to the end)")
         ->check(CLI::NonNegativeNumber);
     c->add_option("--max-frames", opt->max_frames, "Stop after this many frames (0: no limit)");
+    c->add_option("--renderer", opt->renderer.backend,
+                  "Renderer backend: vulkan or gles (default: HMDNODE_RENDERER, else vulkan)")
+        ->check(CLI::IsMember({"vulkan", "gles"}));
     c->add_option("--eye-width", opt->display.eye_width, "Pixels per eye")
         ->check(CLI::Range(1, 16384));
     c->add_option("--eye-height", opt->display.eye_height, "Pixels per eye")

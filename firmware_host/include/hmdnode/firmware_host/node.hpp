@@ -262,10 +262,11 @@ class NodeRuntime {
     void rebuild_selector();
     StereoViews views_for(const Pose& head) const;
     Pose predict(int64_t photon_time_ns) const;
-    // LOD selection for `head`, fills rec->levels / eccentricity, draws_ and draw_triangles_;
-    // returns triangles.
+    // LOD selection for `head` seen through `views` (the frame's own, culled against), fills
+    // rec->levels / eccentricity, draws_ and draw_triangles_; returns triangles.
     // target_ms: the greedy allocator's render target before the feedback's scale.
-    uint64_t select_and_sort(const Pose& head, FrameRecord* rec, double target_ms);
+    uint64_t select_and_sort(const Pose& head, const StereoViews& views, FrameRecord* rec,
+                             double target_ms);
     // Warps the finished frame for `target` (sampling the newest pose first when the warp is on),
     // presents it and fills the record's present fields; adapts the margin.
     Status warp_and_present(int64_t target, int64_t warp_est, FrameRecord* rec,

@@ -113,6 +113,7 @@ struct ReplayResult {
     std::vector<std::string> object_names;
     ReplaySummary summary;
     std::string device_name;
+    std::string renderer_backend;  // "vulkan" or "gles"
     size_t trace_samples = 0;
     int mesh_cols = 0, mesh_rows = 0;  // the distortion mesh in use
     LodAllocator lod_allocator = LodAllocator::threshold;

@@ -54,7 +54,7 @@ struct WiringKeys {
     std::string trace = "tracker.trace";
     std::string device = "tracker.device";
     std::string display = "display.type";
-    std::string renderer = "renderer";
+    std::string renderer = "renderer.backend";
     static WiringKeys config() { return {}; }
     static WiringKeys command_line() {
         return {"--clock", "--tracker", "--from", "--trace", "--device", "--display", "--renderer"};
@@ -117,13 +117,13 @@ Status check_display_spec(const DisplaySpec& spec, const WiringKeys& keys);
 Result<std::unique_ptr<Display>> make_display(const DisplaySpec& spec, Clock& clock,
                                               const WiringKeys& keys);
 
-// The renderer: "vulkan" (the Vulkan renderer; lavapipe where no GPU is). The eye size is the
-// display's.
+// The renderer: "vulkan" (lavapipe where no GPU is) or "gles" (OpenGL ES 3 on surfaceless EGL);
+// empty: config.backend, else HMDNODE_RENDERER, else vulkan (render/renderer.hpp). The eye size is
+// the display's.
 struct RendererSpec {
-    std::string type = "vulkan";
+    std::string type;
     RendererConfig config;
 };
-inline constexpr const char* kRendererNames = "vulkan";
 Result<std::unique_ptr<Renderer>> make_renderer(const RendererSpec& spec, const DisplayInfo& panel,
                                                 const WiringKeys& keys);
 

@@ -1,5 +1,6 @@
-// The stereo renderer. Backend types (Vulkan) never appear here: the scene goes in as the core
-// scene model, frames come out as CPU images.
+// The stereo renderer, with two backends: Vulkan and OpenGL ES 3 on EGL. Backend types (Vulkan,
+// EGL, GL) never appear here: the scene goes in as the core scene model, frames come out as CPU
+// images. create_renderer() picks the backend (RendererConfig::backend, HMDNODE_RENDERER).
 //
 // Threads: one thread owns a Renderer (the frame thread); no method is thread-safe.
 #pragma once
@@ -24,6 +25,8 @@ struct RendererConfig {
     int eye_height = 600;                           // >= 1
     glm::vec4 clear_color{0.0f, 0.0f, 0.0f, 1.0f};  // linear; encoded to sRGB like shaded pixels
     bool validation = false;  // enable VK_LAYER_KHRONOS_validation when installed (else ignored)
+    // "vulkan" or "gles"; empty: the HMDNODE_RENDERER environment variable, else "vulkan".
+    std::string backend;
 };
 
 // One draw: a mesh of the uploaded scene (all its primitives) with a world matrix.
@@ -109,7 +112,19 @@ class Renderer {
 
     // e.g. "llvmpipe (LLVM 15.0.6, 256 bits)".
     virtual std::string device_name() const = 0;
+    // "vulkan" or "gles" (what reports call renderer_backend).
+    virtual const char* backend_name() const = 0;
 };
+
+// The backend names create_renderer() accepts, for usage texts: "vulkan|gles".
+const char* renderer_backend_names();
+
+// The backend config.backend names, else HMDNODE_RENDERER's, else "vulkan". Errors: an unknown
+// name, saying where it came from and what is accepted.
+Result<std::string> resolve_renderer_backend(const RendererConfig& config);
+
+// The backend resolve_renderer_backend() names, created with the config.
+Result<std::unique_ptr<Renderer>> create_renderer(const RendererConfig& config);
 
 // The Vulkan backend: the first physical device with Vulkan 1.1 and the multiview feature (a GPU if
 // present, else lavapipe); HMDNODE_VK_DEVICE=<substring> picks a device by name. Headless: no
@@ -118,5 +133,14 @@ class Renderer {
 // frame to check the driver's multiview; HMDNODE_VK_MULTIVIEW=1 forces the multiview pass, =0 one
 // pass per eye (see render/src/vulkan_renderer.cpp).
 Result<std::unique_ptr<Renderer>> create_vulkan_renderer(const RendererConfig& config);
+
+// The OpenGL ES 3 backend on EGL, off-screen: Mesa's surfaceless platform
+// (EGL_MESA_platform_surfaceless) when offered, else the default display with
+// EGL_KHR_surfaceless_context; rendering into framebuffer objects, one pass per eye. Same
+// shading, stereo, late warp and read-back as the Vulkan backend (render/src/gles_renderer.cpp;
+// where the pixels may differ: docs/rendering.md). Needs GL_EXT_texture_sRGB_decode; uses
+// GL_EXT_clip_control (Vulkan's depth range) where offered. Errors: no EGL display, no OpenGL ES 3
+// context, a shader the driver rejects, an eye buffer beyond the driver's limits.
+Result<std::unique_ptr<Renderer>> create_gles_renderer(const RendererConfig& config);
 
 }  // namespace hmdnode

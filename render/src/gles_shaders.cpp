@@ -1,0 +1,126 @@
+// The GLES backend's shaders. Each mirrors the Vulkan shader of the same name in render/shaders/
+// (read those for the maths and its sources); a change to one must be made to the other, and
+// tests/render/cross_backend_test.cpp compares the pixels of the two backends.
+#include "gles_shaders.hpp"
+
+namespace hmdnode::gles {
+
+// scene.vert: u_view_projection is the eye's projection * view (one pass per eye).
+const char* const kSceneVertex = R"(#version 300 es
+uniform mat4 u_view_projection;
+uniform mat4 u_world;
+layout(location = 0) in vec3 in_position;
+layout(location = 2) in vec2 in_uv0;
+layout(location = 3) in vec2 in_uv1;
+layout(location = 4) in vec4 in_color;
+layout(location = 5) in vec3 in_light;
+out vec2 v_uv0;
+out vec2 v_uv1;
+out vec4 v_color;
+out vec3 v_light;
+void main() {
+    v_uv0 = in_uv0;
+    v_uv1 = in_uv1;
+    v_color = in_color;
+    v_light = in_light;
+    gl_Position = u_view_projection * (u_world * vec4(in_position, 1.0));
+}
+)";
+
+// scene.frag: the shading contract of docs/formats.md, RGBM lightmaps decoded before filtering.
+const char* const kSceneFragment = R"(#version 300 es
+precision highp float;
+precision highp int;
+uniform highp sampler2D base_color_texture;  // sRGB texture, repeat
+uniform highp sampler2D lightmap_texture;    // UNORM texture, clamp to edge
+uniform vec4 u_base_color_factor;
+uniform vec4 u_lightmap;  // x intensity, y uv set, z 1 when lightmapped, w 1 when RGBM
+uniform vec4 u_emissive;
+in vec2 v_uv0;
+in vec2 v_uv1;
+in vec4 v_color;
+in vec3 v_light;
+layout(location = 0) out vec4 out_color;
+const float kInvPi = 0.31830988618379067;
+vec3 rgbm_texel(ivec2 p, ivec2 size) {
+    vec4 t = texelFetch(lightmap_texture, clamp(p, ivec2(0), size - 1), 0);
+    return t.rgb * t.a;
+}
+vec3 rgbm_bilinear(vec2 uv) {
+    ivec2 size = textureSize(lightmap_texture, 0);
+    vec2 x = uv * vec2(size) - 0.5;
+    vec2 x0 = floor(x);
+    vec2 f = x - x0;
+    ivec2 p = ivec2(x0);
+    return mix(mix(rgbm_texel(p, size), rgbm_texel(p + ivec2(1, 0), size), f.x),
+               mix(rgbm_texel(p + ivec2(0, 1), size), rgbm_texel(p + ivec2(1, 1), size), f.x),
+               f.y);
+}
+void main() {
+    vec4 albedo = u_base_color_factor * texture(base_color_texture, v_uv0) * v_color;
+    vec3 rgb = albedo.rgb * v_light;
+    if (u_lightmap.z > 0.5) {
+        vec2 uv = u_lightmap.y > 0.5 ? v_uv1 : v_uv0;
+        vec3 texel = u_lightmap.w > 0.5 ? rgbm_bilinear(uv) : texture(lightmap_texture, uv).rgb;
+        vec3 irradiance = texel * u_lightmap.x;
+        rgb = albedo.rgb * irradiance * kInvPi;
+    }
+    out_color = vec4(rgb + u_emissive.rgb, 1.0);
+}
+)";
+
+// warp.vert: per channel, the display direction rotated and projected into the eye buffer.
+const char* const kWarpVertex = R"(#version 300 es
+uniform mat4 u_reproject;
+layout(location = 0) in vec2 in_ndc;
+layout(location = 1) in vec2 in_tangent_r;
+layout(location = 2) in vec2 in_tangent_g;
+layout(location = 3) in vec2 in_tangent_b;
+out vec3 v_r;
+out vec3 v_g;
+out vec3 v_b;
+void main() {
+    v_r = (u_reproject * vec4(in_tangent_r, -1.0, 0.0)).xyz;
+    v_g = (u_reproject * vec4(in_tangent_g, -1.0, 0.0)).xyz;
+    v_b = (u_reproject * vec4(in_tangent_b, -1.0, 0.0)).xyz;
+    gl_Position = vec4(in_ndc, 0.0, 1.0);
+}
+)";
+
+// warp.frag: three bilinear samples, black outside the rendered field of view or behind the eye.
+const char* const kWarpFragment = R"(#version 300 es
+precision highp float;
+uniform highp sampler2D eye;  // sRGB decode skipped: filters the encoded bytes, as Vulkan's
+in vec3 v_r;
+in vec3 v_g;
+in vec3 v_b;
+layout(location = 0) out vec4 out_color;
+float fetch(vec3 h, int channel) {
+    if (h.z <= 1e-6) return 0.0;
+    vec2 uv = h.xy / h.z * 0.5 + 0.5;
+    if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) return 0.0;
+    return textureLod(eye, uv, 0.0)[channel];
+}
+void main() {
+    out_color = vec4(fetch(v_r, 0), fetch(v_g, 1), fetch(v_b, 2), 1.0);
+}
+)";
+
+// warp_mono.frag: one sample serves all three channels.
+const char* const kWarpMonoFragment = R"(#version 300 es
+precision highp float;
+uniform highp sampler2D eye;
+in vec3 v_r;
+in vec3 v_g;
+in vec3 v_b;
+layout(location = 0) out vec4 out_color;
+void main() {
+    vec2 uv = v_g.xy / v_g.z * 0.5 + 0.5;
+    if (v_g.z <= 1e-6 || any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))))
+        out_color = vec4(0.0, 0.0, 0.0, 1.0);
+    else
+        out_color = vec4(textureLod(eye, uv, 0.0).rgb, 1.0);
+}
+)";
+
+}  // namespace hmdnode::gles
