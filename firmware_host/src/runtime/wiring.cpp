@@ -112,7 +112,8 @@ Result<std::unique_ptr<Renderer>> make_renderer(const RendererSpec& spec, const 
     if (!spec.type.empty()) rc.backend = spec.type;
     // The backend named, else HMDNODE_RENDERER's, else vulkan (render/renderer.hpp).
     if (Result<std::string> b = resolve_renderer_backend(rc); !b.ok())
-        return make_error(keys.renderer + ": " + b.error().message);
+        return rc.backend.empty() ? b.error()  // HMDNODE_RENDERER's: the error names it
+                                  : make_error(keys.renderer + ": " + b.error().message);
     rc.eye_width = panel.eye_width;
     rc.eye_height = panel.eye_height;
     return create_renderer(rc);

@@ -78,7 +78,7 @@ Status check_tracker_spec(const TrackerSpec& spec, ClockKind clock, const Wiring
                                        ? " (the VID:PID of the captured device)"
                                        : " (the recording's device name, e.g. T20)"));
             if (spec.start_s > 0.0 && clock != ClockKind::sim)
-                return make_error("a start offset into a " + std::string(name) + " needs " +
+                return make_error(keys.start + " with " + keys.backend + " " + name + " needs " +
                                   keys.clock + " sim");
             return {};
         case TrackerBackend::hidapi:

@@ -55,9 +55,11 @@ struct WiringKeys {
     std::string device = "tracker.device";
     std::string display = "display.type";
     std::string renderer = "renderer.backend";
+    std::string start = "tracker.start_s";
     static WiringKeys config() { return {}; }
     static WiringKeys command_line() {
-        return {"--clock", "--tracker", "--from", "--trace", "--device", "--display", "--renderer"};
+        return {"--clock",  "--tracker", "--from",     "--trace",
+                "--device", "--display", "--renderer", "--start"};
     }
 };
 
