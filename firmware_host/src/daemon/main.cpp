@@ -226,7 +226,7 @@ int main(int argc, char** argv) {
                             {"has_pose", node.has_pose()},
                             {"predict", node.config().predict},
                             {"prediction_ms", node.prediction_offset_ms()},
-                            {"warp", node.config().warp},
+                            {"warp", pending_warp.value_or(node.config().warp)},
                             {"lod_tolerance_px", node.config().lod.tolerance_px},
                             {"lod_bias", node.lod_bias()},
                             {"scene", scene_path.string()},
@@ -414,7 +414,9 @@ int main(int argc, char** argv) {
                 // The loop keeps its pace without a pose: not a hung start.
                 if (!ready)
                     notifier.notify("EXTEND_TIMEOUT_USEC=15000000\nSTATUS=waiting for tracker " +
-                                    tracker_label + (last_error.empty() ? "" : ": " + last_error));
+                                    std::string(tracker_backend_name(cfg->tracker_backend)) + " (" +
+                                    tracker_label + ")" +
+                                    (last_error.empty() ? "" : ": " + last_error));
             }
         } else {
             ++frames;
