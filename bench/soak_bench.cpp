@@ -8,7 +8,7 @@
 // growth, a constant thread count, no crash (the daemon exits 0 on SIGTERM at the end).
 //
 // Usage: bench_soak_bench [--minutes M=1] [--every S=5] [--clock sim|real] [--tracker
-//        sim-trace|sim-device] [--eye N=64] [--write-docs [--docs FILE=docs/benchmarks.md]]
+//        trace|sim] [--eye N=64] [--write-docs [--docs FILE=docs/benchmarks.md]]
 // --write-docs puts the table between <!-- soak-bench-table --> markers (bench/doc_table.hpp).
 // Cost: one daemon rendering two N x N eyes as fast as it can (sim clock) for M minutes.
 #include <fcntl.h>
@@ -84,7 +84,7 @@ double slope(const std::vector<Sample>& v, double Sample::*y) {
 int usage() {
     std::fprintf(stderr,
                  "usage: bench_soak_bench [--minutes M] [--every S] [--clock sim|real] "
-                 "[--tracker sim-trace|sim-device] [--eye N] [--write-docs [--docs FILE]]\n");
+                 "[--tracker trace|sim] [--eye N] [--write-docs [--docs FILE]]\n");
     return 2;
 }
 
@@ -93,8 +93,7 @@ int usage() {
 int main(int argc, char** argv) {
     double minutes = 1.0, every_s = 5.0;
     int eye = 64;
-    std::string clock = "sim", tracker = "sim-trace",
-                docs = HMDNODE_SOURCE_DIR "/docs/benchmarks.md";
+    std::string clock = "sim", tracker = "trace", docs = HMDNODE_SOURCE_DIR "/docs/benchmarks.md";
     const bool write_docs = bench::wants_docs(argc, argv);
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
@@ -118,7 +117,7 @@ int main(int argc, char** argv) {
             return usage();
     }
     if (!(minutes > 0.0 && every_s > 0.0 && eye > 0) || (clock != "sim" && clock != "real") ||
-        (tracker != "sim-trace" && tracker != "sim-device"))
+        (tracker != "trace" && tracker != "sim"))
         return usage();
 
     const fs::path dir = fs::temp_directory_path() / ("hmdnode_soak_" + std::to_string(getpid()));

@@ -126,7 +126,7 @@ TEST(CaptureCmd, ReplayStartAndDurationCountFromTheCapturesFirstSample) {
     // On the real clock --start is refused (the reports before it would flood the ring).
     r = run(base + " --clock real --start 10 --report " + (dir / "real.json").string());
     EXPECT_NE(r.code, 0) << r.output;
-    EXPECT_TRUE(has(r.output, "--start with --capture needs --clock sim")) << r.output;
+    EXPECT_TRUE(has(r.output, "--start with --tracker capture needs --clock sim")) << r.output;
     EXPECT_FALSE(fs::exists(dir / "real.json"));
 }
 

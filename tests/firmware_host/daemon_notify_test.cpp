@@ -117,7 +117,7 @@ nlohmann::json trace_config() {
     return {{"scene", HMDNODE_DEMO_SCENE},
             {"clock", "real"},
             {"tracker",
-             {{"backend", "sim-trace"},
+             {{"backend", "trace"},
               {"trace", HMDNODE_SOURCE_DIR "/data/traces/corbillon2018_user1.csv"}}},
             {"display", {{"eye_width", 32}, {"eye_height", 32}}}};
 }
@@ -247,6 +247,9 @@ TEST(DaemonNotify, RealtimePriorityIsTheFrameLoopThreadsAlone) {
 
 namespace {
 
+// A one-object scene (the tests' data): a swap shows in the status's object count.
+const std::string kSmallScene = HMDNODE_SOURCE_DIR "/tests/data/gltf/triangle_data_uri.gltf";
+
 // A raw client of the control socket: send bytes, read one reply line ("" when closed).
 class RawClient {
   public:
@@ -309,6 +312,14 @@ class DaemonControl : public ::testing::Test {
         const int code = wait_exit(pid);
         pid = -1;
         return code;
+    }
+    // The status once no scene is loading (a load is read off the loop, then swapped in).
+    nlohmann::json wait_scene_loaded() {
+        nlohmann::json st = ctl_json(sock, "status");
+        for (int i = 0; i < 300 && st.value("scene_loading", true); ++i)
+            st = ctl_json(sock, "status");
+        EXPECT_FALSE(st.value("scene_loading", true)) << "the scene load never finished";
+        return st;
     }
     // The loop presents frames: the status's count grows.
     void expect_frames_progress() {
@@ -394,8 +405,25 @@ TEST_F(DaemonControl, HangupReloadsTheConfigAndABadOneKeepsTheRunningOne) {
     nlohmann::json st = ctl_json(sock, "status");
     EXPECT_FALSE(st["predict"].get<bool>()) << st;
     EXPECT_DOUBLE_EQ(st["lod_tolerance_px"].get<double>(), 3.0) << st;
-    EXPECT_NE(read_text(dir / "log").find("needs a restart to change: scene"), std::string::npos)
+    // The scene is read again off the loop; one that cannot be read keeps the running one.
+    st = wait_scene_loaded();
+    EXPECT_EQ(st["scene"], HMDNODE_DEMO_SCENE) << st;
+    EXPECT_NE(st["scene_error"].get<std::string>().find("no-such-scene.glb"), std::string::npos)
+        << st;
+    EXPECT_NE(read_text(dir / "log").find("keeping the running scene"), std::string::npos)
         << read_text(dir / "log");
+    expect_frames_progress();
+
+    // A good new scene is swapped in at a frame boundary, the loop going on.
+    cfg["scene"] = kSmallScene;
+    std::ofstream(dir / "hmdnoded.json") << cfg.dump(1);
+    ::kill(pid, SIGHUP);
+    EXPECT_EQ(notify->wait_ready(), "READY=1");
+    st = wait_scene_loaded();
+    EXPECT_EQ(st["scene"], kSmallScene) << st;
+    EXPECT_EQ(st["objects"].get<int>(), 1) << st;
+    EXPECT_EQ(st["scene_error"], "") << st;
+    expect_frames_progress();
 
     std::ofstream(dir / "hmdnoded.json") << R"({"scene": "x.glb", "nonsense": 1})";
     ::kill(pid, SIGHUP);
@@ -410,4 +438,58 @@ TEST_F(DaemonControl, HangupReloadsTheConfigAndABadOneKeepsTheRunningOne) {
     EXPECT_NE(log.find("reload: "), std::string::npos);
     EXPECT_NE(log.find("unknown key \"nonsense\"; keeping the running config"), std::string::npos)
         << log;
+}
+
+// The commands that change the running node (docs/daemon.md, "Control socket"): warp,
+// prediction offset, LOD bias, recentre, load-scene. Bad values are refused with an error naming
+// the setting, a scene that cannot be read keeps the running one, a good one is swapped in, and
+// the loop keeps presenting frames throughout.
+TEST_F(DaemonControl, SettingsRecentreAndLoadSceneKeepTheLoopRunning) {
+    EXPECT_EQ(ctl(sock, "set warp off").code, 0);
+    EXPECT_FALSE(ctl_json(sock, "status")["warp"].get<bool>());
+    expect_frames_progress();
+    EXPECT_EQ(ctl(sock, "set warp on").code, 0);
+    EXPECT_TRUE(ctl_json(sock, "status")["warp"].get<bool>());
+    EXPECT_EQ(ctl(sock, "set prediction 12.5").code, 0);
+    EXPECT_DOUBLE_EQ(ctl_json(sock, "status")["prediction_ms"].get<double>(), 12.5);
+    hmdnode::test::CommandRun r = ctl(sock, "set prediction 500");
+    EXPECT_EQ(r.code, 1);
+    EXPECT_NE(r.output.find("prediction offset must be between -100 and 100 ms"), std::string::npos)
+        << r.output;
+    EXPECT_EQ(ctl(sock, "set lod-bias 1").code, 0);
+    EXPECT_DOUBLE_EQ(ctl_json(sock, "status")["lod_bias"].get<double>(), 1.0);
+    EXPECT_EQ(ctl(sock, "set lod-bias lots").code, 2);
+    EXPECT_EQ(ctl(sock, "set warp maybe").code, 2);
+    EXPECT_EQ(ctl(sock, "recentre").code, 0);
+
+    // Bad fields of the new commands: error replies, the loop undisturbed.
+    RawClient bad(sock);
+    ASSERT_TRUE(bad.connected());
+    bad.send("{\"cmd\":\"load-scene\"}\n");
+    EXPECT_NE(bad.reply_line().find("load-scene: give \\\"path\\\""), std::string::npos);
+    bad.send("{\"cmd\":\"set\",\"key\":\"lod_bias\",\"value\":1e308}\n");
+    EXPECT_NE(bad.reply_line().find("LOD bias must be between -8 and 8"), std::string::npos);
+    bad.send("{\"cmd\":\"set\",\"key\":\"warp\",\"value\":1}\n");
+    EXPECT_NE(bad.reply_line().find("\"ok\":false"), std::string::npos);
+    expect_frames_progress();
+
+    // load-scene: a missing file is refused at once; one that is not glTF keeps the running
+    // scene (and the status says why); a good one is swapped in.
+    r = ctl(sock, "load-scene " + (dir / "missing.glb").string());
+    EXPECT_EQ(r.code, 1);
+    EXPECT_NE(r.output.find("no such file"), std::string::npos) << r.output;
+    std::ofstream(dir / "garbage.glb") << "not a scene";
+    EXPECT_EQ(ctl(sock, "load-scene " + (dir / "garbage.glb").string()).code, 0);
+    nlohmann::json st = wait_scene_loaded();
+    EXPECT_EQ(st["scene"], HMDNODE_DEMO_SCENE) << st;
+    EXPECT_NE(st["scene_error"].get<std::string>().find("not glTF"), std::string::npos) << st;
+    expect_frames_progress();
+    EXPECT_EQ(ctl(sock, "load-scene " + kSmallScene).code, 0);
+    st = wait_scene_loaded();
+    EXPECT_EQ(st["scene"], kSmallScene) << st;
+    EXPECT_EQ(st["objects"].get<int>(), 1) << st;
+    expect_frames_progress();
+    EXPECT_EQ(stop(), 0);
+    const std::string log = read_text(dir / "log");
+    EXPECT_NE(log.find("scene swapped: " + kSmallScene + " (1 objects)"), std::string::npos) << log;
 }

@@ -60,7 +60,12 @@ TEST(DaemonTracker, SimDeviceDrivesTheFrameLoopAndReportsItsStatus) {
     std::ofstream(dir / "hmdnoded.json") << cfg.dump(1);
     const DaemonRun r = run_daemon(dir / "hmdnoded.json", 120);
     ASSERT_EQ(r.code, 0) << r.output;
-    EXPECT_NE(r.output.find("tracker sim-device 1209:0001"), std::string::npos) << r.output;
+    // The older spelling still works, with a warning naming the new value.
+    EXPECT_NE(r.output.find("tracker sim: 1209:0001"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("tracker.backend \"sim-device\" is deprecated: write tracker.backend "
+                            "\"sim\""),
+              std::string::npos)
+        << r.output;
     std::ifstream in(dir / "status.json");
     const nlohmann::json s = nlohmann::json::parse(in);
     EXPECT_EQ(s["errors"].get<int>(), 0);

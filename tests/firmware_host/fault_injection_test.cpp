@@ -96,7 +96,7 @@ void expect_sigterm_leaves_nothing(const std::vector<std::string>& args, const f
 nlohmann::json sim_config(const fs::path& scene, const fs::path& status) {
     return {{"scene", scene.string()},
             {"clock", "sim"},
-            {"tracker", {{"backend", "sim-trace"}, {"trace", kTrace}, {"loop", true}}},
+            {"tracker", {{"backend", "trace"}, {"trace", kTrace}, {"loop", true}}},
             {"display", {{"eye_width", 32}, {"eye_height", 32}}},
             {"status", {{"path", status.string()}, {"every_s", 0.05}}},
             {"control", {{"path", ""}}}};
@@ -151,8 +151,9 @@ TEST(FaultInjection, StatusFileSystemFullKeepsTheLoopAndIsSaidOnce) {
 }
 
 TEST(FaultInjection, SceneFileReplacedUnderTheRunningDaemonChangesNothing) {
-    // The daemon reads the scene once, at start (docs/daemon.md): replacing or removing the file
-    // afterwards, and a reload (SIGHUP) of the same config, leave the running loop as it was.
+    // The daemon reads the scene at start and again only when asked (docs/daemon.md): replacing
+    // the file with one that does not load and a reload (SIGHUP) keep the running scene, and
+    // removing it afterwards changes nothing; the loop goes on as it was.
     const fs::path dir = hmdnode::test::fresh_temp_dir("hmdnode_fault_scene_replaced");
     fs::copy_file(kScene, dir / "scene.glb");
     std::ofstream(dir / "hmdnoded.json")
@@ -187,6 +188,9 @@ TEST(FaultInjection, SceneFileReplacedUnderTheRunningDaemonChangesNothing) {
     EXPECT_EQ(log.find("needs a restart"), std::string::npos)
         << "the config did not change: " << log;
     EXPECT_EQ(log.find("failed:"), std::string::npos) << "no frame failed: " << log;
+    EXPECT_NE(log.find("keeping the running scene " + (dir / "scene.glb").string()),
+              std::string::npos)
+        << log;
     const nlohmann::json s = nlohmann::json::parse(read_text(dir / "status.json"));
     EXPECT_EQ(s["errors"].get<int>(), 0) << s;
 }

@@ -100,47 +100,61 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         r.fail("\"realtime_priority\" must be between 0 (none) and 99");
     if (scene.empty()) r.fail("\"scene\" is required");
     c.scene = resolve(scene);
-    if (clock != "real" && clock != "sim") r.fail("\"clock\" must be \"real\" or \"sim\"");
-    c.simulated_clock = clock == "sim";
+    if (Result<ClockKind> k = parse_clock(clock, WiringKeys::config()); !k.ok())
+        r.fail(k.error().message);
+    else
+        c.simulated_clock = *k == ClockKind::sim;
 
     json t = j.value("tracker", json::object());
     if (r.check_keys(t, "tracker",
-                     {"type", "backend", "device", "serial", "trace", "loop", "resample_hz",
-                      "noise_deg", "latency_us", "jitter_us", "seed"})) {
-        std::string type = "sim", trace, backend, device, serial;
+                     {"type", "backend", "from", "device", "serial", "trace", "loop", "start_s",
+                      "resample_hz", "noise_deg", "latency_us", "jitter_us", "seed"})) {
+        std::string type, trace, backend, from, device, serial;
         r.get(t, "backend", &backend);
+        r.get(t, "from", &from);
         r.get(t, "device", &device);
         r.get(t, "serial", &serial);
         double latency_us = 1000.0, jitter_us = 0.0;
         r.get(t, "type", &type);
         r.get(t, "trace", &trace);
         r.get(t, "loop", &c.loop);
+        r.get(t, "start_s", &c.start_s);
         r.get(t, "resample_hz", &c.tracker.resample_hz);
         r.get(t, "noise_deg", &c.tracker.noise_deg);
         r.get(t, "latency_us", &latency_us);
         r.get(t, "jitter_us", &jitter_us);
         r.get(t, "seed", &c.tracker.seed);
-        if (type != "sim")
-            r.fail("tracker.type \"" + type + "\" is not available in this build (available: sim)");
-        // note: "type": "sim" (the older key) is the backend "sim-trace".
-        c.tracker_backend = backend.empty() ? "sim-trace" : backend;
-        if (c.tracker_backend != "sim-trace" && c.tracker_backend != "hidapi" &&
-            c.tracker_backend != "libusb" && c.tracker_backend != "sim-device")
-            r.fail("tracker.backend \"" + c.tracker_backend +
-                   "\" is not one of sim-trace, hidapi, libusb, sim-device");
-        if (c.tracker_backend == "sim-trace") {
-            if (trace.empty())
-                r.fail("\"tracker.trace\" is required for tracker backend sim-trace");
-        } else {
-            Result<DeviceFilter> f = parse_vid_pid(std::string_view(
-                device.empty() && c.tracker_backend == "sim-device" ? "1209:0001" : device));
-            if (!f.ok())
-                r.fail("tracker.device: " + f.error().message + " (required for backend " +
-                       c.tracker_backend + ")");
-            else
-                c.tracker_device = *f;
-            if (!serial.empty()) c.tracker_device.serial = serial;
+        // note: the older key "type": "sim" is the backend "trace" (the one vocabulary,
+        // firmware_host/include/hmdnode/firmware_host/wiring.hpp).
+        if (!type.empty()) {
+            if (type != "sim")
+                r.fail("tracker.type \"" + type +
+                       "\" is not available (the key is deprecated: write tracker.backend, one "
+                       "of " +
+                       kTrackerBackendNames + ")");
+            else if (backend.empty())
+                c.warnings.push_back(
+                    "tracker.type \"sim\" is deprecated: write tracker.backend \"trace\"");
         }
+        std::string deprecation;
+        Result<TrackerBackend> b = parse_tracker_backend(backend.empty() ? "trace" : backend,
+                                                         WiringKeys::config(), &deprecation);
+        if (!b.ok())
+            r.fail(b.error().message);
+        else
+            c.tracker_backend = *b;
+        if (!deprecation.empty()) c.warnings.push_back(deprecation);
+        if (!from.empty()) c.from = resolve(from);
+        // sim: the reference tracker's default ids; serial: the older key for the selector's
+        c.device =
+            device.empty() && c.tracker_backend == TrackerBackend::sim ? "1209:0001" : device;
+        if (!serial.empty() && c.tracker_backend != TrackerBackend::rec) c.device += ":" + serial;
+        if (c.tracker_backend != TrackerBackend::rec && !c.device.empty()) {
+            if (Result<DeviceFilter> f = parse_vid_pid(std::string_view(c.device)); f.ok())
+                c.tracker_device = *f;
+        }
+        if (!(c.start_s >= 0.0 && c.start_s <= 1e6))
+            r.fail("tracker.start_s must be between 0 and 1e6 s");
         if (!trace.empty()) c.trace = resolve(trace);
         // note: checked before the conversion, which overflows (undefined) for absurd values.
         if (!(latency_us >= 0.0 && latency_us <= kMaxTrackerDelayUs && jitter_us >= 0.0 &&
@@ -260,8 +274,38 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         r.get(ctl, "path", &cp);
         c.control_path = cp.empty() ? std::filesystem::path() : resolve(cp);
     }
+    if (r.error.empty()) {
+        // What the backends need (the trace or file, the device, the clock), named by key.
+        TrackerSpec ts = tracker_spec(c, nullptr);
+        if (Status st = check_tracker_spec(ts, c.simulated_clock ? ClockKind::sim : ClockKind::real,
+                                           WiringKeys::config());
+            !st.ok())
+            r.fail(st.error().message);
+        else if (Status ds = check_display_spec(display_spec(c), WiringKeys::config()); !ds.ok())
+            r.fail(ds.error().message);
+    }
     if (!r.error.empty()) return make_error(r.error);
     return c;
+}
+
+TrackerSpec tracker_spec(const DaemonConfig& c, std::shared_ptr<const Trace> trace) {
+    TrackerSpec s;
+    s.backend = c.tracker_backend;
+    s.from = c.from;
+    s.trace = std::move(trace);
+    s.trace_path = c.trace;
+    s.device = c.device;
+    s.sim = c.tracker;
+    s.start_s = c.start_s;
+    return s;
+}
+
+DisplaySpec display_spec(const DaemonConfig& c) {
+    DisplaySpec s;
+    s.type = c.display_type;
+    s.mock = c.display;
+    s.kms = c.kms;
+    return s;
 }
 
 }  // namespace hmdnode

@@ -3,9 +3,13 @@
 #pragma once
 
 #include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
 
 #include "hmdnode/core/result.hpp"
 #include "hmdnode/firmware_host/node.hpp"
+#include "hmdnode/firmware_host/wiring.hpp"
 #include "hmdnode/hal/display/kms_display.hpp"
 #include "hmdnode/hal/display/mock_display.hpp"
 #include "hmdnode/hal/sim/sim_tracker.hpp"
@@ -15,16 +19,19 @@ namespace hmdnode {
 
 struct DaemonConfig {
     std::filesystem::path scene;
-    std::filesystem::path trace;  // tracker "sim": the trace it replays
-    bool loop = true;             // restart the trace when it ends
+    std::filesystem::path trace;  // tracker "trace": the trace it replays ("sim": its motion)
+    std::filesystem::path from;   // tracker "capture" / "rec": the file it reads
+    double start_s = 0.0;         // tracker "trace" / "capture": start this far into it
+    bool loop = true;             // restart a file backend (trace, capture, rec) when it ends
     bool simulated_clock = false;
     int64_t max_frames = 0;
     SimTrackerConfig tracker;
-    // "sim-trace" (SimTracker replaying `trace`), "hidapi", "libusb" (a real device through the
-    // DeviceTracker) or "sim-device" (the simulated reference tracker through the DeviceTracker;
-    // its motion is `trace` when given, else synthetic).
-    std::string tracker_backend = "sim-trace";
-    DeviceFilter tracker_device;  // "device": "VID:PID", "serial"
+    // The backends of the one vocabulary (hmdnode/firmware_host/wiring.hpp): trace, sim,
+    // capture, rec, hidapi, libusb ("sim-trace", "sim-device" and "type": "sim" are the older
+    // spellings, accepted with a warning).
+    TrackerBackend tracker_backend = TrackerBackend::trace;
+    std::string device;           // "device" (+ ":" "serial"): VID:PID[:SERIAL], rec: its name
+    DeviceFilter tracker_device;  // `device` parsed (not for rec)
     // "display": {"type": "mock" | "kms" | "vk-display", ...} (docs/daemon.md). The mock's
     // figures are in `display`; kms and vk-display take theirs from the connector's mode.
     std::string display_type = "mock";
@@ -43,7 +50,13 @@ struct DaemonConfig {
     // The control socket (docs/daemon.md): "control": {"path": ...}; absent: $RUNTIME_DIRECTORY/
     // control when systemd gives a runtime directory, else none; "" : none.
     std::filesystem::path control_path;
+    // Deprecated spellings met while reading (the daemon logs them): each names the new key.
+    std::vector<std::string> warnings;
 };
+
+// The wiring specs of a config (hmdnode/firmware_host/wiring.hpp); `trace` is the loaded trace.
+TrackerSpec tracker_spec(const DaemonConfig& config, std::shared_ptr<const Trace> trace);
+DisplaySpec display_spec(const DaemonConfig& config);
 
 // Relative paths in the file are relative to the file's directory.
 Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path);

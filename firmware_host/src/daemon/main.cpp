@@ -18,6 +18,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -29,6 +30,7 @@
 
 #include "daemon/config.hpp"
 #include "daemon/metrics.hpp"
+#include "daemon/scene_loader.hpp"
 #include "daemon/sd_notify.hpp"
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/gltf.hpp"
@@ -37,10 +39,9 @@
 #include "hmdnode/firmware_host/control_socket.hpp"
 #include "hmdnode/firmware_host/node.hpp"
 #include "hmdnode/firmware_host/replay.hpp"
-#include "hmdnode/hal/display/kms_display.hpp"
+#include "hmdnode/firmware_host/wiring.hpp"
 #include "hmdnode/hal/sim/sim_reference_device.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
-#include "hmdnode/render/vk_display.hpp"
 #include "tool/cli_checks.hpp"
 
 namespace {
@@ -78,12 +79,18 @@ int main(int argc, char** argv) {
     std::signal(SIGTERM, on_signal);
     std::signal(SIGHUP, on_hangup);
 
-    Result<Scene> scene = load_gltf(cfg->scene);
-    if (!scene.ok()) {
-        spdlog::error("{}", scene.error().message);
+    Result<Scene> scene_r = load_gltf(cfg->scene);
+    if (!scene_r.ok()) {
+        spdlog::error("{}", scene_r.error().message);
         return 2;
     }
-    std::shared_ptr<const Trace> trace;  // sim-trace replays it; sim-device moves along it
+    // The running scene; a new one (SIGHUP, load-scene) is read off the frame loop's thread and
+    // swapped in at a frame boundary, the old one freed after the swap.
+    auto scene = std::make_unique<Scene>(std::move(scene_r).value());
+    std::filesystem::path scene_path = cfg->scene;
+    SceneLoader loader;
+    for (const std::string& w : cfg->warnings) spdlog::warn("{}: {}", config_path, w);
+    std::shared_ptr<const Trace> trace;  // the trace backend replays it; sim moves along it
     if (!cfg->trace.empty()) {
         Result<Trace> trace_r = read_trace_csv(cfg->trace);
         if (!trace_r.ok()) {
@@ -93,91 +100,40 @@ int main(int argc, char** argv) {
         trace = std::make_shared<const Trace>(std::move(trace_r).value());
     }
 
-    std::unique_ptr<Clock> clock;
-    if (cfg->simulated_clock)
-        clock = std::make_unique<SimulatedClock>(0);
-    else
-        clock = std::make_unique<SystemClock>();
-
-    // A device tracker (hidapi, libusb, sim-device) reconnects by itself and never finishes.
+    // The one wiring place (hmdnode/firmware_host/wiring.hpp): the config's backend names.
+    const WiringKeys keys = WiringKeys::config();
+    std::unique_ptr<Clock> clock =
+        make_clock(cfg->simulated_clock ? ClockKind::sim : ClockKind::real);
+    // A device tracker (every backend but trace) reconnects by itself; a file backend (trace,
+    // capture, rec) finishes and is made anew when `loop` is set.
+    const TrackerSpec tracker_spec_ = tracker_spec(*cfg, trace);
     DeviceTracker* device_tracker = nullptr;
-    auto make_tracker = [&]() -> Result<std::unique_ptr<Tracker>> {
-        if (cfg->tracker_backend == "sim-trace") {
-            SimTrackerConfig tc = cfg->tracker;
-            tc.host_start_ns = clock->now_ns();
-            return create_sim_tracker(trace, *clock, tc);
-        }
-        std::unique_ptr<TransportBackend> backend;
-        if (cfg->tracker_backend == "sim-device") {
-            SimReferenceDeviceConfig sc;
-            sc.vendor_id = cfg->tracker_device.vendor_id;
-            sc.product_id = cfg->tracker_device.product_id;
-            if (!cfg->tracker_device.serial.empty()) sc.serial = cfg->tracker_device.serial;
-            backend = create_sim_reference_backend(
-                *clock, sc,
-                trace ? motion_from_trace(trace, clock->now_ns()) : sinusoidal_motion());
-        } else {
-            auto b = create_transport_backend(cfg->tracker_backend);
-            if (!b.ok()) return b.error();
-            backend = std::move(*b);
-        }
-        DeviceTrackerConfig tc;
-        tc.filter = cfg->tracker_device;
-        auto t = create_device_tracker(
-            std::move(backend),
-            make_codec_for(cfg->tracker_device.vendor_id, cfg->tracker_device.product_id), *clock,
-            tc);
+    std::string tracker_label;
+    auto make_tracker_ = [&]() -> Result<std::unique_ptr<Tracker>> {
+        Result<WiredTracker> t = make_tracker(tracker_spec_, *clock, keys);
         if (!t.ok()) return t.error();
-        device_tracker = t->get();
-        return std::unique_ptr<Tracker>(std::move(*t));
+        device_tracker = t->device;
+        tracker_label = t->label;
+        return std::move(t->tracker);
     };
-    Result<std::unique_ptr<Tracker>> tracker = make_tracker();
+    Result<std::unique_ptr<Tracker>> tracker = make_tracker_();
     if (!tracker.ok()) {
-        spdlog::error("tracker {}: {}", cfg->tracker_backend, tracker.error().message);
+        spdlog::error("tracker.backend {}: {}", tracker_backend_name(cfg->tracker_backend),
+                      tracker.error().message);
         return 2;
     }
-    // The display (display.type): the mock, a KMS connector, or a VK_KHR_display display (listed
-    // and chosen; its present path is planned). kms and vk-display take the eye size and the
-    // refresh from the connector's mode.
-    MockDisplayConfig dc = cfg->display;
-    dc.vsync_epoch_ns = clock->now_ns();
-    auto make_display = [&]() -> Result<std::unique_ptr<Display>> {
-        if (cfg->display_type == "kms") {
-            auto k = create_kms_display(*clock, cfg->kms);
-            if (!k.ok()) return k.error();
-            spdlog::info("display: {} {}x{}@{:.3f} Hz, {} modeset{}", (*k)->info().name,
-                         (*k)->mode().width, (*k)->mode().height, (*k)->mode().refresh_hz,
-                         (*k)->modeset_path(),
-                         (*k)->hardware_vblank() ? "" : ", no vblank interrupt: flips on a timer");
-            return std::unique_ptr<Display>(std::move(*k));
-        }
-        if (cfg->display_type == "vk-display") {
-            auto list = list_vulkan_displays();
-            if (!list.ok()) return list.error();
-            auto d = choose_vulkan_display(*list, cfg->kms.connector);
-            if (!d.ok()) return d.error();
-            return make_error("display.type vk-display: display \"" + d->name + "\" on " + d->gpu +
-                              " found, but presenting through VK_KHR_display is planned, not "
-                              "built (docs/hardware.md); use display.type \"kms\"");
-        }
-        return create_mock_display(*clock, dc);
-    };
-    Result<std::unique_ptr<Display>> display = make_display();
+    Result<std::unique_ptr<Display>> display = make_display(display_spec(*cfg), *clock, keys);
     if (!display.ok()) {
         spdlog::error("{}", display.error().message);
         return 2;
     }
-    if (cfg->display_type != "mock") {
-        dc.eye_width = (*display)->info().eye_width;
-        dc.eye_height = (*display)->info().eye_height;
-        dc.refresh_hz = (*display)->info().refresh_hz;
-    }
-    RendererConfig rc;
-    rc.eye_width = dc.eye_width;
-    rc.eye_height = dc.eye_height;
-    rc.backend = cfg->renderer_backend;
-    rc.msaa_samples = cfg->msaa_samples;
-    Result<std::unique_ptr<Renderer>> renderer = create_renderer(rc);
+    // The panel: the mock's figures, or the connector mode's (kms).
+    const DisplayInfo panel = (*display)->info();
+    const MockDisplayConfig& dc = cfg->display;
+    RendererSpec rs;
+    rs.type = cfg->renderer_backend;
+    rs.config.msaa_samples = cfg->msaa_samples;
+    Result<std::unique_ptr<Renderer>> renderer = make_renderer(rs, panel, keys);
     if (!renderer.ok()) {
         spdlog::error("{}", renderer.error().message);
         return 2;
@@ -187,6 +143,7 @@ int main(int argc, char** argv) {
     NodeConfig nc = cfg->node;
     nc.read_back = nc.read_back && (cfg->display_type != "mock" || !dc.frames_dir.empty());
     NodeRuntime node(*clock, **tracker, **display, **renderer, *scene, nc);
+    std::string scene_error;  // why the last scene that was asked for is not running
     if (Status st = node.start(); !st.ok()) {
         spdlog::error("{}", st.error().message);
         return 2;
@@ -201,14 +158,12 @@ int main(int argc, char** argv) {
         return 2;
     }
     spdlog::info(
-        "hmdnoded: scene {} ({} objects), tracker {} {} ({} trace samples), {}x{} per eye at {} "
-        "Hz, renderer {} ({}, {}x MSAA)",
-        cfg->scene.string(), node.objects().size(), cfg->tracker_backend,
-        cfg->tracker_backend == "sim-trace"
-            ? cfg->trace.string()
-            : format_vid_pid(cfg->tracker_device.vendor_id, cfg->tracker_device.product_id),
-        trace ? trace->samples.size() : 0, dc.eye_width, dc.eye_height, dc.refresh_hz,
-        (*renderer)->device_name(), (*renderer)->backend_name(), (*renderer)->msaa_samples());
+        "hmdnoded: scene {} ({} objects), tracker {}: {} ({} trace samples), display {} {}x{} per "
+        "eye at {} Hz, renderer {} ({}, {}x MSAA)",
+        cfg->scene.string(), node.objects().size(), tracker_backend_name(cfg->tracker_backend),
+        tracker_label, trace ? trace->samples.size() : 0, cfg->display_type, panel.eye_width,
+        panel.eye_height, panel.refresh_hz, (*renderer)->device_name(), (*renderer)->backend_name(),
+        (*renderer)->msaa_samples());
     const std::string renderer_backend = (*renderer)->backend_name();
 
     // The frame loop's thread only (this one): the renderer's worker threads exist already and
@@ -244,7 +199,7 @@ int main(int argc, char** argv) {
     int64_t next_status = clock->now_ns() + s_to_ns(cfg->status_every_s);
     // The status window's latencies: reserved once, so the frame loop does not allocate.
     for (std::vector<double>* v : {&lat, &render_ms, &warp_ms})
-        v->reserve(size_t(cfg->status_every_s * dc.refresh_hz * 2.0) + 16);
+        v->reserve(size_t(cfg->status_every_s * panel.refresh_hz * 2.0) + 16);
     FrameRecord rec;
     bool status_failing = false;  // the last status write failed (said once)
 
@@ -253,12 +208,19 @@ int main(int argc, char** argv) {
     metrics.last_levels.reserve(node.objects().size());
     nlohmann::json last_window;  // the last status window, as the status file has it
     bool paused = false;
+    std::optional<bool> pending_warp;  // set warp: applied at the next frame boundary
     std::unique_ptr<ControlServer> control;
     if (!cfg->control_path.empty()) {
         auto handler = [&](const nlohmann::json& c) -> nlohmann::json {
             using Kind = ControlCommand::Kind;
             Result<ControlCommand> cmd = parse_control_command(c);
             if (!cmd.ok()) return {{"ok", false}, {"error", cmd.error().message}};
+            // A numeric setting's reply, once the node has taken (or refused) it.
+            auto setting = [](const char* key, double value, const Status& st) -> nlohmann::json {
+                if (!st.ok()) return {{"ok", false}, {"error", st.error().message}};
+                spdlog::info("control: set {} {}", key, value);
+                return {{"ok", true}, {"key", key}, {"value", value}};
+            };
             switch (cmd->kind) {
                 case Kind::status:
                     return {{"ok", true},
@@ -268,7 +230,14 @@ int main(int argc, char** argv) {
                             {"paused", paused},
                             {"has_pose", node.has_pose()},
                             {"predict", node.config().predict},
+                            {"prediction_ms", node.prediction_offset_ms()},
+                            {"warp", pending_warp.value_or(node.config().warp)},
                             {"lod_tolerance_px", node.config().lod.tolerance_px},
+                            {"lod_bias", node.lod_bias()},
+                            {"scene", scene_path.string()},
+                            {"objects", node.objects().size()},
+                            {"scene_loading", loader.busy()},
+                            {"scene_error", scene_error},
                             {"renderer_backend", renderer_backend},
                             {"window", last_window}};
                 case Kind::metrics: {
@@ -285,13 +254,35 @@ int main(int argc, char** argv) {
                     node.set_predict(cmd->predict);
                     spdlog::info("control: set predict {}", cmd->predict);
                     return {{"ok", true}, {"key", "predict"}, {"value", cmd->predict}};
-                case Kind::set_lod_tolerance_px:
-                    if (Status st = node.set_lod_tolerance_px(cmd->lod_tolerance_px); !st.ok())
+                case Kind::recentre:
+                    if (Status st = node.recentre(); !st.ok())
                         return {{"ok", false}, {"error", st.error().message}};
-                    spdlog::info("control: set lod_tolerance_px {}", cmd->lod_tolerance_px);
-                    return {{"ok", true},
-                            {"key", "lod_tolerance_px"},
-                            {"value", cmd->lod_tolerance_px}};
+                    spdlog::info("control: recentre");
+                    return {{"ok", true}};
+                case Kind::load_scene: {
+                    std::filesystem::path p = cmd->path;
+                    if (p.is_relative()) p = std::filesystem::path(config_path).parent_path() / p;
+                    if (std::error_code ec; !std::filesystem::is_regular_file(p, ec))
+                        return {{"ok", false},
+                                {"error", "load-scene: " + p.string() + ": no such file"}};
+                    if (loader.busy())
+                        return {{"ok", false}, {"error", "load-scene: a scene is loading already"}};
+                    loader.start(p);
+                    spdlog::info("control: load-scene {}", p.string());
+                    return {{"ok", true}, {"loading", p.string()}};
+                }
+                case Kind::set_warp:
+                    pending_warp = cmd->warp;  // at the next frame boundary
+                    spdlog::info("control: set warp {}", cmd->warp);
+                    return {{"ok", true}, {"key", "warp"}, {"value", cmd->warp}};
+                case Kind::set_prediction_ms:
+                    return setting("prediction_ms", cmd->prediction_ms,
+                                   node.set_prediction_offset_ms(cmd->prediction_ms));
+                case Kind::set_lod_bias:
+                    return setting("lod_bias", cmd->lod_bias, node.set_lod_bias(cmd->lod_bias));
+                case Kind::set_lod_tolerance_px:
+                    return setting("lod_tolerance_px", cmd->lod_tolerance_px,
+                                   node.set_lod_tolerance_px(cmd->lod_tolerance_px));
             }
             return {{"ok", false}, {"error", "unhandled command"}};
         };
@@ -306,6 +297,36 @@ int main(int argc, char** argv) {
 
     while (!g_stop && (cfg->max_frames <= 0 || int64_t(frames) < cfg->max_frames)) {
         if (control) control->serve();
+        // A frame boundary (no frame half rendered): what changes the eye buffers applies here.
+        if (node.between_frames()) {
+            if (pending_warp) {
+                if (Status st = node.set_warp(*pending_warp); !st.ok())
+                    spdlog::error("set warp {}: {}", *pending_warp, st.error().message);
+                pending_warp.reset();
+            }
+            if (std::optional<SceneLoader::Done> done = loader.take()) {
+                if (!done->scene.ok()) {
+                    scene_error = done->scene.error().message;
+                    spdlog::error("{}; keeping the running scene {}", scene_error,
+                                  scene_path.string());
+                } else {
+                    auto next = std::make_unique<Scene>(std::move(done->scene).value());
+                    if (Status st = node.replace_scene(*next); !st.ok()) {
+                        scene_error = st.error().message;
+                        spdlog::error("scene {}: {}; keeping the running scene {}",
+                                      done->path.string(), scene_error, scene_path.string());
+                    } else {
+                        scene = std::move(next);  // the old one is freed: nothing refers to it
+                        scene_path = done->path;
+                        scene_error.clear();
+                        metrics.last_levels.clear();
+                        metrics.last_levels.reserve(node.objects().size());
+                        spdlog::info("scene swapped: {} ({} objects)", scene_path.string(),
+                                     node.objects().size());
+                    }
+                }
+            }
+        }
         if (g_reload) {
             // SIGHUP, at a frame boundary: the new config is read and checked whole; a bad one
             // keeps the running config. What can change without a restart is applied.
@@ -323,18 +344,26 @@ int main(int argc, char** argv) {
                 auto needs_restart = [&restart](const char* what) {
                     restart += (restart.empty() ? "" : ", ") + std::string(what);
                 };
-                if (next->scene != cfg->scene) needs_restart("scene");
+                // The scene is read again (the file may have been replaced under the same name)
+                // off the loop, and swapped in at a frame boundary; a bad one keeps the running.
+                std::string scene_note;
+                if (loader.busy()) {
+                    scene_note = "; a scene is loading already, the scene is not read again";
+                } else {
+                    loader.start(next->scene);
+                    scene_note = "; reading the scene " + next->scene.string();
+                }
+                cfg->scene = next->scene;
                 if (next->renderer_backend != cfg->renderer_backend) needs_restart("renderer");
                 if (next->simulated_clock != cfg->simulated_clock) needs_restart("clock");
                 if (next->tracker_backend != cfg->tracker_backend || next->trace != cfg->trace ||
-                    !(next->tracker_device.vendor_id == cfg->tracker_device.vendor_id &&
-                      next->tracker_device.product_id == cfg->tracker_device.product_id &&
-                      next->tracker_device.serial == cfg->tracker_device.serial))
+                    next->from != cfg->from || next->device != cfg->device ||
+                    next->start_s != cfg->start_s)
                     needs_restart("tracker");
-                if (next->display.eye_width != cfg->display.eye_width ||
+                if (next->display_type != cfg->display_type ||
+                    next->display.eye_width != cfg->display.eye_width ||
                     next->display.eye_height != cfg->display.eye_height ||
                     next->display.refresh_hz != cfg->display.refresh_hz ||
-                    next->display_type != cfg->display_type ||
                     next->kms.device != cfg->kms.device ||
                     next->kms.connector != cfg->kms.connector || next->kms.mode != cfg->kms.mode ||
                     next->msaa_samples != cfg->msaa_samples)
@@ -347,7 +376,7 @@ int main(int argc, char** argv) {
                 if (next->node.lod_fade_frames != cfg->node.lod_fade_frames)
                     needs_restart("node.lod_fade_frames");
                 if (next->control_path != cfg->control_path) needs_restart("control");
-                spdlog::info("reload: applied predict, lod_tolerance_px, status{}{}",
+                spdlog::info("reload: applied predict, lod_tolerance_px, status{}{}{}", scene_note,
                              restart.empty() ? "" : "; needs a restart to change: ", restart);
             }
             notifier.notify(ready ? "READY=1" : "STATUS=reloaded, waiting for the first frame");
@@ -363,16 +392,16 @@ int main(int argc, char** argv) {
         }
         if (node.tracker_finished()) {
             if (!cfg->loop) {
-                spdlog::info("trace finished");
+                spdlog::info("{} finished", tracker_label);
                 break;
             }
-            Result<std::unique_ptr<Tracker>> next = make_tracker();
+            Result<std::unique_ptr<Tracker>> next = make_tracker_();
             if (!next.ok() || !node.replace_tracker(**next).ok()) {
-                spdlog::error("cannot restart the trace replay; stopping");
+                spdlog::error("cannot restart {}; stopping", tracker_label);
                 break;
             }
             tracker = std::move(next);
-            spdlog::info("trace restarted");
+            spdlog::info("{} restarted", tracker_label);
         }
         Result<FrameOutcome> fr = node.run_frame(&rec, nullptr);
         if (!fr.ok()) {
@@ -389,17 +418,14 @@ int main(int argc, char** argv) {
             if (clock->now_ns() >= next_wait_log) {
                 std::string last_error;
                 if (device_tracker) last_error = device_tracker->status().last_error;
-                spdlog::info("waiting for tracker {} via {}{}{}",
-                             cfg->tracker_backend == "sim-trace"
-                                 ? cfg->trace.string()
-                                 : format_vid_pid(cfg->tracker_device.vendor_id,
-                                                  cfg->tracker_device.product_id),
-                             cfg->tracker_backend, last_error.empty() ? "" : ": ", last_error);
+                spdlog::info("waiting for tracker {}{}{}", tracker_label,
+                             last_error.empty() ? "" : ": ", last_error);
                 next_wait_log = clock->now_ns() + 5 * kNsPerSecond;
                 // The loop keeps its pace without a pose: not a hung start.
                 if (!ready)
                     notifier.notify("EXTEND_TIMEOUT_USEC=15000000\nSTATUS=waiting for tracker " +
-                                    cfg->tracker_backend +
+                                    std::string(tracker_backend_name(cfg->tracker_backend)) + " (" +
+                                    tracker_label + ")" +
                                     (last_error.empty() ? "" : ": " + last_error));
             }
         } else {

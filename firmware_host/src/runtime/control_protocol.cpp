@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <exception>
+#include <limits>
 
 namespace hmdnode {
 
@@ -33,28 +34,60 @@ Result<ControlCommand> parse_control_command(const nlohmann::json& command) {
         out.kind = Kind::pause;
     } else if (name == "resume") {
         out.kind = Kind::resume;
+    } else if (name == "recentre") {
+        out.kind = Kind::recentre;
+    } else if (name == "load-scene") {
+        const auto p = command.find("path");
+        if (p == command.end() || !p->is_string() || p->get_ref<const std::string&>().empty() ||
+            p->get_ref<const std::string&>().find('\0') != std::string::npos)
+            return make_error("load-scene: give \"path\": the scene file (.glb/.gltf)");
+        out.kind = Kind::load_scene;
+        out.path = p->get<std::string>();
     } else if (name == "set") {
         const auto k = command.find("key");
         const auto v = command.find("value");
-        const bool has_value = v != command.end();
-        if (k != command.end() && k->is_string() && *k == "predict" && has_value &&
-            v->is_boolean()) {
+        const std::string key = k != command.end() && k->is_string() ? k->get<std::string>() : "";
+        const bool is_bool = v != command.end() && v->is_boolean();
+        const bool is_number = v != command.end() && v->is_number();
+        // A number in [lo, hi] (finite), or an error naming the key.
+        auto number = [&](double lo, double hi, const char* what, double* outv) -> Status {
+            const double x = v->get<double>();
+            if (!std::isfinite(x) || x < lo || x > hi)
+                return make_error(std::string("set ") + key + ": " + what);
+            *outv = x;
+            return {};
+        };
+        Status st;
+        if (key == "predict" && is_bool) {
             out.kind = Kind::set_predict;
             out.predict = v->get<bool>();
-        } else if (k != command.end() && k->is_string() && *k == "lod_tolerance_px" && has_value &&
-                   v->is_number()) {
+        } else if (key == "warp" && is_bool) {
+            out.kind = Kind::set_warp;
+            out.warp = v->get<bool>();
+        } else if (key == "lod_tolerance_px" && is_number) {
             out.kind = Kind::set_lod_tolerance_px;
-            out.lod_tolerance_px = v->get<double>();
-            if (!(out.lod_tolerance_px >= 0.0) || !std::isfinite(out.lod_tolerance_px))
-                return make_error("LOD tolerance must be a finite number >= 0 (pixels)");
+            st = number(0.0, std::numeric_limits<double>::max(),
+                        "LOD tolerance must be a finite number >= 0 (pixels)",
+                        &out.lod_tolerance_px);
+        } else if (key == "prediction_ms" && is_number) {
+            out.kind = Kind::set_prediction_ms;
+            st = number(-100.0, 100.0, "the prediction offset must be between -100 and 100 ms",
+                        &out.prediction_ms);
+        } else if (key == "lod_bias" && is_number) {
+            out.kind = Kind::set_lod_bias;
+            st = number(-8.0, 8.0, "the LOD bias must be between -8 and 8 (tolerance x 2^bias)",
+                        &out.lod_bias);
         } else {
             return make_error(
-                "set: give \"key\": \"predict\" with a boolean value, or \"lod_tolerance_px\" "
-                "with a number >= 0");
+                "set: give \"key\": \"predict\" or \"warp\" with a boolean value, or "
+                "\"lod_tolerance_px\" (>= 0), \"prediction_ms\" (-100..100) or \"lod_bias\" "
+                "(-8..8) with a number");
         }
+        if (!st.ok()) return st.error();
     } else {
         // note: the name is valid UTF-8 (the parser checked it), so the reply dumps.
-        return make_error("unknown command \"" + name + "\" (status, metrics, pause, resume, set)");
+        return make_error("unknown command \"" + name +
+                          "\" (status, metrics, pause, resume, recentre, load-scene, set)");
     }
     return out;
 }

@@ -90,7 +90,7 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
       tracker_(&tracker),
       display_(display),
       renderer_(renderer),
-      scene_(scene),
+      scene_(&scene),
       config_(config),
       history_(config.history),
       selector_(0, config.lod),
@@ -99,31 +99,7 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
       total_costs_(config.pacing.window),
       feedback_(config.lod_feedback),
       fade_(0, 0) {
-    objects_ = flatten_objects(scene);
-    // note: the smear of a head turn lasts as long as the panel glows.
-    LodSelectorParams lod = config.lod;
-    if (const int64_t persistence = display_.info().persistence_ns; persistence > 0)
-        lod.persistence_s = double(persistence) * 1e-9;
-    selector_ = LodSelector(objects_.size(), lod);
-    fade_ = LodCrossFade(objects_.size(), config.lod_fade_frames);
-    fade_steps_.resize(objects_.size());
-    level_errors_.resize(objects_.size());
-    level_triangles_.resize(objects_.size());
-    for (size_t i = 0; i < objects_.size(); ++i)
-        for (const LodLevel& l : objects_[i].levels) {
-            level_errors_[i].push_back(l.geometric_error_m);
-            level_triangles_[i].push_back(l.triangles);
-        }
-    candidates_.reserve(objects_.size());
-    candidate_objects_.reserve(objects_.size());
-    allocated_.reserve(objects_.size());
-    draws_.reserve(2 * objects_.size());  // a cross-fading object is drawn twice
-    draw_triangles_.reserve(2 * objects_.size());
-    order_.reserve(objects_.size());
-    frame_levels_.resize(objects_.size());
-    frame_eccentricity_.resize(objects_.size());
-    open_levels_.resize(objects_.size());
-    open_eccentricity_.resize(objects_.size());
+    adopt_objects(scene);
     read_buf_.resize(256);
     margin_ns_ = config.pacing.margin_ns;
 
@@ -153,8 +129,108 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
     pixels_per_radian_ = pixels_per_radian(render_rig_.eye[0], info.eye_height);
 }
 
+// The scene's objects and everything sized by them; the selector starts anew.
+void NodeRuntime::adopt_objects(const Scene& scene) {
+    objects_ = flatten_objects(scene);
+    level_errors_.assign(objects_.size(), {});
+    level_triangles_.assign(objects_.size(), {});
+    for (size_t i = 0; i < objects_.size(); ++i)
+        for (const LodLevel& l : objects_[i].levels) {
+            level_errors_[i].push_back(l.geometric_error_m);
+            level_triangles_[i].push_back(l.triangles);
+        }
+    rebuild_selector();
+    // A new scene starts without transitions: its objects are not the old ones.
+    fade_ = LodCrossFade(objects_.size(), config_.lod_fade_frames);
+    fade_steps_.assign(objects_.size(), LodFadeStep{});
+    candidates_.reserve(objects_.size());
+    candidate_objects_.reserve(objects_.size());
+    allocated_.reserve(objects_.size());
+    draws_.reserve(2 * objects_.size());  // a cross-fading object is drawn twice
+    draw_triangles_.reserve(2 * objects_.size());
+    order_.reserve(objects_.size());
+    frame_levels_.assign(objects_.size(), 0);
+    frame_eccentricity_.assign(objects_.size(), 0.0);
+    open_levels_.assign(objects_.size(), 0);
+    open_eccentricity_.assign(objects_.size(), 0.0);
+}
+
+// The selector from the configured tolerance scaled by the LOD bias (2^bias), with the panel's
+// persistence: the smear of a head turn lasts as long as the panel glows.
+void NodeRuntime::rebuild_selector() {
+    LodSelectorParams lod = config_.lod;
+    lod.tolerance_px = config_.lod.tolerance_px * std::exp2(lod_bias_);
+    if (const int64_t persistence = display_.info().persistence_ns; persistence > 0)
+        lod.persistence_s = double(persistence) * 1e-9;
+    selector_ = LodSelector(objects_.size(), lod);
+}
+
+Status NodeRuntime::replace_scene(const Scene& scene) {
+    if (open_) return make_error("a frame is being rendered: replace the scene between frames");
+    if (Status st = renderer_.upload(scene); !st.ok()) {
+        // The renderer may hold part of the new scene: the running one goes back.
+        if (Status back = renderer_.upload(*scene_); !back.ok())
+            return make_error(st.error().message + "; and the running scene could not be " +
+                              "uploaded again: " + back.error().message);
+        return st;
+    }
+    scene_ = &scene;
+    adopt_objects(scene);
+    // The finished frame in the eye buffers is gone with the upload: the next present renders.
+    has_frame_ = false;
+    cost_fit_ = FrameCostFit();
+    return {};
+}
+
+Status NodeRuntime::set_warp(bool on) {
+    if (open_) return make_error("a frame is being rendered: change the warp between frames");
+    if (on && !pass_enabled()) {
+        // The pass was never set up (warp and distortion off at start): set it up now. The eye
+        // buffers have no margin for the warp (it was off when they were sized).
+        const DisplayInfo info = display_.info();
+        if (Status st = renderer_.set_warp(info.eye_width, info.eye_height, mesh_[0], mesh_[1]);
+            !st.ok())
+            return st;
+    }
+    config_.warp = on;
+    return {};
+}
+
+Status NodeRuntime::set_prediction_offset_ms(double ms) {
+    if (!(std::fabs(ms) <= kMaxPredictionOffsetMs))
+        return make_error("prediction offset must be between -" +
+                          std::to_string(int(kMaxPredictionOffsetMs)) + " and " +
+                          std::to_string(int(kMaxPredictionOffsetMs)) + " ms");
+    prediction_offset_ns_ = ms_to_ns(ms);
+    return {};
+}
+
+Status NodeRuntime::set_lod_bias(double bias) {
+    if (!(std::fabs(bias) <= kMaxLodBias))
+        return make_error("LOD bias must be between -" + std::to_string(int(kMaxLodBias)) +
+                          " and " + std::to_string(int(kMaxLodBias)) +
+                          " (the tolerance is scaled by 2^bias)");
+    lod_bias_ = bias;
+    rebuild_selector();
+    return {};
+}
+
+Status NodeRuntime::recentre() {
+    if (history_.empty()) return make_error("no pose yet: nothing to recentre on");
+    const TrackerSample& newest = history_.newest();
+    // The heading (yaw about +y) of the newest sample becomes straight ahead (-z); pitch and roll
+    // stay, since gravity fixes them. Its position, where the tracker has one, becomes the
+    // default head position.
+    const glm::dvec3 f = forward_of(newest.orientation);
+    const double yaw = std::atan2(-f.x, -f.z);
+    recentre_.rotation = glm::angleAxis(-yaw, glm::dvec3(0.0, 1.0, 0.0));
+    recentre_.from = newest.position.value_or(glm::dvec3(0.0));
+    recentre_.to = config_.default_head_position;
+    return {};
+}
+
 Status NodeRuntime::start() {
-    if (Status st = renderer_.upload(scene_); !st.ok()) return st;
+    if (Status st = renderer_.upload(*scene_); !st.ok()) return st;
     if (pass_enabled()) {
         const DisplayInfo info = display_.info();
         if (Status st = renderer_.set_warp(info.eye_width, info.eye_height, mesh_[0], mesh_[1]);
@@ -197,9 +273,14 @@ StereoViews NodeRuntime::views_for(const Pose& head) const {
 }
 
 Pose NodeRuntime::predict(int64_t photon_time_ns) const {
-    Pose head = config_.predict ? history_.pose_at(photon_time_ns)
+    Pose head = config_.predict ? history_.pose_at(photon_time_ns + prediction_offset_ns_)
                                 : history_.pose_at(history_.newest_time_ns());
-    if (!history_.newest().position) head.position = config_.default_head_position;
+    // Recentred (identity until recentre()): the heading turned, the position moved.
+    head.orientation = recentre_.rotation * head.orientation;
+    if (!history_.newest().position)
+        head.position = config_.default_head_position;
+    else
+        head.position = recentre_.rotation * (head.position - recentre_.from) + recentre_.to;
     return head;
 }
 
@@ -296,7 +377,7 @@ Status NodeRuntime::set_lod_tolerance_px(double tolerance_px) {
     if (!(tolerance_px >= 0.0) || !std::isfinite(tolerance_px))
         return make_error("LOD tolerance must be a finite number >= 0 (pixels)");
     config_.lod.tolerance_px = tolerance_px;
-    selector_ = LodSelector(objects_.size(), config_.lod);
+    rebuild_selector();
     return {};
 }
 

@@ -175,14 +175,16 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     if (Status st = check_replay_options(opt); !st.ok()) return st.error();
     Result<Scene> scene = load_gltf(opt.scene);
     if (!scene.ok()) return scene.error();
-    std::shared_ptr<const Trace> trace;  // none for a capture: no truth to compare with
-    // On the system clock the reports before a capture's start would reach the reader thread's
-    // ring all at once and overflow it (the first frames would show stale poses).
-    if (!opt.capture.empty() && opt.start_s > 0.0 && !opt.simulated_clock)
-        return make_error("--start with --capture needs --clock sim");
+    // The one wiring place (wiring.hpp), named by the command's flags.
+    const WiringKeys keys = WiringKeys::command_line();
+    const ClockKind clock_kind = opt.simulated_clock ? ClockKind::sim : ClockKind::real;
+    // The trace: replayed by the trace backend (and its truth), the sim device's motion.
+    std::shared_ptr<const Trace> trace;
+    const bool wants_trace =
+        opt.tracker_backend == TrackerBackend::trace || opt.tracker_backend == TrackerBackend::sim;
     if (opt.trace_data) {
         trace = opt.trace_data;
-    } else if (opt.capture.empty()) {
+    } else if (wants_trace && !opt.trace.empty()) {
         Result<Trace> trace_r = read_trace_csv(opt.trace);
         if (!trace_r.ok())
             return make_error(trace_r.error().message +
@@ -200,40 +202,36 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
             if (ts.position) *ts.position += shift;
         trace = std::make_shared<const Trace>(std::move(moved));
     }
+    TrackerSpec spec;
+    spec.backend = opt.tracker_backend;
+    spec.from = opt.from;
+    spec.trace = trace;
+    spec.trace_path = opt.trace;
+    spec.device = opt.device;
+    spec.sim = opt.tracker;
+    spec.start_s = opt.start_s;
+    spec.duration_s = opt.duration_s;
+    if (Status st = check_tracker_spec(spec, clock_kind, keys); !st.ok()) return st.error();
+    // Only the trace backend has a truth to compare with (the sim device's motion is the trace,
+    // but its fused pose lags it by the device's latency: no truth there either).
+    const std::shared_ptr<const Trace> truth_trace =
+        opt.tracker_backend == TrackerBackend::trace ? trace : nullptr;
 
-    std::unique_ptr<Clock> clock;
-    if (opt.simulated_clock)
-        clock = std::make_unique<SimulatedClock>(0);
-    else
-        clock = std::make_unique<SystemClock>();
+    std::unique_ptr<Clock> clock = make_clock(clock_kind);
     const int64_t host_start = clock->now_ns();
+    Result<WiredTracker> wired = make_tracker(spec, *clock, keys);
+    if (!wired.ok()) return wired.error();
+    std::unique_ptr<Tracker> tracker = std::move(wired->tracker);
 
-    SimTrackerConfig tc = opt.tracker;
-    tc.host_start_ns = host_start;
-    tc.start_offset_ns = s_to_ns(opt.start_s);
-    tc.duration_ns = s_to_ns(opt.duration_s);
-    Result<std::unique_ptr<Tracker>> tracker =
-        trace ? create_sim_tracker(trace, *clock, tc) : make_error("");
-    if (!trace) {  // the device's reports through the same decoder, clock sync and fusion as live
-        // --start: the report start_s after the capture's first one arrives at host_start; the
-        // earlier ones arrive at once, so the fused pose at the start is the one the live tracker
-        // had (they are decoded and fused, and not shown).
-        auto t = create_capture_tracker(opt.capture, opt.capture_device, *clock,
-                                        host_start - tc.start_offset_ns);
-        if (!t.ok()) return t.error();
-        tracker = std::unique_ptr<Tracker>(std::move(*t));
-    }
-    if (!tracker.ok()) return make_error(opt.trace.string() + ": " + tracker.error().message);
-
-    MockDisplayConfig dc = opt.display;
-    dc.vsync_epoch_ns = host_start;
-    Result<std::unique_ptr<Display>> display = create_mock_display(*clock, dc);
+    DisplaySpec ds;
+    ds.mock = opt.display;
+    Result<std::unique_ptr<Display>> display = make_display(ds, *clock, keys);
     if (!display.ok()) return display.error();
+    const MockDisplayConfig& dc = opt.display;
 
-    RendererConfig rc = opt.renderer;
-    rc.eye_width = dc.eye_width;
-    rc.eye_height = dc.eye_height;
-    Result<std::unique_ptr<Renderer>> renderer = create_renderer(rc);
+    RendererSpec rs;
+    rs.config = opt.renderer;
+    Result<std::unique_ptr<Renderer>> renderer = make_renderer(rs, (*display)->info(), keys);
     if (!renderer.ok()) return renderer.error();
 
     // Pixels come back to the CPU only for the frames the mock display writes; a real display
@@ -241,7 +239,7 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     NodeConfig nc = opt.node;
     nc.read_back = nc.read_back && !dc.frames_dir.empty();
     std::unique_ptr<Tracker> restarted;  // see below; outlives the node that reads it
-    NodeRuntime node(*clock, **tracker, **display, **renderer, *scene, nc);
+    NodeRuntime node(*clock, *tracker, **display, **renderer, *scene, nc);
     if (Status st = node.start(); !st.ok()) return st.error();
     // The simulated clock's frame cost: given, or measured on this renderer now (the simulated
     // clock does not move while it is measured).
@@ -264,25 +262,26 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     // On the system clock the calibration above takes real time (seconds on a heavy scene) that
     // would come out of the trace: the trace starts again now, on a fresh tracker.
     int64_t trace_host_start = host_start;
-    if (!opt.simulated_clock && trace) {
-        tc.host_start_ns = trace_host_start = clock->now_ns();
-        Result<std::unique_ptr<Tracker>> t = create_sim_tracker(trace, *clock, tc);
-        if (!t.ok()) return make_error(opt.trace.string() + ": " + t.error().message);
-        restarted = std::move(*t);
+    if (!opt.simulated_clock && opt.tracker_backend == TrackerBackend::trace) {
+        trace_host_start = clock->now_ns();
+        Result<WiredTracker> t = make_tracker(spec, *clock, keys);
+        if (!t.ok()) return t.error();
+        restarted = std::move(t->tracker);
         if (Status st = node.replace_tracker(*restarted); !st.ok()) return st.error();
     }
 
     // Truth for registration error: the trace itself, slerped, at the photon time.
-    const int64_t trace_t0 = trace ? trace->start_ns() + tc.start_offset_ns : 0;
-    const int64_t trace_end = !trace ? 0
-                              : tc.duration_ns > 0
-                                  ? std::min(trace->end_ns(), trace_t0 + tc.duration_ns)
-                                  : trace->end_ns();
+    const int64_t start_offset_ns = s_to_ns(opt.start_s), duration_ns = s_to_ns(opt.duration_s);
+    const int64_t trace_t0 = truth_trace ? truth_trace->start_ns() + start_offset_ns : 0;
+    const int64_t trace_end = !truth_trace ? 0
+                              : duration_ns > 0
+                                  ? std::min(truth_trace->end_ns(), trace_t0 + duration_ns)
+                                  : truth_trace->end_ns();
     TruthFn truth = [&](int64_t host_ns) -> std::optional<TruthPose> {
-        if (!trace) return std::nullopt;
+        if (!truth_trace) return std::nullopt;
         const int64_t t = host_ns - trace_host_start + trace_t0;
         if (t > trace_end) return std::nullopt;  // past the recording: no truth
-        const Pose p = trace->pose_at(t);
+        const Pose p = truth_trace->pose_at(t);
         TruthPose tp;
         tp.orientation = p.orientation;
         if (has_position) tp.position = p.position;
@@ -298,9 +297,11 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     result.msaa_samples = (*renderer)->msaa_samples();
     for (const SceneObject& o : node.objects()) result.object_names.push_back(o.name);
     FrameRecord rec;
-    // A capture's --duration: the frames whose wake-up falls within it (a trace's ends the trace).
-    const int64_t capture_end = !trace && tc.duration_ns > 0 ? host_start + tc.duration_ns
-                                                             : std::numeric_limits<int64_t>::max();
+    // Any backend but trace: --duration is the frames whose wake-up falls within it (a trace's
+    // ends the trace).
+    const int64_t capture_end = opt.tracker_backend != TrackerBackend::trace && duration_ns > 0
+                                    ? host_start + duration_ns
+                                    : std::numeric_limits<int64_t>::max();
     while (!node.tracker_finished() && clock->now_ns() < capture_end &&
            (opt.max_frames <= 0 || int64_t(result.frames.size()) < opt.max_frames)) {
         Result<FrameOutcome> fr = node.run_frame(&rec, truth);
@@ -315,15 +316,15 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     }
     node.stop();
     // A capture's --start past its last sample: every frame would show the last pose.
-    if (!trace && tc.start_offset_ns > 0 &&
+    if (opt.tracker_backend == TrackerBackend::capture && start_offset_ns > 0 &&
         (node.history().empty() ||
          node.history().newest_time_ns() < host_start - kNsPerSecond / 2)) {
         char start[32];
         std::snprintf(start, sizeof start, "%g", opt.start_s);
-        return make_error(opt.capture.string() + ": --start " + start +
+        return make_error(opt.from.string() + ": --start " + start +
                           " s is past the capture's last sample");
     }
-    result.trace_samples = (restarted ? *restarted : **tracker).counters().samples_delivered;
+    result.trace_samples = (restarted ? *restarted : *tracker).counters().samples_delivered;
 
     result.period_ns = (*display)->info().period_ns;
     result.vsyncs =
@@ -424,7 +425,9 @@ nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& 
     const ReplaySummary& s = r.summary;
     return {{"format", "hmdnode-replay-report/2"},
             {"scene", opt.scene.string()},
+            {"tracker", tracker_backend_name(opt.tracker_backend)},
             {"trace", opt.trace.string()},
+            {"from", opt.from.string()},
             {"clock", opt.simulated_clock ? "sim" : "real"},
             {"renderer", r.device_name},
             {"renderer_backend", r.renderer_backend},

@@ -1,7 +1,10 @@
 // `hmdnode ctl`: one command to a running hmdnoded through its control socket (docs/daemon.md,
 // "Control socket"), its reply printed: `status` as JSON, `metrics` as the Prometheus text,
-// the others as "ok". Exit 0 on an ok reply, 1 on an error reply or no daemon, 2 on a usage error.
+// the others as "ok". Commands: status, metrics, pause, resume, recentre, load-scene PATH,
+// set warp on|off, set prediction MS, set lod-bias X, set predict on|off, set lod_tolerance_px PX.
+// Exit 0 on an ok reply, 1 on an error reply or no daemon, 2 on a usage error.
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -44,24 +47,48 @@ void add_ctl_command(CLI::App& app) {
     CLI::App* ctl = app.add_subcommand("ctl", "Talk to a running hmdnoded (its control socket)");
     ctl->add_option("--socket", args->socket, "The daemon's control socket")->capture_default_str();
     ctl->require_subcommand(1);
-    for (const char* name : {"status", "metrics", "pause", "resume"}) {
+    for (const char* name : {"status", "metrics", "pause", "resume", "recentre"}) {
         CLI::App* sub = ctl->add_subcommand(name, std::string("Send `") + name + "`");
         sub->callback([args, name] { run_ctl(*args, {{"cmd", name}}); });
     }
+    CLI::App* load = ctl->add_subcommand(
+        "load-scene", "Read a scene (.glb/.gltf) and swap it in at a frame boundary");
+    load->add_option("path", args->value,
+                     "The scene file (relative: to the daemon's config file's directory)")
+        ->required();
+    load->callback([args] {
+        // note: an absolute path from here, so "./x.glb" means this directory.
+        std::error_code ec;
+        const std::filesystem::path p = std::filesystem::absolute(args->value, ec);
+        run_ctl(*args, {{"cmd", "load-scene"}, {"path", ec ? args->value : p.string()}});
+    });
     CLI::App* set = ctl->add_subcommand(
-        "set", "Set predict (true/false) or lod_tolerance_px (pixels) in the running daemon");
-    set->add_option("key", args->key, "predict or lod_tolerance_px")
+        "set",
+        "Set, in the running daemon: warp on|off, prediction MS (predict this much further "
+        "ahead), lod-bias X (LOD tolerance x 2^X), predict on|off, lod_tolerance_px PX");
+    set->add_option("key", args->key, "warp, prediction, lod-bias, predict or lod_tolerance_px")
         ->required()
-        ->check(CLI::IsMember({"predict", "lod_tolerance_px"}));
-    set->add_option("value", args->value, "true/false, or a number >= 0")->required();
+        ->check(CLI::IsMember({"warp", "prediction", "lod-bias", "predict", "lod_tolerance_px"}));
+    set->add_option("value", args->value, "on/off (true/false), or a number")->required();
     set->callback([args] {
-        nlohmann::json v = nlohmann::json::parse(args->value, nullptr, false);
-        if (v.is_discarded() || !(v.is_boolean() || v.is_number())) {
-            std::fprintf(stderr, "hmdnode ctl set: \"%s\" is not true, false or a number\n",
-                         args->value.c_str());
+        // The protocol's key (docs/daemon.md, "Control socket") and a value of its type.
+        const std::string key = args->key == "prediction" ? "prediction_ms"
+                                : args->key == "lod-bias" ? "lod_bias"
+                                                          : args->key;
+        const bool boolean = key == "warp" || key == "predict";
+        nlohmann::json v;
+        if (boolean && (args->value == "on" || args->value == "true"))
+            v = true;
+        else if (boolean && (args->value == "off" || args->value == "false"))
+            v = false;
+        else if (!boolean)
+            v = nlohmann::json::parse(args->value, nullptr, false);
+        if (boolean ? !v.is_boolean() : (v.is_discarded() || !v.is_number())) {
+            std::fprintf(stderr, "hmdnode ctl set %s: \"%s\" is not %s\n", args->key.c_str(),
+                         args->value.c_str(), boolean ? "on or off" : "a number");
             return set_exit_code(2);
         }
-        run_ctl(*args, {{"cmd", "set"}, {"key", args->key}, {"value", v}});
+        run_ctl(*args, {{"cmd", "set"}, {"key", key}, {"value", v}});
     });
 }
 

@@ -4,21 +4,17 @@
 // usbmon link type DLT_USB_LINUX_MMAPPED (220), which Wireshark, tshark and `hmdnode replay
 // --capture` read. Formats and limits: docs/hardware.md.
 //
-// Two paths to the CSV. Reference-protocol devices (device-info feature report 0x10) are decoded
-// here, pose report by pose report. IMU-only devices (Vive/Index, Rift: make_codec_for) and
-// captures go through the DeviceTracker of live tracking (codec -> ClockSync -> Mahony fusion,
+// One path to the CSV: every tracker backend (a live or simulated device, a capture, a libsurvive
+// recording) is made by the one wiring place (hmdnode/firmware_host/wiring.hpp) and read through
+// the DeviceTracker of live tracking (codec by VID:PID -> ClockSync -> fusion,
 // hal/include/hmdnode/hal/tracking/device_tracker.hpp); each delivered TrackerSample with an
-// orientation (fusion initialised) becomes a row. A live device's raw reports reach the pcap
-// through a tee transport wrapped around the backend's (the feature reports the codec reads become
-// GET_REPORT exchanges). A capture runs on a simulated clock advanced in 10 ms steps:
-// deterministic, as fast as it decodes.
-//
-// The pcap is written by hand (pcap file format 2.4, 64-byte usbmon headers, host byte order):
-// it opens with a synthetic GET_DESCRIPTOR(DEVICE) exchange so readers learn the VID:PID from the
-// capture itself, then the device-info GET_REPORT exchange when the device answered one, then one
-// interrupt-IN completion ('C', endpoint 0x81) per input report, stamped with the host's
-// realtime clock at arrival as usbmon does. Bus and device address are not known through hidraw;
-// they are written as bus 1, address 1.
+// orientation becomes a row. A device's raw reports reach the pcap through the tee backend of
+// hal/include/hmdnode/hal/transport/usbmon_pcap_writer.hpp, wrapped around the backend's (the
+// feature reports the codec reads become GET_REPORT exchanges; each open writes a synthetic
+// GET_DESCRIPTOR(DEVICE) exchange so readers learn the VID:PID from the capture itself; input
+// reports are stamped with the host's realtime clock at arrival, as usbmon does). A capture or a
+// recording runs on a simulated clock advanced in 10 ms steps: deterministic, as fast as it
+// decodes.
 #include <atomic>
 #include <csignal>
 #include <cstdio>
@@ -37,12 +33,14 @@
 #include "hmdnode/core/pose.hpp"
 #include "hmdnode/core/time.hpp"
 #include "hmdnode/core/trace.hpp"
+#include "hmdnode/firmware_host/wiring.hpp"
 #include "hmdnode/hal/codec/reference_protocol.hpp"
 #include "hmdnode/hal/sim/sim_reference_device.hpp"
 #include "hmdnode/hal/tracking/clock_sync.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
 #include "hmdnode/hal/tracking/survive_recording.hpp"
 #include "hmdnode/hal/transport.hpp"
+#include "hmdnode/hal/transport/usbmon_pcap_writer.hpp"
 #include "tool/cli_checks.hpp"
 #include "tool/commands.hpp"
 
@@ -69,115 +67,6 @@ struct RecordArgs {
     bool duration_given = false;
 };
 
-// Little-endian appends.
-void put(std::string& b, const void* p, size_t n) {
-    b.append(static_cast<const char*>(p), n);
-}
-template <class T>
-void put_le(std::string& b, T v) {
-    for (size_t i = 0; i < sizeof(T); ++i) b.push_back(static_cast<char>((v >> (8 * i)) & 0xff));
-}
-
-// A pcap of usbmon events (DLT_USB_LINUX_MMAPPED), built in memory.
-class UsbmonPcapWriter {
-  public:
-    UsbmonPcapWriter() {
-        put_le<uint32_t>(bytes_, 0xa1b2c3d4);  // microsecond timestamps
-        put_le<uint16_t>(bytes_, 2);
-        put_le<uint16_t>(bytes_, 4);
-        put_le<int32_t>(bytes_, 0);
-        put_le<uint32_t>(bytes_, 0);
-        put_le<uint32_t>(bytes_, 65535);
-        put_le<uint32_t>(bytes_, 220);  // LINKTYPE_USB_LINUX_MMAPPED
-    }
-
-    // One usbmon event. `setup` non-null: a control submission carrying the setup packet.
-    void event(int64_t realtime_ns, uint64_t urb_id, char type, uint8_t xfer_type, uint8_t endpoint,
-               uint32_t urb_length, const uint8_t* setup, std::span<const uint8_t> data) {
-        std::string h;
-        put_le<uint64_t>(h, urb_id);
-        h.push_back(type);
-        h.push_back(static_cast<char>(xfer_type));
-        h.push_back(static_cast<char>(endpoint));
-        h.push_back(1);                // device address
-        put_le<uint16_t>(h, 1);        // bus
-        h.push_back(setup ? 0 : '-');  // flag_setup: 0 = setup present
-        h.push_back(data.empty() ? (endpoint & 0x80 ? '<' : '>') : 0);  // flag_data: 0 = present
-        put_le<int64_t>(h, realtime_ns / kNsPerSecond);
-        put_le<int32_t>(h, static_cast<int32_t>((realtime_ns % kNsPerSecond) / 1000));
-        put_le<int32_t>(h, 0);  // status
-        put_le<uint32_t>(h, urb_length);
-        put_le<uint32_t>(h, static_cast<uint32_t>(data.size()));
-        uint8_t s[8] = {};
-        if (setup) std::memcpy(s, setup, 8);
-        put(h, s, 8);
-        put_le<int32_t>(h, xfer_type == 1 ? 1 : 0);  // interval (ms)
-        put_le<int32_t>(h, 0);                       // start_frame
-        put_le<uint32_t>(h, 0);                      // xfer_flags
-        put_le<uint32_t>(h, 0);                      // ndesc
-        const uint32_t len = static_cast<uint32_t>(h.size() + data.size());
-        put_le<uint32_t>(bytes_, static_cast<uint32_t>(realtime_ns / kNsPerSecond));
-        put_le<uint32_t>(bytes_, static_cast<uint32_t>((realtime_ns % kNsPerSecond) / 1000));
-        put_le<uint32_t>(bytes_, len);
-        put_le<uint32_t>(bytes_, len);
-        bytes_ += h;
-        put(bytes_, data.data(), data.size());
-        ++events_;
-    }
-
-    // A control transfer: 'S' with the setup packet, 'C' with the answer (IN requests).
-    void control_in(int64_t realtime_ns, const UsbSetupPacket& setup,
-                    std::span<const uint8_t> answer) {
-        const auto s = setup.bytes();
-        const uint64_t urb = next_urb_++;
-        event(realtime_ns, urb, 'S', 2, 0x80, setup.length, s.data(), {});
-        event(realtime_ns, urb, 'C', 2, 0x80, static_cast<uint32_t>(answer.size()), nullptr,
-              answer);
-    }
-
-    void interrupt_in(int64_t realtime_ns, std::span<const uint8_t> data) {
-        event(realtime_ns, 0x1000, 'C', 1, 0x81, static_cast<uint32_t>(data.size()), nullptr, data);
-    }
-
-    const std::string& bytes() const { return bytes_; }
-    uint64_t events() const { return events_; }
-
-  private:
-    std::string bytes_;
-    uint64_t events_ = 0;
-    uint64_t next_urb_ = 0x100;
-};
-
-// A USB device descriptor (USB 2.0 §9.6.1) with the device's ids, for the capture's GET_DESCRIPTOR.
-std::vector<uint8_t> device_descriptor(uint16_t vid, uint16_t pid) {
-    return {18,
-            1,
-            0x00,
-            0x02,
-            0,
-            0,
-            0,
-            64,
-            static_cast<uint8_t>(vid & 0xff),
-            static_cast<uint8_t>(vid >> 8),
-            static_cast<uint8_t>(pid & 0xff),
-            static_cast<uint8_t>(pid >> 8),
-            0x00,
-            0x01,
-            1,
-            2,
-            3,
-            1};
-}
-
-int64_t realtime_minus_monotonic_ns() {
-    timespec rt{}, mono{};
-    clock_gettime(CLOCK_REALTIME, &rt);
-    clock_gettime(CLOCK_MONOTONIC, &mono);
-    return (static_cast<int64_t>(rt.tv_sec) - mono.tv_sec) * kNsPerSecond +
-           (rt.tv_nsec - mono.tv_nsec);
-}
-
 void fail(const std::string& message) {
     std::fprintf(stderr, "hmdnode record: %s\n", message.c_str());
     set_exit_code(1);
@@ -188,68 +77,6 @@ void usage_error(const std::string& message) {
     std::fprintf(stderr, "hmdnode record: %s\n", message.c_str());
     set_exit_code(2);
 }
-
-// A transport that hands everything through and writes each input report, and each feature
-// report read, into the pcap (the device tracker's reader thread calls it; the pcap is read only
-// after the tracker has stopped).
-class TeeTransport : public Transport {
-  public:
-    TeeTransport(std::unique_ptr<Transport> inner, UsbmonPcapWriter* pcap, int64_t rt_offset)
-        : inner_(std::move(inner)), pcap_(pcap), rt_offset_(rt_offset) {}
-    DeviceId id() const override { return inner_->id(); }
-    Result<std::optional<InputReport>> read_input(int timeout_ms) override {
-        auto r = inner_->read_input(timeout_ms);
-        if (r.ok() && r->has_value())
-            pcap_->interrupt_in((*r)->host_time_ns + rt_offset_, (*r)->bytes);
-        return r;
-    }
-    Result<std::vector<uint8_t>> get_feature(uint8_t report_id, size_t size) override {
-        auto r = inner_->get_feature(report_id, size);
-        if (r.ok()) {
-            timespec mono{};
-            clock_gettime(CLOCK_MONOTONIC, &mono);
-            const int64_t now = static_cast<int64_t>(mono.tv_sec) * kNsPerSecond + mono.tv_nsec;
-            const int iface = std::max(0, inner_->id().interface_number);
-            pcap_->control_in(
-                now + rt_offset_,
-                hid_get_report_setup(HidReportType::feature, report_id,
-                                     static_cast<uint16_t>(iface), static_cast<uint16_t>(size)),
-                *r);
-        }
-        return r;
-    }
-    Status set_feature(std::span<const uint8_t> data) override { return inner_->set_feature(data); }
-    Status write_output(std::span<const uint8_t> data) override {
-        return inner_->write_output(data);
-    }
-    bool finished() const override { return inner_->finished(); }
-
-  private:
-    std::unique_ptr<Transport> inner_;
-    UsbmonPcapWriter* pcap_;
-    int64_t rt_offset_;
-};
-
-class TeeBackend : public TransportBackend {
-  public:
-    TeeBackend(std::unique_ptr<TransportBackend> inner, UsbmonPcapWriter* pcap, int64_t rt_offset)
-        : inner_(std::move(inner)), pcap_(pcap), rt_offset_(rt_offset) {}
-    std::string name() const override { return inner_->name(); }
-    Result<std::vector<DeviceId>> enumerate(const DeviceFilter& filter) override {
-        return inner_->enumerate(filter);
-    }
-    Result<std::unique_ptr<Transport>> open(const DeviceId& id) override {
-        auto t = inner_->open(id);
-        if (!t.ok()) return t.error();
-        return std::unique_ptr<Transport>(
-            std::make_unique<TeeTransport>(std::move(*t), pcap_, rt_offset_));
-    }
-
-  private:
-    std::unique_ptr<TransportBackend> inner_;
-    UsbmonPcapWriter* pcap_;
-    int64_t rt_offset_;
-};
 
 // What the tracker path recorded.
 struct TrackerRecording {
@@ -302,9 +129,10 @@ constexpr int64_t kFirstPoseTimeoutNs = 5 * kNsPerSecond;
 // 5 ms, times from `start`; a disconnect ends the recording (what arrived is kept). A device that
 // cannot be opened, or gives no pose within kFirstPoseTimeoutNs, ends it with a failure.
 // `origin`, when given, is the clock time that row time 0 stands for (a recording's own timeline).
+// need_pose false (a raw capture alone): no first-pose timeout.
 TrackerRecording record_tracker(DeviceTracker& tracker, Clock& clock, int64_t start, int64_t end,
                                 std::optional<int64_t> origin = std::nullopt,
-                                bool keep_arrivals = false) {
+                                bool keep_arrivals = false, bool need_pose = true) {
     TrackerRecording rec;
     rec.keep_arrivals = keep_arrivals;
     std::vector<TrackerSample> buf(1024);
@@ -321,6 +149,9 @@ TrackerRecording record_tracker(DeviceTracker& tracker, Clock& clock, int64_t st
             }
         } while (n == buf.size());
     };
+    // A simulated clock: the device tracker is pumped by read(), which opens the device; open it
+    // at the start (a simulated device's reports before its open would be lost, not recorded).
+    if (clock.is_simulated()) drain();
     g_stop = false;
     auto old_handler = std::signal(SIGINT, on_sigint);
     while (!g_stop.load() && clock.now_ns() < end && !tracker.finished()) {
@@ -342,7 +173,8 @@ TrackerRecording record_tracker(DeviceTracker& tracker, Clock& clock, int64_t st
                 (st.last_error.empty() ? std::string("no matching device") : st.last_error);
             break;
         }
-        if (rec.trace.samples.empty() && clock.now_ns() - start >= kFirstPoseTimeoutNs) {
+        if (need_pose && rec.trace.samples.empty() &&
+            clock.now_ns() - start >= kFirstPoseTimeoutNs) {
             rec.failure = "no pose from the device within " +
                           std::to_string(kFirstPoseTimeoutNs / kNsPerSecond) + " s (" +
                           std::to_string(st.samples) + " samples, " +
@@ -433,11 +265,6 @@ void finish_tracker_recording(const RecordArgs& args, const std::string& label,
     if (!ok) set_exit_code(1);
 }
 
-// True when hmdnode has an IMU codec for the device (Vive/Index, Rift).
-bool is_imu_device(uint16_t vid, uint16_t pid) {
-    return make_codec_for(vid, pid)->name() != make_reference_codec()->name();
-}
-
 // --backend capture --from FILE: the capture's device through the device tracker, simulated clock.
 void run_record_capture(const RecordArgs& args, const DeviceFilter& filter) {
     if (args.from.empty()) return usage_error("--backend capture needs --from FILE.pcap[.gz]");
@@ -448,16 +275,21 @@ void run_record_capture(const RecordArgs& args, const DeviceFilter& filter) {
         return fail("--from " + args.from + ": no such file");
     SimulatedClock clock(kNsPerSecond);
     const int64_t start = clock.now_ns();
-    auto tracker = create_capture_tracker(args.from, args.device, clock, start);
-    if (!tracker.ok()) return fail(tracker.error().message);
-    if (Status st = (*tracker)->start(); !st.ok()) return fail(st.error().message);
+    TrackerSpec spec;
+    spec.backend = TrackerBackend::capture;
+    spec.from = args.from;
+    spec.device = args.device;
+    Result<WiredTracker> wired = make_tracker(spec, clock, WiringKeys::command_line());
+    if (!wired.ok()) return fail(wired.error().message);
+    DeviceTracker* tracker = wired->device;
+    if (Status st = tracker->start(); !st.ok()) return fail(st.error().message);
     // The whole capture unless --duration is given.
     const int64_t end = args.duration_given && args.duration_s > 0
                             ? start + s_to_ns(args.duration_s)
                             : std::numeric_limits<int64_t>::max();
-    TrackerRecording rec = record_tracker(**tracker, clock, start, end);
+    TrackerRecording rec = record_tracker(*tracker, clock, start, end);
     rec.seconds = ns_to_s(clock.now_ns() - start);
-    const DeviceTrackerStatus st = (*tracker)->status();
+    const DeviceTrackerStatus st = tracker->status();
     finish_tracker_recording(args,
                              format_vid_pid(filter.vendor_id, filter.product_id) + " (" +
                                  make_codec_for(filter.vendor_id, filter.product_id)->name() + ")",
@@ -610,34 +442,6 @@ void run_record_survive(const RecordArgs& args) {
     }
 }
 
-// A live IMU-only device: its reports through the device tracker, raw reports teed to the pcap.
-void run_record_imu(const RecordArgs& args, DeviceFilter filter,
-                    std::unique_ptr<TransportBackend> backend, const DeviceId& id, Clock& clock) {
-    const int64_t rt_offset = realtime_minus_monotonic_ns();
-    UsbmonPcapWriter pcap;
-    pcap.control_in(clock.now_ns() + rt_offset, UsbSetupPacket{0x80, 0x06, 0x0100, 0, 18},
-                    device_descriptor(id.vendor_id, id.product_id));
-    auto codec = make_codec_for(id.vendor_id, id.product_id);
-    const std::string label = format_vid_pid(id.vendor_id, id.product_id) + " (" + codec->name() +
-                              (id.serial.empty() ? "" : ", serial " + id.serial) + ")";
-    const std::string via = backend->name() + " (" + id.path + ")";
-    DeviceTrackerConfig cfg;
-    filter.vendor_id = id.vendor_id;
-    filter.product_id = id.product_id;
-    cfg.filter = filter;
-    auto tracker =
-        create_device_tracker(std::make_unique<TeeBackend>(std::move(backend), &pcap, rt_offset),
-                              std::move(codec), clock, cfg);
-    if (!tracker.ok()) return fail(tracker.error().message);
-    const int64_t start = clock.now_ns();
-    if (Status st = (*tracker)->start(); !st.ok()) return fail(st.error().message);
-    const int64_t end = args.duration_s > 0 ? start + s_to_ns(args.duration_s)
-                                            : std::numeric_limits<int64_t>::max();
-    TrackerRecording rec = record_tracker(**tracker, clock, start, end);
-    const DeviceTrackerStatus st = (*tracker)->status();
-    finish_tracker_recording(args, label, via, rec, st, &pcap);
-}
-
 void run_record(const RecordArgs& args) {
     if (args.out.empty() && args.capture.empty())
         return usage_error("nothing to write: give --out FILE.csv and/or --capture FILE.pcap");
@@ -664,179 +468,50 @@ void run_record(const RecordArgs& args) {
     SimulatedClock sim_clock(kNsPerSecond);
     Clock& clock = args.sim_clock ? static_cast<Clock&>(sim_clock) : system_clock;
 
-    std::unique_ptr<TransportBackend> backend;
-    if (args.backend == "sim") {
-        SimReferenceDeviceConfig cfg;
-        cfg.vendor_id = filter->vendor_id;
-        cfg.product_id = filter->product_id;
-        if (!filter->serial.empty()) cfg.serial = filter->serial;
-        backend = create_sim_reference_backend(clock, cfg, sinusoidal_motion());
-    } else {
-        auto b = create_transport_backend(args.backend);
-        if (!b.ok()) return fail(b.error().message);
-        backend = std::move(*b);
-    }
-    auto list = backend->enumerate(*filter);
-    if (!list.ok()) return fail(list.error().message);
-    if (list->empty())
-        return fail("no device " + args.device + " found by the " + backend->name() +
-                    " backend (plugged in? udev rules: docs/udev.md)");
-    // IMU-only devices (Vive/Index, Rift): the live tracking path.
-    if (args.backend != "sim" && is_imu_device(list->front().vendor_id, list->front().product_id))
-        return run_record_imu(args, *filter, std::move(backend), list->front(), clock);
-    auto opened = backend->open(list->front());
-    if (!opened.ok()) return fail(opened.error().message);
-    std::unique_ptr<Transport> transport = std::move(*opened);
-    const DeviceId id = transport->id();
-
+    // Every device through the device tracker of live tracking (the one wiring place,
+    // wiring.hpp): codec by VID:PID (Vive/Index, Rift IMU, else the reference protocol), clock
+    // sync, fusion; its raw reports teed into the pcap (hal/transport/usbmon_pcap_writer.hpp).
+    auto pcap = std::make_shared<UsbmonPcapWriter>();
     const int64_t rt_offset = args.sim_clock ? 0 : realtime_minus_monotonic_ns();
-    UsbmonPcapWriter pcap;
-    pcap.control_in(clock.now_ns() + rt_offset, UsbSetupPacket{0x80, 0x06, 0x0100, 0, 18},
-                    device_descriptor(id.vendor_id, id.product_id));
-
-    // The reference protocol says who it is in feature report 0x10.
-    bool reference = false;
-    std::string device_label = format_vid_pid(id.vendor_id, id.product_id);
-    auto info_bytes =
-        transport->get_feature(refproto::kDeviceInfoReport, refproto::kDeviceInfoReportSize);
-    if (info_bytes.ok()) {
-        auto info = refproto::decode_device_info(*info_bytes);
-        if (info.ok()) {
-            reference = true;
-            device_label += " \"" + info->product + "\" serial " + info->serial;
-            pcap.control_in(
-                clock.now_ns() + rt_offset,
-                hid_get_report_setup(HidReportType::feature, refproto::kDeviceInfoReport,
-                                     static_cast<uint16_t>(std::max(0, id.interface_number)),
-                                     refproto::kDeviceInfoReportSize),
-                *info_bytes);
-        }
-    }
-    if (!reference && !args.out.empty())
-        return fail(device_label +
-                    ": hmdnode has no codec for it (not a Vive/Index or Rift IMU, and no "
-                    "device-info feature report 0x10 of the reference protocol); record its raw "
-                    "reports with --capture alone");
-
-    Trace trace;
-    trace.comments.push_back("recorded by hmdnode record from " + device_label + " via " +
-                             backend->name() + " (" + id.path + ")");
-    ClockSync sync;
-    uint64_t reports = 0, poses = 0, malformed = 0, gaps = 0, missing = 0, non_increasing = 0;
-    bool have_seq = false;
-    uint32_t last_seq = 0;
-    bool with_gyro = false, with_position = false;
-    std::string failure;
-
-    g_stop = false;
-    auto old_handler = std::signal(SIGINT, on_sigint);
+    WiringKeys keys = WiringKeys::command_line();
+    keys.backend = "--backend";
+    Result<TrackerBackend> backend = parse_tracker_backend(args.backend, keys);
+    if (!backend.ok()) return usage_error(backend.error().message);
+    std::vector<DeviceId> found;
+    std::string backend_name, enumerate_error;
+    TrackerSpec spec;
+    spec.backend = *backend;
+    spec.device = args.device;
+    spec.wrap_backend = [&](std::unique_ptr<TransportBackend> b) {
+        backend_name = b->name();
+        Result<std::vector<DeviceId>> list = b->enumerate(*filter);
+        if (list.ok())
+            found = *list;
+        else
+            enumerate_error = list.error().message;
+        return create_pcap_tee_backend(std::move(b), pcap, clock, rt_offset);
+    };
+    Result<WiredTracker> wired = make_tracker(spec, clock, keys);
+    if (!wired.ok()) return fail(wired.error().message);
+    if (!enumerate_error.empty()) return fail(enumerate_error);
+    if (found.empty())
+        return fail("no device " + args.device + " found by the " + backend_name +
+                    " backend (plugged in? udev rules: docs/udev.md)");
+    const DeviceId& id = found.front();
+    auto codec = make_codec_for(id.vendor_id, id.product_id);
+    const std::string label = format_vid_pid(id.vendor_id, id.product_id) + " (" + codec->name() +
+                              (id.serial.empty() ? "" : ", serial " + id.serial) + ")";
+    const std::string via = backend_name + " (" + id.path + ")";
+    DeviceTracker& tracker = *wired->device;
     const int64_t start = clock.now_ns();
-    const int64_t end = args.duration_s > 0 ? start + s_to_ns(args.duration_s) : INT64_MAX;
-    while (!g_stop.load() && clock.now_ns() < end) {
-        const int64_t left_ms = (end - clock.now_ns()) / kNsPerMs;
-        auto r = transport->read_input(static_cast<int>(std::clamp<int64_t>(left_ms, 1, 100)));
-        if (!r.ok()) {
-            failure = r.error().message;
-            break;
-        }
-        if (!r->has_value()) continue;
-        const InputReport& report = **r;
-        if (report.host_time_ns >= end) break;
-        ++reports;
-        pcap.interrupt_in(report.host_time_ns + rt_offset, report.bytes);
-        if (!reference || report.bytes.empty() || report.bytes[0] != refproto::kPoseReport)
-            continue;
-        auto pose = refproto::decode_pose(report.bytes);
-        if (!pose.ok()) {
-            ++malformed;
-            continue;
-        }
-        if (have_seq && pose->sequence != last_seq + 1) {
-            ++gaps;
-            missing += pose->sequence - last_seq - 1;
-        }
-        have_seq = true;
-        last_seq = pose->sequence;
-        if (!(pose->flags & refproto::kPoseFlagOrientationValid)) continue;
-        const int64_t t =
-            sync.update(static_cast<int64_t>(pose->device_time_us) * kNsPerUs, report.host_time_ns);
-        TraceSample s;
-        s.time_ns = t - start;
-        if (!trace.samples.empty() && s.time_ns <= trace.samples.back().time_ns) {
-            ++non_increasing;
-            continue;
-        }
-        if (trace.samples.empty()) {
-            with_gyro = pose->flags & refproto::kPoseFlagAngularVelocityValid;
-            with_position = pose->flags & refproto::kPoseFlagPositionValid;
-        }
-        s.orientation = trace.samples.empty()
-                            ? pose->orientation
-                            : same_hemisphere(pose->orientation, trace.samples.back().orientation);
-        // note: the trace format wants a column group in every row or none; a report without the
-        // group repeats the previous value.
-        if (with_gyro)
-            s.gyro = (pose->flags & refproto::kPoseFlagAngularVelocityValid)
-                         ? pose->angular_velocity
-                         : (trace.samples.empty() ? glm::dvec3(0) : *trace.samples.back().gyro);
-        if (with_position)
-            s.position =
-                (pose->flags & refproto::kPoseFlagPositionValid)
-                    ? pose->position_m
-                    : (trace.samples.empty() ? glm::dvec3(0) : *trace.samples.back().position);
-        trace.samples.push_back(s);
-        ++poses;
-    }
-    std::signal(SIGINT, old_handler);
-    const double seconds = ns_to_s(clock.now_ns() - start);
-
-    bool ok = true;
-    if (!args.capture.empty()) {
-        Status w = write_file_atomically(args.capture, pcap.bytes());
-        if (!w.ok()) {
-            std::fprintf(stderr, "hmdnode record: %s\n", w.error().message.c_str());
-            ok = false;
-        }
-    }
-    if (!args.out.empty()) {
-        if (trace.samples.size() < 2) {
-            std::fprintf(stderr,
-                         "hmdnode record: only %zu pose sample(s) in %.3f s: %s not written\n",
-                         trace.samples.size(), seconds, args.out.c_str());
-            ok = false;
-        } else {
-            Status w = write_trace_csv(trace, args.out);
-            if (!w.ok()) {
-                std::fprintf(stderr, "hmdnode record: %s\n", w.error().message.c_str());
-                ok = false;
-            }
-        }
-    }
-    std::printf("recorded %s via %s (%s) for %.3f s\n", device_label.c_str(),
-                backend->name().c_str(), id.path.c_str(), seconds);
-    std::printf("  %-24s %llu (%.1f per s)\n", "input reports",
-                static_cast<unsigned long long>(reports), seconds > 0 ? reports / seconds : 0.0);
-    std::printf("  %-24s %llu\n", "pose samples", static_cast<unsigned long long>(poses));
-    std::printf("  %-24s %llu (%llu reports missing)\n", "sequence gaps",
-                static_cast<unsigned long long>(gaps), static_cast<unsigned long long>(missing));
-    std::printf("  %-24s %llu\n", "malformed reports", static_cast<unsigned long long>(malformed));
-    if (non_increasing)
-        std::printf("  %-24s %llu\n", "dropped (time not increasing)",
-                    static_cast<unsigned long long>(non_increasing));
-    if (sync.valid())
-        std::printf("  %-24s %.3f ms (jitter %.3f ms, drift %.1f ppm)\n", "clock offset",
-                    ns_to_ms(sync.offset_ns()), sync.jitter_ns() * 1e-6, sync.drift_ppm());
-    if (!args.capture.empty() && ok)
-        std::printf("  %-24s %s (%llu usbmon events)\n", "capture", args.capture.c_str(),
-                    static_cast<unsigned long long>(pcap.events()));
-    if (!args.out.empty() && ok) std::printf("  %-24s %s\n", "trace", args.out.c_str());
-    if (!failure.empty()) {
-        std::fprintf(stderr, "hmdnode record: %s -- stopped; what arrived before was written\n",
-                     failure.c_str());
-        set_exit_code(3);
-        return;
-    }
-    if (!ok) set_exit_code(1);
+    if (Status st = tracker.start(); !st.ok()) return fail(st.error().message);
+    const int64_t end = args.duration_s > 0 ? start + s_to_ns(args.duration_s)
+                                            : std::numeric_limits<int64_t>::max();
+    // --capture alone records a device hmdnode cannot decode: no pose is waited for.
+    TrackerRecording rec = record_tracker(tracker, clock, start, end, std::nullopt,
+                                          /*keep_arrivals=*/false, /*need_pose=*/!args.out.empty());
+    const DeviceTrackerStatus st = tracker.status();
+    finish_tracker_recording(args, label, via, rec, st, pcap.get());
 }
 
 void add_record_command(CLI::App& app) {

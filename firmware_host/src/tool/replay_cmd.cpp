@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "hmdnode/firmware_host/replay.hpp"
+#include "hmdnode/firmware_host/wiring.hpp"
 #include "tool/cli_checks.hpp"
 #include "tool/commands.hpp"
 
@@ -25,15 +26,29 @@ void add_replay_command(CLI::App& app) {
     auto frame_cost_ms = std::make_shared<double>(-1.0);
     auto warp_cost_ms = std::make_shared<double>(-1.0);
     auto allocator = std::make_shared<std::string>("threshold");
+    auto backend = std::make_shared<std::string>();
+    auto capture = std::make_shared<std::string>();
 
     CLI::App* c = app.add_subcommand("replay",
                                      "Replay a head trace through tracking, LOD selection, "
                                      "stereo rendering and a mock headset; write a report");
     c->add_option("--scene", opt->scene, "Scene (.glb/.gltf)")->required();
-    c->add_option("--trace", opt->trace, "Trace in hmdnode CSV (see `hmdnode trace import`)");
-    c->add_option("--capture", opt->capture,
-                  "Instead of --trace: a usbmon capture (pcap or pcap.gz) to replay");
-    c->add_option("--device", opt->capture_device, "VID:PID of the --capture device (hex)");
+    c->add_option("--tracker,--backend", *backend,
+                  std::string("Tracker backend: ") + kTrackerBackendNames +
+                      " (docs/daemon.md, \"Backends\"; default: trace, or capture with "
+                      "--capture)");
+    c->add_option("--trace", opt->trace,
+                  "Trace in hmdnode CSV (see `hmdnode trace import`): --tracker trace replays it, "
+                  "--tracker sim moves the simulated device along it");
+    c->add_option("--from", opt->from,
+                  "--tracker capture: the usbmon capture (pcap or pcap.gz); --tracker rec: the "
+                  "libsurvive recording (.rec or .rec.gz)");
+    c->add_option("--capture", *capture,
+                  "Instead of --trace: a usbmon capture (pcap or pcap.gz) to replay (the same as "
+                  "--tracker capture --from FILE)");
+    c->add_option("--device", opt->device,
+                  "VID:PID[:SERIAL] (hex) of the captured, simulated or live device; --tracker "
+                  "rec: the recording's device name (T20, ...)");
     c->add_option("--report", opt->report, "JSON report to write");
     c->add_option("--frames", *frames_dir, "Directory for PNG frames (both eyes side by side)");
     c->add_option("--frames-every", opt->display.frames_every, "Write every Nth frame")
@@ -121,11 +136,40 @@ void add_replay_command(CLI::App& app) {
 
     c->callback([=] {
         ReplayOptions o = *opt;
-        if (o.trace.empty() == o.capture.empty() ||
-            (!o.capture.empty() && o.capture_device.empty())) {
+        // The one vocabulary (wiring.hpp); --capture FILE is --tracker capture --from FILE.
+        std::string name = backend->empty() ? (capture->empty() ? "trace" : "capture") : *backend;
+        std::string deprecation;
+        Result<TrackerBackend> b =
+            parse_tracker_backend(name, WiringKeys::command_line(), &deprecation);
+        if (!deprecation.empty())
+            std::fprintf(stderr, "hmdnode replay: warning: %s\n", deprecation.c_str());
+        if (!b.ok() || (!capture->empty() && (*b != TrackerBackend::capture || !o.from.empty()))) {
+            std::fprintf(stderr, "hmdnode replay: error: %s\n",
+                         b.ok() ? "--capture FILE is --tracker capture --from FILE: give one"
+                                : b.error().message.c_str());
+            set_exit_code(2);
+            return;
+        }
+        o.tracker_backend = *b;
+        if (!capture->empty()) o.from = *capture;
+        if (o.tracker_backend == TrackerBackend::trace && o.trace.empty()) {
             std::fprintf(stderr,
-                         "hmdnode replay: error: give --trace FILE, or --capture FILE "
-                         "--device VID:PID\n");
+                         "hmdnode replay: error: give --trace FILE, or --capture FILE --device "
+                         "VID:PID, or another --tracker (%s)\n",
+                         kTrackerBackendNames);
+            set_exit_code(2);
+            return;
+        }
+        TrackerSpec spec;
+        spec.backend = o.tracker_backend;
+        spec.from = o.from;
+        spec.trace_path = o.trace;
+        spec.device = o.device;
+        spec.start_s = o.start_s;
+        if (Status st = check_tracker_spec(spec, *clock == "sim" ? ClockKind::sim : ClockKind::real,
+                                           WiringKeys::command_line());
+            !st.ok()) {
+            std::fprintf(stderr, "hmdnode replay: error: %s\n", st.error().message.c_str());
             set_exit_code(2);
             return;
         }

@@ -209,6 +209,29 @@ class NodeRuntime {
     // LOD pixel tolerance at the gaze point (>= 0; the selector starts anew, its hysteresis too).
     void set_predict(bool predict) { config_.predict = predict; }
     Status set_lod_tolerance_px(double tolerance_px);
+    // More run-time settings. Those that change what the eye buffers hold (the scene, the warp)
+    // fail while a frame is being rendered in pieces (between_frames() false: a present re-warped
+    // the previous frame in the middle of it); the caller retries after the next run_frame.
+    bool between_frames() const { return !open_; }
+    // Uploads `scene` (which must outlive the runtime or the next replace_scene) in place of the
+    // running one: the objects, the selector and the learned render cost start anew. A failed
+    // upload puts the running scene back and returns the error.
+    Status replace_scene(const Scene& scene);
+    // The late warp on or off (on when it was off at start: the pass is set up now, with no
+    // field-of-view margin for it).
+    Status set_warp(bool on);
+    // Predict this much further ahead (ms, may be negative; |ms| <= kMaxPredictionOffsetMs) than
+    // the photon time pacing expects: a latency the model misses.
+    Status set_prediction_offset_ms(double ms);
+    double prediction_offset_ms() const { return ns_to_ms(prediction_offset_ns_); }
+    // The LOD tolerance scaled by 2^bias (|bias| <= kMaxLodBias): +1 halves the detail needed.
+    Status set_lod_bias(double bias);
+    double lod_bias() const { return lod_bias_; }
+    // The newest sample's heading becomes straight ahead and its position (where the tracker has
+    // one) the default head position, from now on. Fails before the first sample.
+    Status recentre();
+    static constexpr double kMaxPredictionOffsetMs = 100.0;
+    static constexpr double kMaxLodBias = 8.0;
     void stop();
 
     // Runs one present: waits for its wake-up time, then renders a new frame (or re-warps the
@@ -247,6 +270,8 @@ class NodeRuntime {
 
   private:
     void drain_tracker();
+    void adopt_objects(const Scene& scene);
+    void rebuild_selector();
     StereoViews views_for(const Pose& head) const;
     Pose predict(int64_t photon_time_ns) const;
     // LOD selection for `head` seen through `views` (the frame's own, culled against), fills
@@ -264,8 +289,14 @@ class NodeRuntime {
     Tracker* tracker_;
     Display& display_;
     Renderer& renderer_;
-    const Scene& scene_;
+    const Scene* scene_;
     NodeConfig config_;
+    int64_t prediction_offset_ns_ = 0;
+    double lod_bias_ = 0.0;
+    struct Recentre {
+        glm::dquat rotation{1.0, 0.0, 0.0, 0.0};
+        glm::dvec3 from{0.0}, to{0.0};
+    } recentre_;
     PoseHistory history_;
     LodSelector selector_;
     std::vector<SceneObject> objects_;

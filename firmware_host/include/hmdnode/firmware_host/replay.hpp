@@ -16,6 +16,7 @@
 #include "hmdnode/core/result.hpp"
 #include "hmdnode/core/trace.hpp"
 #include "hmdnode/firmware_host/node.hpp"
+#include "hmdnode/firmware_host/wiring.hpp"
 #include "hmdnode/hal/display/mock_display.hpp"
 #include "hmdnode/hal/sim/sim_tracker.hpp"
 #include "hmdnode/render/renderer.hpp"
@@ -24,11 +25,15 @@ namespace hmdnode {
 
 struct ReplayOptions {
     std::filesystem::path scene;
-    std::filesystem::path trace;
+    // Where the poses come from, in the one backend vocabulary (hmdnode/firmware_host/wiring.hpp):
+    // trace (the default: `trace` replayed, and the truth for registration error), sim, capture,
+    // rec, hidapi, libusb (no truth: registration error is n/a).
+    TrackerBackend tracker_backend = TrackerBackend::trace;
+    std::filesystem::path trace;              // trace: the CSV; sim: its motion (optional)
     std::shared_ptr<const Trace> trace_data;  // instead of trace: a trace in memory
-    std::filesystem::path capture;            // instead of trace: a usbmon capture (pcap[.gz]) ...
-    std::string capture_device;               // ... and the "VID:PID" of its device to replay
-    std::filesystem::path report;             // empty: no JSON report
+    std::filesystem::path from;               // capture: the pcap[.gz]; rec: the recording
+    std::string device;  // capture/sim/hidapi/libusb: "VID:PID[:SERIAL]"; rec: its device name
+    std::filesystem::path report;  // empty: no JSON report
     bool simulated_clock = true;
     double start_s = 0.0;      // offset into the trace (a capture: from its first report)
     double duration_s = 0.0;   // 0: to the end

@@ -1,0 +1,136 @@
+// The one wiring place (docs/daemon.md, "Backends"): one vocabulary of backend names, the same in
+// the daemon's config keys and in the command-line flags of `hmdnode replay` and `hmdnode record`,
+// turned into the clock, the tracker, the display and the renderer the node runs on. Every
+// backend works wherever it makes sense: the daemon can replay a capture, a replay can drive a
+// live device, a recording can come from any tracker backend. Errors name the key or flag that
+// was wrong (WiringKeys: config keys for the daemon, flags for the tool). Cost: what the backends
+// cost to open; nothing here runs per frame.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <string>
+#include <string_view>
+
+#include "hmdnode/core/result.hpp"
+#include "hmdnode/core/time.hpp"
+#include "hmdnode/core/trace.hpp"
+#include "hmdnode/hal/display.hpp"
+#include "hmdnode/hal/display/kms_display.hpp"
+#include "hmdnode/hal/display/mock_display.hpp"
+#include "hmdnode/hal/sim/sim_tracker.hpp"
+#include "hmdnode/hal/tracker.hpp"
+#include "hmdnode/hal/transport.hpp"
+#include "hmdnode/render/renderer.hpp"
+
+namespace hmdnode {
+
+class DeviceTracker;
+
+// Where the tracker's poses come from.
+//   trace   : a recorded head trace (hmdnode CSV) replayed by the simulated tracker; the truth for
+//             registration error
+//   sim     : the simulated reference-protocol tracker through the device tracker (its motion is
+//             the trace when one is given, else synthetic)
+//   capture : a usbmon capture (pcap[.gz]) of a device through the device tracker
+//   rec     : a libsurvive recording's IMU through the device tracker (Index codec)
+//   hidapi, libusb : a live device through the device tracker
+// Older spellings still accepted, with a deprecation warning: "sim-trace" (trace), "sim-device"
+// (sim).
+enum class TrackerBackend { trace, sim, capture, rec, hidapi, libusb };
+inline constexpr const char* kTrackerBackendNames = "trace, sim, capture, rec, hidapi, libusb";
+const char* tracker_backend_name(TrackerBackend backend);
+// True for the backends that read a live device (the real clock only).
+bool is_live_backend(TrackerBackend backend);
+// True for the backends that read a file (`from`, or the trace): they can finish.
+bool is_file_backend(TrackerBackend backend);
+
+// The keys or flags errors name: the daemon's config keys, or a command's flags.
+struct WiringKeys {
+    std::string clock = "clock";
+    std::string backend = "tracker.backend";
+    std::string from = "tracker.from";
+    std::string trace = "tracker.trace";
+    std::string device = "tracker.device";
+    std::string display = "display.type";
+    std::string renderer = "renderer.backend";
+    std::string start = "tracker.start_s";
+    static WiringKeys config() { return {}; }
+    static WiringKeys command_line() {
+        return {"--clock",  "--tracker", "--from",     "--trace",
+                "--device", "--display", "--renderer", "--start"};
+    }
+};
+
+// A backend name (or an older spelling) to its backend. An older spelling sets *deprecation to a
+// warning that names the new value and the key; an unknown name is an error naming the key and
+// listing the names.
+Result<TrackerBackend> parse_tracker_backend(std::string_view name, const WiringKeys& keys,
+                                             std::string* deprecation = nullptr);
+
+// "real" (the system's monotonic clock) or "sim" (a simulated clock that moves only when the node
+// says so: deterministic, as fast as the machine renders).
+enum class ClockKind { real, sim };
+Result<ClockKind> parse_clock(std::string_view name, const WiringKeys& keys);
+std::unique_ptr<Clock> make_clock(ClockKind kind, int64_t sim_start_ns = 0);
+
+struct TrackerSpec {
+    TrackerBackend backend = TrackerBackend::trace;
+    std::filesystem::path from;          // capture: the pcap[.gz]; rec: the libsurvive recording
+    std::shared_ptr<const Trace> trace;  // trace: the trace replayed; sim: its motion (optional)
+    std::filesystem::path trace_path;    // for messages
+    // capture, sim, hidapi, libusb: "VID:PID[:SERIAL]" (hex; sim: default 1209:0001);
+    // rec: the recording's device name (T20, WM0, ...)
+    std::string device;
+    SimTrackerConfig sim;     // trace: rate, noise, latency, jitter (host_start/offset: filled in)
+    double start_s = 0.0;     // trace, capture: start this far into the input
+    double duration_s = 0.0;  // trace: replay this long (0: to the end)
+    // Live and simulated devices: wraps the transport backend before the device tracker opens it
+    // (`hmdnode record` tees the raw reports into its pcap). Null: none.
+    std::function<std::unique_ptr<TransportBackend>(std::unique_ptr<TransportBackend>)>
+        wrap_backend;
+};
+
+// Checks a spec against the clock before anything is opened (a usage check: files are opened by
+// make_tracker): the inputs each backend needs are given, a live device is on the real clock, the
+// device text parses. Errors name the key.
+Status check_tracker_spec(const TrackerSpec& spec, ClockKind clock, const WiringKeys& keys);
+
+struct WiredTracker {
+    std::unique_ptr<Tracker> tracker;
+    DeviceTracker* device = nullptr;  // the device tracker behind it (every backend but trace)
+    std::string label;                // what it reads, for logs ("trace FILE", "28de:2000 via ...")
+};
+
+// Makes the tracker (not started) with its first sample due at the clock's now (a file backend:
+// its first record arrives then).
+Result<WiredTracker> make_tracker(const TrackerSpec& spec, Clock& clock, const WiringKeys& keys);
+
+// The display: "mock" (the mock headset display, hal/display/mock_display.hpp), "kms" (the
+// headset's connector through KMS, hal/display/kms_display.hpp: its mode gives the eye size and
+// refresh) or "vk-display" (a VK_KHR_display display: listed and chosen, its present path is
+// planned, so an error naming it). One branch per type in make_display.
+struct DisplaySpec {
+    std::string type = "mock";
+    MockDisplayConfig mock;  // the mock panel's size, rate and frames; persistence (all types)
+    KmsDisplayConfig kms;    // kms: device, connector, mode; vk-display: connector names it
+};
+inline constexpr const char* kDisplayTypeNames = "mock, kms, vk-display";
+Status check_display_spec(const DisplaySpec& spec, const WiringKeys& keys);
+// Vsync epoch: the clock's now.
+Result<std::unique_ptr<Display>> make_display(const DisplaySpec& spec, Clock& clock,
+                                              const WiringKeys& keys);
+
+// The renderer: "vulkan" (lavapipe where no GPU is) or "gles" (OpenGL ES 3 on surfaceless EGL);
+// empty: config.backend, else HMDNODE_RENDERER, else vulkan (render/renderer.hpp). The eye size is
+// the display's.
+struct RendererSpec {
+    std::string type;
+    RendererConfig config;
+};
+Result<std::unique_ptr<Renderer>> make_renderer(const RendererSpec& spec, const DisplayInfo& panel,
+                                                const WiringKeys& keys);
+
+}  // namespace hmdnode

@@ -1,0 +1,143 @@
+// The one wiring place (wiring.hpp), its second half: backend specs -> clock, tracker, display,
+// renderer (the names and the checks: wiring_names.cpp).
+#include "hmdnode/firmware_host/wiring.hpp"
+
+#include <filesystem>
+#include <system_error>
+
+#include <spdlog/spdlog.h>
+
+#include "hmdnode/hal/sim/sim_reference_device.hpp"
+#include "hmdnode/hal/tracking/device_tracker.hpp"
+#include "hmdnode/hal/tracking/survive_recording.hpp"
+#include "hmdnode/render/vk_display.hpp"
+
+namespace hmdnode {
+
+std::unique_ptr<Clock> make_clock(ClockKind kind, int64_t sim_start_ns) {
+    if (kind == ClockKind::sim) return std::make_unique<SimulatedClock>(sim_start_ns);
+    return std::make_unique<SystemClock>();
+}
+
+Result<WiredTracker> make_tracker(const TrackerSpec& spec, Clock& clock, const WiringKeys& keys) {
+    if (Status st =
+            check_tracker_spec(spec, clock.is_simulated() ? ClockKind::sim : ClockKind::real, keys);
+        !st.ok())
+        return st.error();
+    if (spec.backend == TrackerBackend::capture || spec.backend == TrackerBackend::rec)
+        if (std::error_code ec; !std::filesystem::is_regular_file(spec.from, ec))
+            return make_error(keys.from + " " + spec.from.string() + ": no such file");
+    const int64_t now = clock.now_ns();
+    WiredTracker out;
+    auto adopt = [&](Result<std::unique_ptr<DeviceTracker>> t) -> Result<WiredTracker> {
+        if (!t.ok()) return t.error();
+        out.device = t->get();
+        out.tracker = std::move(*t);
+        return std::move(out);
+    };
+    switch (spec.backend) {
+        case TrackerBackend::trace: {
+            SimTrackerConfig tc = spec.sim;
+            tc.host_start_ns = now;
+            tc.start_offset_ns = s_to_ns(spec.start_s);
+            tc.duration_ns = s_to_ns(spec.duration_s);
+            if (!spec.trace) return make_error(keys.trace + ": not loaded");
+            Result<std::unique_ptr<Tracker>> t = create_sim_tracker(spec.trace, clock, tc);
+            if (!t.ok()) return make_error(spec.trace_path.string() + ": " + t.error().message);
+            out.tracker = std::move(*t);
+            out.label = "trace " + spec.trace_path.string();
+            return out;
+        }
+        case TrackerBackend::capture:
+            // The report start_s after the capture's first one arrives now; the earlier ones at
+            // once (decoded and fused, not shown), so the pose at the start is the live one.
+            out.label = spec.device + " from capture " + spec.from.string();
+            return adopt(
+                create_capture_tracker(spec.from, spec.device, clock, now - s_to_ns(spec.start_s)));
+        case TrackerBackend::rec: {
+            Result<SurviveRecording> r = read_survive_recording(spec.from, spec.device);
+            if (!r.ok()) return r.error();
+            out.label = spec.device + " from libsurvive recording " + spec.from.string();
+            return adopt(create_survive_tracker(
+                std::make_shared<const SurviveRecording>(std::move(*r)), clock, now));
+        }
+        case TrackerBackend::sim:
+        case TrackerBackend::hidapi:
+        case TrackerBackend::libusb: {
+            DeviceFilter filter;
+            filter.vendor_id = refproto::kDevVendorId;
+            filter.product_id = refproto::kDevProductId;
+            if (!spec.device.empty()) filter = *parse_vid_pid(std::string_view(spec.device));
+            std::unique_ptr<TransportBackend> backend;
+            if (spec.backend == TrackerBackend::sim) {
+                SimReferenceDeviceConfig sc;
+                sc.vendor_id = filter.vendor_id;
+                sc.product_id = filter.product_id;
+                if (!filter.serial.empty()) sc.serial = filter.serial;
+                backend = create_sim_reference_backend(
+                    clock, sc,
+                    spec.trace ? motion_from_trace(spec.trace, now) : sinusoidal_motion());
+            } else {
+                auto b = create_transport_backend(tracker_backend_name(spec.backend));
+                if (!b.ok())
+                    return make_error(keys.backend + " " + tracker_backend_name(spec.backend) +
+                                      ": " + b.error().message);
+                backend = std::move(*b);
+            }
+            if (spec.wrap_backend) backend = spec.wrap_backend(std::move(backend));
+            out.label = format_vid_pid(filter.vendor_id, filter.product_id) + " via " +
+                        tracker_backend_name(spec.backend);
+            DeviceTrackerConfig tc;
+            tc.filter = filter;
+            return adopt(create_device_tracker(std::move(backend),
+                                               make_codec_for(filter.vendor_id, filter.product_id),
+                                               clock, tc));
+        }
+    }
+    return make_error("unhandled tracker backend");
+}
+
+Result<std::unique_ptr<Display>> make_display(const DisplaySpec& spec, Clock& clock,
+                                              const WiringKeys& keys) {
+    if (Status st = check_display_spec(spec, keys); !st.ok()) return st.error();
+    // One branch per display type.
+    if (spec.type == "mock") {
+        MockDisplayConfig dc = spec.mock;
+        dc.vsync_epoch_ns = clock.now_ns();
+        return create_mock_display(clock, dc);
+    }
+    if (spec.type == "kms") {
+        auto k = create_kms_display(clock, spec.kms);
+        if (!k.ok()) return k.error();
+        spdlog::info("display: {} {}x{}@{:.3f} Hz, {} modeset{}", (*k)->info().name,
+                     (*k)->mode().width, (*k)->mode().height, (*k)->mode().refresh_hz,
+                     (*k)->modeset_path(),
+                     (*k)->hardware_vblank() ? "" : ", no vblank interrupt: flips on a timer");
+        return std::unique_ptr<Display>(std::move(*k));
+    }
+    if (spec.type == "vk-display") {
+        auto list = list_vulkan_displays();
+        if (!list.ok()) return list.error();
+        auto d = choose_vulkan_display(*list, spec.kms.connector);
+        if (!d.ok()) return d.error();
+        return make_error(keys.display + " vk-display: display \"" + d->name + "\" on " + d->gpu +
+                          " found, but presenting through VK_KHR_display is planned, not built "
+                          "(docs/hardware.md); use kms");
+    }
+    return make_error(keys.display + " \"" + spec.type + "\" is not available");
+}
+
+Result<std::unique_ptr<Renderer>> make_renderer(const RendererSpec& spec, const DisplayInfo& panel,
+                                                const WiringKeys& keys) {
+    RendererConfig rc = spec.config;
+    if (!spec.type.empty()) rc.backend = spec.type;
+    // The backend named, else HMDNODE_RENDERER's, else vulkan (render/renderer.hpp).
+    if (Result<std::string> b = resolve_renderer_backend(rc); !b.ok())
+        return rc.backend.empty() ? b.error()  // HMDNODE_RENDERER's: the error names it
+                                  : make_error(keys.renderer + ": " + b.error().message);
+    rc.eye_width = panel.eye_width;
+    rc.eye_height = panel.eye_height;
+    return create_renderer(rc);
+}
+
+}  // namespace hmdnode

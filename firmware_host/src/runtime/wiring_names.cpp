@@ -1,0 +1,109 @@
+// The one wiring place (wiring.hpp), its first half: the backend names and the usage checks of
+// the specs. Apart from the construction (wiring.cpp) so that the daemon's config reader links
+// without the renderer (tests/fuzz/daemon_config_fuzz.cpp). Cost: string compares.
+#include <string>
+
+#include "hmdnode/firmware_host/wiring.hpp"
+
+namespace hmdnode {
+
+const char* tracker_backend_name(TrackerBackend b) {
+    switch (b) {
+        case TrackerBackend::trace:
+            return "trace";
+        case TrackerBackend::sim:
+            return "sim";
+        case TrackerBackend::capture:
+            return "capture";
+        case TrackerBackend::rec:
+            return "rec";
+        case TrackerBackend::hidapi:
+            return "hidapi";
+        case TrackerBackend::libusb:
+            return "libusb";
+    }
+    return "?";
+}
+
+bool is_live_backend(TrackerBackend b) {
+    return b == TrackerBackend::hidapi || b == TrackerBackend::libusb;
+}
+
+bool is_file_backend(TrackerBackend b) {
+    return b == TrackerBackend::trace || b == TrackerBackend::capture || b == TrackerBackend::rec;
+}
+
+Result<TrackerBackend> parse_tracker_backend(std::string_view name, const WiringKeys& keys,
+                                             std::string* deprecation) {
+    for (TrackerBackend b : {TrackerBackend::trace, TrackerBackend::sim, TrackerBackend::capture,
+                             TrackerBackend::rec, TrackerBackend::hidapi, TrackerBackend::libusb})
+        if (name == tracker_backend_name(b)) return b;
+    // The older spellings (the daemon's config before the one vocabulary).
+    const std::pair<std::string_view, TrackerBackend> old[] = {{"sim-trace", TrackerBackend::trace},
+                                                               {"sim-device", TrackerBackend::sim}};
+    for (const auto& [o, b] : old)
+        if (name == o) {
+            if (deprecation)
+                *deprecation = keys.backend + " \"" + std::string(o) + "\" is deprecated: write " +
+                               keys.backend + " \"" + tracker_backend_name(b) + "\"";
+            return b;
+        }
+    return make_error(keys.backend + " \"" + std::string(name) + "\" is not one of " +
+                      kTrackerBackendNames);
+}
+
+Result<ClockKind> parse_clock(std::string_view name, const WiringKeys& keys) {
+    if (name == "real") return ClockKind::real;
+    if (name == "sim") return ClockKind::sim;
+    return make_error(keys.clock + " \"" + std::string(name) + "\" is not real or sim");
+}
+
+Status check_tracker_spec(const TrackerSpec& spec, ClockKind clock, const WiringKeys& keys) {
+    const char* name = tracker_backend_name(spec.backend);
+    switch (spec.backend) {
+        case TrackerBackend::trace:
+            if (!spec.trace && spec.trace_path.empty())
+                return make_error(keys.trace + " is required for " + keys.backend + " trace");
+            return {};
+        case TrackerBackend::capture:
+        case TrackerBackend::rec:
+            if (spec.from.empty())
+                return make_error(keys.from + " is required for " + keys.backend + " " + name +
+                                  (spec.backend == TrackerBackend::capture
+                                       ? " (a usbmon capture, .pcap or .pcap.gz)"
+                                       : " (a libsurvive recording, .rec or .rec.gz)"));
+            if (spec.device.empty())
+                return make_error(keys.device + " is required for " + keys.backend + " " + name +
+                                  (spec.backend == TrackerBackend::capture
+                                       ? " (the VID:PID of the captured device)"
+                                       : " (the recording's device name, e.g. T20)"));
+            if (spec.start_s > 0.0 && clock != ClockKind::sim)
+                return make_error(keys.start + " with " + keys.backend + " " + name + " needs " +
+                                  keys.clock + " sim");
+            return {};
+        case TrackerBackend::hidapi:
+        case TrackerBackend::libusb:
+            if (clock != ClockKind::real)
+                return make_error(keys.backend + " " + name + " reads a live device: it needs " +
+                                  keys.clock + " real");
+            [[fallthrough]];
+        case TrackerBackend::sim:
+            if (spec.backend != TrackerBackend::sim || !spec.device.empty())
+                if (Result<DeviceFilter> f = parse_vid_pid(std::string_view(spec.device)); !f.ok())
+                    return make_error(keys.device + ": " + f.error().message + " (required for " +
+                                      keys.backend + " " + name + ")");
+            return {};
+    }
+    return {};
+}
+
+Status check_display_spec(const DisplaySpec& spec, const WiringKeys& keys) {
+    if (spec.type != "mock" && spec.type != "kms" && spec.type != "vk-display")
+        return make_error(keys.display + " \"" + spec.type + "\" is not one of " +
+                          kDisplayTypeNames);
+    if (Status st = check_persistence(spec.mock); !st.ok())
+        return make_error("display persistence " + st.error().message);
+    return {};
+}
+
+}  // namespace hmdnode
