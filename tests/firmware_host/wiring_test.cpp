@@ -95,7 +95,8 @@ TEST(Wiring, SpecErrorsNameTheKey) {
     d.type = "hologram";
     st = check_display_spec(d, WiringKeys::config());
     ASSERT_FALSE(st.ok());
-    EXPECT_TRUE(contains(st.error().message, "display.type \"hologram\" is not available"))
+    EXPECT_TRUE(contains(st.error().message,
+                         "display.type \"hologram\" is not one of mock, kms, vk-display"))
         << st.error().message;
 }
 
