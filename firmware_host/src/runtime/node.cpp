@@ -48,16 +48,6 @@ int64_t median_ns(std::vector<int64_t> v) {
 
 }  // namespace
 
-const char* lod_allocator_name(LodAllocator a) {
-    return a == LodAllocator::greedy ? "greedy" : "threshold";
-}
-
-std::optional<LodAllocator> parse_lod_allocator(std::string_view name) {
-    if (name == "threshold") return LodAllocator::threshold;
-    if (name == "greedy") return LodAllocator::greedy;
-    return std::nullopt;
-}
-
 double registration_error(const Pose& shown, const TruthPose& truth, double distance_m) {
     if (!truth.position) return angle_between_deg(shown.orientation, truth.orientation);
     Pose t;

@@ -5,6 +5,8 @@
 
 #include "hmdnode/firmware_host/wiring.hpp"
 
+#include "hmdnode/firmware_host/node.hpp"
+
 namespace hmdnode {
 
 const char* tracker_backend_name(TrackerBackend b) {
@@ -104,6 +106,18 @@ Status check_display_spec(const DisplaySpec& spec, const WiringKeys& keys) {
     if (Status st = check_persistence(spec.mock); !st.ok())
         return make_error("display persistence " + st.error().message);
     return {};
+}
+
+// The LOD allocators' names (node.hpp): here, with the other names, so that the config's fuzz
+// harness links without the frame loop.
+const char* lod_allocator_name(LodAllocator a) {
+    return a == LodAllocator::greedy ? "greedy" : "threshold";
+}
+
+std::optional<LodAllocator> parse_lod_allocator(std::string_view name) {
+    if (name == "threshold") return LodAllocator::threshold;
+    if (name == "greedy") return LodAllocator::greedy;
+    return std::nullopt;
 }
 
 }  // namespace hmdnode
