@@ -190,8 +190,8 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         r.get(d, "mode", &c.kms.mode);
         r.get(d, "msaa", &c.msaa_samples);
         if (c.msaa_samples != 1 && c.msaa_samples != 4) r.fail("display.msaa must be 1 or 4");
-        if (type != "mock" && type != "kms" && type != "vk-display")
-            r.fail("display.type \"" + type + "\" is not one of mock, kms, vk-display");
+        if (!is_display_type(type))
+            r.fail("display.type \"" + type + "\" is not one of " + kDisplayTypeNames);
         if (type == "mock" &&
             (d.contains("device") || d.contains("connector") || d.contains("mode")))
             r.fail(

@@ -99,8 +99,12 @@ Status check_tracker_spec(const TrackerSpec& spec, ClockKind clock, const Wiring
     return {};
 }
 
+bool is_display_type(std::string_view type) {
+    return type == "mock" || type == "kms" || type == "vk-display";
+}
+
 Status check_display_spec(const DisplaySpec& spec, const WiringKeys& keys) {
-    if (spec.type != "mock" && spec.type != "kms" && spec.type != "vk-display")
+    if (!is_display_type(spec.type))
         return make_error(keys.display + " \"" + spec.type + "\" is not one of " +
                           kDisplayTypeNames);
     if (Status st = check_persistence(spec.mock); !st.ok())

@@ -118,6 +118,8 @@ struct DisplaySpec {
     KmsDisplayConfig kms;    // kms: device, connector, mode; vk-display: connector names it
 };
 inline constexpr const char* kDisplayTypeNames = "mock, kms, vk-display";
+// One of kDisplayTypeNames.
+bool is_display_type(std::string_view type);
 Status check_display_spec(const DisplaySpec& spec, const WiringKeys& keys);
 // Vsync epoch: the clock's now.
 Result<std::unique_ptr<Display>> make_display(const DisplaySpec& spec, Clock& clock,
