@@ -173,6 +173,8 @@ TEST(CliEdges, TheDaemonRefusesTheSameValuesInItsConfigNamingTheKey) {
                            {"/tracker/noise_deg", -1.0, "tracker.noise_deg"},
                            {"/display/persistence_ms", 20.0, "display.persistence_ms"},
                            {"/node/lod_tolerance_px", -1.0, "node.lod_tolerance_px"},
+                           {"/node/prediction_ms", 150.0, "node.prediction_ms"},
+                           {"/node/lod_bias", -9.0, "node.lod_bias"},
                            {"/node/lod_allocator", "iga", "node.lod_allocator"},
                            {"/node/lod_fade_frames", 16, "node.lod_fade_frames"},
                            {"/display/msaa", 2, "display.msaa"}}) {

@@ -390,10 +390,12 @@ TEST_F(DaemonControl, CommandsAnswerAndBadOnesDoNotDisturbTheLoop) {
     EXPECT_NE(gone.output.find(sock.string()), std::string::npos) << gone.output;
 }
 
-// SIGHUP at a frame boundary: a good new config's prediction and LOD tolerance apply without
+// SIGHUP at a frame boundary: a good new config's prediction, its offset, the LOD tolerance and
+// bias apply without
 // stopping the loop (RELOADING=1, then READY=1); a bad one is logged and the running config kept.
 TEST_F(DaemonControl, HangupReloadsTheConfigAndABadOneKeepsTheRunningOne) {
-    cfg["node"] = {{"predict", false}, {"lod_tolerance_px", 3.0}};
+    cfg["node"] = {
+        {"predict", false}, {"lod_tolerance_px", 3.0}, {"prediction_ms", -7.5}, {"lod_bias", 1.5}};
     cfg["scene"] = HMDNODE_SOURCE_DIR "/no-such-scene.glb";  // needs a restart: named, not loaded
     std::ofstream(dir / "hmdnoded.json") << cfg.dump(1);
     ::kill(pid, SIGHUP);
@@ -405,6 +407,8 @@ TEST_F(DaemonControl, HangupReloadsTheConfigAndABadOneKeepsTheRunningOne) {
     nlohmann::json st = ctl_json(sock, "status");
     EXPECT_FALSE(st["predict"].get<bool>()) << st;
     EXPECT_DOUBLE_EQ(st["lod_tolerance_px"].get<double>(), 3.0) << st;
+    EXPECT_DOUBLE_EQ(st["prediction_ms"].get<double>(), -7.5) << st;
+    EXPECT_DOUBLE_EQ(st["lod_bias"].get<double>(), 1.5) << st;
     // The scene is read again off the loop; one that cannot be read keeps the running one.
     st = wait_scene_loaded();
     EXPECT_EQ(st["scene"], HMDNODE_DEMO_SCENE) << st;

@@ -112,11 +112,15 @@ struct PacedRun {
     int renders = 0, pieces = 0;
 };
 
-// Runs the node for `seconds` with the scripted costs and returns its presents and summary.
+// Runs the node for `seconds` with the scripted costs and returns its presents and summary;
+// `trace` (default: yaw_trace) is what the simulated tracker plays, `config` may change the node's
+// settings and `midway` runs once on the node at seconds/2.
 PacedRun run(std::function<int64_t(int)> render_cost, int64_t warp_cost, double seconds,
-             bool warp = true) {
+             bool warp = true, std::shared_ptr<const Trace> trace = nullptr,
+             std::function<void(NodeConfig&)> config = {},
+             std::function<void(NodeRuntime&)> midway = {}) {
     SimulatedClock clock(0);
-    auto trace = yaw_trace(seconds + 0.5);
+    if (!trace) trace = yaw_trace(seconds + 0.5);
     SimTrackerConfig tc;
     auto tracker = create_sim_tracker(trace, clock, tc);
     EXPECT_TRUE(tracker.ok());
@@ -131,6 +135,7 @@ PacedRun run(std::function<int64_t(int)> render_cost, int64_t warp_cost, double 
     nc.warp = warp;
     nc.sim_cost.base_ns = 0;
     nc.sim_cost.warp_ns = 0;
+    if (config) config(nc);
     NodeRuntime node(clock, **tracker, **display, renderer, scene, nc);
     EXPECT_TRUE(node.start().ok());
     TruthFn truth = [&](int64_t t) -> std::optional<TruthPose> {
@@ -138,7 +143,12 @@ PacedRun run(std::function<int64_t(int)> render_cost, int64_t warp_cost, double 
     };
     PacedRun r;
     FrameRecord rec;
+    bool midway_done = !midway;
     while (clock.now_ns() < s_to_ns(seconds)) {
+        if (!midway_done && clock.now_ns() >= s_to_ns(seconds / 2)) {
+            midway(node);
+            midway_done = true;
+        }
         Result<FrameOutcome> fr = node.run_frame(&rec, truth);
         EXPECT_TRUE(fr.ok());
         if (!fr.ok()) break;
@@ -269,4 +279,51 @@ TEST(Accounting, EveryVsyncWithoutAFrameOnTimeIsMissedAndRepeatedFramesAge) {
     // 5: 52-37=15; 6: 62-57=5.
     EXPECT_NEAR(s.latency_ms.max, 17.0, 1e-9);
     EXPECT_NEAR(s.latency_ms.p50, (7.0 + 11.0) / 2.0, 1e-9);
+}
+
+// Recentre (the control socket's `recentre`): the heading of the newest pose becomes straight
+// ahead (-z) while its pitch stays (gravity fixes it), and its position becomes the default head
+// position; later motion is turned and moved with it.
+TEST(Controls, RecentreTurnsTheHeadingToStraightAheadAndMovesThePositionHome) {
+    auto still = std::make_shared<Trace>();
+    const glm::dquat turned = glm::angleAxis(deg_to_rad(40.0), glm::dvec3(0, 1, 0)) *
+                              glm::angleAxis(deg_to_rad(10.0), glm::dvec3(1, 0, 0));
+    for (int i = 0; i <= 1500; ++i) {
+        TraceSample s;
+        s.time_ns = int64_t(i) * kNsPerMs;
+        s.orientation = turned;
+        s.position = glm::dvec3(0.5, 1.2, 0.3);
+        still->samples.push_back(s);
+    }
+    const glm::dvec3 home{0.0, 1.6, 0.0};
+    const PacedRun r = run([](int) { return 2 * kNsPerMs; }, kNsPerMs, 1.0, true, still, {},
+                           [](NodeRuntime& n) { ASSERT_TRUE(n.recentre().ok()); });
+    ASSERT_GT(r.frames.size(), 60u);
+    // Before: the pose as tracked. After: heading 0, pitch 10 degrees, at home.
+    const Pose before = r.frames.front().shown_pose;
+    const Pose after = r.frames.back().shown_pose;
+    const glm::dvec3 fb = forward_of(before.orientation), fa = forward_of(after.orientation);
+    EXPECT_NEAR(rad_to_deg(std::atan2(-fb.x, -fb.z)), 40.0, 1e-6);
+    EXPECT_NEAR(rad_to_deg(std::atan2(-fa.x, -fa.z)), 0.0, 1e-6);
+    EXPECT_NEAR(rad_to_deg(std::asin(fa.y)), 10.0, 1e-6);
+    EXPECT_NEAR(glm::length(before.position - glm::dvec3(0.5, 1.2, 0.3)), 0.0, 1e-9);
+    EXPECT_NEAR(glm::length(after.position - home), 0.0, 1e-9);
+    // The head's own roll stays: the right vector is level before and after.
+    EXPECT_NEAR((after.orientation * glm::dvec3(1, 0, 0)).y, 0.0, 1e-9);
+}
+
+// `node.prediction_ms` (config and control socket) predicts that much further ahead: with a
+// 90 deg/s yaw, 20 ms more turns the shown heading 1.8 degrees further.
+TEST(Controls, APredictionOffsetFromTheConfigTurnsTheShownPoseAhead) {
+    auto heading = [](const FrameRecord& f) {
+        const glm::dvec3 v = forward_of(f.shown_pose.orientation);
+        return rad_to_deg(std::atan2(-v.x, -v.z));
+    };
+    const PacedRun plain = run([](int) { return 2 * kNsPerMs; }, kNsPerMs, 1.0, false);
+    const PacedRun ahead = run([](int) { return 2 * kNsPerMs; }, kNsPerMs, 1.0, false, nullptr,
+                               [](NodeConfig& c) { c.prediction_offset_ms = 20.0; });
+    ASSERT_EQ(plain.frames.size(), ahead.frames.size());
+    const size_t i = plain.frames.size() / 2;  // a heading well inside (-180, 180]
+    ASSERT_EQ(plain.frames[i].vsync_ns, ahead.frames[i].vsync_ns);
+    EXPECT_NEAR(heading(ahead.frames[i]) - heading(plain.frames[i]), 1.8, 1e-6);
 }

@@ -1,5 +1,6 @@
 #include "daemon/config.hpp"
 
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <limits>
@@ -216,15 +217,18 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         if (!frames_dir.empty()) c.display.frames_dir = resolve(frames_dir);
     }
     json n = j.value("node", json::object());
-    if (r.check_keys(n, "node",
-                     {"ipd_m", "predict", "lod_tolerance_px", "head_height_m", "warp", "distortion",
-                      "headset", "mesh", "lod_allocator", "lod_fade_frames"})) {
+    if (r.check_keys(
+            n, "node",
+            {"ipd_m", "predict", "prediction_ms", "lod_tolerance_px", "lod_bias", "head_height_m",
+             "warp", "distortion", "headset", "mesh", "lod_allocator", "lod_fade_frames"})) {
         std::string headset;
         std::string allocator = lod_allocator_name(c.node.lod_allocator);
         int mesh = c.node.mesh_cols;
         r.get(n, "ipd_m", &c.node.rig.ipd_m);
         r.get(n, "predict", &c.node.predict);
+        r.get(n, "prediction_ms", &c.node.prediction_offset_ms);
         r.get(n, "lod_tolerance_px", &c.node.lod.tolerance_px);
+        r.get(n, "lod_bias", &c.node.lod_bias);
         r.get(n, "head_height_m", &c.node.default_head_position.y);
         r.get(n, "warp", &c.node.warp);
         r.get(n, "distortion", &c.node.distortion);
@@ -240,6 +244,15 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         else
             r.fail("node.lod_allocator \"" + allocator + "\" is not threshold or greedy");
         if (c.node.lod.tolerance_px < 0.0) r.fail("node.lod_tolerance_px must be >= 0");
+        if (!(std::fabs(c.node.prediction_offset_ms) <= NodeRuntime::kMaxPredictionOffsetMs))
+            r.fail("node.prediction_ms must be between -" +
+                   std::to_string(int(NodeRuntime::kMaxPredictionOffsetMs)) + " and " +
+                   std::to_string(int(NodeRuntime::kMaxPredictionOffsetMs)));
+        if (!(std::fabs(c.node.lod_bias) <= NodeRuntime::kMaxLodBias))
+            r.fail("node.lod_bias must be between -" +
+                   std::to_string(int(NodeRuntime::kMaxLodBias)) + " and " +
+                   std::to_string(int(NodeRuntime::kMaxLodBias)) +
+                   " (the tolerance is scaled by 2^lod_bias)");
         if (mesh < 0 || mesh > 512) r.fail("node.mesh must be between 0 (automatic) and 512");
         c.node.mesh_cols = c.node.mesh_rows = mesh;
         if (!headset.empty()) {

@@ -338,6 +338,9 @@ int main(int argc, char** argv) {
             } else {
                 node.set_predict(next->node.predict);
                 (void)node.set_lod_tolerance_px(next->node.lod.tolerance_px);  // checked: >= 0
+                // Checked by the config reader (in range, finite).
+                (void)node.set_prediction_offset_ms(next->node.prediction_offset_ms);
+                (void)node.set_lod_bias(next->node.lod_bias);
                 cfg->status_path = next->status_path;
                 cfg->status_every_s = next->status_every_s;
                 std::string restart;
@@ -376,8 +379,10 @@ int main(int argc, char** argv) {
                 if (next->node.lod_fade_frames != cfg->node.lod_fade_frames)
                     needs_restart("node.lod_fade_frames");
                 if (next->control_path != cfg->control_path) needs_restart("control");
-                spdlog::info("reload: applied predict, lod_tolerance_px, status{}{}{}", scene_note,
-                             restart.empty() ? "" : "; needs a restart to change: ", restart);
+                spdlog::info(
+                    "reload: applied predict, prediction_ms, lod_tolerance_px, lod_bias, "
+                    "status{}{}{}",
+                    scene_note, restart.empty() ? "" : "; needs a restart to change: ", restart);
             }
             notifier.notify(ready ? "READY=1" : "STATUS=reloaded, waiting for the first frame");
         }

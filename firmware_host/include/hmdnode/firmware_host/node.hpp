@@ -75,6 +75,12 @@ struct NodeConfig {
                                            // distortion is off
     glm::dvec3 default_head_position{0.0, 1.6, 0.0};  // used when the tracker gives no position
     bool predict = true;                              // false: render the newest sample's pose
+    // Predict this much further ahead than the photon time (ms, may be negative; at most
+    // NodeRuntime::kMaxPredictionOffsetMs either way): the control socket's `prediction_ms`.
+    double prediction_offset_ms = 0.0;
+    // The LOD tolerance is scaled by 2^lod_bias (at most NodeRuntime::kMaxLodBias either way):
+    // the control socket's `lod_bias`.
+    double lod_bias = 0.0;
     PoseHistoryConfig history;
     LodSelectorParams lod;
     LodAllocator lod_allocator = LodAllocator::threshold;
