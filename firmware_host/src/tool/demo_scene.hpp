@@ -21,14 +21,15 @@ namespace hmdnode {
 // The bake settings of the demo scene (docs/baking.md "Demo scene"), modest so that the
 // build-time generation stays a matter of seconds: 32 paths per texel with the indirect part's
 // fireflies clamped (factor 8), the direct light filtered by 5 edge-aware A-trous passes and the
-// indirect light by 5 variance-guided ones, 2 paths per vertex sample, 2 bounces, 4 validity rays,
+// indirect light by 5 variance-guided ones, 64 paths per vertex sample (with 2 the LOD
+// objects' per-vertex light glittered, each level with its own noise), 2 bounces, 4 validity rays,
 // the lightmap's 8-bit range set by the 98th percentile texel (the insides of the lamp shades
 // clamp). Shared with bench/bake_noise_bench.cpp, which rebakes the room with them.
 inline BakeOptions demo_bake_options() {
     BakeOptions o;
     o.samples = 32;
     o.firefly_factor = 8.0f;
-    o.vertex_samples = 2;
+    o.vertex_samples = 64;
     o.bounces = 2;
     o.validity_rays = 4;
     o.denoise_iterations = 5;
