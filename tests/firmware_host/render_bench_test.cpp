@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -80,10 +81,36 @@ TEST(RenderBench, FullDetailAgainstItselfIsIdentical) {
     EXPECT_EQ(s["lod"]["triangles_mean"], s["full"]["triangles_mean"]);
 }
 
+std::string read_bytes(const fs::path& p) {
+    std::ifstream f(p, std::ios::binary);
+    return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+}
+
+// --msaa 4 renders both the LOD and the full-detail frames with four samples: full detail still
+// matches itself exactly, the report names the samples, and the images are not the 1x ones (edges
+// get intermediate values).
+TEST(RenderBench, MsaaAppliesToBothFramesAndIsReported) {
+    const fs::path dir = hmdnode::test::fresh_temp_dir("hmdnode_render_bench_msaa");
+    for (int samples : {1, 4}) {
+        const fs::path out = dir / std::to_string(samples);
+        fs::create_directories(out);
+        const auto r = run(bench("--frames 0:1 --lod full --compare full --msaa " +
+                                     std::to_string(samples) + " --images " + out.string(),
+                                 out / "r.json"));
+        ASSERT_EQ(r.code, 0) << r.output;
+        const nlohmann::json j = read_json(out / "r.json");
+        EXPECT_EQ(j["msaa_samples"], samples);
+        EXPECT_EQ(j["summary"]["psnr_db"]["min"].get<double>(), hmdnode::kPsnrCapDb);
+    }
+    const std::string one = read_bytes(dir / "1" / "full_00000.png");
+    ASSERT_FALSE(one.empty());
+    EXPECT_NE(one, read_bytes(dir / "4" / "full_00000.png"));
+}
+
 TEST(RenderBench, UsageErrorsExitTwoAndWriteNothing) {
     const fs::path dir = hmdnode::test::fresh_temp_dir("hmdnode_render_bench_usage");
-    for (const char* bad :
-         {"--frames 5:5", "--frames x", "--lod level=-1", "--lod coarse", "--compare lod"}) {
+    for (const char* bad : {"--frames 5:5", "--frames x", "--lod level=-1", "--lod coarse",
+                            "--compare lod", "--msaa 2"}) {
         const auto r = run(bench(bad, dir / "r.json"));
         EXPECT_EQ(r.code, 2) << bad << ": " << r.output;
         EXPECT_FALSE(fs::exists(dir / "r.json")) << bad;

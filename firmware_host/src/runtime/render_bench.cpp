@@ -119,6 +119,8 @@ std::string lod_mode_name(const LodMode& mode) {
 Result<RenderBenchResult> run_render_bench(const RenderBenchOptions& opt) {
     if (opt.first_frame < 0 || opt.end_frame <= opt.first_frame)
         return make_error("--frames: expected FIRST:END with 0 <= FIRST < END");
+    if (opt.msaa_samples != 1 && opt.msaa_samples != 4)
+        return make_error("--msaa " + std::to_string(opt.msaa_samples) + ": expected 1 or 4");
     for (const auto& p : {opt.report, opt.plot})
         if (!p.empty())
             if (Status st = check_output_file(p); !st.ok()) return st.error();
@@ -152,6 +154,7 @@ Result<RenderBenchResult> run_render_bench(const RenderBenchOptions& opt) {
     ro.node.distortion = false;
     ro.node.lod.tolerance_px = opt.tolerance_px;
     ro.node.lod_allocator = opt.allocator;
+    ro.renderer.msaa_samples = opt.msaa_samples;  // the greedy allocator learns its cost
     // Only the greedy allocator's levels depend on the render cost (it learns the simulated
     // clock's model); otherwise a fixed cost that fits a period skips the calibration renders
     // (slow at full detail on a heavy scene) and makes rendered frame i the replay's vsync i.
@@ -176,6 +179,7 @@ Result<RenderBenchResult> run_render_bench(const RenderBenchOptions& opt) {
     RendererConfig rc;
     rc.eye_width = opt.eye_width;
     rc.eye_height = opt.eye_height;
+    rc.msaa_samples = opt.msaa_samples;
     Result<std::unique_ptr<Renderer>> renderer = create_vulkan_renderer(rc);
     if (!renderer.ok()) return renderer.error();
     Renderer& ren = **renderer;
@@ -334,6 +338,7 @@ nlohmann::json render_bench_report_json(const RenderBenchOptions& opt, const Ren
             {"lod", lod_mode_name(opt.lod)},
             {"allocator", lod_allocator_name(opt.allocator)},
             {"lod_tolerance_px", opt.tolerance_px},
+            {"msaa_samples", opt.msaa_samples},
             {"compare_full", opt.compare_full},
             {"device", r.device_name},
             {"machine",

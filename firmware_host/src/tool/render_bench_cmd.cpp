@@ -36,6 +36,10 @@ void add_render_bench_command(CLI::App& app) {
         ->check(CLI::IsMember({"threshold", "greedy"}));
     c->add_option("--lod-tolerance-px", opt->tolerance_px, "LOD pixel tolerance at the gaze point")
         ->check(CLI::NonNegativeNumber);
+    c->add_option("--msaa", opt->msaa_samples,
+                  "Samples per pixel of the LOD and the full-detail frames: 1, or 4 (MSAA), so "
+                  "that the comparison measures geometry rather than aliasing")
+        ->check(CLI::IsMember({1, 4}));
     c->add_option("--compare", *compare,
                   "full: also render full detail from each pose and compare (PSNR, SSIM)")
         ->check(CLI::IsMember({"full"}));

@@ -38,6 +38,7 @@ struct RenderBenchOptions {
     LodMode lod;
     LodAllocator allocator = LodAllocator::threshold;
     double tolerance_px = 1.0;
+    int msaa_samples = 1;              // 1 or 4: MSAA of both the LOD and the full-detail frames
     bool compare_full = false;         // also render full detail from each pose, and compare
     std::filesystem::path images_dir;  // empty: no PNGs; else lod_NNNNN.png (+ full_NNNNN.png)
     int images_every = 1;
