@@ -7,17 +7,19 @@
 // a node with its own transform and MSFT_lod nodes pointing at the shared level meshes), so the
 // file and the GPU hold each level once while the draws count every copy's triangles.
 //
-// Light: converged per-vertex irradiance (_LIGHT_0) from one path-traced bake (bake/) of each
+// Light: per-vertex irradiance (_LIGHT_0) from one path-traced bake (bake/) of each model's base
 // level standing alone on a ground plane under a sun and a sky, with `vertex_samples` paths per
-// vertex (256 by default: the per-vertex noise is then below an 8-bit step, where the demo's 2
-// paths glitter). Because the copies share meshes they share that light: self-shadowing and
-// ground occlusion are baked, shadows between objects are not.
+// vertex (256 by default), carried onto the coarser levels by filtering the base's light over
+// each level vertex's footprint (lod/attribute_transfer.hpp): baking every level on its own gave
+// each its own noise, and LOD against full detail then measured that noise (37 dB at any
+// tolerance). Because the copies share meshes they share that light: self-shadowing and ground
+// occlusion are baked, shadows between objects are not.
 //
 // Placement: the nearest grid cells (2.5 m apart) around the origin beyond 2 m, jittered and
 // turned at random (Pcg32 from `seed`), sized 0.6-1.2 m.
 //
 // Cost: the chains O(T log T) per model (T source triangles), the bake O(V * vertex_samples *
-// path length) rays for the V vertices of all levels (~60,000), placement O(objects).
+// path length) rays for the V base vertices (~45,000), the transfer O(V), placement O(objects).
 #include "tool/stress_scene.hpp"
 
 #include <algorithm>
@@ -33,6 +35,7 @@
 #include "hmdnode/bake/bake.hpp"
 #include "hmdnode/bake/path_tracer.hpp"
 #include "hmdnode/core/obj.hpp"
+#include "hmdnode/lod/attribute_transfer.hpp"
 #include "tool/demo_scene.hpp"
 
 namespace hmdnode {
@@ -114,7 +117,7 @@ Result<Scene> make_stress_scene(const fs::path& data_dir, const StressSceneOptio
     }
     const double t_lod = seconds_since(t0);
 
-    // The bake: every level of every model alone on a ground plane, 8 m apart (far enough that
+    // The bake: each model's base level alone on a ground plane, 8 m apart (far enough that
     // the sun's shadows do not reach a neighbour), at its copies' typical size.
     const Clock::time_point t_bake0 = Clock::now();
     Scene studio;
@@ -130,21 +133,21 @@ Result<Scene> make_stress_scene(const fs::path& data_dir, const StressSceneOptio
     studio.materials.push_back(ground_mat);
     const int ground_material = int(studio.materials.size()) - 1;
     int slot = 0;
-    for (size_t mi = 0; mi < chains.size(); ++mi)
-        for (Primitive& level : chains[mi].levels) {
-            level.material = int(mi);
-            Mesh mesh;
-            mesh.name = std::string(kModels[mi].name) + "_studio";
-            mesh.primitives.push_back(level);
-            Node n;
-            n.name = mesh.name;
-            studio.meshes.push_back(std::move(mesh));
-            n.mesh = int(studio.meshes.size()) - 1;
-            n.translation = glm::dvec3(8.0 * slot++, 0.0, 0.0);
-            n.scale = glm::dvec3(model_scale[mi]);
-            studio.nodes.push_back(n);
-            studio.roots.push_back(int(studio.nodes.size()) - 1);
-        }
+    // Only each model's base level is baked; the coarser levels get its light by transfer.
+    for (size_t mi = 0; mi < chains.size(); ++mi) {
+        for (Primitive& level : chains[mi].levels) level.material = int(mi);
+        Mesh mesh;
+        mesh.name = std::string(kModels[mi].name) + "_studio";
+        mesh.primitives.push_back(chains[mi].levels.front());
+        Node n;
+        n.name = mesh.name;
+        studio.meshes.push_back(std::move(mesh));
+        n.mesh = int(studio.meshes.size()) - 1;
+        n.translation = glm::dvec3(8.0 * slot++, 0.0, 0.0);
+        n.scale = glm::dvec3(model_scale[mi]);
+        studio.nodes.push_back(n);
+        studio.roots.push_back(int(studio.nodes.size()) - 1);
+    }
     {
         Mesh g;
         g.name = "ground";
@@ -174,13 +177,24 @@ Result<Scene> make_stress_scene(const fs::path& data_dir, const StressSceneOptio
     s.materials = studio.materials;
     std::vector<std::vector<int>> level_mesh(chains.size());
     size_t studio_mesh = 0;
-    for (size_t mi = 0; mi < chains.size(); ++mi)
+    for (size_t mi = 0; mi < chains.size(); ++mi) {
+        const Mesh& baked_base = studio.meshes[studio_mesh++];
         for (size_t k = 0; k < chains[mi].levels.size(); ++k) {
-            Mesh mesh = studio.meshes[studio_mesh++];
+            Mesh mesh = baked_base;
             mesh.name = std::string(kModels[mi].name) + (k ? "_lod" + std::to_string(k) : "");
+            if (k > 0) {
+                // The coarser levels show the base's light filtered over their footprints.
+                Primitive level = chains[mi].levels[k];
+                Result<std::vector<glm::vec3>> light =
+                    transfer_vertex_light(baked_base.primitives[0], level);
+                if (!light) return make_error("stress scene: " + light.error().message);
+                level.light = std::move(light).value();
+                mesh.primitives[0] = std::move(level);
+            }
             s.meshes.push_back(std::move(mesh));
             level_mesh[mi].push_back(int(s.meshes.size()) - 1);
         }
+    }
     {
         Mesh g = studio.meshes[studio_mesh];
         g.primitives[0].positions = quad_xz(200.0f, ground_material).positions;
