@@ -102,3 +102,26 @@ TEST(DaemonConfig, DisplayTypesAndTheirFields) {
         EXPECT_NE(r.output.find(text), std::string::npos) << name << ": " << r.output;
     }
 }
+
+// "eye_tracker": {"backend": "none" | "trace"} (docs/daemon.md): a wrong name, or a trace without
+// gaze columns, is refused naming the key or the file (exit 2); the bundled gaze trace runs.
+TEST(DaemonConfig, EyeTrackerBackendAndItsTrace) {
+    const hmdnode::test::CommandRun bad =
+        run_with("eye_bad", {{"eye_tracker", {{"backend", "tobii"}}}});
+    EXPECT_EQ(bad.code, 2) << bad.output;
+    EXPECT_NE(bad.output.find("eye_tracker.backend \"tobii\" is not one of none, trace"),
+              std::string::npos)
+        << bad.output;
+    const hmdnode::test::CommandRun no_gaze =
+        run_with("eye_no_gaze", {{"eye_tracker", {{"backend", "trace"}}}});
+    EXPECT_EQ(no_gaze.code, 2) << no_gaze.output;
+    EXPECT_NE(no_gaze.output.find("corbillon2018_user1.csv: the trace has no gaze columns"),
+              std::string::npos)
+        << no_gaze.output;
+
+    const hmdnode::test::CommandRun ok = run_with(
+        "eye_ok",
+        {{"eye_tracker", {{"backend", "trace"}}},
+         {"tracker", {{"trace", HMDNODE_SOURCE_DIR "/data/traces/corbillon2018_user1_gaze.csv"}}}});
+    EXPECT_EQ(ok.code, 0) << ok.output;
+}

@@ -152,6 +152,7 @@ Result<RenderBenchResult> run_render_bench(const RenderBenchOptions& opt) {
     ro.node.distortion = false;
     ro.node.lod.tolerance_px = opt.tolerance_px;
     ro.node.lod_allocator = opt.allocator;
+    ro.eye_tracker = opt.eye_tracker;
     // Only the greedy allocator's levels depend on the render cost (it learns the simulated
     // clock's model); otherwise a fixed cost that fits a period skips the calibration renders
     // (slow at full detail on a heavy scene) and makes rendered frame i the replay's vsync i.
@@ -159,6 +160,8 @@ Result<RenderBenchResult> run_render_bench(const RenderBenchOptions& opt) {
         ro.frame_cost = FrameCostModel{};
     Result<ReplayResult> replay = run_replay(ro);
     if (!replay.ok()) return replay.error();
+    out.gaze_source = gaze_source_summary(replay->summary);
+    out.gaze_frames = replay->summary.gaze_frames;
     std::vector<const FrameRecord*> records;
     for (const FrameRecord& f : replay->frames)
         if (f.kind == FrameKind::new_frame && int64_t(f.frame) >= opt.first_frame &&
@@ -334,6 +337,9 @@ nlohmann::json render_bench_report_json(const RenderBenchOptions& opt, const Ren
             {"lod", lod_mode_name(opt.lod)},
             {"allocator", lod_allocator_name(opt.allocator)},
             {"lod_tolerance_px", opt.tolerance_px},
+            {"eye_tracker", eye_tracker_backend_name(opt.eye_tracker)},
+            {"gaze_source", r.gaze_source},
+            {"gaze_frames", r.gaze_frames},
             {"compare_full", opt.compare_full},
             {"device", r.device_name},
             {"machine",
