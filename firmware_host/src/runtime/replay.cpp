@@ -213,8 +213,7 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     spec.start_s = opt.start_s;
     spec.duration_s = opt.duration_s;
     if (Status st = check_tracker_spec(spec, clock_kind, keys); !st.ok()) return st.error();
-    // Only the trace backend has a truth to compare with (the sim device's motion is the trace,
-    // but its fused pose lags it by the device's latency: no truth there either).
+    // The eye tracker: the trace's gaze columns, replayed with the head (none: the lens centre).
     EyeTrackerSpec eye_spec;
     eye_spec.backend = opt.eye_tracker;
     eye_spec.trace = trace;
@@ -223,6 +222,8 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     eye_spec.duration_s = opt.duration_s;
     if (opt.eye_tracker == EyeTrackerBackend::trace && !trace)
         return make_error(keys.eye_tracker + " trace needs " + keys.trace);
+    // Only the trace backend has a truth to compare with (the sim device's motion is the trace,
+    // but its fused pose lags it by the device's latency: no truth there either).
     const std::shared_ptr<const Trace> truth_trace =
         opt.tracker_backend == TrackerBackend::trace ? trace : nullptr;
 
