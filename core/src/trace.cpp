@@ -17,7 +17,10 @@ namespace {
 
 using trace_text::in_quotes;
 
+// v1: head poses; v2 adds the optional gaze group. The writer writes v2 only when there is gaze,
+// so a trace without it stays readable by a v1 reader.
 constexpr std::string_view kVersionComment = "hmdnode trace v1";
+constexpr std::string_view kVersion2Comment = "hmdnode trace v2";
 constexpr std::string_view kVersionPrefix = "hmdnode trace v";
 constexpr double kMinNorm = 0.9;
 constexpr double kMaxNorm = 1.1;
@@ -40,17 +43,23 @@ enum Col : int {
     kAx,
     kAy,
     kAz,
+    kEx,
+    kEy,
+    kEz,
+    kEc,
     kColCount
 };
 constexpr std::array<std::string_view, kColCount> kColNames = {
-    "time_ns", "qw", "qx", "qy", "qz", "px", "py", "pz", "gx", "gy", "gz", "ax", "ay", "az"};
+    "time_ns", "qw", "qx", "qy", "qz", "px",     "py",     "pz",     "gx",
+    "gy",      "gz", "ax", "ay", "az", "gaze_x", "gaze_y", "gaze_z", "gaze_conf"};
 struct Group {
     int first;
     bool required;
 };
-constexpr std::array<Group, 4> kGroups = {{{kQw, true}, {kPx, false}, {kGx, false}, {kAx, false}}};
+constexpr std::array<Group, 5> kGroups = {
+    {{kQw, true}, {kPx, false}, {kGx, false}, {kAx, false}, {kEx, false}}};
 constexpr int group_size(int first) {
-    return first == kQw ? 4 : 3;
+    return first == kQw || first == kEx ? 4 : 3;
 }
 
 std::string known_columns() {
@@ -139,10 +148,10 @@ Result<Trace> parse_trace_csv(const std::string& text, const std::string& source
             std::string_view c = trace_text::trim(line.text).substr(1);
             if (!c.empty() && c.front() == ' ') c.remove_prefix(1);
             std::string_view ct = trace_text::trim(c);
-            if (ct == kVersionComment) continue;
+            if (ct == kVersionComment || ct == kVersion2Comment) continue;
             if (ct.substr(0, kVersionPrefix.size()) == kVersionPrefix)
                 return make_error(where(source, line.number) + "unsupported trace version " +
-                                  in_quotes(ct) + " (this reader knows v1)");
+                                  in_quotes(ct) + " (this reader knows v1 and v2)");
             // note: a stray '\r' (not part of a line ending) is dropped; the writer refuses it.
             std::string& kept = trace.comments.emplace_back(c);
             kept.erase(std::remove(kept.begin(), kept.end(), '\r'), kept.end());
@@ -228,6 +237,26 @@ Result<Trace> parse_trace_csv(const std::string& text, const std::string& source
         if (header->has(kPx)) s.position = glm::dvec3(v[kPx], v[kPy], v[kPz]);
         if (header->has(kGx)) s.gyro = glm::dvec3(v[kGx], v[kGy], v[kGz]);
         if (header->has(kAx)) s.accel = glm::dvec3(v[kAx], v[kAy], v[kAz]);
+        if (header->has(kEx)) {
+            TraceGaze g{glm::dvec3(v[kEx], v[kEy], v[kEz]), v[kEc]};
+            if (!(g.confidence >= 0.0 && g.confidence <= 1.0))
+                return err(kEc, "gaze confidence " + in_quotes(trace_text::trim(fields[kEc])) +
+                                    " is outside [0, 1]");
+            // A gaze with confidence 0 is no gaze: its direction is kept as written, unused.
+            const double gn = glm::length(g.direction);
+            if (g.valid() && !(gn >= kMinNorm && gn <= kMaxNorm)) {
+                char buf[64];
+                std::snprintf(buf, sizeof buf, "%.6g", gn);
+                return make_error(where(source, line.number) + "columns " +
+                                  std::to_string(header->field[kEx] + 1) + "," +
+                                  std::to_string(header->field[kEy] + 1) + "," +
+                                  std::to_string(header->field[kEz] + 1) +
+                                  " (gaze_x,gaze_y,gaze_z): gaze direction norm " + buf +
+                                  " is outside [0.9, 1.1] (a valid gaze is a unit vector)");
+            }
+            if (g.valid() && std::abs(gn - 1.0) > kNormTolerance) g.direction /= gn;
+            s.gaze = g;
+        }
         trace.samples.push_back(s);
         prev_line = line.number;
     }
@@ -250,16 +279,18 @@ Result<std::string> format_trace_csv(const Trace& trace) {
     const bool has_p = first.position.has_value();
     const bool has_g = first.gyro.has_value();
     const bool has_a = first.accel.has_value();
+    const bool has_e = first.gaze.has_value();
 
     std::string out;
-    out.reserve(64 + trace.samples.size() * 120);
+    out.reserve(64 + trace.samples.size() * (has_e ? 200 : 120));
     out += "# ";
-    out += kVersionComment;
+    out += has_e ? kVersion2Comment : kVersionComment;
     out += '\n';
     for (const std::string& c : trace.comments) {
         if (c.find_first_of("\r\n") != std::string::npos)
             return make_error("trace comment " + in_quotes(c) + " contains a line break");
-        if (trace_text::trim(c) == kVersionComment) continue;
+        if (trace_text::trim(c) == kVersionComment || trace_text::trim(c) == kVersion2Comment)
+            continue;
         out += "# ";
         out += c;
         out += '\n';
@@ -268,6 +299,7 @@ Result<std::string> format_trace_csv(const Trace& trace) {
     if (has_p) out += ",px,py,pz";
     if (has_g) out += ",gx,gy,gz";
     if (has_a) out += ",ax,ay,az";
+    if (has_e) out += ",gaze_x,gaze_y,gaze_z,gaze_conf";
     out += '\n';
 
     auto put3 = [&](const glm::dvec3& v) {
@@ -287,8 +319,8 @@ Result<std::string> format_trace_csv(const Trace& trace) {
             return make_error(at + "time is not after the previous sample's " +
                               std::to_string(trace.samples[i - 1].time_ns));
         if (s.position.has_value() != has_p || s.gyro.has_value() != has_g ||
-            s.accel.has_value() != has_a)
-            return make_error(at + "has a different set of position/gyro/accel than sample 0");
+            s.accel.has_value() != has_a || s.gaze.has_value() != has_e)
+            return make_error(at + "has a different set of position/gyro/accel/gaze than sample 0");
         const glm::dquat& q = s.orientation;
         double norm = std::sqrt(glm::dot(q, q));
         if (!(norm >= kMinNorm && norm <= kMaxNorm))
@@ -296,6 +328,14 @@ Result<std::string> format_trace_csv(const Trace& trace) {
         if ((has_p && !finite3(*s.position)) || (has_g && !finite3(*s.gyro)) ||
             (has_a && !finite3(*s.accel)))
             return make_error(at + "a value is not finite");
+        if (has_e) {
+            const TraceGaze& g = *s.gaze;
+            if (!finite3(g.direction) || !(g.confidence >= 0.0 && g.confidence <= 1.0))
+                return make_error(at + "gaze not finite or confidence outside [0, 1]");
+            const double gn = glm::length(g.direction);
+            if (g.valid() && !(gn >= kMinNorm && gn <= kMaxNorm))
+                return make_error(at + "valid gaze direction norm outside [0.9, 1.1]");
+        }
         trace_text::append_int64(out, s.time_ns);
         for (double c : {q.w, q.x, q.y, q.z}) {
             out += ',';
@@ -304,6 +344,11 @@ Result<std::string> format_trace_csv(const Trace& trace) {
         if (has_p) put3(*s.position);
         if (has_g) put3(*s.gyro);
         if (has_a) put3(*s.accel);
+        if (has_e) {
+            put3(s.gaze->direction);
+            out += ',';
+            trace_text::append_double(out, s.gaze->confidence);
+        }
         out += '\n';
     }
     return out;
@@ -368,6 +413,25 @@ TraceStats compute_trace_stats(const Trace& trace) {
     st.duration_ns = trace.end_ns() - trace.start_ns();
     st.has_position = trace.samples.front().position.has_value();
     st.has_imu = trace.samples.front().gyro.has_value() || trace.samples.front().accel.has_value();
+    st.has_gaze = trace.samples.front().gaze.has_value();
+    if (st.has_gaze) {
+        std::vector<double> ecc;
+        for (const TraceSample& s : trace.samples)
+            if (s.gaze && s.gaze->valid())
+                ecc.push_back(rad_to_deg(std::acos(
+                    std::clamp(glm::dot(glm::normalize(s.gaze->direction), glm::dvec3(0, 0, -1)),
+                               -1.0, 1.0))));
+        st.gaze_valid_fraction = double(ecc.size()) / double(trace.samples.size());
+        if (!ecc.empty()) {
+            std::sort(ecc.begin(), ecc.end());
+            auto at = [&](double p) { return ecc[size_t(p * double(ecc.size() - 1))]; };
+            st.gaze_eccentricity_p50_deg = at(0.5);
+            st.gaze_eccentricity_p90_deg = at(0.9);
+            st.gaze_within_20deg_fraction =
+                double(std::upper_bound(ecc.begin(), ecc.end(), 20.0) - ecc.begin()) /
+                double(ecc.size());
+        }
+    }
     if (trace.samples.size() < 2) return st;
     std::vector<int64_t> intervals;
     intervals.reserve(trace.samples.size() - 1);

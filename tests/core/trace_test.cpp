@@ -117,8 +117,9 @@ TEST(TraceCsv, WriteThenReadIsBitExact) {
 
 TEST(TraceCsv, WritesOnlyTheGroupsPresent) {
     Trace t;
-    t.samples.push_back({0, glm::dquat(1, 0, 0, 0), std::nullopt, std::nullopt, std::nullopt});
-    t.samples.push_back({5, yaw_quat(0.1), std::nullopt, std::nullopt, std::nullopt});
+    t.samples.push_back(
+        {0, glm::dquat(1, 0, 0, 0), std::nullopt, std::nullopt, std::nullopt, std::nullopt});
+    t.samples.push_back({5, yaw_quat(0.1), std::nullopt, std::nullopt, std::nullopt, std::nullopt});
     Result<std::string> text = format_trace_csv(t);
     ASSERT_TRUE(text.ok());
     EXPECT_EQ(*text,
@@ -129,8 +130,10 @@ TEST(TraceCsv, WritesOnlyTheGroupsPresent) {
 TEST(TraceCsv, WriterRefusesWhatTheReaderWouldReject) {
     expect_error(format_trace_csv(Trace{}), {"no samples"});
     Trace t;
-    t.samples.push_back({10, glm::dquat(1, 0, 0, 0), glm::dvec3(0), std::nullopt, std::nullopt});
-    t.samples.push_back({10, glm::dquat(1, 0, 0, 0), glm::dvec3(0), std::nullopt, std::nullopt});
+    t.samples.push_back(
+        {10, glm::dquat(1, 0, 0, 0), glm::dvec3(0), std::nullopt, std::nullopt, std::nullopt});
+    t.samples.push_back(
+        {10, glm::dquat(1, 0, 0, 0), glm::dvec3(0), std::nullopt, std::nullopt, std::nullopt});
     expect_error(format_trace_csv(t), {"sample 1", "not after"});
     t.samples[1].time_ns = 20;
     t.samples[1].position.reset();
@@ -240,9 +243,78 @@ TEST(TraceCsv, EmptyTraceAndOtherVersionsAreErrors) {
     expect_error(parse_trace_csv("# hmdnode trace v1\ntime_ns,qw,qx,qy,qz\n\n", "e.csv"),
                  {"e.csv:2:", "no samples"});
     expect_error(parse_trace_csv("", "e.csv"), {"e.csv", "no header"});
-    expect_error(parse_trace_csv("# hmdnode trace v2\ntime_ns,qw,qx,qy,qz\n0,1,0,0,0\n", "e.csv"),
-                 {"e.csv:1:", "unsupported trace version"});
+    expect_error(parse_trace_csv("# hmdnode trace v3\ntime_ns,qw,qx,qy,qz\n0,1,0,0,0\n", "e.csv"),
+                 {"e.csv:1:", "unsupported trace version", "v1 and v2"});
     expect_error(read_trace_csv(temp_dir() / "does_not_exist.csv"), {"does_not_exist.csv"});
+}
+
+// --- Gaze columns (v2)
+// ----------------------------------------------------------------------------
+
+TEST(TraceGaze, GazeColumnsRoundTripBitExactAndWriteV2) {
+    Trace in = make_full_trace();
+    uint64_t state = 99;
+    for (size_t i = 0; i < in.samples.size(); ++i) {
+        state = state * 6364136223846793005ull + 1442695040888963407ull;
+        const double a = double(state >> 11) / double(1ull << 53);
+        const glm::dvec3 d = glm::normalize(glm::dvec3(a - 0.5, 0.3 * a, -1.0));
+        // Every fifth sample a blink: confidence 0, a zero direction allowed.
+        in.samples[i].gaze = i % 5 == 0 ? TraceGaze{glm::dvec3(0.0), 0.0} : TraceGaze{d, a};
+    }
+    const fs::path path = temp_dir() / "gaze_round_trip.csv";
+    ASSERT_TRUE(write_trace_csv(in, path).ok());
+    Result<Trace> out = read_trace_csv(path);
+    ASSERT_TRUE(out.ok()) << out.error().message;
+    ASSERT_EQ(out->samples.size(), in.samples.size());
+    for (size_t i = 0; i < in.samples.size(); ++i) {
+        ASSERT_TRUE(out->samples[i].gaze.has_value());
+        const TraceGaze& a = *in.samples[i].gaze;
+        const TraceGaze& b = *out->samples[i].gaze;
+        for (int k = 0; k < 3; ++k) EXPECT_TRUE(same_bits(a.direction[k], b.direction[k])) << i;
+        EXPECT_TRUE(same_bits(a.confidence, b.confidence)) << i;
+        EXPECT_EQ(a.valid(), b.valid());
+    }
+    Result<std::string> text = read_file(path);
+    ASSERT_TRUE(text.ok());
+    EXPECT_EQ(text->rfind("# hmdnode trace v2\n", 0), 0u);
+    EXPECT_TRUE(contains(*text, ",ax,ay,az,gaze_x,gaze_y,gaze_z,gaze_conf\n"));
+    // Without gaze the writer still writes v1 (old readers read it) and the reader gives none.
+    Result<Trace> old =
+        parse_trace_csv("# hmdnode trace v1\ntime_ns,qw,qx,qy,qz\n0,1,0,0,0\n", "old.csv");
+    ASSERT_TRUE(old.ok());
+    EXPECT_FALSE(old->samples[0].gaze.has_value());
+    EXPECT_FALSE(compute_trace_stats(*old).has_gaze);
+}
+
+TEST(TraceGaze, BadGazeValuesNameFileLineAndColumn) {
+    const std::string head =
+        "# hmdnode trace v2\ntime_ns,qw,qx,qy,qz,gaze_x,gaze_y,gaze_z,gaze_conf\n";
+    expect_error(parse_trace_csv(head + "0,1,0,0,0,0,0,-1,1\n5,1,0,0,0,0,0,-1,1.5\n", "g.csv"),
+                 {"g.csv:4:", "column 9 'gaze_conf'", "outside [0, 1]", "1.5"});
+    expect_error(parse_trace_csv(head + "0,1,0,0,0,0,0,-1,-0.1\n", "g.csv"),
+                 {"g.csv:3:", "column 9 'gaze_conf'"});
+    expect_error(parse_trace_csv(head + "0,1,0,0,0,0,0,-2,1\n", "g.csv"),
+                 {"g.csv:3:", "columns 6,7,8 (gaze_x,gaze_y,gaze_z)", "norm 2"});
+    expect_error(parse_trace_csv(head + "0,1,0,0,0,0,abc,-1,1\n", "g.csv"),
+                 {"g.csv:3:", "column 7 'gaze_y'", "not a number", "'abc'"});
+    expect_error(parse_trace_csv(head + "0,1,0,0,0,0,0,nan,1\n", "g.csv"),
+                 {"g.csv:3:", "column 8 'gaze_z'", "not a finite number"});
+    expect_error(
+        parse_trace_csv("time_ns,qw,qx,qy,qz,gaze_x,gaze_y,gaze_z\n0,1,0,0,0,0,0,-1\n", "g.csv"),
+        {"g.csv:1:", "incomplete column group", "gaze_conf"});
+    // A blink (confidence 0) may have any finite direction; a valid gaze near unit length is
+    // normalised.
+    Result<Trace> ok =
+        parse_trace_csv(head + "0,1,0,0,0,0,0,0,0\n5,1,0,0,0,0,0,-1.05,1\n", "g.csv");
+    ASSERT_TRUE(ok.ok()) << ok.error().message;
+    EXPECT_FALSE(ok->samples[0].gaze->valid());
+    EXPECT_NEAR(ok->samples[1].gaze->direction.z, -1.0, 1e-15);
+    // The writer refuses what the reader would.
+    Trace t = *ok;
+    t.samples[1].gaze->confidence = 2.0;
+    expect_error(format_trace_csv(t), {"sample 1", "confidence"});
+    t.samples[1].gaze.reset();
+    expect_error(format_trace_csv(t), {"sample 1", "gaze"});
 }
 
 // --- Interpolation and figures
@@ -307,7 +379,7 @@ TEST(TraceStatsTest, FiguresOfATrace) {
     const int64_t times[] = {0, 10, 20, 30, 250, 260};  // ms
     for (int i = 0; i < 6; ++i)
         t.samples.push_back({times[i] * kNsPerMs, yaw_quat(deg_to_rad(i == 5 ? 3.0 : 0.0)),
-                             std::nullopt, std::nullopt, std::nullopt});
+                             std::nullopt, std::nullopt, std::nullopt, std::nullopt});
     TraceStats st = compute_trace_stats(t);
     EXPECT_EQ(st.samples, 6u);
     EXPECT_EQ(st.duration_ns, 260 * kNsPerMs);

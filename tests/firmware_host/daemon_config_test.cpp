@@ -102,3 +102,48 @@ TEST(DaemonConfig, DisplayTypesAndTheirFields) {
         EXPECT_NE(r.output.find(text), std::string::npos) << name << ": " << r.output;
     }
 }
+
+// "eye_tracker": {"backend": "none" | "trace"} (docs/daemon.md): a wrong name, or a trace without
+// gaze columns, is refused naming the key or the file (exit 2); the bundled gaze trace runs and
+// the status file says where eccentricity came from.
+TEST(DaemonConfig, EyeTrackerBackendAndItsTrace) {
+    const hmdnode::test::CommandRun bad =
+        run_with("eye_bad", {{"eye_tracker", {{"backend", "tobii"}}}});
+    EXPECT_EQ(bad.code, 2) << bad.output;
+    EXPECT_NE(bad.output.find("eye_tracker.backend \"tobii\" is not one of none, trace"),
+              std::string::npos)
+        << bad.output;
+    const hmdnode::test::CommandRun no_gaze =
+        run_with("eye_no_gaze", {{"eye_tracker", {{"backend", "trace"}}}});
+    EXPECT_EQ(no_gaze.code, 2) << no_gaze.output;
+    EXPECT_NE(no_gaze.output.find("corbillon2018_user1.csv: the trace has no gaze columns"),
+              std::string::npos)
+        << no_gaze.output;
+
+    const hmdnode::test::CommandRun ok = run_with(
+        "eye_ok",
+        {{"eye_tracker", {{"backend", "trace"}}},
+         {"tracker", {{"trace", HMDNODE_SOURCE_DIR "/data/traces/corbillon2018_user1_gaze.csv"}}}});
+    EXPECT_EQ(ok.code, 0) << ok.output;
+
+    // 60 frames with a status window every 0.2 s: the status file names the eye tracker and how
+    // many of the window's new frames measured eccentricity from its gaze.
+    const fs::path dir = hmdnode::test::fresh_temp_dir("hmdnode_daemon_config_eye_status");
+    nlohmann::json cfg = {
+        {"scene", HMDNODE_DEMO_SCENE},
+        {"clock", "sim"},
+        {"tracker", {{"trace", HMDNODE_SOURCE_DIR "/data/traces/corbillon2018_user1_gaze.csv"}}},
+        {"eye_tracker", {{"backend", "trace"}}},
+        {"display", {{"eye_width", 32}, {"eye_height", 32}}},
+        {"status", {{"path", (dir / "status.json").string()}, {"every_s", 0.2}}}};
+    std::ofstream(dir / "hmdnoded.json") << cfg.dump(1);
+    const hmdnode::test::CommandRun run =
+        hmdnode::test::run(std::string(HMDNODE_DAEMON) + " --config " +
+                           (dir / "hmdnoded.json").string() + " --max-frames 60");
+    ASSERT_EQ(run.code, 0) << run.output;
+    std::ifstream in(dir / "status.json");
+    const nlohmann::json status = nlohmann::json::parse(in);
+    EXPECT_EQ(status["eye_tracker"], "trace");
+    EXPECT_GT(status["gaze_frames"].get<int>(), 0);
+    EXPECT_NE(status["gaze_source"], "lens_centre");
+}

@@ -27,6 +27,7 @@ for f in ./usr/bin/hmdnoded ./usr/bin/hmdnode ./lib/systemd/system/hmdnoded.serv
          ./lib/udev/rules.d/70-hmdnode.rules ./etc/hmdnode/hmdnoded.json \
          ./usr/lib/sysusers.d/hmdnode.conf ./usr/share/hmdnode/demo_room.glb \
          ./usr/share/hmdnode/traces/corbillon2018_user1.csv \
+         ./usr/share/hmdnode/traces/corbillon2018_user1_gaze.csv \
          ./usr/share/hmdnode/headsets/generic.json ./usr/share/doc/hmdnode/daemon.md \
          ./usr/share/doc/hmdnode/README.md; do
   grep -qx "$f" contents.txt || fail "$f is not in the package"

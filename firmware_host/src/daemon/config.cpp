@@ -90,7 +90,7 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
 
     if (!r.check_keys(j, "",
                       {"scene", "clock", "max_frames", "tracker", "display", "node", "status",
-                       "realtime_priority", "control", "renderer"}))
+                       "realtime_priority", "control", "renderer", "eye_tracker"}))
         return make_error(r.error);
     std::string scene, clock = "real";
     r.get(j, "scene", &scene);
@@ -269,6 +269,24 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         if (c.renderer_backend != "vulkan" && c.renderer_backend != "gles" &&
             !c.renderer_backend.empty())
             r.fail("renderer.backend \"" + c.renderer_backend + "\" is not one of vulkan, gles");
+    }
+    json et = j.value("eye_tracker", json::object());
+    if (r.check_keys(et, "eye_tracker", {"backend", "latency_us"})) {
+        std::string backend = "none";
+        double latency_us = double(c.eye_tracker_latency_ns) / 1e3;
+        r.get(et, "backend", &backend);
+        r.get(et, "latency_us", &latency_us);
+        if (Result<EyeTrackerBackend> b = parse_eye_tracker_backend(backend, WiringKeys::config());
+            !b.ok())
+            r.fail(b.error().message);
+        else
+            c.eye_tracker = *b;
+        if (!(latency_us >= 0.0 && latency_us <= 1e6))
+            r.fail("eye_tracker.latency_us must be between 0 and 1e6");
+        else
+            c.eye_tracker_latency_ns = int64_t(latency_us * 1e3);
+        if (c.eye_tracker == EyeTrackerBackend::trace && c.trace.empty())
+            r.fail("eye_tracker.backend \"trace\" needs tracker.trace (a trace with gaze columns)");
     }
     json s = j.value("status", json::object());
     if (r.check_keys(s, "status", {"path", "every_s"})) {

@@ -32,6 +32,10 @@ struct DaemonConfig {
     TrackerBackend tracker_backend = TrackerBackend::trace;
     std::string device;           // "device" (+ ":" "serial"): VID:PID[:SERIAL], rec: its name
     DeviceFilter tracker_device;  // `device` parsed (not for rec)
+    // "eye_tracker": {"backend": "none" | "trace", "latency_us": N}: the gaze that steers LOD
+    // (trace: the gaze columns of tracker.trace, on the head tracker's timeline).
+    EyeTrackerBackend eye_tracker = EyeTrackerBackend::none;
+    int64_t eye_tracker_latency_ns = SimEyeTrackerConfig{}.latency_ns;
     // "display": {"type": "mock" | "kms" | "vk-display", ...} (docs/daemon.md). The mock's
     // figures are in `display`; kms and vk-display take theirs from the connector's mode.
     std::string display_type = "mock";

@@ -122,6 +122,19 @@ int main(int argc, char** argv) {
                       tracker.error().message);
         return 2;
     }
+    // The eye tracker (none: LOD eccentricity from the lens centre), made with each tracker so
+    // that the two replay the trace on one timeline.
+    EyeTrackerSpec eye_spec;
+    eye_spec.backend = cfg->eye_tracker;
+    eye_spec.trace = trace;
+    eye_spec.trace_path = cfg->trace;
+    eye_spec.start_s = cfg->start_s;
+    eye_spec.latency_ns = cfg->eye_tracker_latency_ns;
+    Result<std::unique_ptr<EyeTracker>> eye_tracker = make_eye_tracker(eye_spec, *clock, keys);
+    if (!eye_tracker.ok()) {
+        spdlog::error("{}", eye_tracker.error().message);
+        return 2;
+    }
     Result<std::unique_ptr<Display>> display = make_display(display_spec(*cfg), *clock, keys);
     if (!display.ok()) {
         spdlog::error("{}", display.error().message);
@@ -146,6 +159,10 @@ int main(int argc, char** argv) {
     std::string scene_error;  // why the last scene that was asked for is not running
     if (Status st = node.start(); !st.ok()) {
         spdlog::error("{}", st.error().message);
+        return 2;
+    }
+    if (Status st = node.set_eye_tracker(eye_tracker->get()); !st.ok()) {
+        spdlog::error("eye tracker: {}", st.error().message);
         return 2;
     }
     // This renderer's costs seed the pacing estimates (and are the simulated clock's model).
@@ -191,7 +208,7 @@ int main(int argc, char** argv) {
     // Honest accounting (docs/latency.md): every vsync without a new or re-warped frame on time is
     // missed; a present after a gap adds the vsyncs it skipped.
     size_t window_frames = 0, window_on_time = 0, window_vsyncs = 0, window_late = 0,
-           window_rewarps = 0, errors = 0;
+           window_rewarps = 0, errors = 0, window_new_frames = 0, window_gaze_frames = 0;
     uint64_t frames = 0, no_pose_frames = 0;
     // Until the tracker's first sample each frame renders nothing (run_frame returns at once, so
     // SIGTERM is seen between frames); say so every 5 s.
@@ -406,6 +423,14 @@ int main(int argc, char** argv) {
                 break;
             }
             tracker = std::move(next);
+            if (cfg->eye_tracker != EyeTrackerBackend::none) {
+                Result<std::unique_ptr<EyeTracker>> eyes = make_eye_tracker(eye_spec, *clock, keys);
+                if (!eyes.ok() || !node.set_eye_tracker(eyes->get()).ok()) {
+                    spdlog::error("cannot restart the eye tracker; stopping");
+                    break;
+                }
+                eye_tracker = std::move(eyes);
+            }
             spdlog::info("{} restarted", tracker_label);
         }
         Result<FrameOutcome> fr = node.run_frame(&rec, nullptr);
@@ -446,6 +471,10 @@ int main(int argc, char** argv) {
             window_vsyncs += 1 + size_t(window_frames > 1 ? rec.missed_vsyncs_before : 0);
             window_late += rec.late;
             window_rewarps += rec.kind == FrameKind::rewarp;
+            if (rec.kind == FrameKind::new_frame) {
+                ++window_new_frames;
+                window_gaze_frames += rec.gaze_source == GazeSource::eye_tracker;
+            }
             lat.push_back(rec.latency_ms);
             if (rec.kind == FrameKind::new_frame) render_ms.push_back(rec.render_ms);
             warp_ms.push_back(rec.warp_ms);
@@ -468,6 +497,13 @@ int main(int argc, char** argv) {
                 {"missed_vsyncs", window_vsyncs - window_on_time},
                 {"late_frames", window_late},
                 {"rewarps", window_rewarps},
+                {"eye_tracker", eye_tracker_backend_name(cfg->eye_tracker)},
+                // LOD eccentricity measured from: "eye_tracker" (every new frame of the window),
+                // "lens_centre" (none), "mixed"; the count of new frames that used the gaze.
+                {"gaze_source", window_gaze_frames == 0                   ? "lens_centre"
+                                : window_gaze_frames == window_new_frames ? "eye_tracker"
+                                                                          : "mixed"},
+                {"gaze_frames", window_gaze_frames},
                 {"on_time_rate",
                  window_vsyncs ? nlohmann::json(double(window_on_time) / double(window_vsyncs))
                                : nlohmann::json()},
@@ -529,6 +565,7 @@ int main(int argc, char** argv) {
             render_ms.clear();
             warp_ms.clear();
             window_frames = window_on_time = window_vsyncs = window_late = window_rewarps = 0;
+            window_new_frames = window_gaze_frames = 0;
             next_status = clock->now_ns() + s_to_ns(cfg->status_every_s);
         }
         // The watchdog: only when frames were presented since the last pet.

@@ -239,6 +239,7 @@ Status NodeRuntime::start() {
 
 void NodeRuntime::stop() {
     tracker_->stop();
+    if (eye_tracker_) eye_tracker_->stop();
 }
 
 Status NodeRuntime::replace_tracker(Tracker& tracker) {
@@ -257,6 +258,24 @@ void NodeRuntime::drain_tracker() {
         for (size_t i = 0; i < n; ++i) history_.push(read_buf_[i]);
         if (n < read_buf_.size()) break;
     }
+    if (!eye_tracker_) return;
+    for (;;) {
+        size_t n = eye_tracker_->read(gaze_buf_);
+        if (n > 0) gaze_ = gaze_buf_[n - 1];
+        if (n < gaze_buf_.size()) break;
+    }
+}
+
+Status NodeRuntime::set_eye_tracker(EyeTracker* eye_tracker) {
+    if (eye_tracker_) eye_tracker_->stop();
+    eye_tracker_ = eye_tracker;
+    gaze_.reset();
+    gaze_buf_.resize(64);
+    return eye_tracker_ ? eye_tracker_->start() : Status{};
+}
+
+const char* gaze_source_name(GazeSource s) {
+    return s == GazeSource::eye_tracker ? "eye_tracker" : "lens_centre";
 }
 
 StereoViews NodeRuntime::views_for(const Pose& head) const {
@@ -286,7 +305,18 @@ uint64_t NodeRuntime::select_and_sort(const Pose& head, const StereoViews& views
     const glm::dvec3 omega = history_.angular_velocity();
     LodViewer viewer;
     viewer.eye_position = head.position;
+    // The gaze: the eye tracker's newest sample, in the head frame, turned with the predicted head
+    // (the eye's own motion is not predicted), while it is valid and fresh; else the lens centre.
     viewer.gaze_direction = forward_of(head.orientation);
+    rec->gaze_source = GazeSource::lens_centre;
+    rec->gaze_eccentricity_deg = 0.0;
+    if (gaze_ && gaze_->valid() && clock_.now_ns() - gaze_->time_ns <= config_.gaze_max_age_ns) {
+        const glm::dvec3 g = glm::normalize(gaze_->direction);
+        viewer.gaze_direction = head.orientation * g;
+        rec->gaze_source = GazeSource::eye_tracker;
+        rec->gaze_eccentricity_deg =
+            rad_to_deg(std::acos(std::clamp(glm::dot(g, glm::dvec3(0, 0, -1)), -1.0, 1.0)));
+    }
     viewer.angular_speed_dps = rad_to_deg(glm::length(omega));
     viewer.pixels_per_radian = pixels_per_radian_;
     viewer.near_m = render_rig_.near_m;

@@ -155,6 +155,7 @@ Result<RenderBenchResult> run_render_bench(const RenderBenchOptions& opt) {
     ro.node.lod.tolerance_px = opt.tolerance_px;
     ro.node.lod_allocator = opt.allocator;
     ro.renderer.msaa_samples = opt.msaa_samples;  // the greedy allocator learns its cost
+    ro.eye_tracker = opt.eye_tracker;
     // Only the greedy allocator's levels depend on the render cost (it learns the simulated
     // clock's model); otherwise a fixed cost that fits a period skips the calibration renders
     // (slow at full detail on a heavy scene) and makes rendered frame i the replay's vsync i.
@@ -162,6 +163,8 @@ Result<RenderBenchResult> run_render_bench(const RenderBenchOptions& opt) {
         ro.frame_cost = FrameCostModel{};
     Result<ReplayResult> replay = run_replay(ro);
     if (!replay.ok()) return replay.error();
+    out.gaze_source = gaze_source_summary(replay->summary);
+    out.gaze_frames = replay->summary.gaze_frames;
     std::vector<const FrameRecord*> records;
     for (const FrameRecord& f : replay->frames)
         if (f.kind == FrameKind::new_frame && int64_t(f.frame) >= opt.first_frame &&
@@ -339,6 +342,9 @@ nlohmann::json render_bench_report_json(const RenderBenchOptions& opt, const Ren
             {"allocator", lod_allocator_name(opt.allocator)},
             {"lod_tolerance_px", opt.tolerance_px},
             {"msaa_samples", opt.msaa_samples},
+            {"eye_tracker", eye_tracker_backend_name(opt.eye_tracker)},
+            {"gaze_source", r.gaze_source},
+            {"gaze_frames", r.gaze_frames},
             {"compare_full", opt.compare_full},
             {"device", r.device_name},
             {"machine",

@@ -108,6 +108,7 @@ ReplaySummary summarize_vsyncs(const std::vector<FrameRecord>& frames,
             s.lod_pops += f.lod_pops;
             s.lod_transitions += f.lod_transitions;
             s.lod_fading_frames += f.lod_fading > 0;
+            s.gaze_frames += f.gaze_source == GazeSource::eye_tracker;
         } else {
             ++s.rewarps;
         }
@@ -212,6 +213,15 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     spec.start_s = opt.start_s;
     spec.duration_s = opt.duration_s;
     if (Status st = check_tracker_spec(spec, clock_kind, keys); !st.ok()) return st.error();
+    // The eye tracker: the trace's gaze columns, replayed with the head (none: the lens centre).
+    EyeTrackerSpec eye_spec;
+    eye_spec.backend = opt.eye_tracker;
+    eye_spec.trace = trace;
+    eye_spec.trace_path = opt.trace;
+    eye_spec.start_s = opt.start_s;
+    eye_spec.duration_s = opt.duration_s;
+    if (opt.eye_tracker == EyeTrackerBackend::trace && !trace)
+        return make_error(keys.eye_tracker + " trace needs " + keys.trace);
     // Only the trace backend has a truth to compare with (the sim device's motion is the trace,
     // but its fused pose lags it by the device's latency: no truth there either).
     const std::shared_ptr<const Trace> truth_trace =
@@ -222,6 +232,9 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     Result<WiredTracker> wired = make_tracker(spec, *clock, keys);
     if (!wired.ok()) return wired.error();
     std::unique_ptr<Tracker> tracker = std::move(wired->tracker);
+    // Made at the same clock time as the tracker: the gaze and the head replay one timeline.
+    Result<std::unique_ptr<EyeTracker>> eye_tracker = make_eye_tracker(eye_spec, *clock, keys);
+    if (!eye_tracker.ok()) return eye_tracker.error();
 
     DisplaySpec ds;
     ds.mock = opt.display;
@@ -241,6 +254,7 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     std::unique_ptr<Tracker> restarted;  // see below; outlives the node that reads it
     NodeRuntime node(*clock, *tracker, **display, **renderer, *scene, nc);
     if (Status st = node.start(); !st.ok()) return st.error();
+    if (Status st = node.set_eye_tracker(eye_tracker->get()); !st.ok()) return st.error();
     // The simulated clock's frame cost: given, or measured on this renderer now (the simulated
     // clock does not move while it is measured).
     std::optional<FrameCostModel> cost_model;
@@ -268,6 +282,12 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
         if (!t.ok()) return t.error();
         restarted = std::move(t->tracker);
         if (Status st = node.replace_tracker(*restarted); !st.ok()) return st.error();
+        if (*eye_tracker) {
+            Result<std::unique_ptr<EyeTracker>> e = make_eye_tracker(eye_spec, *clock, keys);
+            if (!e.ok()) return e.error();
+            if (Status st = node.set_eye_tracker(e->get()); !st.ok()) return st.error();
+            eye_tracker = std::move(e);
+        }
     }
 
     // Truth for registration error: the trace itself, slerped, at the photon time.
@@ -349,6 +369,11 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     return result;
 }
 
+const char* gaze_source_summary(const ReplaySummary& s) {
+    if (s.gaze_frames == 0) return "lens_centre";
+    return s.gaze_frames == s.new_frames ? "eye_tracker" : "mixed";
+}
+
 nlohmann::json replay_summary_json(const ReplaySummary& s) {
     using nlohmann::json;
     json cost = nullptr;
@@ -382,6 +407,8 @@ nlohmann::json replay_summary_json(const ReplaySummary& s) {
             {"lod_pops_per_min", finite_or_null(s.lod_pops_per_min)},
             {"lod_transitions", s.lod_transitions},
             {"lod_fading_frames", s.lod_fading_frames},
+            {"gaze_source", gaze_source_summary(s)},
+            {"gaze_frames", s.gaze_frames},
             {"replayed_s", s.replayed_s},
             {"wall_s", s.wall_s}};
 }
@@ -418,6 +445,7 @@ nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& 
                           {"lod_fading", f.lod_fading},
                           {"lod_transitions", f.lod_transitions},
                           {"lod_pops", f.lod_pops},
+                          {"gaze_source", gaze_source_name(f.gaze_source)},
                           {"render_ms", f.render_ms},
                           {"warp_ms", f.warp_ms},
                           {"frame_cost_ms", f.frame_cost_ms}});
@@ -426,6 +454,7 @@ nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& 
     return {{"format", "hmdnode-replay-report/2"},
             {"scene", opt.scene.string()},
             {"tracker", tracker_backend_name(opt.tracker_backend)},
+            {"eye_tracker", eye_tracker_backend_name(opt.eye_tracker)},
             {"trace", opt.trace.string()},
             {"from", opt.from.string()},
             {"clock", opt.simulated_clock ? "sim" : "real"},
@@ -495,10 +524,10 @@ std::string replay_summary_table(const ReplayResult& r) {
     }
     std::snprintf(buf, sizeof buf,
                   "triangles per new frame %.0f (mean), LOD allocator %s, %zu LOD cross-fades, "
-                  "%zu pops (%.1f per minute), MSAA %dx",
+                  "%zu pops (%.1f per minute), MSAA %dx, gaze %s (%zu of %zu new frames)",
                   s.triangles_mean, lod_allocator_name(r.lod_allocator), s.lod_transitions,
                   s.lod_pops, std::isfinite(s.lod_pops_per_min) ? s.lod_pops_per_min : 0.0,
-                  r.msaa_samples);
+                  r.msaa_samples, gaze_source_summary(s), s.gaze_frames, s.new_frames);
     out << buf;
     if (s.lod_cost_fit) {
         std::snprintf(buf, sizeof buf, ", learned render cost %.2f ms + %.3f ms per 1k triangles",

@@ -19,6 +19,23 @@ std::unique_ptr<Clock> make_clock(ClockKind kind, int64_t sim_start_ns) {
     return std::make_unique<SystemClock>();
 }
 
+Result<std::unique_ptr<EyeTracker>> make_eye_tracker(const EyeTrackerSpec& spec, Clock& clock,
+                                                     const WiringKeys& keys) {
+    if (spec.backend == EyeTrackerBackend::none) return std::unique_ptr<EyeTracker>();
+    if (!spec.trace)
+        return make_error(keys.eye_tracker + " trace needs a trace (" + keys.trace + ")");
+    SimEyeTrackerConfig c;
+    c.host_start_ns = clock.now_ns();
+    c.start_offset_ns = s_to_ns(spec.start_s);
+    c.duration_ns = s_to_ns(spec.duration_s);
+    c.latency_ns = spec.latency_ns;
+    Result<std::unique_ptr<EyeTracker>> t = create_sim_eye_tracker(spec.trace, clock, c);
+    if (!t.ok())
+        return make_error(keys.eye_tracker + " trace: " + spec.trace_path.string() + ": " +
+                          t.error().message);
+    return t;
+}
+
 Result<WiredTracker> make_tracker(const TrackerSpec& spec, Clock& clock, const WiringKeys& keys) {
     if (Status st =
             check_tracker_spec(spec, clock.is_simulated() ? ClockKind::sim : ClockKind::real, keys);

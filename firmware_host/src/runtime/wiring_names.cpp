@@ -54,6 +54,17 @@ Result<TrackerBackend> parse_tracker_backend(std::string_view name, const Wiring
                       kTrackerBackendNames);
 }
 
+const char* eye_tracker_backend_name(EyeTrackerBackend b) {
+    return b == EyeTrackerBackend::trace ? "trace" : "none";
+}
+
+Result<EyeTrackerBackend> parse_eye_tracker_backend(std::string_view name, const WiringKeys& keys) {
+    for (EyeTrackerBackend b : {EyeTrackerBackend::none, EyeTrackerBackend::trace})
+        if (name == eye_tracker_backend_name(b)) return b;
+    return make_error(keys.eye_tracker + " \"" + std::string(name) + "\" is not one of " +
+                      kEyeTrackerBackendNames);
+}
+
 Result<ClockKind> parse_clock(std::string_view name, const WiringKeys& keys) {
     if (name == "real") return ClockKind::real;
     if (name == "sim") return ClockKind::sim;

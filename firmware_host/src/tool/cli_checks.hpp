@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <functional>
 #include <initializer_list>
+#include <memory>
 #include <optional>
 #include <string>
 #include <utility>
@@ -36,6 +37,14 @@ inline CLI::Validator finite_number() {
 // Adds finite_number() to every option of `app` and of its subcommands, at any depth, whose value
 // is floating point (CLI11's type name FLOAT, also for vectors of them): one place, so an option
 // added later is covered too.
+// `--eye-tracker none|trace` (replay, render-bench): the one vocabulary's eye-tracker names.
+inline void add_eye_tracker_option(CLI::App* c, const std::shared_ptr<std::string>& value) {
+    c->add_option("--eye-tracker", *value,
+                  "Where the gaze that steers LOD comes from: none (the lens centre) or trace "
+                  "(the trace's gaze columns; `hmdnode trace add-gaze` makes synthetic ones)")
+        ->check(CLI::IsMember({"none", "trace"}));
+}
+
 inline void refuse_non_finite_numbers(CLI::App& app) {
     for (CLI::Option* o : app.get_options())
         if (o->get_type_name().rfind("FLOAT", 0) == 0) o->check(finite_number());

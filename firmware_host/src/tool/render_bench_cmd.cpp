@@ -17,6 +17,7 @@ void add_render_bench_command(CLI::App& app) {
     auto lod = std::make_shared<std::string>("auto");
     auto allocator = std::make_shared<std::string>("threshold");
     auto compare = std::make_shared<std::string>();
+    auto eye_tracker = std::make_shared<std::string>("none");
     CLI::App* c = app.add_subcommand(
         "render-bench",
         "Render a trace's frames off-screen at the node's levels (and at full detail from the "
@@ -47,6 +48,7 @@ void add_render_bench_command(CLI::App& app) {
                   "Directory for PNGs of the frames (lod_NNNNN.png, full_NNNNN.png)");
     c->add_option("--images-every", opt->images_every, "Write every Nth frame's images")
         ->check(CLI::PositiveNumber);
+    add_eye_tracker_option(c, eye_tracker);
     c->add_option("--report", opt->report, "JSON report to write")->required();
     c->add_option("--plot", opt->plot, "SVG plot to write");
 
@@ -73,6 +75,7 @@ void add_render_bench_command(CLI::App& app) {
         }
         o.lod = *mode;
         o.allocator = *parse_lod_allocator(*allocator);  // checked by IsMember
+        o.eye_tracker = *parse_eye_tracker_backend(*eye_tracker, WiringKeys::command_line());
         o.compare_full = *compare == "full";
         if (!check_outputs("hmdnode render-bench",
                            {{"--report", o.report.string()}, {"--plot", o.plot.string()}})) {

@@ -28,6 +28,7 @@ void add_replay_command(CLI::App& app) {
     auto allocator = std::make_shared<std::string>("threshold");
     auto backend = std::make_shared<std::string>();
     auto capture = std::make_shared<std::string>();
+    auto eye_tracker = std::make_shared<std::string>("none");
 
     CLI::App* c = app.add_subcommand("replay",
                                      "Replay a head trace through tracking, LOD selection, "
@@ -49,6 +50,7 @@ void add_replay_command(CLI::App& app) {
     c->add_option("--device", opt->device,
                   "VID:PID[:SERIAL] (hex) of the captured, simulated or live device; --tracker "
                   "rec: the recording's device name (T20, ...)");
+    add_eye_tracker_option(c, eye_tracker);
     c->add_option("--report", opt->report, "JSON report to write");
     c->add_option("--frames", *frames_dir, "Directory for PNG frames (both eyes side by side)");
     c->add_option("--frames-every", opt->display.frames_every, "Write every Nth frame")
@@ -176,6 +178,7 @@ void add_replay_command(CLI::App& app) {
         o.simulated_clock = *clock == "sim";
         o.node.warp = !*no_warp;
         o.node.lod_allocator = *parse_lod_allocator(*allocator);  // checked by IsMember
+        o.eye_tracker = *parse_eye_tracker_backend(*eye_tracker, WiringKeys::command_line());
         o.node.distortion = !*no_distortion;
         o.node.mesh_cols = o.node.mesh_rows = *mesh;
         if (!headset->empty()) {

@@ -1,12 +1,15 @@
-// `hmdnode trace import` (foreign table -> trace CSV, saying every repair) and `hmdnode trace info`
-// (figures of a trace). Formats: docs/trace-format.md.
+// `hmdnode trace import` (foreign table -> trace CSV, saying every repair), `hmdnode trace info`
+// (figures of a trace) and `hmdnode trace add-gaze` (synthetic gaze columns from a documented
+// model, core/src/synthetic_gaze.cpp). Formats: docs/trace-format.md.
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include <CLI/CLI.hpp>
 
+#include "hmdnode/core/synthetic_gaze.hpp"
 #include "hmdnode/core/time.hpp"
 #include "hmdnode/core/trace.hpp"
 #include "tool/cli_checks.hpp"
@@ -31,6 +34,16 @@ std::string fmt(const char* format, double v) {
     char buf[64];
     std::snprintf(buf, sizeof buf, format, v);
     return buf;
+}
+
+// The gaze figures of a trace (`info`, `add-gaze`).
+void print_gaze_rows(const TraceStats& st) {
+    if (!st.has_gaze) return print_row("gaze", "no");
+    print_row("gaze valid", fmt("%.1f %% of samples", 100.0 * st.gaze_valid_fraction));
+    print_row("gaze eccentricity",
+              fmt("p50 %.1f deg", st.gaze_eccentricity_p50_deg) +
+                  fmt(", p90 %.1f deg", st.gaze_eccentricity_p90_deg) +
+                  fmt(", %.1f %% within 20 deg", 100.0 * st.gaze_within_20deg_fraction));
 }
 
 void run_import(const ImportArgs& args) {
@@ -100,7 +113,40 @@ void run_info(const std::string& file) {
                   fmt(" at %.3f s", ns_to_s(st.max_angular_speed_at_ns) - t0_s));
     print_row("position", st.has_position ? "yes" : "no");
     print_row("gyro/accel", st.has_imu ? "yes" : "no");
+    print_gaze_rows(st);
     for (const std::string& c : trace->comments) std::printf("  # %s\n", c.c_str());
+}
+
+struct AddGazeArgs {
+    std::string in, out;
+    SyntheticGazeParams params;
+};
+
+void run_add_gaze(const AddGazeArgs& args) {
+    const char* cmd = "hmdnode trace add-gaze";
+    if (!check_outputs(cmd, {{"--out", args.out}})) return set_exit_code(1);
+    Result<Trace> head = read_trace_csv(args.in);
+    if (!head.ok()) {
+        std::fprintf(stderr, "%s: %s\n", cmd, head.error().message.c_str());
+        return set_exit_code(1);
+    }
+    Result<SyntheticGaze> g = synthesize_gaze(*head, args.params);
+    if (!g.ok()) {
+        std::fprintf(stderr, "%s: %s: %s\n", cmd, args.in.c_str(), g.error().message.c_str());
+        return set_exit_code(1);
+    }
+    g->trace.comments.insert(g->trace.comments.end() - 1,
+                             "gaze added to " + std::filesystem::path(args.in).filename().string() +
+                                 " by hmdnode trace add-gaze");
+    if (Status st = write_trace_csv(g->trace, args.out); !st.ok()) {
+        std::fprintf(stderr, "%s: %s\n", cmd, st.error().message.c_str());
+        return set_exit_code(1);
+    }
+    const TraceStats st = compute_trace_stats(g->trace);
+    std::printf("wrote %s: %zu samples with SYNTHETIC gaze (seed %llu), %zu saccades, %zu blinks\n",
+                args.out.c_str(), st.samples, static_cast<unsigned long long>(args.params.seed),
+                g->saccades.size(), g->blinks);
+    print_gaze_rows(st);
 }
 
 }  // namespace
@@ -162,6 +208,22 @@ void add_trace_command(CLI::App& app) {
     CLI::App* info = trace->add_subcommand("info", "Print the figures of a trace CSV");
     info->add_option("file", *file, "Trace CSV")->required();
     info->callback([file] { run_info(*file); });
+
+    auto gaze = std::make_shared<AddGazeArgs>();
+    CLI::App* add = trace->add_subcommand(
+        "add-gaze",
+        "Add SYNTHETIC gaze columns to a head trace (fixations, main-sequence saccades, the eye "
+        "leading the head, blinks; docs/trace-format.md): for testing, not a measurement");
+    add->add_option("--in", gaze->in, "Head trace CSV")->required();
+    add->add_option("--out", gaze->out, "Output trace CSV (written only on success)")->required();
+    add->add_option("--seed", gaze->params.seed, "Seed (the same seed gives the same gaze)")
+        ->capture_default_str();
+    add->add_option("--rate", gaze->params.rate_hz,
+                    "Resample the head trace at this rate (Hz, at most 4000; 0: its own samples; "
+                    "gyro/accel are dropped when resampling)")
+        ->check(CLI::Range(0.0, 4000.0))
+        ->capture_default_str();
+    add->callback([gaze] { run_add_gaze(*gaze); });
 }
 
 }  // namespace hmdnode::tool

@@ -17,12 +17,22 @@
 
 namespace hmdnode {
 
+// An eye tracker's gaze at a sample (optional group of the trace format, v2): the cyclopean gaze
+// direction in the head frame (unit; (0,0,-1) is the lens centre, head forward) and a confidence in
+// [0, 1], 0 meaning no gaze (a blink, track lost: the direction is then not used).
+struct TraceGaze {
+    glm::dvec3 direction{0, 0, -1};
+    double confidence = 1.0;
+    bool valid() const { return confidence > 0.0; }
+};
+
 struct TraceSample {
     int64_t time_ns = 0;                 // strictly increasing within a trace
     glm::dquat orientation{1, 0, 0, 0};  // unit, head-to-world, same hemisphere as previous
     std::optional<glm::dvec3> position;  // metres
     std::optional<glm::dvec3> gyro;      // rad/s, head frame
     std::optional<glm::dvec3> accel;     // m/s^2, head frame
+    std::optional<TraceGaze> gaze;       // eye tracker, head frame
 };
 
 struct Trace {
@@ -63,6 +73,13 @@ struct TraceStats {
     int64_t max_angular_speed_at_ns = 0;   // time of the first sample of that pair
     bool has_position = false;
     bool has_imu = false;  // gyro and/or accel present
+    // Gaze (traces with the gaze group): the share of samples with a valid gaze, and the
+    // percentiles of the valid gazes' eccentricity (angle from the head forward, -Z), degrees.
+    bool has_gaze = false;
+    double gaze_valid_fraction = 0.0;
+    double gaze_eccentricity_p50_deg = 0.0;
+    double gaze_eccentricity_p90_deg = 0.0;
+    double gaze_within_20deg_fraction = 0.0;  // of the valid gazes
 };
 TraceStats compute_trace_stats(const Trace& trace);
 

@@ -24,6 +24,7 @@
 #include "hmdnode/core/time.hpp"
 #include "hmdnode/firmware_host/pose_history.hpp"
 #include "hmdnode/hal/display.hpp"
+#include "hmdnode/hal/eye_tracker.hpp"
 #include "hmdnode/hal/tracker.hpp"
 #include "hmdnode/lod/budget.hpp"
 #include "hmdnode/lod/cross_fade.hpp"
@@ -66,6 +67,12 @@ struct PacingConfig {
 // benefit per millisecond first, until the render predicted by the learned cost model fits the
 // frame budget left by pacing.
 enum class LodAllocator { threshold, greedy };
+
+// Where a frame's LOD eccentricity was measured from (docs/lod-selection.md, "Gaze"): the eye
+// tracker's gaze when it reported a valid one recently enough, else the lens centre (the head
+// forward).
+enum class GazeSource { lens_centre, eye_tracker };
+const char* gaze_source_name(GazeSource s);
 const char* lod_allocator_name(LodAllocator a);
 // "threshold" or "greedy"; nullopt for anything else.
 std::optional<LodAllocator> parse_lod_allocator(std::string_view name);
@@ -109,6 +116,9 @@ struct NodeConfig {
     FrameCostModel sim_cost;
     bool read_back = true;                 // copy frames back to the CPU for the display
     double registration_distance_m = 1.0;  // position error is seen at this distance
+    // The eye tracker's newest sample steers LOD while it is valid and at most this old at the
+    // frame's render (older: the tracker stalled, the lens centre is used).
+    int64_t gaze_max_age_ns = 100'000'000;
 };
 
 enum class FrameKind {
@@ -155,8 +165,10 @@ struct FrameRecord {
     size_t lod_pops = 0;
     std::vector<int> levels;  // LOD level per object (index as in objects()); while an object
                               // cross-fades, the level fading in
-    std::vector<double> eccentricity_deg;  // per object
-    Pose shown_pose;                       // the head pose the shown image was made for
+    std::vector<double> eccentricity_deg;  // per object, from the gaze_source's direction
+    GazeSource gaze_source = GazeSource::lens_centre;
+    double gaze_eccentricity_deg = 0.0;  // eye tracker: the gaze's angle from the head forward
+    Pose shown_pose;                     // the head pose the shown image was made for
 };
 
 // The truth for registration error: the true head pose at a host time (position only where the
@@ -256,6 +268,10 @@ class NodeRuntime {
     // new one. The pose history is kept; samples older than its newest are ignored.
     Status replace_tracker(Tracker& tracker);
 
+    // The eye tracker whose gaze steers LOD (null: none, the lens centre). Starts it; the previous
+    // one is stopped and its gaze forgotten. It must outlive the runtime or the next call.
+    Status set_eye_tracker(EyeTracker* eye_tracker);
+
     // True once the tracker has no more samples and none are pending.
     bool tracker_finished() const;
 
@@ -293,6 +309,9 @@ class NodeRuntime {
 
     Clock& clock_;
     Tracker* tracker_;
+    EyeTracker* eye_tracker_ = nullptr;
+    std::vector<GazeSample> gaze_buf_;
+    std::optional<GazeSample> gaze_;  // the newest sample read (valid or not)
     Display& display_;
     Renderer& renderer_;
     const Scene* scene_;

@@ -39,6 +39,8 @@ struct RenderBenchOptions {
     LodAllocator allocator = LodAllocator::threshold;
     double tolerance_px = 1.0;
     int msaa_samples = 1;              // 1 or 4: MSAA of both the LOD and the full-detail frames
+    // The gaze that steers the replay's LOD: none (lens centre) or trace (the trace's gaze).
+    EyeTrackerBackend eye_tracker = EyeTrackerBackend::none;
     bool compare_full = false;         // also render full detail from each pose, and compare
     std::filesystem::path images_dir;  // empty: no PNGs; else lod_NNNNN.png (+ full_NNNNN.png)
     int images_every = 1;
@@ -69,6 +71,8 @@ struct RenderBenchSummary {
 struct RenderBenchResult {
     std::vector<RenderBenchFrame> frames;
     RenderBenchSummary summary;
+    std::string gaze_source;  // of the replay's new frames (gaze_source_summary)
+    size_t gaze_frames = 0;
     std::string device_name;
     int cpus = 0;
 };

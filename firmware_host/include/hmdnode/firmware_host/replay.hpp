@@ -33,6 +33,8 @@ struct ReplayOptions {
     std::shared_ptr<const Trace> trace_data;  // instead of trace: a trace in memory
     std::filesystem::path from;               // capture: the pcap[.gz]; rec: the recording
     std::string device;  // capture/sim/hidapi/libusb: "VID:PID[:SERIAL]"; rec: its device name
+    // The gaze that steers LOD: none (the lens centre) or trace (the trace's gaze columns).
+    EyeTrackerBackend eye_tracker = EyeTrackerBackend::none;
     std::filesystem::path report;  // empty: no JSON report
     bool simulated_clock = true;
     double start_s = 0.0;      // offset into the trace (a capture: from its first report)
@@ -80,6 +82,9 @@ struct ReplaySummary {
     size_t lod_transitions = 0;
     size_t lod_fading_frames = 0;
     double lod_pops_per_min = std::numeric_limits<double>::quiet_NaN();
+    // New frames whose LOD eccentricity came from the eye tracker's gaze (the rest: the lens
+    // centre); gaze_source_summary names the mix.
+    size_t gaze_frames = 0;
     std::optional<FrameCostModel> frame_cost_model;  // simulated clock: the model used
     bool frame_cost_calibrated = false;
     // The render cost the node learned for LOD over the run (FrameCostFit), when it rendered.
@@ -157,6 +162,8 @@ ReplaySummary summarize_vsyncs(const std::vector<FrameRecord>& frames,
                                const std::vector<VsyncSample>& vsyncs);
 
 // The report's `summary` object (docs/formats.md).
+// "eye_tracker" (every new frame's LOD eccentricity from the gaze), "lens_centre" (none), "mixed".
+const char* gaze_source_summary(const ReplaySummary& s);
 nlohmann::json replay_summary_json(const ReplaySummary& summary);
 // The JSON report (docs/formats.md).
 nlohmann::json replay_report_json(const ReplayOptions& options, const ReplayResult& result);

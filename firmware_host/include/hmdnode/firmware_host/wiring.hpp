@@ -20,6 +20,8 @@
 #include "hmdnode/hal/display.hpp"
 #include "hmdnode/hal/display/kms_display.hpp"
 #include "hmdnode/hal/display/mock_display.hpp"
+#include "hmdnode/hal/eye_tracker.hpp"
+#include "hmdnode/hal/sim/sim_eye_tracker.hpp"
 #include "hmdnode/hal/sim/sim_tracker.hpp"
 #include "hmdnode/hal/tracker.hpp"
 #include "hmdnode/hal/transport.hpp"
@@ -57,10 +59,11 @@ struct WiringKeys {
     std::string display = "display.type";
     std::string renderer = "renderer.backend";
     std::string start = "tracker.start_s";
+    std::string eye_tracker = "eye_tracker.backend";
     static WiringKeys config() { return {}; }
     static WiringKeys command_line() {
-        return {"--clock",  "--tracker", "--from",     "--trace",
-                "--device", "--display", "--renderer", "--start"};
+        return {"--clock",   "--tracker",  "--from",  "--trace",      "--device",
+                "--display", "--renderer", "--start", "--eye-tracker"};
     }
 };
 
@@ -107,6 +110,30 @@ struct WiredTracker {
 // Makes the tracker (not started) with its first sample due at the clock's now (a file backend:
 // its first record arrives then).
 Result<WiredTracker> make_tracker(const TrackerSpec& spec, Clock& clock, const WiringKeys& keys);
+
+// Where the gaze comes from (docs/lod-selection.md, "Gaze"):
+//   none  : no eye tracker; LOD eccentricity is measured from the lens centre
+//   trace : the gaze columns of the head trace (tracker.trace / --trace), replayed by the
+//           simulated eye tracker on the head tracker's timeline
+enum class EyeTrackerBackend { none, trace };
+inline constexpr const char* kEyeTrackerBackendNames = "none, trace";
+const char* eye_tracker_backend_name(EyeTrackerBackend backend);
+Result<EyeTrackerBackend> parse_eye_tracker_backend(std::string_view name, const WiringKeys& keys);
+
+struct EyeTrackerSpec {
+    EyeTrackerBackend backend = EyeTrackerBackend::none;
+    std::shared_ptr<const Trace> trace;  // trace: the trace whose gaze columns are replayed
+    std::filesystem::path trace_path;    // for messages
+    double start_s = 0.0;                // as the head tracker's
+    double duration_s = 0.0;
+    int64_t latency_ns = SimEyeTrackerConfig{}.latency_ns;
+};
+
+// Makes the eye tracker (not started), its first sample at the clock's now, like make_tracker's
+// trace: made at the same clock time, the two replay one timeline. Null for none. Errors name the
+// key (a trace without gaze columns: the file).
+Result<std::unique_ptr<EyeTracker>> make_eye_tracker(const EyeTrackerSpec& spec, Clock& clock,
+                                                     const WiringKeys& keys);
 
 // The display: "mock" (the mock headset display, hal/display/mock_display.hpp), "kms" (the
 // headset's connector through KMS, hal/display/kms_display.hpp: its mode gives the eye size and
