@@ -10,6 +10,8 @@
 
 #include <cmath>
 
+#include "hmdnode/hal/display/vsync_grid.hpp"
+
 namespace hmdnode {
 namespace {
 
@@ -32,17 +34,12 @@ class VkDisplayPacing final : public Display {
     DisplayInfo info() const override { return info_; }
 
     int64_t next_vsync_ns(int64_t t_ns) const override {
-        const int64_t p = info_.period_ns;
-        const int64_t rel = t_ns - anchor_ns_;
-        int64_t v = anchor_ns_ + (rel >= 0 ? rel / p + 1 : -((-rel) / p)) * p;
-        if (v <= t_ns) v += p;
-        return v;
+        return grid_vsync_after(anchor_ns_, info_.period_ns, t_ns);
     }
 
     int64_t free_vsync_ns(int64_t t_ns) const override {
-        int64_t v = next_vsync_ns(t_ns + info_.latch_margin_ns - 1);
-        if (v <= last_vsync_ns_) v = next_vsync_ns(last_vsync_ns_);
-        return v;
+        return grid_free_vsync(anchor_ns_, info_.period_ns, info_.latch_margin_ns, last_vsync_ns_,
+                               t_ns);
     }
 
     int64_t photon_offset_ns() const override {
