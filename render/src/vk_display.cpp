@@ -5,7 +5,12 @@
 
 #include <vulkan/vulkan.h>
 
+#include <cmath>
+#include <cstdio>
 #include <cstring>
+#include <optional>
+
+#include "vk_display_list.hpp"
 
 namespace hmdnode {
 namespace {
@@ -23,9 +28,10 @@ bool instance_extension(const char* name) {
 
 }  // namespace
 
-Result<std::vector<VulkanDisplayInfo>> list_vulkan_displays() {
-    std::vector<VulkanDisplayInfo> out;
-    if (!instance_extension(VK_KHR_DISPLAY_EXTENSION_NAME)) return out;
+namespace vkdisplay {
+
+Result<VkInstance> create_instance() {
+    if (!instance_extension(VK_KHR_DISPLAY_EXTENSION_NAME)) return VkInstance{VK_NULL_HANDLE};
     const char* exts[] = {VK_KHR_SURFACE_EXTENSION_NAME, VK_KHR_DISPLAY_EXTENSION_NAME};
     VkApplicationInfo app{};
     app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
@@ -43,6 +49,11 @@ Result<std::vector<VulkanDisplayInfo>> list_vulkan_displays() {
     if (r != VK_SUCCESS)
         return make_error("Vulkan: vkCreateInstance with VK_KHR_display failed (" +
                           std::to_string(int(r)) + ")");
+    return instance;
+}
+
+std::vector<FoundDisplay> enumerate(VkInstance instance) {
+    std::vector<FoundDisplay> out;
     uint32_t ngpu = 0;
     vkEnumeratePhysicalDevices(instance, &ngpu, nullptr);
     std::vector<VkPhysicalDevice> gpus(ngpu);
@@ -55,23 +66,39 @@ Result<std::vector<VulkanDisplayInfo>> list_vulkan_displays() {
         std::vector<VkDisplayPropertiesKHR> ds(nd);
         vkGetPhysicalDeviceDisplayPropertiesKHR(gpu, &nd, ds.data());
         for (const VkDisplayPropertiesKHR& d : ds) {
-            VulkanDisplayInfo info;
-            info.gpu = gp.deviceName;
-            info.name = d.displayName ? d.displayName : "";
-            info.width = int(d.physicalResolution.width);
-            info.height = int(d.physicalResolution.height);
+            FoundDisplay f;
+            f.gpu = gpu;
+            f.display = d.display;
+            f.info.gpu = gp.deviceName;
+            f.info.name = d.displayName ? d.displayName : "";
+            f.info.width = int(d.physicalResolution.width);
+            f.info.height = int(d.physicalResolution.height);
             uint32_t nm = 0;
             vkGetDisplayModePropertiesKHR(gpu, d.display, &nm, nullptr);
             std::vector<VkDisplayModePropertiesKHR> ms(nm);
             vkGetDisplayModePropertiesKHR(gpu, d.display, &nm, ms.data());
-            for (const VkDisplayModePropertiesKHR& m : ms)
-                info.modes.push_back({int(m.parameters.visibleRegion.width),
-                                      int(m.parameters.visibleRegion.height),
-                                      m.parameters.refreshRate / 1000.0});
-            out.push_back(std::move(info));
+            for (const VkDisplayModePropertiesKHR& m : ms) {
+                f.modes.push_back(m.displayMode);
+                f.info.modes.push_back({int(m.parameters.visibleRegion.width),
+                                        int(m.parameters.visibleRegion.height),
+                                        m.parameters.refreshRate / 1000.0});
+            }
+            out.push_back(std::move(f));
         }
     }
-    vkDestroyInstance(instance, nullptr);
+    return out;
+}
+
+}  // namespace vkdisplay
+
+Result<std::vector<VulkanDisplayInfo>> list_vulkan_displays() {
+    Result<VkInstance> instance = vkdisplay::create_instance();
+    if (!instance.ok()) return instance.error();
+    std::vector<VulkanDisplayInfo> out;
+    if (*instance == VK_NULL_HANDLE) return out;
+    for (vkdisplay::FoundDisplay& f : vkdisplay::enumerate(*instance))
+        out.push_back(std::move(f.info));
+    vkDestroyInstance(*instance, nullptr);
     return out;
 }
 
@@ -94,6 +121,32 @@ Result<VulkanDisplayInfo> choose_vulkan_display(const std::vector<VulkanDisplayI
         (displays.empty() ? " (no driver exposes a display through VK_KHR_display; "
                             "lavapipe never does: use display.type \"kms\")"
                           : ""));
+}
+
+Result<size_t> choose_vulkan_display_mode(const VulkanDisplayInfo& display, int width, int height,
+                                          double refresh_hz) {
+    const bool any = width == 0 && height == 0 && refresh_hz == 0.0;
+    const int w = any ? display.width : width, h = any ? display.height : height;
+    std::optional<size_t> best;
+    for (size_t i = 0; i < display.modes.size(); ++i) {
+        const VulkanDisplayMode& m = display.modes[i];
+        if ((w && m.width != w) || (h && m.height != h)) continue;
+        if (refresh_hz > 0.0 && std::fabs(m.refresh_hz - refresh_hz) > 0.5) continue;
+        if (!best || m.refresh_hz > display.modes[*best].refresh_hz) best = i;
+    }
+    if (best) return *best;
+    if (any && !display.modes.empty()) return size_t{0};
+    std::string list;
+    for (const VulkanDisplayMode& m : display.modes) {
+        char b[64];
+        std::snprintf(b, sizeof b, "%s%dx%d@%.2f", list.empty() ? "" : ", ", m.width, m.height,
+                      m.refresh_hz);
+        list += b;
+    }
+    char want[64];
+    std::snprintf(want, sizeof want, "%dx%d@%.2f", width, height, refresh_hz);
+    return make_error("display.mode: Vulkan display \"" + display.name + "\" on " + display.gpu +
+                      " has no mode " + want + "; its modes: " + (list.empty() ? "none" : list));
 }
 
 }  // namespace hmdnode

@@ -1,30 +1,34 @@
 #!/bin/sh
 # Builds the real-kernel lane's initramfs (uncompressed newc cpio): busybox, the kernel modules of
-# uhid/hid-generic, vivid and bochs (with their dependencies, in load order, from the same kernel as
-# the image qemu boots), the lane program with its shared libraries, and an /init that loads the
-# modules, runs the program and powers off. docs/hardware.md.
+# uhid/hid-generic, vivid, bochs and the 9p share over virtio (with their dependencies, in load
+# order, from the same kernel as the image qemu boots), and an /init that loads the modules, mounts
+# the host's root filesystem read-only from qemu's 9p share (mount tag "host"), chroots into it and
+# runs the lane program there, so that the program, its shared libraries, Mesa and the demo scene
+# are the host's own files at their own paths (nothing is copied in); then powers off.
+# docs/hardware.md.
 #
-# usage: build_initramfs.sh LANE_BINARY OUT.cpio KVER
+# usage: build_initramfs.sh LANE_BINARY DEMO_SCENE OUT.cpio KVER   (LANE and SCENE: host paths)
 set -eu
-lane=$1
-out=$2
-kver=$3
+lane=$(realpath "$1")
+scene=$(realpath "$2")
+out=$3
+kver=$4
 
 root=$(mktemp -d "${TMPDIR:-/tmp}/hmdnode-initramfs.XXXXXX")
 trap 'rm -rf "$root"' EXIT
-mkdir -p "$root/bin" "$root/dev" "$root/proc" "$root/sys" "$root/tmp" "$root/run" "$root/modules"
+mkdir -p "$root/bin" "$root/dev" "$root/proc" "$root/sys" "$root/host" "$root/modules"
 
 busybox=$(command -v busybox)
 case "$(file -b "$busybox" 2>/dev/null || echo static)" in
 *dynamically*) echo "build_initramfs: $busybox is not static (install busybox-static)" >&2; exit 2 ;;
 esac
 cp "$busybox" "$root/bin/busybox"
-for a in sh mount insmod poweroff echo cat ls sleep mkdir; do ln -s busybox "$root/bin/$a"; done
+for a in sh mount insmod poweroff echo cat chroot; do ln -s busybox "$root/bin/$a"; done
 
 # Modules in load order, each once; .xz/.zst decompressed (busybox insmod cannot).
 
 : >"$root/modules/load.list"
-for m in hid-generic uhid vivid bochs; do
+for m in hid-generic uhid vivid bochs virtio_pci 9pnet_virtio 9p; do
     modprobe -S "$kver" --show-depends "$m" | while read -r verb path rest; do
         [ "$verb" = insmod ] || continue
         name=$(basename "$path")
@@ -43,30 +47,28 @@ for m in hid-generic uhid vivid bochs; do
     done
 done
 
-# The lane program and every shared library it needs (ldd), at the same paths.
-cp "$lane" "$root/bin/lane"
-ldd "$lane" | awk '/=>/ { print $3 } /^\t\// { print $1 }' | while read -r lib; do
-    [ -f "$lib" ] || continue
-    mkdir -p "$root$(dirname "$lib")"
-    cp -L "$lib" "$root$lib"
-done
-# The dynamic loader is also looked up as /lib64/ld-linux-x86-64.so.2.
-if [ -f /lib64/ld-linux-x86-64.so.2 ] && [ ! -e "$root/lib64/ld-linux-x86-64.so.2" ]; then
-    mkdir -p "$root/lib64"
-    cp -L /lib64/ld-linux-x86-64.so.2 "$root/lib64/"
-fi
-
-cat >"$root/init" <<'INIT'
+# note: the share is mounted over directories of a read-only filesystem; proc, sys, dev, run and
+# tmp are mounted on the host's own mount points inside it (mounting does not write to it).
+cat >"$root/init" <<INIT
 #!/bin/sh
 mount -t proc proc /proc
 mount -t sysfs sysfs /sys
 mount -t devtmpfs devtmpfs /dev
-mount -t tmpfs tmpfs /run
 while read -r name args; do
-    insmod /modules/$name $args || echo "lane: insmod $name failed"
+    insmod /modules/\$name \$args || echo "lane: insmod \$name failed"
 done </modules/load.list
-/bin/lane
-echo "HMDNODE_KERNEL_LANE_EXIT: $?"
+if mount -t 9p -o trans=virtio,version=9p2000.L,ro,cache=loose,msize=512000 host /host; then
+    mount -t proc proc /host/proc
+    mount -t sysfs sysfs /host/sys
+    mount -t devtmpfs devtmpfs /host/dev
+    mount -t tmpfs tmpfs /host/run
+    mount -t tmpfs tmpfs /host/tmp
+    HOME=/tmp chroot /host '$lane' '$scene'
+    echo "HMDNODE_KERNEL_LANE_EXIT: \$?"
+else
+    echo "lane: mounting the host's 9p share failed"
+    echo "HMDNODE_KERNEL_LANE_EXIT: 1"
+fi
 poweroff -f
 INIT
 chmod +x "$root/init"

@@ -1,14 +1,18 @@
 #!/bin/sh
 # Runs the real-kernel lane: boots Debian's own kernel in qemu (TCG, no KVM: a nested guest hangs)
-# with the lane's initramfs and turns the guest's result marker into the exit status.
+# with the lane's initramfs and the host's root filesystem shared read-only over 9p (the guest
+# runs the lane program chrooted into it), and turns the guest's result marker into the exit
+# status.
 # 0 = pass, 1 = fail, 77 = skipped (no qemu, kernel image, busybox-static, cpio or modprobe: the
 # reason is printed). docs/hardware.md.
 #
-# usage: run.sh LANE_BINARY [WORK_DIR]
+# usage: run.sh LANE_BINARY DEMO_SCENE [WORK_DIR]
 set -u
 here=$(cd "$(dirname "$0")" && pwd)
-lane=${1:?usage: run.sh LANE_BINARY [WORK_DIR]}
-work=${2:-${TMPDIR:-/tmp}/hmdnode-kernel-lane}
+usage="usage: run.sh LANE_BINARY DEMO_SCENE [WORK_DIR]"
+lane=${1:?$usage}
+scene=${2:?$usage}
+work=${3:-${TMPDIR:-/tmp}/hmdnode-kernel-lane}
 mkdir -p "$work"
 
 skip() {
@@ -25,6 +29,7 @@ vmlinuz=$(ls -1 /boot/vmlinuz-* 2>/dev/null | sort -V | tail -n 1)
 kver=${vmlinuz#/boot/vmlinuz-}
 [ -d "/lib/modules/$kver" ] || skip "no /lib/modules/$kver for $vmlinuz"
 [ -x "$lane" ] || { echo "kernel lane: $lane is not an executable"; exit 1; }
+[ -r "$scene" ] || { echo "kernel lane: $scene is not a readable scene"; exit 1; }
 
 start=$(date +%s.%N)
 
@@ -60,20 +65,21 @@ else
 fi
 
 initrd="$work/initramfs-$kver.cpio"
-"$here/build_initramfs.sh" "$lane" "$initrd" "$kver" || { echo "kernel lane: building the initramfs failed"; exit 1; }
+"$here/build_initramfs.sh" "$lane" "$scene" "$initrd" "$kver" || { echo "kernel lane: building the initramfs failed"; exit 1; }
 
 log="$work/serial.log"
 # shellcheck disable=SC2086
-timeout 110 qemu-system-x86_64 -accel tcg -cpu max -m 1024 -smp 2 -nodefaults -no-user-config \
+timeout 150 qemu-system-x86_64 -accel tcg -cpu max -m 2048 -smp 2 -nodefaults -no-user-config \
     -display none -serial stdio -no-reboot $bios -kernel "$kernel" -initrd "$initrd" \
     -device bochs-display,edid=on,xres=320,yres=240,refresh_rate=60000 \
+    -virtfs local,path=/,mount_tag=host,security_model=none,readonly=on,multidevs=remap \
     -append "console=ttyS0 quiet panic=-1 mitigations=off" </dev/null >"$log" 2>&1
 qemu_status=$?
 end=$(date +%s.%N)
 tr -d '\r' <"$log" | grep -v '^$' | sed 's/^/guest| /'
 wall=$(echo "$end $start" | awk '{ printf "%.1f", $1 - $2 }')
 if [ $qemu_status -eq 124 ]; then
-    echo "kernel lane FAILED: the guest did not finish within 110 s (wall $wall s)"
+    echo "kernel lane FAILED: the guest did not finish within 150 s (wall $wall s)"
     exit 1
 fi
 if grep -q "HMDNODE_KERNEL_LANE: PASS" "$log" && grep -q "HMDNODE_KERNEL_LANE_EXIT: 0" "$log"; then

@@ -11,6 +11,7 @@
 #include "hmdnode/hal/tracking/device_tracker.hpp"
 #include "hmdnode/hal/tracking/survive_recording.hpp"
 #include "hmdnode/render/vk_display.hpp"
+#include "vk_display_pacing.hpp"
 
 namespace hmdnode {
 
@@ -133,13 +134,22 @@ Result<std::unique_ptr<Display>> make_display(const DisplaySpec& spec, Clock& cl
         return std::unique_ptr<Display>(std::move(*k));
     }
     if (spec.type == "vk-display") {
-        auto list = list_vulkan_displays();
-        if (!list.ok()) return list.error();
-        auto d = choose_vulkan_display(*list, spec.kms.connector);
-        if (!d.ok()) return d.error();
-        return make_error(keys.display + " vk-display: display \"" + d->name + "\" on " + d->gpu +
-                          " found, but presenting through VK_KHR_display is planned, not built "
-                          "(docs/hardware.md); use kms");
+        VulkanDisplayOutputConfig vc;
+        vc.display = spec.kms.connector;
+        if (!spec.kms.mode.empty()) {
+            auto m = parse_kms_mode(spec.kms.mode);
+            if (!m.ok()) return m.error();
+            vc.width = m->width;
+            vc.height = m->height;
+            vc.refresh_hz = m->refresh_hz;
+        }
+        auto out = create_vulkan_display_output(vc);
+        if (!out.ok()) return out.error();
+        const VulkanDisplayMode m = (*out)->mode();
+        spdlog::info("display: vk-display \"{}\" on {} {}x{}@{:.3f} Hz, {}", (*out)->display().name,
+                     (*out)->display().gpu, m.width, m.height, m.refresh_hz, (*out)->describe());
+        return make_vk_display_pacing(clock, std::move(*out), spec.kms.latch_margin_ns,
+                                      spec.kms.persistence_ns);
     }
     return make_error(keys.display + " \"" + spec.type + "\" is not available");
 }

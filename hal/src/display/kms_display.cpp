@@ -35,6 +35,8 @@
 
 #include <drm_fourcc.h>
 
+#include "hmdnode/hal/display/vsync_grid.hpp"
+
 namespace hmdnode {
 namespace {
 
@@ -231,17 +233,12 @@ class KmsDisplayImpl final : public KmsDisplay {
     DisplayInfo info() const override { return info_; }
 
     int64_t next_vsync_ns(int64_t t_ns) const override {
-        const int64_t rel = t_ns - anchor_ns_;
-        int64_t k = rel >= 0 ? rel / period_ns_ + 1 : -((-rel) / period_ns_);
-        int64_t v = anchor_ns_ + k * period_ns_;
-        if (v <= t_ns) v += period_ns_;
-        return v;
+        return grid_vsync_after(anchor_ns_, period_ns_, t_ns);
     }
 
     int64_t free_vsync_ns(int64_t t_ns) const override {
-        int64_t v = next_vsync_ns(t_ns + config_.latch_margin_ns - 1);
-        if (v <= last_vsync_ns_) v = next_vsync_ns(last_vsync_ns_);
-        return v;
+        return grid_free_vsync(anchor_ns_, period_ns_, config_.latch_margin_ns, last_vsync_ns_,
+                               t_ns);
     }
 
     int64_t photon_offset_ns() const override {

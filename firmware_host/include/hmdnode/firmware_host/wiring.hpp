@@ -137,8 +137,9 @@ Result<std::unique_ptr<EyeTracker>> make_eye_tracker(const EyeTrackerSpec& spec,
 
 // The display: "mock" (the mock headset display, hal/display/mock_display.hpp), "kms" (the
 // headset's connector through KMS, hal/display/kms_display.hpp: its mode gives the eye size and
-// refresh) or "vk-display" (a VK_KHR_display display: listed and chosen, its present path is
-// planned, so an error naming it). One branch per type in make_display.
+// refresh) or "vk-display" (a VK_KHR_display display, render/vk_display.hpp: chosen by
+// display.connector, its mode by display.mode, presented through a FIFO swapchain with
+// VK_KHR_present_wait where offered). One branch per type in make_display.
 struct DisplaySpec {
     std::string type = "mock";
     MockDisplayConfig mock;  // the mock panel's size, rate and frames; persistence (all types)

@@ -3,7 +3,7 @@
 // event or VK_GOOGLE_display_timing / VK_KHR_present_wait report on real hardware), so that pacing
 // never targets a vsync that an earlier frame already holds. Backends: the mock headset
 // (display/mock_display.hpp) and KMS direct output (display/kms_display.hpp); VK_KHR_display
-// output is planned (render/vk_display.hpp lists its displays).
+// output is render's (render/vk_display.hpp), made a Display by firmware_host's wiring.
 #pragma once
 
 #include <cstdint>
