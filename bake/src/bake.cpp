@@ -292,21 +292,26 @@ Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
                 if (map.valid[texel]) {
                     Pcg32 rng(options.seed, mix(mi + 1, texel));
                     uint64_t rc = 0;
-                    thread_local std::vector<glm::vec3> dv, iv;
-                    dv.clear();
-                    iv.clear();
-                    auto finite = [](const glm::vec3& v) {
-                        return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z)
-                                   ? v
-                                   : glm::vec3(0.0f);
-                    };
+                    thread_local std::vector<glm::vec3> dv, iv, sp, sn;
+                    dv.resize(size_t(samples));
+                    iv.resize(size_t(samples));
+                    sp.resize(size_t(samples));
+                    sn.resize(size_t(samples));
                     for (int j = 0; j < samples; ++j) {
                         const TexelSample& s = r.samples[b + uint32_t(j) % (e - b)];
-                        glm::vec3 ind(0.0f);
-                        const glm::vec3 d =
-                            tracer.irradiance_split(s.position, s.normal, rng, ind, &rc);
-                        dv.push_back(finite(d));
-                        iv.push_back(finite(ind));
+                        sp[size_t(j)] = s.position;
+                        sn[size_t(j)] = s.normal;
+                    }
+                    // The texel's paths as one batch: their shadow rays go to Embree together.
+                    tracer.irradiance_batch(size_t(samples), sp.data(), sn.data(), rng, dv.data(),
+                                            iv.data(), &rc);
+                    auto finite = [](glm::vec3& v) {
+                        if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
+                            v = glm::vec3(0.0f);
+                    };
+                    for (int j = 0; j < samples; ++j) {
+                        finite(dv[size_t(j)]);
+                        finite(iv[size_t(j)]);
                     }
                     if (clamp && options.firefly_indirect_only) {
                         clamp_fireflies(iv, options.firefly_factor);
@@ -401,10 +406,15 @@ Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
         std::vector<uint64_t> rays(job.queries.size(), 0);
         parallel_for(job.queries.size(), options.threads, 16, [&](size_t q, int thread) {
             Pcg32 rng(options.seed, mix(0x7665727465ULL, query_base + q));
-            glm::vec3 sum(0.0f);
             const glm::vec3 p = job.queries[q].first + job.queries[q].second * job.lift;
-            for (int j = 0; j < vsamples; ++j)
-                sum += tracer.irradiance(p, job.queries[q].second, rng, &rays[q]);
+            thread_local std::vector<glm::vec3> ps, ns, es;
+            ps.assign(size_t(vsamples), p);
+            ns.assign(size_t(vsamples), job.queries[q].second);
+            es.resize(size_t(vsamples));
+            tracer.irradiance_batch(size_t(vsamples), ps.data(), ns.data(), rng, es.data(), nullptr,
+                                    &rays[q]);
+            glm::vec3 sum(0.0f);
+            for (const glm::vec3& x : es) sum += x;
             answers[q] = sum / float(vsamples);
             paths_done += uint64_t(vsamples);
             report_progress(thread);

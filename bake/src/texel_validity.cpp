@@ -9,6 +9,7 @@
 // lying on the sample's own plane and facing the other way (the wall of a next room that shares
 // the wall plane, a box's bottom on the floor) touches the surface without covering it: it is
 // ignored (pushing the sample behind it blacked out 42 % of a wall that two rooms share).
+// A texel's rays (all its samples') are traced as one Embree stream (PathTracer::intersect_batch).
 // Cost: rays_per_sample short rays per sample, O(log T) each; no extra memory but one byte per
 // texel.
 #include <algorithm>
@@ -37,23 +38,36 @@ ValidityResult fix_texel_validity(TexelRaster& raster, const PathTracer& tracer,
         Pcg32 rng(seed ^ 0x9e3779b97f4a7c15ULL, texel);
         const float len = 1.5f * std::max(raster.texel_size_m[texel], 1e-5f);
         size_t back = 0, total = 0;
+        // The texel's rays, all samples', as one stream; the random numbers as one ray at a time.
+        thread_local std::vector<TraceQuery> q;
+        thread_local std::vector<std::optional<TraceHit>> hits;
+        q.clear();
         for (uint32_t si = raster.first[texel]; si < raster.first[texel + 1]; ++si) {
-            TexelSample& s = raster.samples[si];
-            const float off = tracer.ray_offset(s.position);
-            const glm::vec3 origin = s.position + s.face_normal * off;
-            float nearest = INFINITY;
-            glm::vec3 push_to(0.0f), push_n(0.0f);
+            const TexelSample& s = raster.samples[si];
+            const glm::vec3 origin = s.position + s.face_normal * tracer.ray_offset(s.position);
             for (int k = 0; k < rays_per_sample; ++k) {
                 // Stratified in z over the sphere.
                 float z = 1.0f - 2.0f * (k + rng.uniform()) / float(rays_per_sample);
                 float phi = 2.0f * std::numbers::pi_v<float> * rng.uniform();
                 float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
-                glm::vec3 d(r * std::cos(phi), r * std::sin(phi), z);
+                q.push_back(
+                    TraceQuery{origin, {r * std::cos(phi), r * std::sin(phi), z}, 0.0f, len});
+            }
+        }
+        hits.resize(q.size());
+        tracer.intersect_batch(q.size(), q.data(), hits.data());
+        size_t ray = 0;
+        for (uint32_t si = raster.first[texel]; si < raster.first[texel + 1]; ++si) {
+            TexelSample& s = raster.samples[si];
+            const float off = tracer.ray_offset(s.position);
+            float nearest = INFINITY;
+            glm::vec3 push_to(0.0f), push_n(0.0f);
+            for (int k = 0; k < rays_per_sample; ++k, ++ray) {
                 ++total;
                 ++rays[texel];
-                std::optional<TraceHit> h = tracer.intersect(origin, d, 0.0f, len);
+                const std::optional<TraceHit>& h = hits[ray];
                 if (!h || h->front || h->double_sided) continue;
-                const glm::vec3 hit = origin + d * h->t;
+                const glm::vec3 hit = q[ray].origin + q[ray].dir * h->t;
                 if (glm::dot(h->face_normal, s.face_normal) < -kCoplanarCos &&
                     std::abs(glm::dot(hit - s.position, s.face_normal)) <= 2.0f * off)
                     continue;  // back to back on the sample's own plane: touching, not covering
@@ -61,7 +75,7 @@ ValidityResult fix_texel_validity(TexelRaster& raster, const PathTracer& tracer,
                 if (h->t < nearest) {
                     nearest = h->t;
                     push_n = h->face_normal;  // front side of the back face we see
-                    push_to = origin + d * h->t;
+                    push_to = hit;
                 }
             }
             if (nearest < INFINITY) {

@@ -65,6 +65,12 @@ struct PathTracerOptions {
     int rr_min_bounces = 3;  // Russian roulette on reflections after this many
 };
 
+struct TraceQuery {
+    glm::vec3 origin{0.0f};
+    glm::vec3 dir{0.0f};
+    float t_near = 0.0f, t_far = 0.0f;
+};
+
 struct TraceHit {
     float t = 0.0f;
     uint32_t triangle = 0;
@@ -134,12 +140,22 @@ class PathTracer {
     // the bake's second filter pass act on).
     glm::vec3 irradiance_split(const glm::vec3& p, const glm::vec3& n, Pcg32& rng,
                                glm::vec3& indirect, uint64_t* rays = nullptr) const;
+    // `count` paths, path i from points[i] with normal normals[i], with one rng: the same
+    // estimates, random numbers and sums as irradiance_split (indirect given) or irradiance
+    // (indirect null: out[i] is the total) called for each in order, but the shadow rays of the
+    // whole batch are traced together as one Embree stream (rtcOccluded1M).
+    void irradiance_batch(size_t count, const glm::vec3* points, const glm::vec3* normals,
+                          Pcg32& rng, glm::vec3* out, glm::vec3* indirect = nullptr,
+                          uint64_t* rays = nullptr) const;
     // Direct light only (punctual lights + emitters by NEE + sky by one cosine sample).
     glm::vec3 direct_irradiance(const glm::vec3& p, const glm::vec3& n, Pcg32& rng,
                                 uint64_t* rays = nullptr) const;
 
     std::optional<TraceHit> intersect(const glm::vec3& origin, const glm::vec3& dir, float t_near,
                                       float t_far) const;
+    // intersect() for `count` rays at once, traced as one Embree stream (rtcIntersect1M); the
+    // same back-face rule per ray.
+    void intersect_batch(size_t count, const TraceQuery* rays, std::optional<TraceHit>* out) const;
     bool occluded(const glm::vec3& origin, const glm::vec3& dir, float t_near, float t_far) const;
 
     // Distance to lift a ray origin off a surface at p (scales with the scene's extent).
