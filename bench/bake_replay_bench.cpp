@@ -134,7 +134,7 @@ int main(int argc, char** argv) {
         "Measured by `" + command + "` (" + bench::build_kind() + "; " + machine +
         "; `hmdnode bake`'s defaults; mean over the rounds; the demo scene records every 64th "
         "ray of each thread, the Cornell box every ray):\n\n"
-        "| scene | threads | ray mix: bounce / shadow / short / coplanar | baker (Mrays/s) | raw "
+        "| scene | threads | ray mix: bounce / shadow / validity / coplanar | baker (Mrays/s) | raw "
         "single rays (Mrays/s) | baker / raw single | raw packets of 8 (Mrays/s) | raw streams of "
         "64 "
         "(Mrays/s) | baker / raw streams |\n|---|---|---|---|---|---|---|---|---|\n" +

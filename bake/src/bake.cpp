@@ -257,13 +257,16 @@ Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
             map.height = r.height;
             map.covered = r.covered;
             // Validity and push-off.
+            std::vector<uint32_t> visible;  // per texel: samples outside every solid (first)
             if (options.validity_rays > 0) {
                 detail::ValidityResult v = detail::fix_texel_validity(
                     r, tracer, options.validity_rays, options.validity_threshold, options.threads,
                     mix(options.seed, 0x76616c6964ULL + mi));
                 map.valid = std::move(v.valid);
+                visible = std::move(v.visible);
                 map.invalid = v.invalid;
                 map.pushed_samples = v.pushed;
+                map.buried_samples = v.buried;
                 total_rays += v.rays;
             } else {
                 map.valid.assign(n, 0);
@@ -279,16 +282,19 @@ Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
             const int samples = options.samples;
             const bool clamp = options.firefly_factor > 0.0f && samples >= 4;
             parallel_for(n, options.threads, 16, [&](size_t texel, int thread) {
-                const uint32_t b = r.first[texel], e = r.first[texel + 1];
-                if (b == e) return;
+                const uint32_t b = r.first[texel], e_all = r.first[texel + 1];
+                if (b == e_all) return;
                 glm::vec3 nsum(0.0f), psum(0.0f);
-                for (uint32_t s = b; s < e; ++s) {
+                for (uint32_t s = b; s < e_all; ++s) {
                     nsum += r.samples[s].normal;
                     psum += r.samples[s].position;
                 }
                 const float nl = glm::length(nsum);
                 normals[texel] = nl > 0.0f ? nsum / nl : r.samples[b].face_normal;
-                positions[texel] = psum / float(e - b);
+                positions[texel] = psum / float(e_all - b);
+                // Paths start at the visible samples only (buried ones come last).
+                const uint32_t e =
+                    !visible.empty() && visible[texel] > 0 ? b + visible[texel] : e_all;
                 if (map.valid[texel]) {
                     Pcg32 rng(options.seed, mix(mi + 1, texel));
                     uint64_t rc = 0;

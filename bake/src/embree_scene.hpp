@@ -44,7 +44,8 @@ class EmbreeScene {
 
     // A batch of rays as one Embree stream (rtcOccluded1M / rtcIntersect1M, incoherent): shadow
     // rays come back with tfar < 0 where occluded, nearest-hit rays with their hit (geomID
-    // RTC_INVALID_GEOMETRY_ID on a miss). Rays made by make_ray; recorded as shadow / short rays.
+    // RTC_INVALID_GEOMETRY_ID on a miss). Rays made by make_ray; recorded as shadow rays / as
+    // short rays (the validity pass's, the only nearest-hit streams).
     static RTCRay make_ray(const glm::vec3& o, const glm::vec3& d, float t_near, float t_far) {
         RTCRay r;
         r.org_x = o.x;

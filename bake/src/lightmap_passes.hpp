@@ -18,6 +18,10 @@ struct ValidityResult {
     std::vector<uint8_t> valid;  // per texel: 1 covered and valid
     size_t invalid = 0;          // covered texels marked invalid
     size_t pushed = 0;           // samples moved in front of a back face
+    size_t buried = 0;           // samples inside a solid (not traced)
+    // Per texel: its first `visible` samples (in raster.samples) are outside every solid; the
+    // rest are buried and left out of the paths.
+    std::vector<uint32_t> visible;
     uint64_t rays = 0;
 };
 

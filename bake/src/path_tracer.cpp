@@ -169,6 +169,7 @@ struct PathTracer::Impl {
     std::optional<TraceHit> finish(std::optional<detail::EmbreeHit> h, const glm::vec3& o,
                                    const glm::vec3& d, float tn, float tf) const {
         if (!h) return std::nullopt;
+        bool swapped = false;
         if (glm::dot(normals[h->prim], d) >= 0.0f && !mats[material[h->prim]].double_sided) {
             // A back face that absorbs. Where another surface lies on it (two rooms sharing a
             // wall plane, back to back) Embree returns either; the one facing the ray wins, so a
@@ -177,10 +178,13 @@ struct PathTracer::Impl {
             std::optional<detail::EmbreeHit> other = embree.intersect_skipping(
                 o, d, std::max(tn, h->t - eps), std::min(tf, h->t + eps), h->prim);
             if (other && (glm::dot(normals[other->prim], d) < 0.0f ||
-                          mats[material[other->prim]].double_sided))
+                          mats[material[other->prim]].double_sided)) {
                 h = other;
+                swapped = true;
+            }
         }
         TraceHit out;
+        out.back_face_there = swapped;
         out.t = h->t;
         out.triangle = h->prim;
         out.u = h->u;
@@ -605,6 +609,17 @@ std::optional<TraceHit> PathTracer::intersect(const glm::vec3& origin, const glm
 void PathTracer::intersect_batch(size_t count, const TraceQuery* rays,
                                  std::optional<TraceHit>* out) const {
     impl_->intersect_batch(count, rays, out);
+}
+
+bool PathTracer::find_back_face_there(const glm::vec3& origin, const glm::vec3& dir,
+                                      TraceHit& h) const {
+    if (h.back_face_there || (!h.front && !h.double_sided)) return h.back_face_there;
+    const float eps = impl_->offset(origin + dir * h.t);
+    std::optional<detail::EmbreeHit> other = impl_->embree.intersect_skipping(
+        origin, dir, std::max(0.0f, h.t - eps), h.t + eps, h.triangle);
+    h.back_face_there = other && glm::dot(impl_->normals[other->prim], dir) >= 0.0f &&
+                        !impl_->mats[impl_->material[other->prim]].double_sided;
+    return h.back_face_there;
 }
 
 bool PathTracer::occluded(const glm::vec3& origin, const glm::vec3& dir, float t_near,

@@ -14,6 +14,7 @@
 // texel.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "lightmap_passes.hpp"
@@ -22,6 +23,15 @@ namespace hmdnode::detail {
 
 namespace {
 constexpr float kCoplanarCos = 0.9995f;  // faces within 1.8 degrees of anti-parallel
+
+// Duff et al. 2017: tangent frame of unit n.
+void tangent_frame(const glm::vec3& n, glm::vec3& t, glm::vec3& b) {
+    const float sign = std::copysign(1.0f, n.z);
+    const float a = -1.0f / (sign + n.z);
+    const float bb = n.x * n.y * a;
+    t = glm::vec3(1.0f + sign * n.x * n.x * a, sign * bb, -sign * n.x);
+    b = glm::vec3(bb, sign + n.y * n.y * a, -n.y);
+}
 }  // namespace
 
 ValidityResult fix_texel_validity(TexelRaster& raster, const PathTracer& tracer,
@@ -30,65 +40,108 @@ ValidityResult fix_texel_validity(TexelRaster& raster, const PathTracer& tracer,
     const size_t n = size_t(raster.width) * raster.height;
     ValidityResult out;
     out.valid.assign(n, 0);
-    std::vector<uint32_t> pushed(n, 0), invalid(n, 0);
+    out.visible.assign(n, 0);
+    std::vector<uint32_t> pushed(n, 0), invalid(n, 0), buried(n, 0);
     std::vector<uint64_t> rays(n, 0);
     rays_per_sample = std::max(1, rays_per_sample);
     parallel_for(n, threads, 64, [&](size_t texel, int) {
         if (!raster.is_covered(texel)) return;
         Pcg32 rng(seed ^ 0x9e3779b97f4a7c15ULL, texel);
         const float len = 1.5f * std::max(raster.texel_size_m[texel], 1e-5f);
-        size_t back = 0, total = 0;
-        // The texel's rays, all samples', as one stream; the random numbers as one ray at a time.
+        const uint32_t b = raster.first[texel], e = raster.first[texel + 1];
+        // The texel's rays, all samples', as one stream: unbounded, over the hemisphere of the
+        // sample's face (the other half only meets the sample's own surface).
         thread_local std::vector<TraceQuery> q;
         thread_local std::vector<std::optional<TraceHit>> hits;
+        thread_local std::vector<uint8_t> inside;
         q.clear();
-        for (uint32_t si = raster.first[texel]; si < raster.first[texel + 1]; ++si) {
+        for (uint32_t si = b; si < e; ++si) {
             const TexelSample& s = raster.samples[si];
             const glm::vec3 origin = s.position + s.face_normal * tracer.ray_offset(s.position);
+            glm::vec3 t, bt;
+            tangent_frame(s.face_normal, t, bt);
             for (int k = 0; k < rays_per_sample; ++k) {
-                // Stratified in z over the sphere.
-                float z = 1.0f - 2.0f * (k + rng.uniform()) / float(rays_per_sample);
-                float phi = 2.0f * std::numbers::pi_v<float> * rng.uniform();
-                float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
-                q.push_back(
-                    TraceQuery{origin, {r * std::cos(phi), r * std::sin(phi), z}, 0.0f, len});
+                // Uniform over the hemisphere, stratified in its cosine.
+                const float z = (float(k) + rng.uniform()) / float(rays_per_sample);
+                const float phi = 2.0f * std::numbers::pi_v<float> * rng.uniform();
+                const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
+                const glm::vec3 d =
+                    t * (r * std::cos(phi)) + bt * (r * std::sin(phi)) + s.face_normal * z;
+                q.push_back(TraceQuery{origin, d, 0.0f, std::numeric_limits<float>::infinity()});
             }
         }
         hits.resize(q.size());
         tracer.intersect_batch(q.size(), q.data(), hits.data());
-        size_t ray = 0;
-        for (uint32_t si = raster.first[texel]; si < raster.first[texel + 1]; ++si) {
+        inside.assign(e - b, 0);
+        size_t back = 0, total = 0, ray = 0;
+        for (uint32_t si = b; si < e; ++si) {
             TexelSample& s = raster.samples[si];
             const float off = tracer.ray_offset(s.position);
             float nearest = INFINITY;
             glm::vec3 push_to(0.0f), push_n(0.0f);
+            size_t back_any = 0, back_near = 0;
             for (int k = 0; k < rays_per_sample; ++k, ++ray) {
-                ++total;
                 ++rays[texel];
-                const std::optional<TraceHit>& h = hits[ray];
-                if (!h || h->front || h->double_sided) continue;
+                std::optional<TraceHit>& h = hits[ray];
+                if (!h) continue;
                 const glm::vec3 hit = q[ray].origin + q[ray].dir * h->t;
-                if (glm::dot(h->face_normal, s.face_normal) < -kCoplanarCos &&
-                    std::abs(glm::dot(hit - s.position, s.face_normal)) <= 2.0f * off)
-                    continue;  // back to back on the sample's own plane: touching, not covering
-                ++back;
+                if (std::abs(glm::dot(hit - s.position, s.face_normal)) <= 2.0f * off &&
+                    std::abs(glm::dot(h->face_normal, s.face_normal)) > kCoplanarCos)
+                    continue;  // on the sample's own plane: touching, not covering
+                // Inside test: the ray leaves a solid first, here or where two solids touch (the
+                // touching faces' facing one is returned; the one behind it still says "inside").
+                const bool back_face = !h->front && !h->double_sided;
+                if (back_face || h->back_face_there) ++back_any;
+                if (!back_face || h->t > len) continue;
+                ++back_near;
                 if (h->t < nearest) {
                     nearest = h->t;
                     push_n = h->face_normal;  // front side of the back face we see
                     push_to = hit;
                 }
             }
+            // A front face where two solids touch may hide a back face on the same spot (Embree
+            // returns either): looked for when the sample may be inside (some back face seen).
+            if (back_any > 0 && 4 * back_any < 3 * size_t(rays_per_sample))
+                for (size_t k = ray - size_t(rays_per_sample); k < ray; ++k) {
+                    std::optional<TraceHit>& h = hits[k];
+                    if (!h || !h->front || h->back_face_there) continue;
+                    const glm::vec3 hit = q[k].origin + q[k].dir * h->t;
+                    if (std::abs(glm::dot(hit - s.position, s.face_normal)) <= 2.0f * off &&
+                        std::abs(glm::dot(h->face_normal, s.face_normal)) > kCoplanarCos)
+                        continue;
+                    if (tracer.find_back_face_there(q[k].origin, q[k].dir, *h)) ++back_any;
+                }
+            if (4 * back_any >= 3 * size_t(rays_per_sample)) {
+                // Inside a solid: most of its hemisphere first meets a face from behind, however
+                // far. Not moved (through the nearer face it may come out on the wrong side of a
+                // thick wall) and not traced: the texel's visible samples take its paths.
+                inside[si - b] = 1;
+                ++buried[texel];
+                continue;
+            }
+            back += back_near;
+            total += size_t(rays_per_sample);
             if (nearest < INFINITY) {
                 s.position = push_to + push_n * (2.0f * tracer.ray_offset(push_to));
                 ++pushed[texel];
             }
         }
-        const bool bad = total > 0 && float(back) > threshold * float(total);
+        // Visible samples first (in their order), buried ones after.
+        thread_local std::vector<TexelSample> keep;
+        keep.clear();
+        for (int pass = 0; pass < 2; ++pass)
+            for (uint32_t si = b; si < e; ++si)
+                if (inside[si - b] == pass) keep.push_back(raster.samples[si]);
+        std::copy(keep.begin(), keep.end(), raster.samples.begin() + b);
+        out.visible[texel] = uint32_t(e - b) - buried[texel];
+        const bool bad = total == 0 || float(back) > threshold * float(total);
         invalid[texel] = bad ? 1 : 0;
         out.valid[texel] = bad ? 0 : 1;
     });
     for (size_t i = 0; i < n; ++i) {
         out.pushed += pushed[i];
+        out.buried += buried[i];
         out.invalid += invalid[i];
         out.rays += rays[i];
     }

@@ -78,6 +78,9 @@ struct TraceHit {
     glm::vec3 face_normal{0.0f};  // unit, winding (front) side
     bool front = true;            // the ray arrived on the front side
     bool double_sided = false;    // the triangle's material is double-sided (no back face)
+    // A face turned away from the ray lies on the same spot (touching solids: a wall's face on
+    // the next wall's end, a slab on a wall's top); the facing one is returned.
+    bool back_face_there = false;
 };
 
 // Sets flush-to-zero and denormals-are-zero on the calling thread (Embree's recommendation).
@@ -95,7 +98,7 @@ int resolve_threads(int threads);
 // one relaxed atomic load per ray. Not reentrant: one recording at a time in the process.
 enum class RayKind : uint8_t {
     Bounce,    // nearest hit, unbounded: path continuations and camera rays
-    Short,     // nearest hit, bounded: the validity pass's rays (1.5 texels)
+    Short,     // nearest hit as a stream: the validity pass's rays (a texel's at once)
     Shadow,    // any hit (rtcOccluded1): punctual lights and emitter samples
     Coplanar,  // the second nearest-hit query past a back face on a shared wall plane
 };
@@ -156,6 +159,10 @@ class PathTracer {
     // intersect() for `count` rays at once, traced as one Embree stream (rtcIntersect1M); the
     // same back-face rule per ray.
     void intersect_batch(size_t count, const TraceQuery* rays, std::optional<TraceHit>* out) const;
+    // Whether a face turned away from the ray lies at hit h of the ray (origin, dir) too, within
+    // the ray offset (touching solids, where Embree returned the facing one): a second query
+    // that skips h's triangle. Sets h.back_face_there; returns it.
+    bool find_back_face_there(const glm::vec3& origin, const glm::vec3& dir, TraceHit& h) const;
     bool occluded(const glm::vec3& origin, const glm::vec3& dir, float t_near, float t_far) const;
 
     // Distance to lift a ray origin off a surface at p (scales with the scene's extent).
