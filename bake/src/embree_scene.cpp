@@ -139,8 +139,7 @@ void EmbreeScene::occluded_stream(RTCRay* rays, size_t count) const {
 void EmbreeScene::intersect_stream(RTCRayHit* rays, size_t count) const {
     if (count == 0) return;
     for (size_t i = 0; i < count; ++i) {
-        if (g_record_every.load(std::memory_order_relaxed) != 0)
-            record_stream(rays[i].ray, 1);
+        if (g_record_every.load(std::memory_order_relaxed) != 0) record_stream(rays[i].ray, 1);
         rays[i].hit.geomID = RTC_INVALID_GEOMETRY_ID;
         rays[i].hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
     }

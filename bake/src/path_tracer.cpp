@@ -30,6 +30,7 @@
 #include <thread>
 
 #include "embree_scene.hpp"
+#include "lightmap_passes.hpp"
 #include "world_lights.hpp"
 
 namespace hmdnode {
@@ -41,20 +42,11 @@ float srgb_to_linear(float c) {
     return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
 }
 
-// Duff et al. 2017: tangent frame of unit n.
-void onb(const glm::vec3& n, glm::vec3& t, glm::vec3& b) {
-    float sign = std::copysign(1.0f, n.z);
-    const float a = -1.0f / (sign + n.z);
-    const float bb = n.x * n.y * a;
-    t = glm::vec3(1.0f + sign * n.x * n.x * a, sign * bb, -sign * n.x);
-    b = glm::vec3(bb, sign + n.y * n.y * a, -n.y);
-}
-
 glm::vec3 cosine_sample(const glm::vec3& n, Pcg32& rng) {
     const float u1 = rng.uniform(), u2 = rng.uniform();
     const float r = std::sqrt(u1), phi = 2.0f * kPi * u2;
     glm::vec3 t, b;
-    onb(n, t, b);
+    detail::tangent_frame(n, t, b);
     const float z = std::sqrt(std::max(0.0f, 1.0f - u1));
     return glm::normalize(t * (r * std::cos(phi)) + b * (r * std::sin(phi)) + n * z);
 }

@@ -23,15 +23,6 @@ namespace hmdnode::detail {
 
 namespace {
 constexpr float kCoplanarCos = 0.9995f;  // faces within 1.8 degrees of anti-parallel
-
-// Duff et al. 2017: tangent frame of unit n.
-void tangent_frame(const glm::vec3& n, glm::vec3& t, glm::vec3& b) {
-    const float sign = std::copysign(1.0f, n.z);
-    const float a = -1.0f / (sign + n.z);
-    const float bb = n.x * n.y * a;
-    t = glm::vec3(1.0f + sign * n.x * n.x * a, sign * bb, -sign * n.x);
-    b = glm::vec3(bb, sign + n.y * n.y * a, -n.y);
-}
 }  // namespace
 
 ValidityResult fix_texel_validity(TexelRaster& raster, const PathTracer& tracer,
