@@ -3,8 +3,8 @@
 // (bounce, shadow, validity, coplanar re-query; start_ray_recording), then replays those rays
 // through raw Embree right after (interleaved in time, so both see the same machine load): single
 // rays (rtcIntersect1 / rtcOccluded1), packets of 8 and streams of 64 (rtcOccluded8 /
-// rtcIntersect8, rtcOccluded1M / rtcIntersect1M) for the shadow and short rays. The baker casts
-// its shadow and short rays as streams (a texel's or vertex sample's at once) and its bounce
+// rtcIntersect8, rtcOccluded1M / rtcIntersect1M) for the shadow and validity rays. The baker
+// casts its shadow and validity rays as streams (a texel's or vertex sample's at once), its bounce
 // rays single, so "raw streams" is the like-for-like reference; single rays stay beside it.
 // Rates are rays over wall time; CPU time beside them. Both scenes also run single-threaded.
 //
@@ -134,7 +134,8 @@ int main(int argc, char** argv) {
         "Measured by `" + command + "` (" + bench::build_kind() + "; " + machine +
         "; `hmdnode bake`'s defaults; mean over the rounds; the demo scene records every 64th "
         "ray of each thread, the Cornell box every ray):\n\n"
-        "| scene | threads | ray mix: bounce / shadow / validity / coplanar | baker (Mrays/s) | raw "
+        "| scene | threads | ray mix: bounce / shadow / validity / coplanar | baker (Mrays/s) | "
+        "raw "
         "single rays (Mrays/s) | baker / raw single | raw packets of 8 (Mrays/s) | raw streams of "
         "64 "
         "(Mrays/s) | baker / raw streams |\n|---|---|---|---|---|---|---|---|---|\n" +
@@ -143,7 +144,7 @@ int main(int argc, char** argv) {
         "paths, filters, vertex fits); raw = the recorded rays replayed through Embree right "
         "after each bake, on the same threads. In brackets: CPU seconds per wall second (the "
         "machine's load shows as less than the thread count). Packets and streams apply to "
-        "the shadow and short rays; bounce and coplanar rays stay single in every column. The "
+        "the shadow and validity rays; bounce and coplanar rays stay single in every column. The "
         "baker "
         "casts as the streams column does: shadow rays (a texel's paths' or a vertex sample's "
         "paths' at once, rtcOccluded1M) and validity rays (a texel's, rtcIntersect1M) as streams, "
