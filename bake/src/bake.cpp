@@ -257,13 +257,16 @@ Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
             map.height = r.height;
             map.covered = r.covered;
             // Validity and push-off.
+            std::vector<uint32_t> visible;  // per texel: samples outside every solid (first)
             if (options.validity_rays > 0) {
                 detail::ValidityResult v = detail::fix_texel_validity(
                     r, tracer, options.validity_rays, options.validity_threshold, options.threads,
                     mix(options.seed, 0x76616c6964ULL + mi));
                 map.valid = std::move(v.valid);
+                visible = std::move(v.visible);
                 map.invalid = v.invalid;
                 map.pushed_samples = v.pushed;
+                map.buried_samples = v.buried;
                 total_rays += v.rays;
             } else {
                 map.valid.assign(n, 0);
@@ -279,34 +282,42 @@ Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
             const int samples = options.samples;
             const bool clamp = options.firefly_factor > 0.0f && samples >= 4;
             parallel_for(n, options.threads, 16, [&](size_t texel, int thread) {
-                const uint32_t b = r.first[texel], e = r.first[texel + 1];
-                if (b == e) return;
+                const uint32_t b = r.first[texel], e_all = r.first[texel + 1];
+                if (b == e_all) return;
                 glm::vec3 nsum(0.0f), psum(0.0f);
-                for (uint32_t s = b; s < e; ++s) {
+                for (uint32_t s = b; s < e_all; ++s) {
                     nsum += r.samples[s].normal;
                     psum += r.samples[s].position;
                 }
                 const float nl = glm::length(nsum);
                 normals[texel] = nl > 0.0f ? nsum / nl : r.samples[b].face_normal;
-                positions[texel] = psum / float(e - b);
+                positions[texel] = psum / float(e_all - b);
+                // Paths start at the visible samples only (buried ones come last).
+                const uint32_t e =
+                    !visible.empty() && visible[texel] > 0 ? b + visible[texel] : e_all;
                 if (map.valid[texel]) {
                     Pcg32 rng(options.seed, mix(mi + 1, texel));
                     uint64_t rc = 0;
-                    thread_local std::vector<glm::vec3> dv, iv;
-                    dv.clear();
-                    iv.clear();
-                    auto finite = [](const glm::vec3& v) {
-                        return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z)
-                                   ? v
-                                   : glm::vec3(0.0f);
-                    };
+                    thread_local std::vector<glm::vec3> dv, iv, sp, sn;
+                    dv.resize(size_t(samples));
+                    iv.resize(size_t(samples));
+                    sp.resize(size_t(samples));
+                    sn.resize(size_t(samples));
                     for (int j = 0; j < samples; ++j) {
                         const TexelSample& s = r.samples[b + uint32_t(j) % (e - b)];
-                        glm::vec3 ind(0.0f);
-                        const glm::vec3 d =
-                            tracer.irradiance_split(s.position, s.normal, rng, ind, &rc);
-                        dv.push_back(finite(d));
-                        iv.push_back(finite(ind));
+                        sp[size_t(j)] = s.position;
+                        sn[size_t(j)] = s.normal;
+                    }
+                    // The texel's paths as one batch: their shadow rays go to Embree together.
+                    tracer.irradiance_batch(size_t(samples), sp.data(), sn.data(), rng, dv.data(),
+                                            iv.data(), &rc);
+                    auto finite = [](glm::vec3& v) {
+                        if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
+                            v = glm::vec3(0.0f);
+                    };
+                    for (int j = 0; j < samples; ++j) {
+                        finite(dv[size_t(j)]);
+                        finite(iv[size_t(j)]);
                     }
                     if (clamp && options.firefly_indirect_only) {
                         clamp_fireflies(iv, options.firefly_factor);
@@ -401,10 +412,15 @@ Result<BakeReport> bake_scene(Scene& scene, const BakeOptions& options,
         std::vector<uint64_t> rays(job.queries.size(), 0);
         parallel_for(job.queries.size(), options.threads, 16, [&](size_t q, int thread) {
             Pcg32 rng(options.seed, mix(0x7665727465ULL, query_base + q));
-            glm::vec3 sum(0.0f);
             const glm::vec3 p = job.queries[q].first + job.queries[q].second * job.lift;
-            for (int j = 0; j < vsamples; ++j)
-                sum += tracer.irradiance(p, job.queries[q].second, rng, &rays[q]);
+            thread_local std::vector<glm::vec3> ps, ns, es;
+            ps.assign(size_t(vsamples), p);
+            ns.assign(size_t(vsamples), job.queries[q].second);
+            es.resize(size_t(vsamples));
+            tracer.irradiance_batch(size_t(vsamples), ps.data(), ns.data(), rng, es.data(), nullptr,
+                                    &rays[q]);
+            glm::vec3 sum(0.0f);
+            for (const glm::vec3& x : es) sum += x;
             answers[q] = sum / float(vsamples);
             paths_done += uint64_t(vsamples);
             report_progress(thread);

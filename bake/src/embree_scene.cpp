@@ -1,9 +1,11 @@
 // Embree 3 scene of world triangles (Wald et al., "Embree: A Kernel Framework for Efficient CPU
 // Ray Tracing", SIGGRAPH 2014): a static, high-quality BVH built once (RTC_BUILD_QUALITY_HIGH,
 // robust mode), queried with single rays. Cost: build O(T log T), memory ~ 100 bytes per
-// triangle; each query O(log T). intersect_skipping uses a context filter function (Embree's
-// documented RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION) to skip one triangle; the filter runs only on
-// contexts that set it, so plain queries are unchanged.
+// triangle; each query O(log T). Batches go to Embree as streams (rtcOccluded1M / rtcIntersect1M,
+// Embree 3's stream API: it regroups the rays into packets of the CPU's SIMD width).
+// intersect_skipping uses a context filter function (Embree's documented
+// RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION) to skip one triangle; the filter runs only on contexts
+// that set it, so plain queries are unchanged.
 #include "embree_scene.hpp"
 
 #include <cmath>
@@ -114,21 +116,36 @@ bool EmbreeScene::occluded(const glm::vec3& o, const glm::vec3& d, float t_near,
     maybe_record(o, d, t_near, t_far, 2);
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
-    RTCRay r;
-    r.org_x = o.x;
-    r.org_y = o.y;
-    r.org_z = o.z;
-    r.dir_x = d.x;
-    r.dir_y = d.y;
-    r.dir_z = d.z;
-    r.tnear = t_near;
-    r.tfar = t_far;
-    r.time = 0.0f;
-    r.mask = 0xFFFFFFFFu;
-    r.id = 0;
-    r.flags = 0;
+    RTCRay r = make_ray(o, d, t_near, t_far);
     rtcOccluded1(scene_, &ctx, &r);
     return r.tfar < 0.0f;  // Embree sets tfar to -inf on a hit
+}
+
+namespace {
+void record_stream(const RTCRay& r, int kind) {
+    maybe_record({r.org_x, r.org_y, r.org_z}, {r.dir_x, r.dir_y, r.dir_z}, r.tnear, r.tfar, kind);
+}
+}  // namespace
+
+void EmbreeScene::occluded_stream(RTCRay* rays, size_t count) const {
+    if (count == 0) return;
+    if (g_record_every.load(std::memory_order_relaxed) != 0)
+        for (size_t i = 0; i < count; ++i) record_stream(rays[i], 2);
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    rtcOccluded1M(scene_, &ctx, rays, unsigned(count), sizeof(RTCRay));
+}
+
+void EmbreeScene::intersect_stream(RTCRayHit* rays, size_t count) const {
+    if (count == 0) return;
+    for (size_t i = 0; i < count; ++i) {
+        if (g_record_every.load(std::memory_order_relaxed) != 0) record_stream(rays[i].ray, 1);
+        rays[i].hit.geomID = RTC_INVALID_GEOMETRY_ID;
+        rays[i].hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    }
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    rtcIntersect1M(scene_, &ctx, rays, unsigned(count), sizeof(RTCRayHit));
 }
 
 }  // namespace hmdnode::detail

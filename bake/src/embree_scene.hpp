@@ -1,6 +1,7 @@
 // Private: the Embree 3 device and scene of the baker's world triangles (one triangle geometry,
-// committed once; rtcIntersect1 / rtcOccluded1 with one incoherent context per query, and a
-// context filter that skips one triangle for intersect_skipping).
+// committed once; rtcIntersect1 / rtcOccluded1 with one incoherent context per query, streams
+// (rtcOccluded1M / rtcIntersect1M) for batches, and a context filter that skips one triangle for
+// intersect_skipping).
 #pragma once
 
 #include <atomic>
@@ -40,6 +41,29 @@ class EmbreeScene {
     // coincident triangles, which a plain query may or may not return.
     std::optional<EmbreeHit> intersect_skipping(const glm::vec3& o, const glm::vec3& d,
                                                 float t_near, float t_far, uint32_t skip) const;
+
+    // A batch of rays as one Embree stream (rtcOccluded1M / rtcIntersect1M, incoherent): shadow
+    // rays come back with tfar < 0 where occluded, nearest-hit rays with their hit (geomID
+    // RTC_INVALID_GEOMETRY_ID on a miss). Rays made by make_ray; recorded as shadow rays / as
+    // short rays (the validity pass's, the only nearest-hit streams).
+    static RTCRay make_ray(const glm::vec3& o, const glm::vec3& d, float t_near, float t_far) {
+        RTCRay r;
+        r.org_x = o.x;
+        r.org_y = o.y;
+        r.org_z = o.z;
+        r.dir_x = d.x;
+        r.dir_y = d.y;
+        r.dir_z = d.z;
+        r.tnear = t_near;
+        r.tfar = t_far;
+        r.time = 0.0f;
+        r.mask = 0xFFFFFFFFu;
+        r.id = 0;
+        r.flags = 0;
+        return r;
+    }
+    void occluded_stream(RTCRay* rays, size_t count) const;
+    void intersect_stream(RTCRayHit* rays, size_t count) const;
 
     RTCScene handle() const { return scene_; }  // for the replay (ray_replay.cpp)
 

@@ -2,6 +2,7 @@
 // texel_validity.cpp, dilate.cpp, atrous_denoise.cpp, seam_blend.cpp, two_sided.cpp.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <vector>
@@ -14,10 +15,24 @@
 
 namespace hmdnode::detail {
 
+// Duff et al., "Building an Orthonormal Basis, Revisited", JCGT 2017: tangent frame of unit n,
+// branchless.
+inline void tangent_frame(const glm::vec3& n, glm::vec3& t, glm::vec3& b) {
+    const float sign = std::copysign(1.0f, n.z);
+    const float a = -1.0f / (sign + n.z);
+    const float bb = n.x * n.y * a;
+    t = glm::vec3(1.0f + sign * n.x * n.x * a, sign * bb, -sign * n.x);
+    b = glm::vec3(bb, sign + n.y * n.y * a, -n.y);
+}
+
 struct ValidityResult {
     std::vector<uint8_t> valid;  // per texel: 1 covered and valid
     size_t invalid = 0;          // covered texels marked invalid
     size_t pushed = 0;           // samples moved in front of a back face
+    size_t buried = 0;           // samples inside a solid (not traced)
+    // Per texel: its first `visible` samples (in raster.samples) are outside every solid; the
+    // rest are buried and left out of the paths.
+    std::vector<uint32_t> visible;
     uint64_t rays = 0;
 };
 

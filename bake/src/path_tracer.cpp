@@ -10,8 +10,11 @@
 // lights are all evaluated (they are delta lights: no MIS); back faces of single-sided materials
 // absorb, unless a face turned towards the ray lies on the same spot (within the ray offset: two
 // rooms back to back on one wall plane), which then wins (one more query per back-face hit).
+// Shadow rays are deferred and traced as one Embree stream per batch of paths (a texel's paths,
+// a vertex sample's): same sums, same random numbers as tracing each where it is cast.
 // Cost per sample: O(bounces x (2 + punctual lights)) rays of O(log T) each; memory
-// O(T) for the per-triangle data (corners, uv0, material, emitter CDF).
+// O(T) for the per-triangle data (corners, uv0, material, emitter CDF), and per thread O(batch
+// x bounces x (2 + punctual lights)) for the deferred shadow rays.
 #include "hmdnode/bake/path_tracer.hpp"
 
 #include <pmmintrin.h>
@@ -27,6 +30,7 @@
 #include <thread>
 
 #include "embree_scene.hpp"
+#include "lightmap_passes.hpp"
 #include "world_lights.hpp"
 
 namespace hmdnode {
@@ -38,20 +42,11 @@ float srgb_to_linear(float c) {
     return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
 }
 
-// Duff et al. 2017: tangent frame of unit n.
-void onb(const glm::vec3& n, glm::vec3& t, glm::vec3& b) {
-    float sign = std::copysign(1.0f, n.z);
-    const float a = -1.0f / (sign + n.z);
-    const float bb = n.x * n.y * a;
-    t = glm::vec3(1.0f + sign * n.x * n.x * a, sign * bb, -sign * n.x);
-    b = glm::vec3(bb, sign + n.y * n.y * a, -n.y);
-}
-
 glm::vec3 cosine_sample(const glm::vec3& n, Pcg32& rng) {
     const float u1 = rng.uniform(), u2 = rng.uniform();
     const float r = std::sqrt(u1), phi = 2.0f * kPi * u2;
     glm::vec3 t, b;
-    onb(n, t, b);
+    detail::tangent_frame(n, t, b);
     const float z = std::sqrt(std::max(0.0f, 1.0f - u1));
     return glm::normalize(t * (r * std::cos(phi)) + b * (r * std::sin(phi)) + n * z);
 }
@@ -159,8 +154,14 @@ struct PathTracer::Impl {
 
     std::optional<TraceHit> intersect(const glm::vec3& o, const glm::vec3& d, float tn,
                                       float tf) const {
-        std::optional<detail::EmbreeHit> h = embree.intersect(o, d, tn, tf);
+        return finish(embree.intersect(o, d, tn, tf), o, d, tn, tf);
+    }
+
+    // Embree's nearest hit h of the ray (o, d, [tn, tf]) as a TraceHit.
+    std::optional<TraceHit> finish(std::optional<detail::EmbreeHit> h, const glm::vec3& o,
+                                   const glm::vec3& d, float tn, float tf) const {
         if (!h) return std::nullopt;
+        bool swapped = false;
         if (glm::dot(normals[h->prim], d) >= 0.0f && !mats[material[h->prim]].double_sided) {
             // A back face that absorbs. Where another surface lies on it (two rooms sharing a
             // wall plane, back to back) Embree returns either; the one facing the ray wins, so a
@@ -169,10 +170,13 @@ struct PathTracer::Impl {
             std::optional<detail::EmbreeHit> other = embree.intersect_skipping(
                 o, d, std::max(tn, h->t - eps), std::min(tf, h->t + eps), h->prim);
             if (other && (glm::dot(normals[other->prim], d) < 0.0f ||
-                          mats[material[other->prim]].double_sided))
+                          mats[material[other->prim]].double_sided)) {
                 h = other;
+                swapped = true;
+            }
         }
         TraceHit out;
+        out.back_face_there = swapped;
         out.t = h->t;
         out.triangle = h->prim;
         out.u = h->u;
@@ -183,9 +187,56 @@ struct PathTracer::Impl {
         return out;
     }
 
-    // Punctual lights at p with normal n, shadowed (the formula in world_lights.hpp, Embree rays).
-    glm::vec3 punctual(const glm::vec3& p, const glm::vec3& n, uint64_t* rays) const {
-        glm::vec3 e(0.0f);
+    // intersect() for a batch of rays: one Embree stream, then the same back-face rule per ray.
+    void intersect_batch(size_t count, const TraceQuery* rays, std::optional<TraceHit>* out) const {
+        thread_local std::vector<RTCRayHit> rh;
+        rh.resize(count);
+        for (size_t i = 0; i < count; ++i)
+            rh[i].ray = detail::EmbreeScene::make_ray(rays[i].origin, rays[i].dir, rays[i].t_near,
+                                                      rays[i].t_far);
+        embree.intersect_stream(rh.data(), count);
+        for (size_t i = 0; i < count; ++i) {
+            std::optional<detail::EmbreeHit> h;
+            if (rh[i].hit.geomID != RTC_INVALID_GEOMETRY_ID)
+                h = detail::EmbreeHit{rh[i].ray.tfar, rh[i].hit.primID, rh[i].hit.u, rh[i].hit.v};
+            out[i] = finish(h, rays[i].origin, rays[i].dir, rays[i].t_near, rays[i].t_far);
+        }
+    }
+
+    // Shadow rays are deferred to the end of a batch of paths (trace_batch): each path logs what
+    // it would add and under which shadow ray, the batch's shadow rays go to Embree as one stream,
+    // and the sums are then replayed in the order of the one-ray-at-a-time code, so the floats
+    // are the same as if each shadow ray had been traced where it was cast. Whether a shadow ray
+    // is blocked changes no random number and no branch of the path, only what is added.
+    struct Deferred {
+        enum Op : uint8_t { Group, Light, Emit, EndGroup, Add, EndPath };
+        struct Item {
+            glm::vec3 value;
+            int32_t ray;  // shadow ray gating `value` (Light, Emit; -1: none, Emit adds 0)
+            Op op;
+            uint8_t target;  // 0: the direct sum, 1: the indirect one (Group, Add)
+            bool first;      // Group: the path's first (its value starts the direct sum)
+        };
+        std::vector<Item> items;
+        std::vector<RTCRay> rays;
+        void clear() {
+            items.clear();
+            rays.clear();
+        }
+        int32_t shadow(const glm::vec3& o, const glm::vec3& d, float tn, float tf) {
+            rays.push_back(detail::EmbreeScene::make_ray(o, d, tn, tf));
+            return int32_t(rays.size() - 1);
+        }
+        void push(Op op, const glm::vec3& v = glm::vec3(0.0f), int32_t ray = -1, uint8_t target = 0,
+                  bool first = false) {
+            items.push_back(Item{v, ray, op, target, first});
+        }
+        bool blocked(int32_t ray) const { return ray < 0 || rays[size_t(ray)].tfar < 0.0f; }
+    };
+
+    // Punctual lights at p with normal n, shadowed (the formula in world_lights.hpp): one
+    // deferred shadow ray and Light item per light that faces p.
+    void punctual(const glm::vec3& p, const glm::vec3& n, uint64_t* rays, Deferred& q) const {
         const glm::vec3 origin = p + n * offset(p);
         for (const detail::WorldLight& l : lights) {
             glm::vec3 to_light;
@@ -201,8 +252,8 @@ struct PathTracer::Impl {
                 to_light = d / dist;
                 falloff = 1.0f / (dist * dist);
                 if (l.range > 0.0f) {
-                    float q = dist / l.range;
-                    falloff *= std::clamp(1.0f - q * q * q * q, 0.0f, 1.0f);
+                    float q4 = dist / l.range;
+                    falloff *= std::clamp(1.0f - q4 * q4 * q4 * q4, 0.0f, 1.0f);
                 }
                 if (l.type == Light::Type::Spot) {
                     float a =
@@ -217,10 +268,9 @@ struct PathTracer::Impl {
             float cos_theta = glm::dot(n, to_light);
             if (cos_theta <= 0.0f || falloff <= 0.0f) continue;
             if (rays) ++*rays;
-            if (embree.occluded(origin, to_light, 0.0f, t_max)) continue;
-            e += l.intensity_rgb * (cos_theta * falloff);
+            q.push(Deferred::Light, l.intensity_rgb * (cos_theta * falloff),
+                   q.shadow(origin, to_light, 0.0f, t_max));
         }
-        return e;
     }
 
     // Solid-angle pdf of light sampling for direction arriving at emitter triangle `tri` at
@@ -230,10 +280,11 @@ struct PathTracer::Impl {
         return emitter_pdf_area[tri] * t * t / cos_l;
     }
 
-    // One emitter sample (MIS-weighted against cosine sampling) at p with normal n.
-    glm::vec3 emitter_sample(const glm::vec3& p, const glm::vec3& n, Pcg32& rng,
-                             uint64_t* rays) const {
-        if (emitters.empty()) return glm::vec3(0.0f);
+    // One emitter sample (MIS-weighted against cosine sampling) at p with normal n: one Emit item,
+    // its shadow ray deferred.
+    void emitter_sample(const glm::vec3& p, const glm::vec3& n, Pcg32& rng, uint64_t* rays,
+                        Deferred& q) const {
+        if (emitters.empty()) return q.push(Deferred::Emit);
         const float u = rng.uniform();
         size_t k = size_t(std::lower_bound(emitter_cdf.begin(), emitter_cdf.end(), u) -
                           emitter_cdf.begin());
@@ -243,35 +294,43 @@ struct PathTracer::Impl {
         const glm::vec3& a = corners[3 * tri];
         const glm::vec3& b = corners[3 * tri + 1];
         const glm::vec3& c = corners[3 * tri + 2];
-        const glm::vec3 q = (1 - s) * a + s * (1 - r2) * b + s * r2 * c;
+        const glm::vec3 qp = (1 - s) * a + s * (1 - r2) * b + s * r2 * c;
         const glm::vec3 origin = p + n * offset(p);
-        glm::vec3 d = q - origin;
+        glm::vec3 d = qp - origin;
         const float dist = glm::length(d);
-        if (dist <= 0.0f) return glm::vec3(0.0f);
+        if (dist <= 0.0f) return q.push(Deferred::Emit);
         d /= dist;
         const float cos_s = glm::dot(n, d);
-        if (cos_s <= 0.0f) return glm::vec3(0.0f);
+        if (cos_s <= 0.0f) return q.push(Deferred::Emit);
         const TriMaterial& m = mats[material[tri]];
         float cos_l = -glm::dot(normals[tri], d);
         if (m.double_sided) cos_l = std::abs(cos_l);
-        if (cos_l <= 0.0f) return glm::vec3(0.0f);
+        if (cos_l <= 0.0f) return q.push(Deferred::Emit);
         const float pdf_l = emitter_pdf_area[tri] * dist * dist / cos_l;
-        if (!(pdf_l > 0.0f)) return glm::vec3(0.0f);
+        if (!(pdf_l > 0.0f)) return q.push(Deferred::Emit);
         if (rays) ++*rays;
-        if (embree.occluded(origin, d, 0.0f, dist * (1.0f - 1e-4f) - offset(q)))
-            return glm::vec3(0.0f);
         const float pdf_b = cos_s / kPi;
         const float w = pdf_l / (pdf_l + pdf_b);
-        return m.emission * (cos_s / pdf_l * w);
+        q.push(Deferred::Emit, m.emission * (cos_s / pdf_l * w),
+               q.shadow(origin, d, 0.0f, dist * (1.0f - 1e-4f) - offset(qp)));
     }
 
-    // Irradiance at (p, n) with up to `bounces` reflections. With `indirect`, the part that
-    // reflected at least once (everything after the first hit's emission) goes there instead.
-    glm::vec3 irradiance(const glm::vec3& p, const glm::vec3& n, Pcg32& rng, uint64_t* rays,
-                         int bounces, glm::vec3* indirect = nullptr) const {
-        glm::vec3 e = punctual(p, n, rays) + emitter_sample(p, n, rng, rays);
-        glm::vec3 reflected(0.0f);
-        glm::vec3* acc = &e;  // where contributions go: direct until the first reflection
+    // Next-event estimation at (p, n): punctual lights and one emitter sample, as one group.
+    void direct_group(const glm::vec3& p, const glm::vec3& n, Pcg32& rng, uint64_t* rays,
+                      Deferred& q, const glm::vec3& beta, uint8_t target, bool first) const {
+        q.push(Deferred::Group, beta, -1, target, first);
+        punctual(p, n, rays, q);
+        emitter_sample(p, n, rng, rays, q);
+        q.push(Deferred::EndGroup);
+    }
+
+    // Irradiance at (p, n) with up to `bounces` reflections, logged into q (its shadow rays
+    // deferred). The part that reflected at least once (everything after the first hit's
+    // emission) is logged with target 1, the rest with target 0.
+    void irradiance(const glm::vec3& p, const glm::vec3& n, Pcg32& rng, uint64_t* rays, int bounces,
+                    Deferred& q) const {
+        direct_group(p, n, rng, rays, q, glm::vec3(1.0f), 0, true);
+        uint8_t acc = 0;  // where contributions go: direct until the first reflection
         // Continuation: radiance along a cosine-sampled direction, times pi.
         glm::vec3 x = p, nx = n;
         glm::vec3 d = cosine_sample(nx, rng);
@@ -282,7 +341,7 @@ struct PathTracer::Impl {
             std::optional<TraceHit> h =
                 intersect(x + nx * offset(x), d, 0.0f, std::numeric_limits<float>::infinity());
             if (!h) {
-                *acc += beta * options.sky_radiance;
+                q.push(Deferred::Add, beta * options.sky_radiance, -1, acc);
                 break;
             }
             const TriMaterial& m = mats[material[h->triangle]];
@@ -291,7 +350,7 @@ struct PathTracer::Impl {
             if (m.emission.x > 0.0f || m.emission.y > 0.0f || m.emission.z > 0.0f) {
                 const float pdf_l = light_pdf(h->triangle, h->t, glm::dot(ns, -d));
                 const float w = pdf_b / (pdf_b + pdf_l);
-                *acc += beta * m.emission * w;
+                q.push(Deferred::Add, beta * m.emission * w, -1, acc);
             }
             if (bounces >= 0 && k + 1 > bounces) break;
             const glm::vec3 a = albedo(h->triangle, h->u, h->v);
@@ -299,18 +358,78 @@ struct PathTracer::Impl {
             x = x + nx * offset(x) + d * h->t;
             nx = ns;
             beta *= a / kPi;
-            acc = indirect ? &reflected : &e;
-            *acc += beta * (punctual(x, nx, rays) + emitter_sample(x, nx, rng, rays));
+            acc = 1;
+            direct_group(x, nx, rng, rays, q, beta, acc, false);
             beta *= kPi;  // cosine sampling: f cos / pdf = albedo
             if (k + 1 >= options.rr_min_bounces) {
-                const float q = std::min(0.95f, max3(beta) / kPi);
-                if (rng.uniform() >= q) break;
-                beta /= q;
+                const float qq = std::min(0.95f, max3(beta) / kPi);
+                if (rng.uniform() >= qq) break;
+                beta /= qq;
             }
             d = cosine_sample(nx, rng);
             pdf_b = glm::dot(nx, d) / kPi;
         }
-        if (indirect) *indirect = reflected;
+        q.push(Deferred::EndPath);
+    }
+
+    // Traces the batch's shadow rays as one stream and replays each path's sums: out[i] (and
+    // indirect[i] when given; else the indirect part is added to out[i] as it comes).
+    void resolve(Deferred& q, glm::vec3* out, glm::vec3* indirect) const {
+        embree.occluded_stream(q.rays.data(), q.rays.size());
+        glm::vec3 e(0.0f), reflected(0.0f), group(0.0f), emit(0.0f), beta(0.0f);
+        uint8_t target = 0;
+        bool first = false;
+        size_t path = 0;
+        auto sum = [&](uint8_t t) -> glm::vec3& { return t != 0 && indirect ? reflected : e; };
+        for (const Deferred::Item& it : q.items) {
+            switch (it.op) {
+                case Deferred::Group:
+                    group = glm::vec3(0.0f);
+                    emit = glm::vec3(0.0f);
+                    beta = it.value;
+                    target = it.target;
+                    first = it.first;
+                    break;
+                case Deferred::Light:
+                    if (!q.blocked(it.ray)) group += it.value;
+                    break;
+                case Deferred::Emit:
+                    emit = q.blocked(it.ray) ? glm::vec3(0.0f) : it.value;
+                    break;
+                case Deferred::EndGroup:
+                    if (first)
+                        e = group + emit;
+                    else
+                        sum(target) += beta * (group + emit);
+                    break;
+                case Deferred::Add:
+                    sum(it.target) += it.value;
+                    break;
+                case Deferred::EndPath:
+                    out[path] = e;
+                    if (indirect) indirect[path] = reflected;
+                    e = reflected = glm::vec3(0.0f);
+                    ++path;
+                    break;
+            }
+        }
+    }
+
+    // Paths from count (point, normal) pairs, in order, with one rng: the shadow rays of all of
+    // them traced as one stream.
+    void trace_batch(size_t count, const glm::vec3* points, const glm::vec3* normals_in, Pcg32& rng,
+                     int bounces, glm::vec3* out, glm::vec3* indirect, uint64_t* rays) const {
+        thread_local Deferred q;
+        q.clear();
+        for (size_t i = 0; i < count; ++i)
+            irradiance(points[i], normals_in[i], rng, rays, bounces, q);
+        resolve(q, out, indirect);
+    }
+
+    glm::vec3 irradiance1(const glm::vec3& p, const glm::vec3& n, Pcg32& rng, uint64_t* rays,
+                          int bounces, glm::vec3* indirect = nullptr) const {
+        glm::vec3 e;
+        trace_batch(1, &p, &n, rng, bounces, &e, indirect, rays);
         return e;
     }
 };
@@ -439,17 +558,23 @@ Result<PathTracer> PathTracer::build(const Scene& scene, const PathTracerOptions
 
 glm::vec3 PathTracer::irradiance(const glm::vec3& p, const glm::vec3& n, Pcg32& rng,
                                  uint64_t* rays) const {
-    return impl_->irradiance(p, n, rng, rays, impl_->options.bounces);
+    return impl_->irradiance1(p, n, rng, rays, impl_->options.bounces);
 }
 
 glm::vec3 PathTracer::irradiance_split(const glm::vec3& p, const glm::vec3& n, Pcg32& rng,
                                        glm::vec3& indirect, uint64_t* rays) const {
-    return impl_->irradiance(p, n, rng, rays, impl_->options.bounces, &indirect);
+    return impl_->irradiance1(p, n, rng, rays, impl_->options.bounces, &indirect);
+}
+
+void PathTracer::irradiance_batch(size_t count, const glm::vec3* points, const glm::vec3* normals,
+                                  Pcg32& rng, glm::vec3* out, glm::vec3* indirect,
+                                  uint64_t* rays) const {
+    impl_->trace_batch(count, points, normals, rng, impl_->options.bounces, out, indirect, rays);
 }
 
 glm::vec3 PathTracer::direct_irradiance(const glm::vec3& p, const glm::vec3& n, Pcg32& rng,
                                         uint64_t* rays) const {
-    return impl_->irradiance(p, n, rng, rays, 0);
+    return impl_->irradiance1(p, n, rng, rays, 0);
 }
 
 glm::vec3 PathTracer::radiance(const glm::vec3& origin, const glm::vec3& dir, Pcg32& rng,
@@ -464,13 +589,29 @@ glm::vec3 PathTracer::radiance(const glm::vec3& origin, const glm::vec3& dir, Pc
     const glm::vec3 x = origin + dir * h->t;
     const glm::vec3 a = impl_->albedo(h->triangle, h->u, h->v);
     glm::vec3 l = m.emission;
-    if (max3(a) > 0.0f) l += a / kPi * impl_->irradiance(x, ns, rng, rays, impl_->options.bounces);
+    if (max3(a) > 0.0f) l += a / kPi * impl_->irradiance1(x, ns, rng, rays, impl_->options.bounces);
     return l;
 }
 
 std::optional<TraceHit> PathTracer::intersect(const glm::vec3& origin, const glm::vec3& dir,
                                               float t_near, float t_far) const {
     return impl_->intersect(origin, dir, t_near, t_far);
+}
+
+void PathTracer::intersect_batch(size_t count, const TraceQuery* rays,
+                                 std::optional<TraceHit>* out) const {
+    impl_->intersect_batch(count, rays, out);
+}
+
+bool PathTracer::find_back_face_there(const glm::vec3& origin, const glm::vec3& dir,
+                                      TraceHit& h) const {
+    if (h.back_face_there || (!h.front && !h.double_sided)) return h.back_face_there;
+    const float eps = impl_->offset(origin + dir * h.t);
+    std::optional<detail::EmbreeHit> other = impl_->embree.intersect_skipping(
+        origin, dir, std::max(0.0f, h.t - eps), h.t + eps, h.triangle);
+    h.back_face_there = other && glm::dot(impl_->normals[other->prim], dir) >= 0.0f &&
+                        !impl_->mats[impl_->material[other->prim]].double_sided;
+    return h.back_face_there;
 }
 
 bool PathTracer::occluded(const glm::vec3& origin, const glm::vec3& dir, float t_near,

@@ -88,18 +88,7 @@ double cpu_now() {
 }
 
 void fill(RTCRay& r, const RecordedRay& x) {
-    r.org_x = x.origin.x;
-    r.org_y = x.origin.y;
-    r.org_z = x.origin.z;
-    r.dir_x = x.dir.x;
-    r.dir_y = x.dir.y;
-    r.dir_z = x.dir.z;
-    r.tnear = x.t_near;
-    r.tfar = x.t_far;
-    r.time = 0.0f;
-    r.mask = 0xFFFFFFFFu;
-    r.id = 0;
-    r.flags = 0;
+    r = detail::EmbreeScene::make_ray(x.origin, x.dir, x.t_near, x.t_far);
 }
 
 // One ray as the baker casts it; returns 1 on a hit (nearest) or occlusion (shadow).

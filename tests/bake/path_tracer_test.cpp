@@ -357,5 +357,75 @@ TEST(PathTracer, RecordedRaysReplayAlikeAsSinglePacketAndStream) {
     EXPECT_NEAR(double(quarter), double(rays.size()) / 4.0, 0.01 * double(rays.size()));
 }
 
+// The baker traces a texel's paths as one batch, their shadow rays as one Embree stream, and a
+// texel's validity rays as another: the same floats, ray counts and hits as one path (one ray) at
+// a time, on the Cornell box (emitter samples blocked by the boxes) with a point light added.
+TEST(PathTracer, BatchedPathsAndRaysMatchOneAtATimeExactly) {
+    Scene s = cornell_box_scene(16.0);
+    Node lamp;
+    lamp.translation = glm::dvec3(0.1, 0.4, 0.05);
+    s.nodes.push_back(lamp);
+    s.roots.push_back(int(s.nodes.size() - 1));
+    Light l;
+    l.intensity = 2.0f;
+    l.node = int(s.nodes.size() - 1);
+    s.lights.push_back(l);
+    Result<PathTracer> t = PathTracer::build(s, PathTracerOptions{});
+    ASSERT_TRUE(t.ok()) << t.error().message;
+    ASSERT_EQ(t->punctual_light_count(), 1u);
+    const glm::vec3 lo = t->bounds_min(), ext = t->bounds_max() - t->bounds_min();
+    Pcg32 where(3, 9);
+    std::vector<glm::vec3> p, n;
+    for (int i = 0; i < 48; ++i) {
+        p.push_back(lo + ext * glm::vec3(where.uniform(), 0.0f, where.uniform()));  // the floor
+        p.back().y += 1e-3f * ext.y;
+        n.push_back(i % 3 == 0 ? glm::vec3(0, 1, 0) : glm::normalize(glm::vec3(0.2f, 1, -0.1f)));
+    }
+    Pcg32 a(11, 4), b(11, 4);
+    std::vector<glm::vec3> direct(p.size()), indirect(p.size());
+    uint64_t rays_batch = 0, rays_one = 0;
+    t->irradiance_batch(p.size(), p.data(), n.data(), a, direct.data(), indirect.data(),
+                        &rays_batch);
+    for (size_t i = 0; i < p.size(); ++i) {
+        glm::vec3 ind(0.0f);
+        const glm::vec3 d = t->irradiance_split(p[i], n[i], b, ind, &rays_one);
+        EXPECT_EQ(d, direct[i]) << i;
+        EXPECT_EQ(ind, indirect[i]) << i;
+    }
+    EXPECT_EQ(rays_batch, rays_one);
+    EXPECT_EQ(a.uniform(), b.uniform());  // the same random numbers used
+    std::vector<glm::vec3> total(p.size());
+    Pcg32 c(11, 4), e(11, 4);
+    t->irradiance_batch(p.size(), p.data(), n.data(), c, total.data());
+    for (size_t i = 0; i < p.size(); ++i) EXPECT_EQ(t->irradiance(p[i], n[i], e), total[i]) << i;
+
+    std::vector<TraceQuery> q;
+    for (int i = 0; i < 256; ++i) {
+        const glm::vec3 o = lo + ext * glm::vec3(where.uniform(), where.uniform(), where.uniform());
+        const float z = 1.0f - 2.0f * where.uniform(), phi = 2.0f * kPi * where.uniform();
+        const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
+        q.push_back(TraceQuery{o,
+                               {r * std::cos(phi), r * std::sin(phi), z},
+                               0.0f,
+                               i % 2 ? 0.1f * ext.x : std::numeric_limits<float>::infinity()});
+    }
+    std::vector<std::optional<TraceHit>> hits(q.size());
+    t->intersect_batch(q.size(), q.data(), hits.data());
+    size_t found = 0, back = 0;
+    for (size_t i = 0; i < q.size(); ++i) {
+        const std::optional<TraceHit> one =
+            t->intersect(q[i].origin, q[i].dir, q[i].t_near, q[i].t_far);
+        ASSERT_EQ(one.has_value(), hits[i].has_value()) << i;
+        if (!one) continue;
+        ++found;
+        back += one->front ? 0 : 1;
+        EXPECT_EQ(one->triangle, hits[i]->triangle) << i;
+        EXPECT_EQ(one->t, hits[i]->t) << i;
+        EXPECT_EQ(one->front, hits[i]->front) << i;
+    }
+    EXPECT_GT(found, 64u);
+    EXPECT_GT(back, 0u);  // points inside the boxes: back faces, with their re-query
+}
+
 }  // namespace
 }  // namespace hmdnode

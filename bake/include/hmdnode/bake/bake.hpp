@@ -77,6 +77,7 @@ struct BakedMap {
     int width = 0, height = 0;
     float intensity = 1.0f;
     size_t covered = 0, invalid = 0, dilated = 0, pushed_samples = 0, seams = 0;
+    size_t buried_samples = 0;       // samples inside a solid (validity): left out of the paths
     std::vector<glm::vec3> raw;      // E before dilation and denoising (0 where uncovered)
     std::vector<glm::vec3> final_e;  // E as encoded (before 8-bit quantisation)
     std::vector<uint8_t> valid;      // covered and valid texels

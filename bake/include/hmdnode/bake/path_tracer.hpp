@@ -65,6 +65,12 @@ struct PathTracerOptions {
     int rr_min_bounces = 3;  // Russian roulette on reflections after this many
 };
 
+struct TraceQuery {
+    glm::vec3 origin{0.0f};
+    glm::vec3 dir{0.0f};
+    float t_near = 0.0f, t_far = 0.0f;
+};
+
 struct TraceHit {
     float t = 0.0f;
     uint32_t triangle = 0;
@@ -72,6 +78,9 @@ struct TraceHit {
     glm::vec3 face_normal{0.0f};  // unit, winding (front) side
     bool front = true;            // the ray arrived on the front side
     bool double_sided = false;    // the triangle's material is double-sided (no back face)
+    // A face turned away from the ray lies on the same spot (touching solids: a wall's face on
+    // the next wall's end, a slab on a wall's top); the facing one is returned.
+    bool back_face_there = false;
 };
 
 // Sets flush-to-zero and denormals-are-zero on the calling thread (Embree's recommendation).
@@ -89,7 +98,7 @@ int resolve_threads(int threads);
 // one relaxed atomic load per ray. Not reentrant: one recording at a time in the process.
 enum class RayKind : uint8_t {
     Bounce,    // nearest hit, unbounded: path continuations and camera rays
-    Short,     // nearest hit, bounded: the validity pass's rays (1.5 texels)
+    Short,     // nearest hit as a stream: the validity pass's rays (a texel's at once)
     Shadow,    // any hit (rtcOccluded1): punctual lights and emitter samples
     Coplanar,  // the second nearest-hit query past a back face on a shared wall plane
 };
@@ -134,12 +143,26 @@ class PathTracer {
     // the bake's second filter pass act on).
     glm::vec3 irradiance_split(const glm::vec3& p, const glm::vec3& n, Pcg32& rng,
                                glm::vec3& indirect, uint64_t* rays = nullptr) const;
+    // `count` paths, path i from points[i] with normal normals[i], with one rng: the same
+    // estimates, random numbers and sums as irradiance_split (indirect given) or irradiance
+    // (indirect null: out[i] is the total) called for each in order, but the shadow rays of the
+    // whole batch are traced together as one Embree stream (rtcOccluded1M).
+    void irradiance_batch(size_t count, const glm::vec3* points, const glm::vec3* normals,
+                          Pcg32& rng, glm::vec3* out, glm::vec3* indirect = nullptr,
+                          uint64_t* rays = nullptr) const;
     // Direct light only (punctual lights + emitters by NEE + sky by one cosine sample).
     glm::vec3 direct_irradiance(const glm::vec3& p, const glm::vec3& n, Pcg32& rng,
                                 uint64_t* rays = nullptr) const;
 
     std::optional<TraceHit> intersect(const glm::vec3& origin, const glm::vec3& dir, float t_near,
                                       float t_far) const;
+    // intersect() for `count` rays at once, traced as one Embree stream (rtcIntersect1M); the
+    // same back-face rule per ray.
+    void intersect_batch(size_t count, const TraceQuery* rays, std::optional<TraceHit>* out) const;
+    // Whether a face turned away from the ray lies at hit h of the ray (origin, dir) too, within
+    // the ray offset (touching solids, where Embree returned the facing one): a second query
+    // that skips h's triangle. Sets h.back_face_there; returns it.
+    bool find_back_face_there(const glm::vec3& origin, const glm::vec3& dir, TraceHit& h) const;
     bool occluded(const glm::vec3& origin, const glm::vec3& dir, float t_near, float t_far) const;
 
     // Distance to lift a ray origin off a surface at p (scales with the scene's extent).
