@@ -599,6 +599,11 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
             }
         }
         clock_.sleep_until_ns(open_wake_ns_);
+        // The set-up (prediction, selection, the draw list, begin_frame: a GPU driver records
+        // and uploads there) is part of the frame's cost: left out, a frame whose set-up took
+        // longer than its render missed its vsync every time, and the margin never learned it
+        // because the re-aimed present was on time.
+        const int64_t setup_start = clock_.now_ns();
         drain_tracker();
         open_pose_ = predict(target + photon_offset);
         // The render time that lets a new frame make every vsync: a frame's render and warp
@@ -615,7 +620,7 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
         open_cursor_ = 0;
         open_rewarps_ = 0;
         open_target_ns_ = target;
-        open_render_ns_ = 0;
+        open_render_ns_ = clock_.now_ns() - setup_start;
         open_render_ms_ = 0.0;
         open_pose_sample_ns_ = history_.newest_time_ns();
     }

@@ -344,7 +344,7 @@ class NodeRuntime {
     int open_rewarps_ = 0;         // re-warps that interrupted it
     int64_t open_target_ns_ = 0;   // the vsync it is rendered for
     int64_t open_wake_ns_ = 0;
-    int64_t open_render_ns_ = 0;   // node-clock time its pieces took
+    int64_t open_render_ns_ = 0;   // node-clock time its set-up and pieces took
     double open_render_ms_ = 0.0;  // measured wall time of its pieces
     Pose open_pose_;
     int64_t open_pose_sample_ns_ = 0;
