@@ -152,10 +152,10 @@ Result<RenderBenchResult> run_render_bench(const RenderBenchOptions& opt) {
     ro.node.distortion = false;
     ro.node.lod.tolerance_px = opt.tolerance_px;
     ro.node.lod_allocator = opt.allocator;
-    // Only the greedy allocator's levels depend on the render cost (it learns the simulated
+    // Only the budgeted allocators' levels depend on the render cost (they learn the simulated
     // clock's model); otherwise a fixed cost that fits a period skips the calibration renders
     // (slow at full detail on a heavy scene) and makes rendered frame i the replay's vsync i.
-    if (opt.allocator != LodAllocator::greedy || opt.lod.kind != LodMode::automatic)
+    if (opt.allocator == LodAllocator::threshold || opt.lod.kind != LodMode::automatic)
         ro.frame_cost = FrameCostModel{};
     Result<ReplayResult> replay = run_replay(ro);
     if (!replay.ok()) return replay.error();
