@@ -11,8 +11,9 @@
 //     quantised to the level grid (levels are discrete; a real gene would be rounded anyway).
 //  2) initial antibodies: the paper draws them at random. Here, for temporal stability, antibody
 //     0 is last frame's levels (BudgetCandidate::previous, the memory cell carried across
-//     frames), 1 every object at the selector's level, 2 every object at its coarsest, the rest
-//     antibody 0 with 5 % of its genes reset at random.
+//     frames), 1 every object at the selector's level, 2 the greedy allocator's answer (prior
+//     knowledge, so the IGA never returns worse than the greedy), the rest antibody 0 with 5 % of
+//     its genes reset at random.
 //  3) vaccine: the rounded mean of the best `vaccine_donors` antibodies' genes; a vaccinated
 //     child gets `vaccine_genes` of its genes from it (the paper extracts the vaccine but does not
 //     say how it is injected; this is Jiao & Wang 2000's gene injection).
@@ -34,7 +35,8 @@
 // Determinism: the generator (SplitMix64) is reseeded from IgaParams::seed on every call and the
 // work is capped by generations (never by a clock), so the same candidates give the same levels.
 // Stability: last frame's levels are kept unless the best antibody beats them by `keep_previous`.
-// Cost: O(n log n) for the orders, then O(P n L) per generation, at most `max_generations`.
+// Cost: the greedy's O(n L^2 + n L log n) and O(n log n) for the orders, then O(P n L) per
+// generation, at most `max_generations`.
 #include <algorithm>
 #include <cassert>
 #include <cmath>
@@ -62,7 +64,8 @@ struct SplitMix {
     // The gap to the next position hit with probability p per position (geometric, >= 1).
     size_t skip(double p) {
         if (p >= 1.0) return 1;
-        const double u = 1.0 - uniform();  // (0, 1]
+        if (!(p > 0.0)) return std::numeric_limits<size_t>::max() / 2;  // never
+        const double u = 1.0 - uniform();                               // (0, 1]
         const double g = std::floor(std::log(u) / std::log1p(-p));
         return g >= 1e18 ? std::numeric_limits<size_t>::max() / 2 : size_t(g) + 1;
     }

@@ -141,7 +141,7 @@ TEST(CliEdges, ImplausibleOrInconsistentValuesAreRefusedNamingTheOption) {
          std::vector<Case>{{"--resample 1e8", "--resample"},
                            {"--lod-tolerance-px -1", "--lod-tolerance-px"},
                            {"--noise-deg -2", "--noise-deg"},
-                           {"--allocator iga", "--allocator"},
+                           {"--allocator annealing", "--allocator"},
                            {"--persistence-ms 20", "--persistence-ms"},
                            {"--refresh 120 --persistence-ms 9", "refresh period"}}) {
         const CommandRun r = run(base + " " + c.args);
@@ -173,7 +173,7 @@ TEST(CliEdges, TheDaemonRefusesTheSameValuesInItsConfigNamingTheKey) {
                            {"/tracker/noise_deg", -1.0, "tracker.noise_deg"},
                            {"/display/persistence_ms", 20.0, "display.persistence_ms"},
                            {"/node/lod_tolerance_px", -1.0, "node.lod_tolerance_px"},
-                           {"/node/lod_allocator", "iga", "node.lod_allocator"},
+                           {"/node/lod_allocator", "annealing", "node.lod_allocator"},
                            {"/node/lod_fade_frames", 16, "node.lod_fade_frames"},
                            {"/display/msaa", 2, "display.msaa"}}) {
         nlohmann::json cfg = good;

@@ -107,7 +107,8 @@ class GreedyLodAllocator {
 // mutation (eq. 18), a vaccine from the best antibodies' mean genes, the best kept as memory cell;
 // warm-started from last frame's levels (BudgetCandidate::previous). Deterministic: the generator
 // is reseeded from `seed` on every call, and the work is capped by generations, never by a clock.
-// O(G P n L) for G generations of P antibodies over n objects of L levels (iga_allocator.cpp).
+// The greedy's answer is one initial antibody. O(G P n L) for G generations of P antibodies over
+// n objects of L levels, plus the greedy's cost (iga_allocator.cpp).
 struct IgaParams {
     int population = 8;            // antibodies (>= 4)
     int max_generations = 8;       // hard cap: the decision time is bounded by it
