@@ -67,20 +67,9 @@ std::string decision_rows(size_t n, int frames) {
         const LodViewer v = bench::decision_viewer(f);
         const int64_t t0 = now_ns();
         const double c0 = bench::thread_cpu_ms();
-        candidates.clear();
-        uint64_t wanted = 0, coarsest = 0;
-        for (size_t i = 0; i < n; ++i) {
-            const bench::DecisionObject& o = objects[i];
-            const LodDecision d =
-                selector.select(i, LodObjectView{o.center, o.radius, o.errors}, v);
-            candidates.push_back(
-                BudgetCandidate{o.errors, o.triangles,
-                                v.pixels_per_radian / (d.distance_m * d.tolerance_px), d.level});
-            wanted += o.triangles[size_t(d.level)];
-            coarsest += o.triangles.back();
-        }
+        // The budget: half-way between everything coarsest and the selector's levels.
         const double budget_ms =
-            base_ms + per_triangle_ms * (double(coarsest) + 0.5 * double(wanted - coarsest));
+            bench::decision_candidates(selector, objects, v, base_ms, per_triangle_ms, candidates);
         const bool warm = f >= 20;
         if (warm) {
             select.wall_ms.push_back(double(now_ns() - t0) * 1e-6);

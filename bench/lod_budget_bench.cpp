@@ -44,21 +44,9 @@ int main(int argc, char** argv) {
     for (int f = 0; f < frames + 20; ++f) {
         const LodViewer v = bench::decision_viewer(f);
         const int64_t t0 = now_ns();
-        candidates.clear();
-        uint64_t wanted = 0, coarsest = 0;
-        for (size_t i = 0; i < n; ++i) {
-            const bench::DecisionObject& o = objects[i];
-            const LodDecision d =
-                selector.select(i, LodObjectView{o.center, o.radius, o.errors}, v);
-            candidates.push_back(
-                BudgetCandidate{o.errors, o.triangles,
-                                v.pixels_per_radian / (d.distance_m * d.tolerance_px), d.level});
-            wanted += o.triangles[size_t(d.level)];
-            coarsest += o.triangles.back();
-        }
         // The budget: half-way between everything coarsest and the selector's levels.
         const double budget_ms =
-            base_ms + per_triangle_ms * (double(coarsest) + 0.5 * double(wanted - coarsest));
+            bench::decision_candidates(selector, objects, v, base_ms, per_triangle_ms, candidates);
         const int64_t t1 = now_ns();
         const BudgetAllocation a =
             allocator.allocate(candidates, base_ms, per_triangle_ms, budget_ms, levels);

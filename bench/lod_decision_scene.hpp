@@ -10,6 +10,7 @@
 #include <random>
 #include <vector>
 
+#include "hmdnode/lod/budget.hpp"
 #include "hmdnode/lod/selector.hpp"
 
 namespace hmdnode::bench {
@@ -47,6 +48,25 @@ inline LodViewer decision_viewer(int frame) {
     v.angular_speed_dps = 30.0 * (frame % 7);
     v.pixels_per_radian = 500.0;
     return v;
+}
+
+// The selector's decision for every object as the allocators' candidates (into `candidates`);
+// returns the benches' budget: half-way between every object at its coarsest and at the
+// selector's level, in render ms of base + per_triangle * triangles.
+inline double decision_candidates(LodSelector& selector, const std::vector<DecisionObject>& objects,
+                                  const LodViewer& v, double base_ms, double per_triangle_ms,
+                                  std::vector<BudgetCandidate>& candidates) {
+    candidates.clear();
+    uint64_t wanted = 0, coarsest = 0;
+    for (size_t i = 0; i < objects.size(); ++i) {
+        const DecisionObject& o = objects[i];
+        const LodDecision d = selector.select(i, LodObjectView{o.center, o.radius, o.errors}, v);
+        candidates.push_back(BudgetCandidate{
+            o.errors, o.triangles, v.pixels_per_radian / (d.distance_m * d.tolerance_px), d.level});
+        wanted += o.triangles[size_t(d.level)];
+        coarsest += o.triangles.back();
+    }
+    return base_ms + per_triangle_ms * (double(coarsest) + 0.5 * double(wanted - coarsest));
 }
 
 }  // namespace hmdnode::bench

@@ -35,6 +35,21 @@ BudgetCandidate candidate(const Chain& c, double distance_m, int finest = 0) {
     return BudgetCandidate{c.errors, c.triangles, 500.0 / distance_m, finest};
 }
 
+struct Case {
+    std::vector<Chain> chains;
+    std::vector<BudgetCandidate> cs;
+    double budget = 0.0;
+};
+
+// 20 objects of 4-6 levels at 1-20 m, the selector's levels 0-3.
+Case graded_case() {
+    Case k;
+    for (int i = 0; i < 20; ++i) k.chains.push_back(chain(4 + i % 3, 10000));
+    for (size_t i = 0; i < k.chains.size(); ++i)
+        k.cs.push_back(candidate(k.chains[i], 1.0 + double(i), int(i % 4)));
+    return k;
+}
+
 uint64_t triangles_of(const std::vector<BudgetCandidate>& cs, const std::vector<int>& levels) {
     uint64_t t = 0;
     for (size_t i = 0; i < cs.size(); ++i) t += cs[i].level_triangles[size_t(levels[i])];
@@ -114,11 +129,8 @@ TEST(GreedyLodAllocator, NeverExceedsABudgetThatSomeChoiceFits) {
 }
 
 TEST(GreedyLodAllocator, WithAnUnlimitedBudgetItDrawsTheSelectorsLevels) {
-    std::vector<Chain> chains;
-    for (int i = 0; i < 20; ++i) chains.push_back(chain(4 + i % 3, 10000));
-    std::vector<BudgetCandidate> cs;
-    for (size_t i = 0; i < chains.size(); ++i)
-        cs.push_back(candidate(chains[i], 1.0 + double(i), int(i % 4)));
+    const Case k = graded_case();
+    const std::vector<BudgetCandidate>& cs = k.cs;
     std::vector<int> levels(cs.size());
     GreedyLodAllocator alloc;
     const BudgetAllocation a = alloc.allocate(cs, 2.0, 1e-3, 1e30, levels);
@@ -183,13 +195,8 @@ TEST(BudgetFeedback, ShrinksOverTargetAndGrowsOnlyWhenHeldBack) {
 
 namespace {
 
-// A random budget between every object at its coarsest and every object at the selector's level.
-struct Case {
-    std::vector<Chain> chains;
-    std::vector<BudgetCandidate> cs;
-    double budget = 0.0;
-};
-
+// Random objects and a random budget between every object at its coarsest and every object at
+// the selector's level.
 Case random_case(std::mt19937& rng, int objects, int min_levels, int max_levels) {
     std::uniform_int_distribution<int> levels_d(min_levels, max_levels), finest_d(0, 1);
     std::uniform_int_distribution<int> tri_d(500, 20000);
@@ -343,11 +350,8 @@ TEST(IgaLodAllocator, KeepsLastFramesLevelsUnlessClearlyBeaten) {
 }
 
 TEST(IgaLodAllocator, UnlimitedDrawsTheSelectorsLevelsAndNoRoomTheCoarsest) {
-    std::vector<Chain> chains;
-    for (int i = 0; i < 20; ++i) chains.push_back(chain(4 + i % 3, 10000));
-    std::vector<BudgetCandidate> cs;
-    for (size_t i = 0; i < chains.size(); ++i)
-        cs.push_back(candidate(chains[i], 1.0 + double(i), int(i % 4)));
+    const Case k = graded_case();
+    const std::vector<BudgetCandidate>& cs = k.cs;
     std::vector<int> levels(cs.size());
     IgaLodAllocator alloc;
     BudgetAllocation a = alloc.allocate(cs, 2.0, 1e-3, 1e30, levels);
