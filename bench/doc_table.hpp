@@ -3,6 +3,8 @@
 // one file each).
 #pragma once
 
+#include <time.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
@@ -29,6 +31,29 @@ inline int64_t now_ns() {
     return std::chrono::duration_cast<std::chrono::nanoseconds>(
                std::chrono::steady_clock::now().time_since_epoch())
         .count();
+}
+
+// This thread's CPU time, milliseconds (on a shared machine, what the work costs).
+inline double thread_cpu_ms() {
+    timespec t{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
+}
+
+// The 1-minute load average now; -1 when it cannot be read.
+inline double load1() {
+    double l[3] = {0, 0, 0};
+    return getloadavg(l, 3) == 3 ? l[0] : -1.0;
+}
+
+// A frame range "A:B" with 0 <= A < B.
+inline bool parse_range(const std::string& s, int64_t* a, int64_t* b) {
+    long long x = 0, y = 0;
+    char tail = 0;
+    if (std::sscanf(s.c_str(), "%lld:%lld%c", &x, &y, &tail) != 2 || x < 0 || y <= x) return false;
+    *a = x;
+    *b = y;
+    return true;
 }
 
 // True when --write-docs is among the arguments.

@@ -19,6 +19,7 @@
 #include "doc_table.hpp"
 #include "hmdnode/lod/budget.hpp"
 #include "hmdnode/lod/selector.hpp"
+#include "lod_decision_scene.hpp"
 
 using namespace hmdnode;
 
@@ -31,26 +32,7 @@ int main(int argc, char** argv) {
                            ? std::max(10, std::atoi(argv[1]))
                            : 2000;
     const size_t n = 1000;
-    std::mt19937 rng(21);
-    std::uniform_real_distribution<double> pos(-30.0, 30.0), radius(0.2, 2.0);
-    std::uniform_int_distribution<int> levels_d(4, 6), tri_d(2000, 200000);
-    struct Object {
-        glm::dvec3 center;
-        double radius;
-        std::vector<double> errors;
-        std::vector<uint64_t> triangles;
-    };
-    std::vector<Object> objects(n);
-    for (Object& o : objects) {
-        o.center = {pos(rng), pos(rng) * 0.2, pos(rng)};
-        o.radius = radius(rng);
-        const int levels = levels_d(rng);
-        const uint64_t t0 = uint64_t(tri_d(rng));
-        for (int l = 0; l < levels; ++l) {
-            o.errors.push_back(l == 0 ? 0.0 : o.radius * 0.002 * double(1 << (2 * (l - 1))));
-            o.triangles.push_back(std::max<uint64_t>(8, t0 >> (2 * l)));
-        }
-    }
+    const std::vector<bench::DecisionObject> objects = bench::decision_objects(n);
     LodSelector selector(n);
     GreedyLodAllocator allocator;
     std::vector<BudgetCandidate> candidates;
@@ -60,28 +42,11 @@ int main(int argc, char** argv) {
     std::vector<double> total_ms, select_ms, alloc_ms;
     size_t coarsened = 0, limited = 0;
     for (int f = 0; f < frames + 20; ++f) {
-        LodViewer v;
-        const double yaw = 0.01 * f;
-        v.eye_position = {0.0, 1.6, 0.0};
-        v.gaze_direction = {std::sin(yaw), 0.0, -std::cos(yaw)};
-        v.angular_speed_dps = 30.0 * (f % 7);
-        v.pixels_per_radian = 500.0;
+        const LodViewer v = bench::decision_viewer(f);
         const int64_t t0 = now_ns();
-        candidates.clear();
-        uint64_t wanted = 0, coarsest = 0;
-        for (size_t i = 0; i < n; ++i) {
-            const Object& o = objects[i];
-            const LodDecision d =
-                selector.select(i, LodObjectView{o.center, o.radius, o.errors}, v);
-            candidates.push_back(
-                BudgetCandidate{o.errors, o.triangles,
-                                v.pixels_per_radian / (d.distance_m * d.tolerance_px), d.level});
-            wanted += o.triangles[size_t(d.level)];
-            coarsest += o.triangles.back();
-        }
         // The budget: half-way between everything coarsest and the selector's levels.
         const double budget_ms =
-            base_ms + per_triangle_ms * (double(coarsest) + 0.5 * double(wanted - coarsest));
+            bench::decision_candidates(selector, objects, v, base_ms, per_triangle_ms, candidates);
         const int64_t t1 = now_ns();
         const BudgetAllocation a =
             allocator.allocate(candidates, base_ms, per_triangle_ms, budget_ms, levels);

@@ -41,12 +41,6 @@ using bench::appendf;
 
 namespace {
 
-double thread_cpu_ms() {
-    timespec t{};
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-    return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
-}
-
 double median(std::vector<double> v) {
     std::sort(v.begin(), v.end());
     return v.empty() ? 0.0 : v[v.size() / 2];
@@ -104,22 +98,22 @@ Row measure_mesh(const std::string& name, const Primitive& in, int runs) {
     std::vector<double> simplify_t, ref_t, level_t[3];
     std::vector<SimplifiedLevel> levels;
     for (int run = 0; run < runs; ++run) {
-        double t0 = thread_cpu_ms();
+        double t0 = bench::thread_cpu_ms();
         Result<std::vector<SimplifiedLevel>> r = simplify(in, "qem", targets, so);
-        simplify_t.push_back(thread_cpu_ms() - t0);
+        simplify_t.push_back(bench::thread_cpu_ms() - t0);
         if (!r.ok()) {
             std::fprintf(stderr, "bench_lod_distance_bench: %s: %s\n", name.c_str(),
                          r.error().message.c_str());
             std::exit(1);
         }
         levels = std::move(r).value();
-        t0 = thread_cpu_ms();
+        t0 = bench::thread_cpu_ms();
         const MeshDistanceReference ref(view_of(in));
-        ref_t.push_back(thread_cpu_ms() - t0);
+        ref_t.push_back(bench::thread_cpu_ms() - t0);
         for (size_t k = 0; k < levels.size() && k < 3; ++k) {
-            t0 = thread_cpu_ms();
+            t0 = bench::thread_cpu_ms();
             const MeshDistance d = ref.measure(view_of(levels[k].primitive));
-            level_t[k].push_back(thread_cpu_ms() - t0);
+            level_t[k].push_back(bench::thread_cpu_ms() - t0);
             row.hausdorff[k] = d.hausdorff_pct();
             row.upper[k] = d.hausdorff_upper_pct();
             row.mean[k] = d.mean_pct();

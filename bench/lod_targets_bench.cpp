@@ -29,24 +29,6 @@
 
 using namespace hmdnode;
 
-namespace {
-
-double load1() {
-    double l[3] = {0, 0, 0};
-    return getloadavg(l, 3) == 3 ? l[0] : -1.0;
-}
-
-bool parse_range(const std::string& s, int64_t* a, int64_t* b) {
-    long long x = 0, y = 0;
-    char tail = 0;
-    if (std::sscanf(s.c_str(), "%lld:%lld%c", &x, &y, &tail) != 2 || x < 0 || y <= x) return false;
-    *a = x;
-    *b = y;
-    return true;
-}
-
-}  // namespace
-
 int main(int argc, char** argv) {
     const bool write_docs = bench::wants_docs(argc, argv);
     std::string heavy;
@@ -73,8 +55,8 @@ int main(int argc, char** argv) {
     }
     RenderBenchOptions demo_opt, heavy_opt;
     if (heavy.empty() || !(seconds > 0.0) ||
-        !parse_range(demo_frames, &demo_opt.first_frame, &demo_opt.end_frame) ||
-        !parse_range(heavy_frames, &heavy_opt.first_frame, &heavy_opt.end_frame)) {
+        !bench::parse_range(demo_frames, &demo_opt.first_frame, &demo_opt.end_frame) ||
+        !bench::parse_range(heavy_frames, &heavy_opt.first_frame, &heavy_opt.end_frame)) {
         std::fprintf(stderr, "%s: --heavy is required; ranges are A:B with A < B; seconds > 0\n",
                      argv[0]);
         return 2;
@@ -155,9 +137,9 @@ int main(int argc, char** argv) {
         ro.display.eye_height = run.h;
         ro.node.lod_allocator = run.alloc;
         ro.node.lod.tolerance_px = run.tolerance;
-        const double l0 = load1();
+        const double l0 = bench::load1();
         Result<ReplayResult> r = run_replay(ro);
-        const double l1 = load1();
+        const double l1 = bench::load1();
         if (!r.ok()) {
             std::fprintf(stderr, "%s: %s\n", run.name, r.error().message.c_str());
             return 1;

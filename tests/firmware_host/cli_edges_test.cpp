@@ -141,7 +141,7 @@ TEST(CliEdges, ImplausibleOrInconsistentValuesAreRefusedNamingTheOption) {
          std::vector<Case>{{"--resample 1e8", "--resample"},
                            {"--lod-tolerance-px -1", "--lod-tolerance-px"},
                            {"--noise-deg -2", "--noise-deg"},
-                           {"--allocator iga", "--allocator"},
+                           {"--allocator annealing", "--allocator"},
                            {"--persistence-ms 20", "--persistence-ms"},
                            {"--refresh 120 --persistence-ms 9", "refresh period"}}) {
         const CommandRun r = run(base + " " + c.args);
@@ -175,7 +175,7 @@ TEST(CliEdges, TheDaemonRefusesTheSameValuesInItsConfigNamingTheKey) {
                            {"/node/lod_tolerance_px", -1.0, "node.lod_tolerance_px"},
                            {"/node/prediction_ms", 150.0, "node.prediction_ms"},
                            {"/node/lod_bias", -9.0, "node.lod_bias"},
-                           {"/node/lod_allocator", "iga", "node.lod_allocator"},
+                           {"/node/lod_allocator", "annealing", "node.lod_allocator"},
                            {"/node/lod_fade_frames", 16, "node.lod_fade_frames"},
                            {"/display/msaa", 2, "display.msaa"}}) {
         nlohmann::json cfg = good;

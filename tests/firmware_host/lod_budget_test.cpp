@@ -147,3 +147,30 @@ TEST(LodBudget, GreedyAllocatorKeepsEveryVsyncWhereFullDetailMissesHalf) {
                 1e-6);
     EXPECT_EQ(replay_report_json(o, *threshold)["lod_allocator"], "threshold");
 }
+
+TEST(LodBudget, IgaAllocatorKeepsEveryVsyncWhereFullDetailMissesHalf) {
+    // The immune genetic allocator in the same loop: the same budget, learned cost and feedback.
+    const fs::path dir = hmdnode::test::fresh_temp_dir("hmdnode_lod_budget_iga_test");
+    const ReplayOptions o = heavy_options(dir, LodAllocator::iga);
+    auto iga = run_replay(o);
+    ASSERT_TRUE(iga.ok()) << iga.error().message;
+    EXPECT_GE(iga->summary.on_time_rate, 0.99);
+    EXPECT_GE(iga->summary.new_frames_per_vsync, 0.99);
+    EXPECT_GT(iga->summary.triangles_mean, 1000.0);
+    EXPECT_LT(iga->summary.triangles_mean, 20 * 128);
+    size_t within = 0, frames = 0;
+    for (const FrameRecord& f : iga->frames) {
+        if (f.kind != FrameKind::new_frame || f.frame < 5) continue;
+        ++frames;
+        within += f.predicted_render_ms <= ns_to_ms(iga->period_ns) - 1.0;
+        EXPECT_GT(f.lod_coarsened, 0u);
+    }
+    EXPECT_EQ(within, frames);
+    EXPECT_EQ(replay_report_json(o, *iga)["lod_allocator"], "iga");
+    // Deterministic: the same replay on the simulated clock draws the same levels.
+    auto again = run_replay(o);
+    ASSERT_TRUE(again.ok()) << again.error().message;
+    ASSERT_EQ(again->frames.size(), iga->frames.size());
+    for (size_t i = 0; i < iga->frames.size(); ++i)
+        EXPECT_EQ(again->frames[i].levels, iga->frames[i].levels) << "frame " << i;
+}

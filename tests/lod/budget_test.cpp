@@ -1,9 +1,11 @@
 // The frame-budget controller's parts: the learned cost model, the greedy benefit/cost allocator
-// (Funkhouser & Sequin 1993) and the budget's integral feedback.
+// (Funkhouser & Sequin 1993), the immune genetic allocator (seed 002) and the budget's integral
+// feedback.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cstdint>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -31,6 +33,21 @@ Chain chain(int levels, uint64_t finest_triangles) {
 BudgetCandidate candidate(const Chain& c, double distance_m, int finest = 0) {
     // 500 px/rad, a 1 px tolerance.
     return BudgetCandidate{c.errors, c.triangles, 500.0 / distance_m, finest};
+}
+
+struct Case {
+    std::vector<Chain> chains;
+    std::vector<BudgetCandidate> cs;
+    double budget = 0.0;
+};
+
+// 20 objects of 4-6 levels at 1-20 m, the selector's levels 0-3.
+Case graded_case() {
+    Case k;
+    for (int i = 0; i < 20; ++i) k.chains.push_back(chain(4 + i % 3, 10000));
+    for (size_t i = 0; i < k.chains.size(); ++i)
+        k.cs.push_back(candidate(k.chains[i], 1.0 + double(i), int(i % 4)));
+    return k;
 }
 
 uint64_t triangles_of(const std::vector<BudgetCandidate>& cs, const std::vector<int>& levels) {
@@ -112,11 +129,8 @@ TEST(GreedyLodAllocator, NeverExceedsABudgetThatSomeChoiceFits) {
 }
 
 TEST(GreedyLodAllocator, WithAnUnlimitedBudgetItDrawsTheSelectorsLevels) {
-    std::vector<Chain> chains;
-    for (int i = 0; i < 20; ++i) chains.push_back(chain(4 + i % 3, 10000));
-    std::vector<BudgetCandidate> cs;
-    for (size_t i = 0; i < chains.size(); ++i)
-        cs.push_back(candidate(chains[i], 1.0 + double(i), int(i % 4)));
+    const Case k = graded_case();
+    const std::vector<BudgetCandidate>& cs = k.cs;
     std::vector<int> levels(cs.size());
     GreedyLodAllocator alloc;
     const BudgetAllocation a = alloc.allocate(cs, 2.0, 1e-3, 1e30, levels);
@@ -177,4 +191,175 @@ TEST(BudgetFeedback, ShrinksOverTargetAndGrowsOnlyWhenHeldBack) {
     EXPECT_EQ(f.scale(), 1.0);  // never above the target
     for (int i = 0; i < 100; ++i) f.update(100.0, 10.0, true);
     EXPECT_EQ(f.scale(), BudgetFeedbackParams{}.min_scale);
+}
+
+namespace {
+
+// Random objects and a random budget between every object at its coarsest and every object at
+// the selector's level.
+Case random_case(std::mt19937& rng, int objects, int min_levels, int max_levels) {
+    std::uniform_int_distribution<int> levels_d(min_levels, max_levels), finest_d(0, 1);
+    std::uniform_int_distribution<int> tri_d(500, 20000);
+    std::uniform_real_distribution<double> dist_d(0.5, 30.0), frac_d(0.0, 1.0);
+    Case k;
+    for (int i = 0; i < objects; ++i)
+        k.chains.push_back(chain(levels_d(rng), uint64_t(tri_d(rng))));
+    for (const Chain& c : k.chains) k.cs.push_back(candidate(c, dist_d(rng), finest_d(rng)));
+    std::vector<int> coarsest(k.cs.size()), finest(k.cs.size());
+    for (size_t i = 0; i < k.cs.size(); ++i) {
+        coarsest[i] = int(k.cs[i].level_triangles.size()) - 1;
+        finest[i] = k.cs[i].finest;
+    }
+    const double lo = 1.0 + 1e-4 * double(triangles_of(k.cs, coarsest));
+    const double hi = 1.0 + 1e-4 * double(triangles_of(k.cs, finest));
+    k.budget = lo + frac_d(rng) * (hi - lo);
+    return k;
+}
+
+double error_left(const std::vector<BudgetCandidate>& cs, const std::vector<int>& levels) {
+    double f = 0.0;
+    for (size_t i = 0; i < cs.size(); ++i)
+        f += cs[i].level_errors_m[size_t(levels[i])] * cs[i].error_scale;
+    return f;
+}
+
+// The least error left over every choice within the budget (exhaustive).
+double optimum(const std::vector<BudgetCandidate>& cs, double base, double per_triangle,
+               double budget) {
+    std::vector<int> levels(cs.size());
+    for (size_t i = 0; i < cs.size(); ++i) levels[i] = cs[i].finest;
+    double best = std::numeric_limits<double>::infinity();
+    for (;;) {
+        if (base + per_triangle * double(triangles_of(cs, levels)) <= budget)
+            best = std::min(best, error_left(cs, levels));
+        size_t i = 0;
+        for (; i < cs.size(); ++i) {
+            if (++levels[i] < int(cs[i].level_triangles.size())) break;
+            levels[i] = cs[i].finest;
+        }
+        if (i == cs.size()) return best;
+    }
+}
+
+}  // namespace
+
+TEST(IgaLodAllocator, NeverExceedsTheBudgetNorPicksFinerThanTheSelector) {
+    std::mt19937 rng(11);
+    IgaLodAllocator alloc;
+    for (int trial = 0; trial < 200; ++trial) {
+        Case k = random_case(rng, 60, 4, 6);
+        // Half the trials warm-start from a random previous choice, some out of range.
+        if (trial % 2)
+            for (BudgetCandidate& c : k.cs) c.previous = int(rng() % 8) - 1;
+        std::vector<int> levels(k.cs.size());
+        const BudgetAllocation a = alloc.allocate(k.cs, 1.0, 1e-4, k.budget, levels);
+        EXPECT_LE(a.predicted_ms, k.budget + 1e-9) << "trial " << trial;
+        EXPECT_EQ(a.triangles, triangles_of(k.cs, levels));
+        EXPECT_NEAR(a.predicted_ms, 1.0 + 1e-4 * double(a.triangles), 1e-9);
+        size_t coarsened = 0;
+        for (size_t i = 0; i < k.cs.size(); ++i) {
+            EXPECT_GE(levels[i], k.cs[i].finest);
+            EXPECT_LT(levels[i], int(k.cs[i].level_triangles.size()));
+            coarsened += levels[i] > k.cs[i].finest;
+            // Filled: no coarsened object has a step that would still fit.
+            if (levels[i] > k.cs[i].finest) {
+                const double step = 1e-4 * double(k.cs[i].level_triangles[size_t(levels[i] - 1)] -
+                                                  k.cs[i].level_triangles[size_t(levels[i])]);
+                EXPECT_GT(a.predicted_ms + step, k.budget) << "trial " << trial << " object " << i;
+            }
+        }
+        EXPECT_EQ(a.coarsened, coarsened);
+        EXPECT_EQ(a.limited, coarsened > 0);
+        EXPECT_LE(alloc.last_generations(), IgaParams{}.max_generations);
+    }
+}
+
+TEST(IgaLodAllocator, ReachesTheExhaustiveOptimumOnSmallCases) {
+    // 6 objects of 2-4 levels: at most 4^6 choices, searched exhaustively. With the default
+    // parameters the IGA finds the optimum in at least 85 % of the cases (the greedy: about 75 %),
+    // never in fewer than the greedy, and leaves at most 2 % more error than the optimum on
+    // average.
+    std::mt19937 rng(5);
+    IgaLodAllocator iga;
+    GreedyLodAllocator greedy;
+    int optimal = 0, greedy_optimal = 0;
+    double ratio_sum = 0.0;
+    const int trials = 300;
+    for (int trial = 0; trial < trials; ++trial) {
+        const Case k = random_case(rng, 6, 2, 4);
+        const double best = optimum(k.cs, 1.0, 1e-4, k.budget);
+        std::vector<int> levels(k.cs.size());
+        iga.allocate(k.cs, 1.0, 1e-4, k.budget, levels);
+        const double got = error_left(k.cs, levels);
+        EXPECT_GE(got, best - 1e-9);
+        optimal += got <= best * (1.0 + 1e-9) + 1e-12;
+        ratio_sum += best > 0.0 ? got / best : 1.0;
+        greedy.allocate(k.cs, 1.0, 1e-4, k.budget, levels);
+        const double greedy_got = error_left(k.cs, levels);
+        greedy_optimal += greedy_got <= best * (1.0 + 1e-9) + 1e-12;
+        // The greedy's answer is one of its antibodies and the best is kept: never worse.
+        EXPECT_LE(got, greedy_got + 1e-9) << "trial " << trial;
+    }
+    EXPECT_GE(optimal, trials * 85 / 100) << "greedy: " << greedy_optimal;
+    EXPECT_GE(optimal, greedy_optimal);
+    EXPECT_LE(ratio_sum / trials, 1.02);
+}
+
+TEST(IgaLodAllocator, SameInputSameLevels) {
+    std::mt19937 rng(3);
+    const Case k = random_case(rng, 300, 4, 6);
+    std::vector<int> first(k.cs.size()), again(k.cs.size());
+    IgaLodAllocator a, b;
+    a.allocate(k.cs, 1.0, 1e-4, k.budget, first);
+    // Another allocator, and the same one after other work: the same levels.
+    b.allocate(k.cs, 1.0, 1e-4, k.budget * 0.9, again);
+    b.allocate(k.cs, 1.0, 1e-4, k.budget, again);
+    EXPECT_EQ(first, again);
+    a.allocate(k.cs, 1.0, 1e-4, k.budget, again);
+    EXPECT_EQ(first, again);
+}
+
+TEST(IgaLodAllocator, KeepsLastFramesLevelsUnlessClearlyBeaten) {
+    std::mt19937 rng(9);
+    Case k = random_case(rng, 200, 4, 6);
+    std::vector<int> levels(k.cs.size());
+    IgaLodAllocator alloc;
+    alloc.allocate(k.cs, 1.0, 1e-4, k.budget, levels);
+    // Next frames, the same scene, each warm-started from the last: the levels change only for a
+    // clearly better choice (the search goes on where it stopped), and settle within a few frames.
+    double error = error_left(k.cs, levels);
+    int changed_frames = 0;
+    for (int frame = 0; frame < 20; ++frame) {
+        for (size_t i = 0; i < k.cs.size(); ++i) k.cs[i].previous = levels[i];
+        std::vector<int> next(k.cs.size());
+        alloc.allocate(k.cs, 1.0, 1e-4, k.budget, next);
+        const double next_error = error_left(k.cs, next);
+        if (next != levels) {
+            ++changed_frames;
+            EXPECT_LT(next_error, error * (1.0 - IgaParams{}.keep_previous) + 1e-9);
+        }
+        levels = next;
+        error = next_error;
+    }
+    EXPECT_LE(changed_frames, 10);
+    // Settled: one more frame keeps them.
+    for (size_t i = 0; i < k.cs.size(); ++i) k.cs[i].previous = levels[i];
+    std::vector<int> last(k.cs.size());
+    alloc.allocate(k.cs, 1.0, 1e-4, k.budget, last);
+    EXPECT_EQ(last, levels);
+}
+
+TEST(IgaLodAllocator, UnlimitedDrawsTheSelectorsLevelsAndNoRoomTheCoarsest) {
+    const Case k = graded_case();
+    const std::vector<BudgetCandidate>& cs = k.cs;
+    std::vector<int> levels(cs.size());
+    IgaLodAllocator alloc;
+    BudgetAllocation a = alloc.allocate(cs, 2.0, 1e-3, 1e30, levels);
+    for (size_t i = 0; i < cs.size(); ++i) EXPECT_EQ(levels[i], cs[i].finest) << i;
+    EXPECT_EQ(a.coarsened, 0u);
+    EXPECT_FALSE(a.limited);
+    a = alloc.allocate(cs, 2.0, 1e-3, -std::numeric_limits<double>::infinity(), levels);
+    for (size_t i = 0; i < cs.size(); ++i)
+        EXPECT_EQ(levels[i], int(cs[i].level_triangles.size()) - 1) << i;
+    EXPECT_TRUE(a.limited);
 }

@@ -242,7 +242,7 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         if (std::optional<LodAllocator> a = parse_lod_allocator(allocator))
             c.node.lod_allocator = *a;
         else
-            r.fail("node.lod_allocator \"" + allocator + "\" is not threshold or greedy");
+            r.fail("node.lod_allocator \"" + allocator + "\" is not threshold, greedy or iga");
         if (c.node.lod.tolerance_px < 0.0) r.fail("node.lod_tolerance_px must be >= 0");
         if (!(std::fabs(c.node.prediction_offset_ms) <= NodeRuntime::kMaxPredictionOffsetMs))
             r.fail("node.prediction_ms must be between -" +

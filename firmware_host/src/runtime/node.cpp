@@ -7,10 +7,10 @@
 //     the new frame must start, else the new frame starts now and is rendered in pieces with the
 //     re-warp between two of them.
 //  2. New frame: wake at v_new - latch - (render + warp estimates + margin), drain the tracker,
-//     predict the head pose at v_new's photon time, select LOD (with the greedy allocator: coarsen
-//     it until the learned render cost fits the frame budget, docs/lod-selection.md), render both
-//     eyes (in pieces into the back eye buffers). A render that overran is retargeted to the
-//     first vsync still reachable (the one it was meant for is missed).
+//     predict the head pose at v_new's photon time, select LOD (with the greedy or iga allocator:
+//     coarsen it until the learned render cost fits the frame budget, docs/lod-selection.md),
+//     render both eyes (in pieces into the back eye buffers). A render that overran is retargeted
+//     to the first vsync still reachable (the one it was meant for is missed).
 //  3. Wake at target - latch - (warp estimate + margin), drain the tracker, predict again at the
 //     target's photon time, warp the eye buffers to that pose through the lens-distortion mesh,
 //     present; the display reports the vsync the frame landed on. A missed latch grows the
@@ -143,6 +143,7 @@ void NodeRuntime::adopt_objects(const Scene& scene) {
     candidates_.reserve(objects_.size());
     candidate_objects_.reserve(objects_.size());
     allocated_.reserve(objects_.size());
+    allocated_levels_.assign(objects_.size(), -1);
     draws_.reserve(2 * objects_.size());  // a cross-fading object is drawn twice
     draw_triangles_.reserve(2 * objects_.size());
     order_.reserve(objects_.size());
@@ -353,7 +354,7 @@ uint64_t NodeRuntime::select_and_sort(const Pose& head, const StereoViews& views
     // allocator coarsens them, least benefit per ms first, until the predicted render fits.
     open_budget_ = BudgetState{};
     open_budget_.target_ms = target_ms;
-    if (config_.lod_allocator == LodAllocator::greedy) {
+    if (config_.lod_allocator != LodAllocator::threshold) {
         BudgetState& b = open_budget_;
         b.learning = cost_fit_.empty();
         // Nothing measured yet: every object at its coarsest (the cheapest frame teaches the model
@@ -361,10 +362,19 @@ uint64_t NodeRuntime::select_and_sort(const Pose& head, const StereoViews& views
         b.budget_ms =
             b.learning ? -std::numeric_limits<double>::infinity() : feedback_.scale() * target_ms;
         allocated_.resize(candidates_.size());
-        const BudgetAllocation a = allocator_.allocate(
-            candidates_, cost_fit_.base_ms(), cost_fit_.per_triangle_ms(), b.budget_ms, allocated_);
-        for (size_t k = 0; k < candidate_objects_.size(); ++k)
+        const bool iga = config_.lod_allocator == LodAllocator::iga;
+        if (iga)  // warm start: each object's level of the last frame that drew it
+            for (size_t k = 0; k < candidate_objects_.size(); ++k)
+                candidates_[k].previous = allocated_levels_[candidate_objects_[k]];
+        const BudgetAllocation a =
+            iga ? iga_allocator_.allocate(candidates_, cost_fit_.base_ms(),
+                                          cost_fit_.per_triangle_ms(), b.budget_ms, allocated_)
+                : allocator_.allocate(candidates_, cost_fit_.base_ms(), cost_fit_.per_triangle_ms(),
+                                      b.budget_ms, allocated_);
+        for (size_t k = 0; k < candidate_objects_.size(); ++k) {
             rec->levels[candidate_objects_[k]] = allocated_[k];
+            allocated_levels_[candidate_objects_[k]] = allocated_[k];
+        }
         b.predicted_ms = a.predicted_ms;
         b.coarsened = a.coarsened;
         b.limited = a.limited;
@@ -693,7 +703,7 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
     // the budget's feedback from the allocator's frames.
     const double measured_ms = ns_to_ms(open_render_ns_);
     cost_fit_.add(open_triangles_, measured_ms);
-    if (config_.lod_allocator == LodAllocator::greedy && !open_budget_.learning)
+    if (config_.lod_allocator != LodAllocator::threshold && !open_budget_.learning)
         feedback_.update(measured_ms, open_budget_.target_ms, open_budget_.limited);
     frame_budget_ = open_budget_;
     frame_fade_ = open_fade_;

@@ -156,10 +156,10 @@ Result<RenderBenchResult> run_render_bench(const RenderBenchOptions& opt) {
     ro.node.lod_allocator = opt.allocator;
     ro.renderer.msaa_samples = opt.msaa_samples;  // the greedy allocator learns its cost
     ro.eye_tracker = opt.eye_tracker;
-    // Only the greedy allocator's levels depend on the render cost (it learns the simulated
+    // Only the budgeted allocators' levels depend on the render cost (they learn the simulated
     // clock's model); otherwise a fixed cost that fits a period skips the calibration renders
     // (slow at full detail on a heavy scene) and makes rendered frame i the replay's vsync i.
-    if (opt.allocator != LodAllocator::greedy || opt.lod.kind != LodMode::automatic)
+    if (opt.allocator == LodAllocator::threshold || opt.lod.kind != LodMode::automatic)
         ro.frame_cost = FrameCostModel{};
     Result<ReplayResult> replay = run_replay(ro);
     if (!replay.ok()) return replay.error();

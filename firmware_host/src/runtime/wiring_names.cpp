@@ -126,12 +126,21 @@ Status check_display_spec(const DisplaySpec& spec, const WiringKeys& keys) {
 // The LOD allocators' names (node.hpp): here, with the other names, so that the config's fuzz
 // harness links without the frame loop.
 const char* lod_allocator_name(LodAllocator a) {
-    return a == LodAllocator::greedy ? "greedy" : "threshold";
+    switch (a) {
+        case LodAllocator::greedy:
+            return "greedy";
+        case LodAllocator::iga:
+            return "iga";
+        case LodAllocator::threshold:
+            break;
+    }
+    return "threshold";
 }
 
 std::optional<LodAllocator> parse_lod_allocator(std::string_view name) {
     if (name == "threshold") return LodAllocator::threshold;
     if (name == "greedy") return LodAllocator::greedy;
+    if (name == "iga") return LodAllocator::iga;
     return std::nullopt;
 }
 

@@ -33,8 +33,9 @@ void add_render_bench_command(CLI::App& app) {
     c->add_option("--lod", *lod,
                   "Levels drawn: auto (the node's selector and allocator), full (level 0) or "
                   "level=N");
-    c->add_option("--allocator", *allocator, "LOD allocator of the replay: threshold or greedy")
-        ->check(CLI::IsMember({"threshold", "greedy"}));
+    c->add_option("--allocator", *allocator,
+                  "LOD allocator of the replay: threshold, greedy or iga")
+        ->check(CLI::IsMember({"threshold", "greedy", "iga"}));
     c->add_option("--lod-tolerance-px", opt->tolerance_px, "LOD pixel tolerance at the gaze point")
         ->check(CLI::NonNegativeNumber);
     c->add_option("--msaa", opt->msaa_samples,

@@ -96,9 +96,10 @@ void add_replay_command(CLI::App& app) {
                   "LOD pixel tolerance at the gaze point")
         ->check(CLI::NonNegativeNumber);
     c->add_option("--allocator", *allocator,
-                  "LOD allocator: threshold (the perceptual selector's levels) or greedy (coarsen "
-                  "them until the learned render cost fits the frame budget)")
-        ->check(CLI::IsMember({"threshold", "greedy"}));
+                  "LOD allocator: threshold (the perceptual selector's levels) greedy (coarsen "
+                  "them until the learned render cost fits the frame budget, Funkhouser & Sequin) "
+                  "or iga (the same trade by the immune genetic algorithm of seed 002)")
+        ->check(CLI::IsMember({"threshold", "greedy", "iga"}));
     c->add_option("--lod-fade-frames", opt->node.lod_fade_frames,
                   "New frames a visible LOD level change cross-fades over (dithered, both levels "
                   "drawn; 0: off, changes pop; default 3)")

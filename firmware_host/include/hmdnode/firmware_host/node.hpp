@@ -65,8 +65,9 @@ struct PacingConfig {
 // How the frame loop turns the selector's levels into the levels it draws (docs/lod-selection.md):
 // `threshold` draws the selector's level (the finest the eye needs); `greedy` coarsens them, least
 // benefit per millisecond first, until the render predicted by the learned cost model fits the
-// frame budget left by pacing.
-enum class LodAllocator { threshold, greedy };
+// frame budget left by pacing; `iga` makes the same trade with the immune genetic algorithm of seed
+// 002, warm-started from the previous frame's levels.
+enum class LodAllocator { threshold, greedy, iga };
 
 // Where a frame's LOD eccentricity was measured from (docs/lod-selection.md, "Gaze"): the eye
 // tracker's gaze when it reported a valid one recently enough, else the lens centre (the head
@@ -74,7 +75,7 @@ enum class LodAllocator { threshold, greedy };
 enum class GazeSource { lens_centre, eye_tracker };
 const char* gaze_source_name(GazeSource s);
 const char* lod_allocator_name(LodAllocator a);
-// "threshold" or "greedy"; nullopt for anything else.
+// "threshold", "greedy" or "iga"; nullopt for anything else.
 std::optional<LodAllocator> parse_lod_allocator(std::string_view name);
 
 struct NodeConfig {
@@ -91,7 +92,7 @@ struct NodeConfig {
     PoseHistoryConfig history;
     LodSelectorParams lod;
     LodAllocator lod_allocator = LodAllocator::threshold;
-    // greedy: the render target is (1 - headroom) x (period - warp estimate), the render time
+    // greedy, iga: the render target is (1 - headroom) x (period - warp estimate), the render time
     // that lets a new frame make every vsync, less room for the estimates' error.
     double lod_budget_headroom = 0.1;
     BudgetFeedbackParams lod_feedback;
@@ -151,9 +152,9 @@ struct FrameRecord {
     double render_ms = 0.0;            // measured wall time of the render call (0 for a re-warp)
     double warp_ms = 0.0;              // measured wall time of the warp call (0 when there is none)
     double frame_cost_ms = 0.0;        // on the node's clock: wake to present
-    // greedy allocator (NaN / 0 otherwise): the render budget it allocated against, the render
-    // time the learned cost model predicted for the levels chosen, and how many drawn objects it
-    // left coarser than the selector wanted.
+    // greedy or iga allocator (NaN / 0 otherwise): the render budget it allocated against, the
+    // render time the learned cost model predicted for the levels chosen, and how many drawn
+    // objects it left coarser than the selector wanted.
     double lod_budget_ms = std::numeric_limits<double>::quiet_NaN();
     double predicted_render_ms = std::numeric_limits<double>::quiet_NaN();
     size_t lod_coarsened = 0;
@@ -298,7 +299,7 @@ class NodeRuntime {
     Pose predict(int64_t photon_time_ns) const;
     // LOD selection for `head` seen through `views` (the frame's own, culled against), fills
     // rec->levels / eccentricity, draws_ and draw_triangles_; returns triangles.
-    // target_ms: the greedy allocator's render target before the feedback's scale.
+    // target_ms: the budgeted allocator's render target before the feedback's scale.
     uint64_t select_and_sort(const Pose& head, const StereoViews& views, FrameRecord* rec,
                              double target_ms);
     // Warps the finished frame for `target` (sampling the newest pose first when the warp is on),
@@ -361,9 +362,9 @@ class NodeRuntime {
     std::vector<int> frame_levels_;
     std::vector<double> frame_eccentricity_;
     double pixels_per_radian_ = 0.0;
-    // The frame budget (greedy allocator): the learned cost, the budget's correction, the drawn
-    // objects as candidates (reused), and what the allocation of the open and the finished frame
-    // said.
+    // The frame budget (greedy or iga allocator): the learned cost, the budget's correction, the
+    // drawn objects as candidates (reused), and what the allocation of the open and the finished
+    // frame said.
     struct BudgetState {
         double target_ms = 0.0;  // before the feedback's scale
         double budget_ms = std::numeric_limits<double>::quiet_NaN();
@@ -375,6 +376,8 @@ class NodeRuntime {
     FrameCostFit cost_fit_;
     BudgetFeedback feedback_;
     GreedyLodAllocator allocator_;
+    IgaLodAllocator iga_allocator_;
+    std::vector<int> allocated_levels_;  // per object, the allocator's last level (-1: none)
     // Level changes as cross-fades; the open and the finished frame's counts (FrameRecord).
     LodCrossFade fade_;
     struct FadeCounts {

@@ -68,6 +68,9 @@ struct BudgetCandidate {
     // (distance * tolerance_px). Level l's visible error is level_errors_m[l] * error_scale.
     double error_scale = 0.0;
     int finest = 0;  // the selector's level: the allocator never picks finer
+    // The level the allocator chose for this object last frame (-1: none, e.g. newly visible):
+    // the immune genetic allocator's warm start; the greedy allocator ignores it.
+    int previous = -1;
 };
 
 struct BudgetAllocation {
@@ -94,6 +97,57 @@ class GreedyLodAllocator {
         int to;
     };
     std::vector<Step> heap_;
+};
+
+// The immune genetic algorithm of seed 002 (He et al., "Application and Optimization of Mesh
+// Simplification in 3D virtual Reality Scene in a High-performance Environment", section 2.2 (3))
+// as a second allocator: an antibody is a level per object, its affinity 1/f^2 of f = the visible
+// error left (in tolerances, the greedy's benefit model), kept within the budget by repair;
+// selection by affinity and antibody concentration, arithmetic crossover (eq. 17), random-reset
+// mutation (eq. 18), a vaccine from the best antibodies' mean genes, the best kept as memory cell;
+// warm-started from last frame's levels (BudgetCandidate::previous). Deterministic: the generator
+// is reseeded from `seed` on every call, and the work is capped by generations, never by a clock.
+// The greedy's answer is one initial antibody. O(G P n L) for G generations of P antibodies over
+// n objects of L levels, plus the greedy's cost (iga_allocator.cpp).
+struct IgaParams {
+    int population = 8;            // antibodies (>= 4)
+    int max_generations = 8;       // hard cap: the decision time is bounded by it
+    int stall_generations = 2;     // stop early after this many generations without a better one
+    double crossover_p = 0.8;      // per pair of parents (eq. 17)
+    double mutations = 2.0;        // expected random-reset genes per antibody (eq. 18)
+    double vaccine_p = 0.5;        // per child: vaccinated or not
+    double vaccine_genes = 0.05;   // fraction of a vaccinated child's genes set to the vaccine's
+    int vaccine_donors = 3;        // the vaccine is the mean of the best few antibodies' genes
+    double affinity_weight = 0.7;  // selection: this x affinity share + rest x 1/concentration
+    double similar = 0.01;         // two antibodies are alike when their f differ by <= this
+    double keep_previous = 0.005;  // last frame's levels stay unless beaten by more than this
+    uint64_t seed = 0x1da2021;     // same input + same seed -> same levels
+};
+
+class IgaLodAllocator {
+  public:
+    using Gene = uint16_t;  // a level
+    explicit IgaLodAllocator(const IgaParams& params = {}) : params_(params) {}
+    // As GreedyLodAllocator::allocate; candidates' `previous` warm-starts the search.
+    BudgetAllocation allocate(std::span<const BudgetCandidate> candidates, double base_ms,
+                              double per_triangle_ms, double budget_ms, std::span<int> levels);
+    int last_generations() const { return generations_; }  // of the last allocate()
+
+  private:
+    struct Antibody {
+        double f = 0.0;  // visible error left, in tolerances (to minimise)
+        uint64_t triangles = 0;
+    };
+    IgaParams params_;
+    int generations_ = 0;
+    GreedyLodAllocator greedy_;  // its answer is one initial antibody
+    std::vector<int> greedy_levels_;
+    // Scratch, sized by the first frames.
+    std::vector<Gene> genes_, children_, vaccine_, warm_, finest_, coarsest_;
+    std::vector<Antibody> antibodies_, child_antibodies_;
+    std::vector<uint32_t> order_;  // objects by benefit per ms of their whole range, ascending
+    std::vector<double> density_, select_p_, affinity_, inv_concentration_;
+    std::vector<uint32_t> parents_, ranked_;
 };
 
 }  // namespace hmdnode
