@@ -651,7 +651,10 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
             // cost, would not make it.
             const int64_t remaining = std::max<int64_t>(0, render_budget - open_render_ns_);
             const int64_t v_any = display_.free_vsync_ns(now + warp_est + margin_ns_);
-            const int64_t v_done = display_.free_vsync_ns(now + remaining + warp_est + margin_ns_);
+            // (The margin was spent planning the wake-up: it is the slack for a late wake-up and
+            // the estimates' error, not a second time here, or any late wake-up gives the vsync
+            // away and the loop shows a new frame every other vsync.)
+            const int64_t v_done = display_.free_vsync_ns(now + remaining + warp_est);
             // Re-warps may not starve the frame: while a warp leaves half of each period to the
             // render they are unlimited; a dearer warp (llvmpipe at large panels) interrupts one
             // frame at most twice.
@@ -720,8 +723,8 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
     // vsync still reachable (the one it was meant for is missed).
     int64_t target = open_target_ns_;
     const int64_t after = clock_.now_ns();
-    if (after + warp_est + margin_ns_ > target - latch)
-        target = display_.free_vsync_ns(after + warp_est + margin_ns_);
+    // (Against the latch itself: the margin was the slack the wake-up was planned with.)
+    if (after + warp_est > target - latch) target = display_.free_vsync_ns(after + warp_est);
     int64_t warp_cost = 0;
     if (Status st = warp_and_present(target, warp_est, &r, &warp_cost); !st.ok()) return st.error();
     total_costs_.push(open_render_ns_ + warp_cost);
