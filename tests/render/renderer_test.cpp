@@ -242,6 +242,13 @@ size_t resident_bytes() {
 // about 10 MB per frame of the demo room. 300 frames of 8 switching draws: under 32 MB more
 // after the first 20 (it was 400 MB and more before the shader's fix).
 TEST(VulkanRenderer, MemoryStaysFlatOverFramesThatSwitchMaterialsAndDither) {
+#if defined(__SANITIZE_ADDRESS__)
+    // note: AddressSanitizer holds freed blocks in its quarantine (256 MB by default) and the
+    // resident figure counts them: +179 MB over these frames under the asan preset, within the
+    // bound with ASAN_OPTIONS=quarantine_size_mb=0 (and draining it with
+    // __sanitizer_purge_allocator leaves +35 MB). The release lane holds this test.
+    GTEST_SKIP() << "resident memory is not the program's own under AddressSanitizer (quarantine)";
+#endif
     Scene scene;
     Texture lm;
     lm.width = lm.height = 2;
