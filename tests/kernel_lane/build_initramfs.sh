@@ -47,8 +47,10 @@ for m in hid-generic uhid vivid bochs virtio_pci 9pnet_virtio 9p; do
     done
 done
 
-# note: the share is mounted over directories of a read-only filesystem; proc, sys, dev, run and
-# tmp are mounted on the host's own mount points inside it (mounting does not write to it).
+# note: the share is mounted over directories of a read-only filesystem; proc, sys, dev and run are
+# mounted on the host's own mount points inside it (mounting does not write to it). Not /tmp: the
+# lane program and the scene may live there (a checkout under /tmp), and a tmpfs over it hid them;
+# the guest's scratch space (HOME, TMPDIR) is the tmpfs on /run.
 cat >"$root/init" <<INIT
 #!/bin/sh
 mount -t proc proc /proc
@@ -62,8 +64,7 @@ if mount -t 9p -o trans=virtio,version=9p2000.L,ro,cache=loose,msize=512000 host
     mount -t sysfs sysfs /host/sys
     mount -t devtmpfs devtmpfs /host/dev
     mount -t tmpfs tmpfs /host/run
-    mount -t tmpfs tmpfs /host/tmp
-    HOME=/tmp chroot /host '$lane' '$scene'
+    HOME=/run TMPDIR=/run chroot /host '$lane' '$scene'
     echo "HMDNODE_KERNEL_LANE_EXIT: \$?"
 else
     echo "lane: mounting the host's 9p share failed"
