@@ -131,14 +131,25 @@ struct PacedRun {
     int renders = 0, pieces = 0;
 };
 
-// Runs the node for `seconds` with the scripted costs and returns its presents and summary;
-// `trace` (default: yaw_trace) is what the simulated tracker plays, `config` may change the node's
-// settings and `midway` runs once on the node at seconds/2.
+// What a run may change: the late warp, the trace the simulated tracker plays (default:
+// yaw_trace), the node's settings, a call on the node at seconds/2, the renderer's set-up cost per
+// frame and how late the node's clock wakes from each sleep.
+struct RunOptions {
+    bool warp = true;
+    std::shared_ptr<const Trace> trace = nullptr;
+    std::function<void(NodeConfig&)> config = {};
+    std::function<void(NodeRuntime&)> midway = {};
+    int64_t setup_cost_ns = 0;
+    int64_t oversleep_ns = 0;
+};
+
+// Runs the node for `seconds` with the scripted costs and returns its presents and summary.
 PacedRun run(std::function<int64_t(int)> render_cost, int64_t warp_cost, double seconds,
-             bool warp = true, std::shared_ptr<const Trace> trace = nullptr,
-             std::function<void(NodeConfig&)> config = {},
-             std::function<void(NodeRuntime&)> midway = {}, int64_t setup_cost = 0,
-             int64_t oversleep_ns = 0) {
+             RunOptions o = {}) {
+    const bool warp = o.warp;
+    std::shared_ptr<const Trace> trace = o.trace;
+    const std::function<void(NodeConfig&)>& config = o.config;
+    const std::function<void(NodeRuntime&)>& midway = o.midway;
     SimulatedClock clock(0);
     if (!trace) trace = yaw_trace(seconds + 0.5);
     SimTrackerConfig tc;
@@ -150,14 +161,14 @@ PacedRun run(std::function<int64_t(int)> render_cost, int64_t warp_cost, double 
     auto display = create_mock_display(clock, dc);
     EXPECT_TRUE(display.ok());
     ScriptedRenderer renderer(clock, std::move(render_cost), warp_cost);
-    renderer.set_setup_cost(setup_cost);
+    renderer.set_setup_cost(o.setup_cost_ns);
     const Scene scene = boxes();
     NodeConfig nc;
     nc.warp = warp;
     nc.sim_cost.base_ns = 0;
     nc.sim_cost.warp_ns = 0;
     if (config) config(nc);
-    OversleepingClock node_clock(clock, oversleep_ns);
+    OversleepingClock node_clock(clock, o.oversleep_ns);
     NodeRuntime node(node_clock, **tracker, **display, renderer, scene, nc);
     EXPECT_TRUE(node.start().ok());
     TruthFn truth = [&](int64_t t) -> std::optional<TruthPose> {
@@ -221,7 +232,7 @@ TEST(Pacing, ASpikeMissesItsVsyncAndTheLoopDoesNotLockLate) {
 TEST(Pacing, ARenderSlowerThanTheRefreshIsCountedAsMissedVsyncs) {
     // 14 ms per render at 90 Hz: at most one new frame every other vsync; without the warp the
     // vsyncs in between repeat the old frame.
-    const PacedRun r = run([](int) { return 14 * kNsPerMs; }, kNsPerMs, 3.0, /*warp=*/false);
+    const PacedRun r = run([](int) { return 14 * kNsPerMs; }, kNsPerMs, 3.0, {.warp = false});
     EXPECT_NEAR(r.summary.new_frames_per_vsync, 0.5, 0.02);
     // Every vsync without a new or re-warped frame counts as missed: about half of them.
     EXPECT_NEAR(double(r.summary.missed_vsyncs) / double(r.summary.vsyncs),
@@ -248,7 +259,7 @@ TEST(Pacing, VsyncsDuringASlowRenderGetTheFinishedFrameReWarped) {
         }
     EXPECT_LT(r.summary.latency_ms.p99, 11.1);
     // Without the warp the same vsyncs repeat an old image: missed, and it ages.
-    const PacedRun plain = run([](int) { return 25 * kNsPerMs; }, kNsPerMs, 3.0, false);
+    const PacedRun plain = run([](int) { return 25 * kNsPerMs; }, kNsPerMs, 3.0, {.warp = false});
     EXPECT_EQ(plain.summary.rewarps, 0u);
     EXPECT_LT(plain.summary.on_time_rate, 0.4);
     EXPECT_GT(plain.summary.latency_ms.p50, 20.0);
@@ -263,8 +274,8 @@ TEST(Pacing, ADearWarpDoesNotStarveNewFrames) {
 }
 
 TEST(Pacing, LateWarpCutsMotionToPhotonByTheRenderTime) {
-    const PacedRun warped = run([](int) { return 6 * kNsPerMs; }, kNsPerMs, 2.0, true);
-    const PacedRun plain = run([](int) { return 6 * kNsPerMs; }, kNsPerMs, 2.0, false);
+    const PacedRun warped = run([](int) { return 6 * kNsPerMs; }, kNsPerMs, 2.0);
+    const PacedRun plain = run([](int) { return 6 * kNsPerMs; }, kNsPerMs, 2.0, {.warp = false});
     EXPECT_NEAR(plain.summary.latency_ms.p50 - warped.summary.latency_ms.p50, 6.0, 1.5);
 }
 
@@ -309,7 +320,7 @@ TEST(Accounting, EveryVsyncWithoutAFrameOnTimeIsMissedAndRepeatedFramesAge) {
 // With 6 ms of set-up, 2 ms of render and 1 ms of warp a frame fits the 11.1 ms period.
 TEST(Pacing, AFramesSetUpCountsAsItsCostSoItsVsyncIsMade) {
     const PacedRun r =
-        run([](int) { return 2 * kNsPerMs; }, kNsPerMs, 3.0, true, nullptr, {}, {}, 6 * kNsPerMs);
+        run([](int) { return 2 * kNsPerMs; }, kNsPerMs, 3.0, {.setup_cost_ns = 6 * kNsPerMs});
     ASSERT_GT(r.summary.vsyncs, 250u);
     EXPECT_EQ(r.summary.missed_vsyncs, 0u);
     EXPECT_GT(r.summary.new_frames_per_vsync, 0.98);
@@ -322,7 +333,7 @@ TEST(Pacing, AFramesSetUpCountsAsItsCostSoItsVsyncIsMade) {
 // frame one vsync later (seen on an NVIDIA H200: one new frame every other vsync, every one late).
 TEST(Pacing, AWakeUpALittleLateStillMakesTheVsync) {
     const PacedRun r =
-        run([](int) { return 4 * kNsPerMs; }, kNsPerMs, 3.0, true, nullptr, {}, {}, 0, 100'000);
+        run([](int) { return 4 * kNsPerMs; }, kNsPerMs, 3.0, {.oversleep_ns = 100'000});
     ASSERT_GT(r.summary.vsyncs, 250u);
     EXPECT_EQ(r.summary.missed_vsyncs, 0u);
     EXPECT_GT(r.summary.new_frames_per_vsync, 0.98);
@@ -344,8 +355,9 @@ TEST(Controls, RecentreTurnsTheHeadingToStraightAheadAndMovesThePositionHome) {
         still->samples.push_back(s);
     }
     const glm::dvec3 home{0.0, 1.6, 0.0};
-    const PacedRun r = run([](int) { return 2 * kNsPerMs; }, kNsPerMs, 1.0, true, still, {},
-                           [](NodeRuntime& n) { ASSERT_TRUE(n.recentre().ok()); });
+    const PacedRun r =
+        run([](int) { return 2 * kNsPerMs; }, kNsPerMs, 1.0,
+            {.trace = still, .midway = [](NodeRuntime& n) { ASSERT_TRUE(n.recentre().ok()); }});
     ASSERT_GT(r.frames.size(), 60u);
     // Before: the pose as tracked. After: heading 0, pitch 10 degrees, at home.
     const Pose before = r.frames.front().shown_pose;
@@ -367,9 +379,10 @@ TEST(Controls, APredictionOffsetFromTheConfigTurnsTheShownPoseAhead) {
         const glm::dvec3 v = forward_of(f.shown_pose.orientation);
         return rad_to_deg(std::atan2(-v.x, -v.z));
     };
-    const PacedRun plain = run([](int) { return 2 * kNsPerMs; }, kNsPerMs, 1.0, false);
-    const PacedRun ahead = run([](int) { return 2 * kNsPerMs; }, kNsPerMs, 1.0, false, nullptr,
-                               [](NodeConfig& c) { c.prediction_offset_ms = 20.0; });
+    const PacedRun plain = run([](int) { return 2 * kNsPerMs; }, kNsPerMs, 1.0, {.warp = false});
+    const PacedRun ahead =
+        run([](int) { return 2 * kNsPerMs; }, kNsPerMs, 1.0,
+            {.warp = false, .config = [](NodeConfig& c) { c.prediction_offset_ms = 20.0; }});
     ASSERT_EQ(plain.frames.size(), ahead.frames.size());
     const size_t i = plain.frames.size() / 2;  // a heading well inside (-180, 180]
     ASSERT_EQ(plain.frames[i].vsync_ns, ahead.frames[i].vsync_ns);

@@ -89,13 +89,10 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
       total_costs_(config.pacing.window),
       feedback_(config.lod_feedback),
       fade_(0, 0) {
-    // Out-of-range start values are the config reader's to refuse; here they are clamped.
-    if (std::isfinite(config.prediction_offset_ms))
-        prediction_offset_ns_ = ms_to_ns(std::clamp(
-            config.prediction_offset_ms, -kMaxPredictionOffsetMs, kMaxPredictionOffsetMs));
-    lod_bias_ = std::isfinite(config.lod_bias)
-                    ? std::clamp(config.lod_bias, -kMaxLodBias, kMaxLodBias)
-                    : 0.0;
+    // The control socket's setters check the range; a start value out of it (the config reader
+    // refuses those) leaves the default, 0.
+    (void)set_prediction_offset_ms(config.prediction_offset_ms);
+    (void)set_lod_bias(config.lod_bias);
     adopt_objects(scene);
     read_buf_.resize(256);
     margin_ns_ = config.pacing.margin_ns;

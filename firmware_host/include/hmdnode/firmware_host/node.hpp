@@ -84,10 +84,11 @@ struct NodeConfig {
     glm::dvec3 default_head_position{0.0, 1.6, 0.0};  // used when the tracker gives no position
     bool predict = true;                              // false: render the newest sample's pose
     // Predict this much further ahead than the photon time (ms, may be negative; at most
-    // NodeRuntime::kMaxPredictionOffsetMs either way): the control socket's `prediction_ms`.
+    // NodeRuntime::kMaxPredictionOffsetMs either way, else 0): the control socket's
+    // `prediction_ms`.
     double prediction_offset_ms = 0.0;
-    // The LOD tolerance is scaled by 2^lod_bias (at most NodeRuntime::kMaxLodBias either way):
-    // the control socket's `lod_bias`.
+    // The LOD tolerance is scaled by 2^lod_bias (at most NodeRuntime::kMaxLodBias either way,
+    // else 0): the control socket's `lod_bias`.
     double lod_bias = 0.0;
     PoseHistoryConfig history;
     LodSelectorParams lod;
