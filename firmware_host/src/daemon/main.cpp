@@ -32,13 +32,13 @@
 #include "daemon/metrics.hpp"
 #include "daemon/scene_loader.hpp"
 #include "daemon/sd_notify.hpp"
-#include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/gltf.hpp"
 #include "hmdnode/core/trace.hpp"
 #include "hmdnode/firmware_host/control_protocol.hpp"
 #include "hmdnode/firmware_host/control_socket.hpp"
 #include "hmdnode/firmware_host/node.hpp"
 #include "hmdnode/firmware_host/replay.hpp"
+#include "hmdnode/firmware_host/status_writer.hpp"
 #include "hmdnode/firmware_host/wiring.hpp"
 #include "hmdnode/hal/sim/sim_reference_device.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
@@ -218,7 +218,7 @@ int main(int argc, char** argv) {
     for (std::vector<double>* v : {&lat, &render_ms, &warp_ms})
         v->reserve(size_t(cfg->status_every_s * panel.refresh_hz * 2.0) + 16);
     FrameRecord rec;
-    bool status_failing = false;  // the last status write failed (said once)
+    std::optional<StatusWriter> status_writer;  // started with the first status window
 
     // The control socket, served between frames (docs/daemon.md, "Control socket").
     DaemonMetrics metrics;
@@ -533,18 +533,14 @@ int main(int argc, char** argv) {
                     spdlog::warn("tracker disconnected ({}); holding the last pose", ts.last_error);
             }
             last_window = s;
-            // A status file that cannot be written (its directory read-only, full or gone) does
-            // not stop the loop: said once when it starts failing, once when it works again.
+            // The status file is written on a thread of its own (a stalled disk never costs a
+            // vsync); one that cannot be written does not stop the loop (said once when it starts
+            // failing, once when it works again).
             if (!cfg->status_path.empty()) {
-                const Status ws = write_file_atomically(
+                if (!status_writer) status_writer.emplace(cfg->status_every_s);
+                status_writer->post(
                     cfg->status_path,
                     s.dump(1, ' ', false, nlohmann::json::error_handler_t::replace));
-                if (!ws.ok() && !status_failing)
-                    spdlog::warn("status file: {}; the loop goes on, retried every {} s",
-                                 ws.error().message, cfg->status_every_s);
-                else if (ws.ok() && status_failing)
-                    spdlog::info("status file: {} written again", cfg->status_path.string());
-                status_failing = !ws.ok();
             }
             notifier.notify(fmt::format(
                 "STATUS=frames {}, on time {}, MTP p50 {:.1f} ms p99 {:.1f} ms, render p50 {:.1f} "
