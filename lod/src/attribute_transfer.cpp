@@ -7,6 +7,8 @@
 // Cost: O(B + L * k) for B base vertices, L level vertices and k base vertices per footprint (a
 // uniform grid over the base with cells of the median footprint radius); a level vertex with no
 // base vertex in its footprint (rare: a footprint holds several base vertices) searches all B.
+// carry_vertex_light (what simplify() runs on every level): the same, plus O(B + L) for normals
+// made for the filter where the base or the level has none.
 #include "hmdnode/lod/attribute_transfer.hpp"
 
 #include <algorithm>
