@@ -7,8 +7,8 @@
 // from the same pose: LOD and full render ms (p50, both eyes, lavapipe), PSNR and SSIM against full
 // detail, triangles drawn. Full detail is the same mesh for every algorithm; what differs is the
 // levels the selector picks (by their measured errors) and how those levels look. `hmdnode lod`
-// drops the demo room's per-vertex light (_LIGHT_0), so the re-chained objects are drawn without
-// it at every level, full detail included.
+// keeps the demo room's per-vertex light (_LIGHT_0) at level 0 and carries it to every level
+// (docs/lod-generation.md), so the re-chained objects are lit like the room's own.
 //
 // Every row records the 1-minute load average at its start and end.
 //

@@ -7,6 +7,8 @@
 // Cost: O(B + L * k) for B base vertices, L level vertices and k base vertices per footprint (a
 // uniform grid over the base with cells of the median footprint radius); a level vertex with no
 // base vertex in its footprint (rare: a footprint holds several base vertices) searches all B.
+// carry_vertex_light (what simplify() runs on every level): the same, plus O(B + L) for normals
+// made for the filter where the base or the level has none.
 #include "hmdnode/lod/attribute_transfer.hpp"
 
 #include <algorithm>
@@ -32,7 +34,43 @@ struct Grid {
     }
 };
 
+// Area-weighted vertex normals (the unnormalised face normal summed per corner), for the filter's
+// facing test only; a vertex of no area gets (0, 0, 0) and so takes the nearest base vertex.
+std::vector<glm::vec3> vertex_normals(const Primitive& p) {
+    std::vector<glm::vec3> n(p.positions.size(), glm::vec3(0.0f));
+    for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
+        const glm::vec3& a = p.positions[p.indices[t]];
+        const glm::vec3 f =
+            glm::cross(p.positions[p.indices[t + 1]] - a, p.positions[p.indices[t + 2]] - a);
+        for (size_t k = 0; k < 3; ++k) n[p.indices[t + k]] += f;
+    }
+    for (glm::vec3& v : n)
+        if (const float len = glm::length(v); len > 0.0f) v /= len;
+    return n;
+}
+
 }  // namespace
+
+Status carry_vertex_light(const Primitive& base, Primitive& level) {
+    if (base.light.empty() || level.light.size() == level.positions.size()) return {};
+    Result<std::vector<glm::vec3>> light = make_error("");
+    if (base.normals.size() == base.positions.size() &&
+        level.normals.size() == level.positions.size()) {
+        light = transfer_vertex_light(base, level);
+    } else {
+        Primitive b, l;  // positions, indices and light only, with normals made for the filter
+        b.positions = base.positions, b.indices = base.indices, b.light = base.light;
+        b.normals =
+            base.normals.size() == base.positions.size() ? base.normals : vertex_normals(base);
+        l.positions = level.positions, l.indices = level.indices;
+        l.normals =
+            level.normals.size() == level.positions.size() ? level.normals : vertex_normals(level);
+        light = transfer_vertex_light(b, l);
+    }
+    if (!light.ok()) return light.error();
+    level.light = std::move(light).value();
+    return {};
+}
 
 Result<std::vector<glm::vec3>> transfer_vertex_light(const Primitive& base,
                                                      const Primitive& level) {

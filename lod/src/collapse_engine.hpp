@@ -145,6 +145,11 @@ Result<std::vector<SimplifiedLevel>> run_edge_collapse(const Primitive& in,
 Status check_simplify_arguments(const Primitive& in, std::string_view algorithm,
                                 std::span<const size_t> targets);
 
+// The input's baked light (_LIGHT_0) onto every level that an algorithm returned without it
+// (carry_vertex_light, attribute_transfer.hpp); simplify() and build_progressive_mesh() end with
+// it.
+Status carry_light_to_levels(const Primitive& in, std::vector<SimplifiedLevel>& levels);
+
 // Factories, one per cost file.
 std::unique_ptr<CollapseCost> make_qem_cost();
 std::unique_ptr<CollapseCost> make_curvature_qem_cost();

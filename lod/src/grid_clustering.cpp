@@ -1,11 +1,11 @@
 // "grid": uniform-grid vertex clustering (Rossignac & Borrel 1993) behind simplify().
 //
 // Paper and method: see vertex_clustering.cpp. This entry only reaches each target with
-// cluster_to_triangle_count (bisection on the cell size, closest count kept), one independent
-// clustering per target, and reports the largest vertex displacement as the estimated error.
-// Departure: the grid ignores connectivity, so closed input may come back non-manifold or with
-// holes closed, and UV seams are not kept (the representative's UVs are used); lock_borders and
-// locked_positions are ignored. Clustering can leave the same three corners twice with opposite
+// cluster_to_triangle_count (bisection on the cell size, closest non-empty count kept), one
+// independent clustering per target, and reports the largest vertex displacement as the estimated
+// error. Departure: the grid ignores connectivity, so closed input may come back non-manifold or
+// with holes closed, and UV seams are not kept (the representative's UVs are used); lock_borders
+// and locked_positions are ignored. Clustering can leave the same three corners twice with opposite
 // orientations (a pinched sheet); the second of such a pair is dropped here so that no face
 // repeats.
 //

@@ -77,7 +77,9 @@ struct BuiltLevel {
 // Simplifies every primitive of `mesh` to its share of each mesh-wide target (strictly
 // decreasing, each below the mesh's count): a primitive's share is proportional to its count,
 // at least 1; a primitive whose share is not below its own count (or its previous level's) is
-// carried over unchanged. `logs`, when given, receives per primitive the progressive mesh of the
+// carried over unchanged. A primitive an algorithm left without a triangle keeps its previous
+// level (the original for the first), with a note naming mesh and primitive: an object never
+// vanishes from a level. `logs`, when given, receives per primitive the progressive mesh of the
 // run that made its levels (build_progressive_mesh, the same run as simplify()'s), or nothing for a
 // primitive carried over.
 using PrimitiveLogs = std::vector<std::optional<ProgressiveMesh>>;
@@ -85,6 +87,7 @@ Result<std::vector<BuiltLevel>> build_levels(const Mesh& mesh, size_t mesh_index
                                              const std::vector<size_t>& targets,
                                              const LodChainOptions& options,
                                              const std::function<void(double)>& progress,
+                                             std::vector<std::string>& notes,
                                              PrimitiveLogs* logs = nullptr) {
     const size_t total = mesh.triangle_count();
     std::vector<BuiltLevel> levels(targets.size());
@@ -141,6 +144,17 @@ Result<std::vector<BuiltLevel>> build_levels(const Mesh& mesh, size_t mesh_index
                 continue;
             }
             const SimplifiedLevel& s = made[size_t(which[k])];
+            if (s.primitive.triangle_count() == 0) {
+                lvl.primitives[p] = k > 0 ? levels[k - 1].primitives[p] : prim;
+                std::string note =
+                    cat("mesh ", mesh_index, " \"", mesh.name, "\" primitive ", p, ": ",
+                        options.algorithm, " left no triangle for the level of ", targets[k],
+                        " triangles; the ", k > 0 ? "previous level" : "original", " kept");
+                // note: the --error search builds the same level more than once.
+                if (std::find(notes.begin(), notes.end(), note) == notes.end())
+                    notes.push_back(std::move(note));
+                continue;
+            }
             lvl.primitives[p] = s.primitive;
             lvl.primitives[p].material = prim.material;
             if (s.estimated_error >= 0.0)
@@ -260,7 +274,7 @@ Result<std::vector<MeasuredLevel>> search_error(const Mesh& mesh, size_t mesh_in
     PrimitiveLogs run_logs, pass_logs;  // the last run's, the one that made `pass`
     PrimitiveLogs* run_log = logs ? &run_logs : nullptr;
     Result<std::vector<BuiltLevel>> built = build_levels(
-        mesh, mesh_index, ladder, options, [&](double f) { report(0.3 * f); }, run_log);
+        mesh, mesh_index, ladder, options, [&](double f) { report(0.3 * f); }, notes, run_log);
     if (!built.ok()) return built.error();
     // Bracket: pass = finest failing's finer neighbour.
     std::optional<MeasuredLevel> pass;
@@ -282,7 +296,7 @@ Result<std::vector<MeasuredLevel>> search_error(const Mesh& mesh, size_t mesh_in
         const size_t mid = size_t(std::llround(std::sqrt(double(pass_count) * double(fail_count))));
         if (mid <= fail_count || mid >= pass_count) break;
         Result<std::vector<BuiltLevel>> one =
-            build_levels(mesh, mesh_index, {mid}, options, nullptr, run_log);
+            build_levels(mesh, mesh_index, {mid}, options, nullptr, notes, run_log);
         if (!one.ok()) return one.error();
         MeasuredLevel m = measure(std::move((*one)[0]), quick_ref);
         if (bound.holds(m.distance)) {
@@ -323,7 +337,7 @@ Result<std::vector<MeasuredLevel>> search_error(const Mesh& mesh, size_t mesh_in
                 bound.pct ? " %" : " m", " with ", options.distance.samples, " samples, above ",
                 bound.text(), "; trying ", pass_count));
         Result<std::vector<BuiltLevel>> one =
-            build_levels(mesh, mesh_index, {pass_count}, options, nullptr, run_log);
+            build_levels(mesh, mesh_index, {pass_count}, options, nullptr, notes, run_log);
         if (!one.ok()) return one.error();
         final_level = measure(std::move((*one)[0]), *full_ref);
         if (logs) pass_logs = std::move(run_logs);
@@ -507,7 +521,8 @@ Result<LodChainReport> generate_lod_chains(Scene& scene, const LodChainOptions& 
                 count_targets(options.targets, count, mesh, options.max_levels, report.notes);
             if (!targets.ok()) return targets.error();
             Result<std::vector<BuiltLevel>> built = build_levels(
-                mesh, size_t(mi), *targets, options, [&](double f) { progress(0.6 * f); }, log);
+                mesh, size_t(mi), *targets, options, [&](double f) { progress(0.6 * f); },
+                report.notes, log);
             if (!built.ok()) return built.error();
             const Reference reference(base, options.distance);
             for (size_t k = 0; k < built->size(); ++k) {

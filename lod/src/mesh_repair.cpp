@@ -76,7 +76,8 @@ Result<Primitive> repair_primitive(const Primitive& in, std::string_view label,
     for (auto [size, what] : {std::pair{in.normals.size(), "normals"},
                               {in.uv0.size(), "TEXCOORD_0"},
                               {in.uv1.size(), "TEXCOORD_1"},
-                              {in.colors.size(), "colours"}})
+                              {in.colors.size(), "colours"},
+                              {in.light.size(), "_LIGHT_0 values"}})
         if (Status s = check_size(size, what); !s.ok()) return s.error();
     for (size_t i = 0; i < in.indices.size(); ++i)
         if (in.indices[i] >= n)
@@ -178,6 +179,7 @@ Result<Primitive> repair_primitive(const Primitive& in, std::string_view label,
     out.uv0 = remap(in.uv0, kept);
     out.uv1 = remap(in.uv1, kept);
     out.colors = remap(in.colors, kept);
+    out.light = remap(in.light, kept);
     out.indices = std::move(out_indices);
     out.material = in.material;
 

@@ -43,6 +43,7 @@ Result<ProgressiveMeshBuild> build_progressive_mesh(const Primitive& in, std::st
         lod_detail::run_edge_collapse(in, target_triangles, options, *cost, &build.mesh);
     if (!levels) return levels.error();
     build.levels = std::move(levels).value();
+    if (Status s = lod_detail::carry_light_to_levels(in, build.levels); !s) return s.error();
     return build;
 }
 

@@ -9,6 +9,7 @@
 
 #include "algorithms.hpp"
 #include "collapse_engine.hpp"
+#include "hmdnode/lod/attribute_transfer.hpp"
 #include "scratch.hpp"
 
 namespace hmdnode {
@@ -118,7 +119,8 @@ Status check_simplify_arguments(const Primitive& in, std::string_view algorithm,
         return Status::success();
     };
     for (Status s : {check_size(in.normals.size(), "normals"), check_size(in.uv0.size(), "uv0"),
-                     check_size(in.uv1.size(), "uv1"), check_size(in.colors.size(), "colors")}) {
+                     check_size(in.uv1.size(), "uv1"), check_size(in.colors.size(), "colors"),
+                     check_size(in.light.size(), "light (_LIGHT_0)")}) {
         if (!s) return s;
     }
     for (size_t i = 0; i < in.indices.size(); ++i) {
@@ -151,6 +153,13 @@ Status check_simplify_arguments(const Primitive& in, std::string_view algorithm,
     return Status::success();
 }
 
+Status carry_light_to_levels(const Primitive& in, std::vector<SimplifiedLevel>& levels) {
+    for (size_t k = 0; k < levels.size(); ++k)
+        if (Status s = carry_vertex_light(in, levels[k].primitive); !s)
+            return make_error("level " + std::to_string(k) + ": " + s.error().message);
+    return Status::success();
+}
+
 }  // namespace lod_detail
 
 Result<std::vector<SimplifiedLevel>> simplify(const Primitive& in, std::string_view algorithm,
@@ -161,11 +170,19 @@ Result<std::vector<SimplifiedLevel>> simplify(const Primitive& in, std::string_v
     }
     for (const Entry& e : table()) {
         if (e.info.name != algorithm) continue;
-        if (!e.make_cost) return e.fn(in, target_triangles, options);
-        // note: the caller's scratch (if any) for the cost's arrays too, so it outlives the cost.
-        const lod_detail::ScratchScope scope(options.scratch);
-        const std::unique_ptr<lod_detail::CollapseCost> cost = e.make_cost();
-        return lod_detail::run_edge_collapse(in, target_triangles, options, *cost);
+        Result<std::vector<SimplifiedLevel>> levels = make_error("");
+        if (!e.make_cost) {
+            levels = e.fn(in, target_triangles, options);
+        } else {
+            // note: the caller's scratch (if any) for the cost's arrays too, so it outlives the
+            // cost.
+            const lod_detail::ScratchScope scope(options.scratch);
+            const std::unique_ptr<lod_detail::CollapseCost> cost = e.make_cost();
+            levels = lod_detail::run_edge_collapse(in, target_triangles, options, *cost);
+        }
+        if (!levels) return levels;
+        if (Status s = lod_detail::carry_light_to_levels(in, *levels); !s) return s.error();
+        return levels;
     }
     return make_error("unknown simplification algorithm '" + std::string(algorithm) + "'");
 }

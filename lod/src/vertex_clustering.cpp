@@ -150,6 +150,13 @@ Primitive cluster_vertices(const Primitive& in, float cell_size, float* out_max_
         out.colors.resize(m);
         for (size_t j = 0; j < m; ++j) out.colors[j] = acc[emitted[j]] / float(count[emitted[j]]);
     }
+    if (!in.light.empty()) {
+        std::vector<glm::dvec3> acc(clusters, glm::dvec3(0.0));
+        for (size_t i = 0; i < n; ++i) acc[cluster[i]] += glm::dvec3(in.light[i]);
+        out.light.resize(m);
+        for (size_t j = 0; j < m; ++j)
+            out.light[j] = glm::vec3(acc[emitted[j]] / double(count[emitted[j]]));
+    }
     if (!in.normals.empty()) {
         out.normals.assign(m, glm::vec3(0.0f));
         for (size_t t = 0; t < out.indices.size(); t += 3) {
@@ -198,7 +205,12 @@ ClusteredLevel cluster_to_triangle_count(const Primitive& in, size_t target_tria
         Primitive p = cluster_vertices(in, cell, &disp);
         size_t tris = p.triangle_count();
         size_t gap = tris > target_triangles ? tris - target_triangles : target_triangles - tris;
-        if (gap < best_gap) {
+        // note: an empty result never wins over a non-empty one, however close its count: for a
+        // target of a few triangles on a small object, 0 triangles was nearer than the 4 or 12 of
+        // the coarsest grid that keeps any, and the object vanished from the level.
+        const bool better = best.primitive.indices.empty() ? (tris > 0 || gap < best_gap)
+                                                           : (tris > 0 && gap < best_gap);
+        if (better) {
             best_gap = gap;
             best.primitive = std::move(p);
             best.cell_size = cell;
@@ -209,6 +221,13 @@ ClusteredLevel cluster_to_triangle_count(const Primitive& in, size_t target_tria
             log_lo = log_mid;
         else
             log_hi = log_mid;
+    }
+    // Every grid tried collapsed the object (cells of 1e-4 diagonals still merge its vertices, or
+    // the iterations ran out before a non-empty grid): the input itself, the finest valid mesh.
+    if (best.primitive.indices.empty()) {
+        best.primitive = in;
+        best.cell_size = 0.0f;
+        best.max_displacement_m = 0.0f;
     }
     return best;
 }

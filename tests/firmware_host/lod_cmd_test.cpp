@@ -5,6 +5,7 @@
 
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -186,6 +187,83 @@ TEST(LodCommand, RatiosFromObjWithReport) {
     EXPECT_GT(j["levels"][2]["error_m"].get<double>(), j["levels"][1]["error_m"].get<double>());
     EXPECT_EQ(j["levels"][0]["error_m"].get<double>(), 0.0);
     EXPECT_EQ(j["repair"]["degenerate_faces"], 0);
+}
+
+// The tool dropped _LIGHT_0 (the baked vertex light) from the levels it wrote, and repair dropped
+// it from level 0: a .glb in with light linear in position gives a .glb out whose every level has
+// it, within sqrt(2) times half the level's longest edge of the closed form (lod_chain_test).
+TEST(LodCommand, EveryLevelKeepsTheBakedVertexLight) {
+    const fs::path d = temp_dir("light");
+    const Sphere ball = icosphere(3);
+    auto light_at = [](const glm::vec3& p) {
+        return glm::vec3(2.0f + p.x, 3.0f - 0.5f * p.y, 1.0f + p.x + p.z);
+    };
+    hmdnode::Scene in;
+    hmdnode::Primitive prim;
+    for (const auto& v : ball.v) {
+        prim.positions.emplace_back(v[0], v[1], v[2]);
+        prim.normals.push_back(prim.positions.back());
+        prim.light.push_back(light_at(prim.positions.back()));
+    }
+    for (const auto& f : ball.f) prim.indices.insert(prim.indices.end(), f.begin(), f.end());
+    in.meshes.push_back({"ball", {prim}});
+    hmdnode::Node node;
+    node.mesh = 0;
+    in.nodes.push_back(node);
+    in.roots.push_back(0);
+    ASSERT_TRUE(hmdnode::save_glb(in, d / "in.glb").ok());
+    CommandRun r = run(lod(d / "in.glb", d / "out.glb", "--no-progress"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    hmdnode::Result<hmdnode::Scene> out = hmdnode::load_gltf(d / "out.glb");
+    ASSERT_TRUE(out.ok()) << out.error().message;
+    ASSERT_EQ(out->meshes.size(), 4u);  // level 0 and the default ratios' three
+    for (const hmdnode::Mesh& m : out->meshes) {
+        SCOPED_TRACE(m.name);
+        const hmdnode::Primitive& p = m.primitives.at(0);
+        ASSERT_EQ(p.light.size(), p.positions.size());
+        float longest = 0.0f, worst = 0.0f;
+        for (size_t t = 0; t < p.indices.size(); t += 3)
+            for (size_t e = 0; e < 3; ++e)
+                longest = std::max(longest, glm::distance(p.positions[p.indices[t + e]],
+                                                          p.positions[p.indices[t + (e + 1) % 3]]));
+        for (size_t v = 0; v < p.positions.size(); ++v) {
+            const glm::vec3 diff = glm::abs(p.light[v] - light_at(p.positions[v]));
+            worst = std::max({worst, diff.x, diff.y, diff.z});
+        }
+        EXPECT_LE(worst, std::sqrt(2.0f) * 0.5f * longest) << p.triangle_count() << " triangles";
+    }
+}
+
+// `hmdnode lod --algorithm grid` failed on the demo room ("mesh 16 primitive 0: no vertices"):
+// the grid collapsed a small object to nothing for a target of a triangle or two. It now chains
+// the room; every primitive written has triangles, and every level has the light (_LIGHT_0) and
+// texture coordinates its level 0 has.
+TEST(LodCommand, GridChainsTheDemoRoomWithoutLosingObjectsOrLight) {
+    const fs::path d = temp_dir("grid_demo");
+    CommandRun r = run(lod(HMDNODE_DEMO_SCENE, d / "out.glb", "--no-progress --algorithm grid"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    hmdnode::Result<hmdnode::Scene> out = hmdnode::load_gltf(d / "out.glb");
+    ASSERT_TRUE(out.ok()) << out.error().message;
+    size_t chained = 0;
+    for (const hmdnode::Node& n : out->nodes) {
+        if (n.mesh < 0 || n.lod_ids.empty()) continue;
+        ++chained;
+        const hmdnode::Mesh& base = out->meshes.at(size_t(n.mesh));
+        for (int id : n.lod_ids) {
+            const hmdnode::Mesh& level = out->meshes.at(size_t(out->nodes.at(size_t(id)).mesh));
+            SCOPED_TRACE(level.name);
+            ASSERT_EQ(level.primitives.size(), base.primitives.size());
+            for (size_t k = 0; k < base.primitives.size(); ++k) {
+                const hmdnode::Primitive &b = base.primitives[k], &l = level.primitives[k];
+                EXPECT_GT(l.triangle_count(), 0u) << "primitive " << k;
+                EXPECT_EQ(l.light.empty(), b.light.empty()) << "primitive " << k;
+                EXPECT_EQ(l.uv0.empty(), b.uv0.empty()) << "primitive " << k;
+                EXPECT_EQ(l.uv1.empty(), b.uv1.empty()) << "primitive " << k;
+                EXPECT_EQ(l.normals.empty(), b.normals.empty()) << "primitive " << k;
+            }
+        }
+    }
+    EXPECT_GE(chained, 5u);
 }
 
 // --threads 2 lets qem use a helper thread on meshes of 8 192 faces or more: the .glb is the

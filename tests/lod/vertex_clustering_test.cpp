@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "hmdnode/core/obj.hpp"
+#include "hmdnode/lod/simplify.hpp"
 
 namespace hmdnode {
 namespace {
@@ -51,6 +52,7 @@ void expect_well_formed(const Primitive& in, const Primitive& out) {
     EXPECT_EQ(out.uv0.size(), in.uv0.empty() ? 0 : n);
     EXPECT_EQ(out.uv1.size(), in.uv1.empty() ? 0 : n);
     EXPECT_EQ(out.colors.size(), in.colors.empty() ? 0 : n);
+    EXPECT_EQ(out.light.size(), in.light.empty() ? 0 : n);
     EXPECT_EQ(out.material, in.material);
     std::set<std::array<uint32_t, 3>> tris;
     std::vector<char> used(n, 0);
@@ -114,6 +116,60 @@ TEST(VertexClustering, CellLargerThanMeshLeavesNothing) {
     EXPECT_EQ(out.triangle_count(), 0u);
     EXPECT_TRUE(out.positions.empty());
     EXPECT_LE(disp, std::sqrt(2.0f));
+}
+
+// A closed box of 8 welded corners and 12 triangles, 0.4 x 0.3 x 0.2 m (a crate of the demo
+// room), light (_LIGHT_0) linear in position.
+Primitive small_box() {
+    Primitive p;
+    for (int k = 0; k < 8; ++k) {
+        const glm::vec3 v(k & 1 ? 0.4f : 0.0f, k & 2 ? 0.3f : 0.0f, k & 4 ? 0.2f : 0.0f);
+        p.positions.push_back(v + glm::vec3(2.0f, 0.0f, 1.0f));
+        p.normals.push_back(glm::normalize(v - glm::vec3(0.2f, 0.15f, 0.1f)));
+        p.light.push_back(glm::vec3(1.0f + v.x, 2.0f - v.y, 3.0f + v.z));
+    }
+    p.indices = {0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6, 0, 1, 5, 0, 5, 4,
+                 2, 6, 7, 2, 7, 3, 0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5};
+    p.material = 1;
+    return p;
+}
+
+// The demo room's grid failure ("mesh 16 primitive 0: no vertices"): for a target of a triangle
+// or two, the grid that collapses a small box entirely (0 triangles, 1 away) was closer than any
+// grid that keeps some (4 or more), so the box vanished from its level. Now every target gives a
+// valid, non-empty mesh with all the input's attributes.
+TEST(VertexClustering, ASmallObjectNeverVanishesFromALevel) {
+    const Primitive box = small_box();
+    for (size_t target = 1; target < box.triangle_count(); ++target) {
+        SCOPED_TRACE(target);
+        ClusteredLevel c = cluster_to_triangle_count(box, target);
+        EXPECT_GT(c.primitive.triangle_count(), 0u);
+        expect_well_formed(box, c.primitive);
+    }
+    Result<std::vector<SimplifiedLevel>> levels = simplify(box, "grid", std::vector<size_t>{6, 1});
+    ASSERT_TRUE(levels.ok()) << levels.error().message;
+    for (const SimplifiedLevel& l : *levels) {
+        EXPECT_GT(l.primitive.triangle_count(), 0u);
+        expect_well_formed(box, l.primitive);
+    }
+}
+
+// Where no grid keeps a triangle, the input comes back rather than nothing: a sliver (angle at
+// the first corner about 2e-7 rad) that the grid's sliver test drops at every cell size, though
+// mesh repair keeps it.
+TEST(VertexClustering, WhenEveryGridCollapsesTheInputComesBack) {
+    Primitive alone;
+    alone.positions = {{0, 0, 0}, {1, 0, 0}, {0.5f, 1e-7f, 0}};
+    alone.indices = {0, 1, 2};
+    ASSERT_EQ(cluster_vertices(alone, 1e-4f, nullptr).triangle_count(), 0u);
+    // Two such slivers (a target must be below the input's count) and a target of one.
+    Primitive two = alone;
+    two.positions.push_back({0.5f, -1e-7f, 0});
+    two.indices.insert(two.indices.end(), {0, 3, 1});
+    ClusteredLevel c = cluster_to_triangle_count(two, 1);
+    EXPECT_EQ(c.primitive.triangle_count(), 2u);
+    EXPECT_EQ(c.cell_size, 0.0f);
+    EXPECT_EQ(c.max_displacement_m, 0.0f);
 }
 
 TEST(VertexClustering, TriangleCountDecreasesAsCellsGrowOnBunny) {

@@ -24,4 +24,12 @@ namespace hmdnode {
 // Errors: the base has no light or no normals, or the level has no normals.
 Result<std::vector<glm::vec3>> transfer_vertex_light(const Primitive& base, const Primitive& level);
 
+// Gives `level` (a simplified version of `base`) the base's light where the simplifier did not
+// carry it by its own vertex correspondence: nothing when the base has no light or the level
+// already has one value per vertex; else transfer_vertex_light(), with area-weighted vertex normals
+// made for the filter where the base or the level has none (the level's own arrays are otherwise
+// untouched). simplify() and build_progressive_mesh() call it on every level they return, so every
+// algorithm's levels carry _LIGHT_0. Errors: those of transfer_vertex_light (none for valid input).
+Status carry_vertex_light(const Primitive& base, Primitive& level);
+
 }  // namespace hmdnode

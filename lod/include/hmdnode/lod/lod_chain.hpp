@@ -112,10 +112,12 @@ struct LodChainReport {
 // new levels are new meshes "<name>_lod<k>" on new non-root nodes with the node's transform, listed
 // in the node's lod_ids with screen_coverage, each level's node carrying its measured Hausdorff
 // error in geometric_error_m (level 0 gets 0). A level with no fewer triangles than the level
-// before it is dropped (with a note). Old alternate nodes and meshes no node uses any more are
-// removed (node and mesh indices are renumbered). On an error the scene is unchanged. Errors:
-// unknown algorithm, bad targets, --step or progressive with a non-edge-collapse algorithm, a
-// simplify() failure (naming the mesh and primitive).
+// before it is dropped (with a note); a primitive an algorithm leaves without a triangle keeps its
+// previous level (with a note naming mesh and primitive). Every level has the vertex attributes
+// its input has, _LIGHT_0 included (simplify.hpp). Old alternate nodes and meshes no node uses any
+// more are removed (node and mesh indices are renumbered). On an error the scene is unchanged.
+// Errors: unknown algorithm, bad targets, --step or progressive with a non-edge-collapse algorithm,
+// a simplify() failure (naming the mesh and primitive).
 Result<LodChainReport> generate_lod_chains(Scene& scene, const LodChainOptions& options);
 
 // The positions (bit for bit, +0 == -0) that more than one primitive of `mesh` uses: its material

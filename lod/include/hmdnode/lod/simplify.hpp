@@ -109,8 +109,11 @@ const AlgorithmInfo* find_simplification_algorithm(std::string_view name);
 // decreasing, each below in.triangle_count(). Returns one level per target, in the same order,
 // each with at most max(target, what the algorithm can reach) triangles: an algorithm that cannot
 // reach a target (clustering granularity, locked borders, seams) returns the closest it reached.
-// Edge-collapse algorithms make all levels in one pass. Errors: unknown algorithm, empty input,
-// targets not strictly decreasing or zero.
+// Edge-collapse algorithms make all levels in one pass. Each level has exactly the attribute
+// arrays of the input: normals, UVs and colours by the algorithm's own vertex correspondence, the
+// baked light (_LIGHT_0) by grid's cluster average or else filtered from the input onto the
+// finished level (carry_vertex_light, attribute_transfer.hpp). Errors: unknown algorithm, empty
+// input, targets not strictly decreasing or zero.
 Result<std::vector<SimplifiedLevel>> simplify(const Primitive& in, std::string_view algorithm,
                                               std::span<const size_t> target_triangles,
                                               const SimplifyOptions& options = {});
