@@ -638,7 +638,7 @@ void report_flips(const char* what, int flips, const FlipRun& run, const Display
         run.missed_targets, flips, std::max(0, run.vsyncs - run.flips), run.vsyncs,
         run.commit_to_event_ms / flips, run.present_ms / flips);
     check(run.readbacks > 0 && run.readback_ok == run.readbacks,
-          (std::string(what) + ": scanned-out buffer read back (GETFB + map) equals the frame")
+          (std::string(what) + ": scanned-out buffer read back (GETFB2 + map) equals the frame")
               .c_str(),
           std::to_string(run.readback_ok) + "/" + std::to_string(run.readbacks) + " equal; " +
               run.readback_detail);
