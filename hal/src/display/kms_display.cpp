@@ -269,6 +269,10 @@ class KmsDisplayImpl final : public KmsDisplay {
         uint32_t fb = 0;
         if (attached >= 0) {
             fb = attached_fbs_[size_t(attached)];
+        } else if (!image && !attached_fbs_.empty() && (pending_fb_ || front_fb_)) {
+            // Zero-copy with nothing new drawn: the newest frame is flipped again (a vsync that
+            // repeats it), not a stale dumb buffer.
+            fb = pending_fb_ ? pending_fb_ : front_fb_;
         } else {
             int back = 0;
             while (buffers_[back].fb == front_fb_ || buffers_[back].fb == pending_fb_) ++back;
