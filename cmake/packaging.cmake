@@ -1,8 +1,8 @@
 # The Debian package (CPack DEB): `cpack -G DEB` in a build tree configured with the prefix /usr
 # (the default) makes hmdnode_<version>_amd64.deb of what the install rules install
 # (firmware_host/CMakeLists.txt). Its Depends are the Debian runtime packages of the libraries
-# the executables link (dpkg-shlibdeps: libvulkan1, libegl1, libgles2, libdrm2 for the KMS display
-# among them), plus the Vulkan driver and Mesa's EGL vendor library (the GLES backend), which are
+# the executables link (dpkg-shlibdeps: libvulkan1, libegl1, libgles2, libdrm2 and libgbm1 for
+# the KMS display among them), plus the Vulkan driver and Mesa's EGL vendor library (the GLES backend), which are
 # loaded, not linked.
 set(CPACK_GENERATOR DEB)
 set(CPACK_PACKAGE_NAME hmdnode)

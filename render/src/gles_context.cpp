@@ -3,10 +3,16 @@
 // note: the EGL display is never terminated: on Mesa's surfaceless platform every
 // eglGetPlatformDisplay call of the process returns the same display, so terminating it would
 // pull the contexts of other renderers in the process from under them. Destroying the context
-// frees the renderer's GPU objects.
+// frees the renderer's GPU objects. A GBM platform display is the renderer's own (one per GBM
+// device): it is terminated with the context, then the GBM device is destroyed.
 #include "gles_context.hpp"
 
 #include <EGL/eglext.h>
+#include <fcntl.h>
+#include <gbm.h>
+#include <unistd.h>
+
+#include <cerrno>
 
 #include <algorithm>
 #include <cstdio>
@@ -67,11 +73,32 @@ Result<GLuint> compile(GLenum stage, const char* src, const char* what) {
 
 }  // namespace
 
-Result<std::unique_ptr<EglContext>> EglContext::create() {
-    auto c = std::unique_ptr<EglContext>(new EglContext());
-    // 1. The display: surfaceless platform, else the default one.
+Status EglContext::open_gbm(const ScanoutTargetInfo& target) {
+    const std::string where = "GLES on GBM (" + target.device + ")";
     const char* client = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
-    if (has_word(client, "EGL_MESA_platform_surfaceless")) {
+    if (!has_word(client, "EGL_KHR_platform_gbm") && !has_word(client, "EGL_MESA_platform_gbm"))
+        return make_error(where + ": EGL lacks EGL_KHR_platform_gbm");
+    gbm_fd_ = fcntl(target.drm_fd, F_DUPFD_CLOEXEC, 0);
+    if (gbm_fd_ < 0)
+        return make_error(where + ": cannot duplicate the DRM file: " + std::strerror(errno));
+    gbm_ = gbm_create_device(gbm_fd_);
+    if (!gbm_) return make_error(where + ": gbm_create_device failed (not a DRM device?)");
+    auto get_platform_display = reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(
+        eglGetProcAddress("eglGetPlatformDisplayEXT"));
+    if (get_platform_display) display_ = get_platform_display(EGL_PLATFORM_GBM_KHR, gbm_, nullptr);
+    if (display_ == EGL_NO_DISPLAY)
+        return make_error(where + ": " + egl_error("eglGetPlatformDisplay (EGL_PLATFORM_GBM_KHR)"));
+    platform = "gbm";
+    return Status::success();
+}
+
+Result<std::unique_ptr<EglContext>> EglContext::create(const ScanoutTargetInfo* scanout) {
+    auto c = std::unique_ptr<EglContext>(new EglContext());
+    // 1. The display: GBM for scan-out; else the surfaceless platform, else the default one.
+    const char* client = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
+    if (scanout) {
+        if (Status s = c->open_gbm(*scanout); !s) return s.error();
+    } else if (has_word(client, "EGL_MESA_platform_surfaceless")) {
         auto get_platform_display = reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(
             eglGetProcAddress("eglGetPlatformDisplayEXT"));
         if (get_platform_display) {
@@ -87,7 +114,8 @@ Result<std::unique_ptr<EglContext>> EglContext::create() {
     if (c->display_ == EGL_NO_DISPLAY) return make_error(egl_error("eglGetDisplay"));
     EGLint major = 0, minor = 0;
     if (!eglInitialize(c->display_, &major, &minor))
-        return make_error(egl_error("eglInitialize (no EGL driver?)"));
+        return make_error((scanout ? "GLES on GBM (" + scanout->device + "): " : std::string()) +
+                          egl_error("eglInitialize (no EGL driver?)"));
     if (!has_word(eglQueryString(c->display_, EGL_EXTENSIONS), "EGL_KHR_surfaceless_context"))
         return make_error("EGL: the display lacks EGL_KHR_surfaceless_context");
     if (!eglBindAPI(EGL_OPENGL_ES_API)) return make_error(egl_error("eglBindAPI (OpenGL ES)"));
@@ -111,10 +139,16 @@ Result<std::unique_ptr<EglContext>> EglContext::create() {
 }
 
 EglContext::~EglContext() {
-    if (context_ == EGL_NO_CONTEXT) return;
-    if (eglGetCurrentContext() == context_)
-        eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
-    eglDestroyContext(display_, context_);
+    if (context_ != EGL_NO_CONTEXT) {
+        if (eglGetCurrentContext() == context_)
+            eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+        eglDestroyContext(display_, context_);
+    }
+    if (gbm_) {
+        if (display_ != EGL_NO_DISPLAY) eglTerminate(display_);
+        gbm_device_destroy(gbm_);
+    }
+    if (gbm_fd_ >= 0) close(gbm_fd_);
 }
 
 Status EglContext::make_current() {

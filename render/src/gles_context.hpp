@@ -1,7 +1,10 @@
 // The GLES backend's EGL context and GL object handles. Off-screen only: an EGL display on Mesa's
 // surfaceless platform (EGL_MESA_platform_surfaceless), else the default display with
 // EGL_KHR_surfaceless_context, and an OpenGL ES 3 context made current without any surface
-// (everything renders into framebuffer objects). Cost: context creation once per renderer.
+// (everything renders into framebuffer objects). For zero-copy scan-out the display is EGL's GBM
+// platform on a GBM device made on a duplicate of the KMS display's DRM file instead (the same GEM
+// handle space, so the display can make framebuffers of the GBM buffer objects). Cost: context
+// creation once per renderer.
 #pragma once
 
 #include <EGL/egl.h>
@@ -12,13 +15,17 @@
 #include <utility>
 
 #include "hmdnode/core/result.hpp"
+#include "hmdnode/core/scanout_buffer.hpp"
+
+struct gbm_device;
 
 namespace hmdnode::gles {
 
 class EglContext {
   public:
-    // Errors name the EGL step that failed and the EGL error code.
-    static Result<std::unique_ptr<EglContext>> create();
+    // Errors name the EGL step that failed and the EGL error code. scanout: EGL on GBM on that
+    // DRM device (errors name the device); null: off-screen (surfaceless).
+    static Result<std::unique_ptr<EglContext>> create(const ScanoutTargetInfo* scanout = nullptr);
     ~EglContext();
     EglContext(const EglContext&) = delete;
     EglContext& operator=(const EglContext&) = delete;
@@ -29,12 +36,19 @@ class EglContext {
     bool has_extension(const char* name) const;
 
     std::string renderer;  // GL_RENDERER, e.g. "llvmpipe (LLVM 15.0.6, 256 bits)"
-    std::string platform;  // "surfaceless" or "default"
+    std::string platform;  // "surfaceless", "default" or "gbm"
+
+    EGLDisplay display() const { return display_; }
+    // The GBM device (scan-out only, else null) and its backend's name ("drm").
+    gbm_device* gbm() const { return gbm_; }
 
   private:
     EglContext() = default;
+    Status open_gbm(const ScanoutTargetInfo& target);
     EGLDisplay display_ = EGL_NO_DISPLAY;
     EGLContext context_ = EGL_NO_CONTEXT;
+    gbm_device* gbm_ = nullptr;
+    int gbm_fd_ = -1;  // the duplicate of the display's DRM file the GBM device is made on
 };
 
 // "glDrawElements: GL_INVALID_OPERATION" when glGetError() reports one, else success; drains the

@@ -13,7 +13,10 @@
 //    counter-clockwise front faces are GL_CW here. GL_EXT_clip_control (where offered) gives
 //    Vulkan's [0, 1] depth range, so near-plane clipping and depth values match too;
 //  - the warp samples the sRGB eye textures with their decode skipped (GL_EXT_texture_sRGB_decode),
-//    as the Vulkan pass reads them through UNORM views.
+//    as the Vulkan pass reads them through UNORM views;
+//  - zero-copy scan-out (RendererConfig::scanout, gles_scanout.hpp): the warp draws both eyes side
+//    by side straight into a GBM buffer object of the KMS display's ring instead of the panel
+//    textures, and a read-back reads that buffer object.
 #include <EGL/egl.h>
 
 #include <algorithm>
@@ -24,6 +27,7 @@
 
 #include "frame_queue.hpp"
 #include "gles_context.hpp"
+#include "gles_scanout.hpp"
 #include "gles_scene.hpp"
 #include "gles_shaders.hpp"
 #include "hmdnode/render/renderer.hpp"
@@ -57,6 +61,14 @@ class GlesRenderer final : public Renderer {
     Status set_warp(int panel_width, int panel_height, const DistortionMesh& left,
                     const DistortionMesh& right) override;
     Result<WarpStats> warp(const glm::dquat& delta, StereoImage* out_panel) override;
+    const std::vector<ScanoutBuffer>& scanout_buffers() const override {
+        return scanout_ ? scanout_->buffers() : Renderer::scanout_buffers();
+    }
+    int scanout_drawn() const override { return scanout_ ? scanout_->ring.drawn() : -1; }
+    void scanout_committed(int buffer) override {
+        if (scanout_) scanout_->ring.commit(buffer);
+    }
+    std::string scanout_describe() const override { return scanout_ ? scanout_->describe() : ""; }
 
   private:
     Status create_targets();
@@ -65,11 +77,14 @@ class GlesRenderer final : public Renderer {
     // first == 0.
     void draw_piece(size_t first, size_t last);
     Result<bool> run_piece(uint64_t max_triangles, int64_t* wait_ns, size_t* items_rendered);
-    // Reads both eyes of framebuffers fb[0], fb[1] (width x height) into out.
-    static void read_back(const gles::Framebuffer fb[2], int width, int height, StereoImage& out);
+    // Reads both eyes of framebuffers fb[0], fb[1] (width x height, eye e from x = x0[e]) into
+    // out.
+    static void read_back(const GLuint fb[2], const int x0[2], int width, int height,
+                          StereoImage& out);
 
     RendererConfig config_;
-    std::unique_ptr<gles::EglContext> ctx_;  // first: destroyed last
+    std::unique_ptr<gles::EglContext> ctx_;       // first: destroyed last
+    std::unique_ptr<gles::GlesScanout> scanout_;  // zero-copy scan-out's ring (null: none)
     // The scene's program and its uniforms: [0] plain, [1] with the cross-fade's dither test.
     struct SceneProgram {
         gles::Program program;
@@ -111,7 +126,7 @@ Result<std::unique_ptr<Renderer>> GlesRenderer::create(const RendererConfig& con
                           " (1 or 4)");
     auto r = std::unique_ptr<GlesRenderer>(new GlesRenderer());
     r->config_ = config;
-    auto ctx = gles::EglContext::create();
+    auto ctx = gles::EglContext::create(config.scanout ? &*config.scanout : nullptr);
     if (!ctx) return ctx.error();
     r->ctx_ = std::move(*ctx);
     if (!r->ctx_->has_extension("GL_EXT_texture_sRGB_decode"))
@@ -124,6 +139,11 @@ Result<std::unique_ptr<Renderer>> GlesRenderer::create(const RendererConfig& con
     }
     if (Status s = r->create_targets(); !s) return s.error();
     if (Status s = r->create_scene_program(); !s) return s.error();
+    if (config.scanout) {
+        auto scanout = gles::GlesScanout::create(*r->ctx_, *config.scanout, config.scanout_buffers);
+        if (!scanout) return scanout.error();
+        r->scanout_ = std::move(*scanout);
+    }
     return std::unique_ptr<Renderer>(std::move(r));
 }
 
@@ -348,7 +368,7 @@ Result<bool> GlesRenderer::render_more(uint64_t max_triangles, size_t* items_ren
     return run_piece(max_triangles, nullptr, items_rendered);
 }
 
-void GlesRenderer::read_back(const gles::Framebuffer fb[2], int width, int height,
+void GlesRenderer::read_back(const GLuint fb[2], const int x0[2], int width, int height,
                              StereoImage& out) {
     glPixelStorei(GL_PACK_ALIGNMENT, 4);
     for (int e = 0; e < 2; ++e) {
@@ -358,7 +378,7 @@ void GlesRenderer::read_back(const gles::Framebuffer fb[2], int width, int heigh
         eye.pixels.resize(size_t(width) * height * 4);  // allocates only when the size changes
         glBindFramebuffer(GL_READ_FRAMEBUFFER, fb[e]);
         // Row 0 is NDC y = -1: the top row of the Vulkan projections (see the note on top).
-        glReadPixels(0, 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, eye.pixels.data());
+        glReadPixels(x0[e], 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, eye.pixels.data());
     }
     glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
 }
@@ -374,7 +394,9 @@ Result<RenderStats> GlesRenderer::render(const StereoViews& views, std::span<con
     if (!done) return done.error();
     const int64_t t2 = now_ns();
     if (out_image) {
-        read_back(framebuffer_[1 - back_], config_.eye_width, config_.eye_height, *out_image);
+        const GLuint fb[2] = {framebuffer_[1 - back_][0], framebuffer_[1 - back_][1]};
+        const int x0[2] = {0, 0};
+        read_back(fb, x0, config_.eye_width, config_.eye_height, *out_image);
         if (Status s = gles::check_gl("glReadPixels (eyes)"); !s) return s.error();
     }
     const int64_t t3 = now_ns();
@@ -397,6 +419,11 @@ Status GlesRenderer::set_warp(int panel_width, int panel_height, const Distortio
         return make_error("GLES: panel " + std::to_string(panel_width) + "x" +
                           std::to_string(panel_height) + " exceeds the driver's limit of " +
                           std::to_string(max_texture) + " pixels per side");
+    if (scanout_ && (2 * panel_width > scanout_->width() || panel_height > scanout_->height()))
+        return make_error("renderer: panel " + std::to_string(panel_width) + "x" +
+                          std::to_string(panel_height) + " per eye does not fit the " +
+                          std::to_string(scanout_->width()) + "x" +
+                          std::to_string(scanout_->height()) + " scan-out buffers side by side");
     const DistortionMesh* mesh[2] = {&left, &right};
     for (int e = 0; e < 2; ++e)
         if (Status s = gpu::check_distortion_mesh(*mesh[e], e); !s) return s;
@@ -463,14 +490,26 @@ Result<WarpStats> GlesRenderer::warp(const glm::dquat& delta, StereoImage* out_p
     WarpStats stats;
     const int64_t t0 = now_ns();
     const int front = 1 - back_;
-    glViewport(0, 0, panel_width_, panel_height_);
+    // The targets: the panel textures, or one buffer object of the scan-out ring (eyes side by
+    // side).
+    GLuint target[2] = {panel_framebuffer_[0], panel_framebuffer_[1]};
+    int x0[2] = {0, 0};
+    const int scanout_buffer = scanout_ ? scanout_->ring.acquire() : -1;
+    if (scanout_) {
+        if (scanout_buffer < 0)
+            return make_error("renderer: every scan-out buffer is shown or queued (" +
+                              std::to_string(scanout_->ring.size()) + " buffers)");
+        target[0] = target[1] = scanout_->framebuffer(scanout_buffer);
+        x0[1] = panel_width_;
+    }
     glDisable(GL_DEPTH_TEST);
     glDisable(GL_CULL_FACE);
     glUseProgram(warp_program_);
     glActiveTexture(GL_TEXTURE0);
     for (int e = 0; e < 2; ++e) {
         const glm::mat4 reproject = gpu::warp_reprojection(rendered_projection_[e], delta);
-        glBindFramebuffer(GL_FRAMEBUFFER, panel_framebuffer_[e]);
+        glBindFramebuffer(GL_FRAMEBUFFER, target[e]);
+        glViewport(x0[e], 0, panel_width_, panel_height_);
         glBindTexture(GL_TEXTURE_2D, color_[front][e]);
         glUniformMatrix4fv(u_reproject_, 1, GL_FALSE, &reproject[0][0]);
         glBindVertexArray(warp_vertex_array_[e]);
@@ -482,8 +521,9 @@ Result<WarpStats> GlesRenderer::warp(const glm::dquat& delta, StereoImage* out_p
     glFinish();
     const int64_t t2 = now_ns();
     if (Status s = gles::check_gl("warp"); !s) return s.error();
+    if (scanout_) scanout_->ring.finish(scanout_buffer);
     if (out_panel) {
-        read_back(panel_framebuffer_, panel_width_, panel_height_, *out_panel);
+        read_back(target, x0, panel_width_, panel_height_, *out_panel);
         if (Status s = gles::check_gl("glReadPixels (panel)"); !s) return s.error();
     }
     const int64_t t3 = now_ns();

@@ -32,6 +32,10 @@ Result<std::string> resolve_renderer_backend(const RendererConfig& config) {
 Result<std::unique_ptr<Renderer>> create_renderer(const RendererConfig& config) {
     auto backend = resolve_renderer_backend(config);
     if (!backend) return backend.error();
+    if (*backend == "vulkan" && config.scanout)
+        return make_error(
+            "renderer vulkan: zero-copy scan-out needs the gles backend (dma-buf import of the "
+            "Vulkan image is planned: docs/rendering.md, \"Scan-out\")");
     return *backend == "gles" ? create_gles_renderer(config) : create_vulkan_renderer(config);
 }
 

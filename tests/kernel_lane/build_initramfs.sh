@@ -8,11 +8,18 @@
 # docs/hardware.md.
 #
 # usage: build_initramfs.sh LANE_BINARY DEMO_SCENE OUT.cpio KVER   (LANE and SCENE: host paths)
+# HMDNODE_LANE_RENDERERS (gles, vulkan or both; default gles) is the lane program's second
+# argument: which renderers' frames the KMS runs show (lane_main.cpp).
 set -eu
 lane=$(realpath "$1")
 scene=$(realpath "$2")
 out=$3
 kver=$4
+renderers=${HMDNODE_LANE_RENDERERS:-gles}
+case "$renderers" in
+gles | vulkan | both) ;;
+*) echo "build_initramfs: HMDNODE_LANE_RENDERERS=$renderers (gles, vulkan or both)" >&2; exit 2 ;;
+esac
 
 root=$(mktemp -d "${TMPDIR:-/tmp}/hmdnode-initramfs.XXXXXX")
 trap 'rm -rf "$root"' EXIT
@@ -64,7 +71,7 @@ if mount -t 9p -o trans=virtio,version=9p2000.L,ro,cache=loose,msize=512000 host
     mount -t sysfs sysfs /host/sys
     mount -t devtmpfs devtmpfs /host/dev
     mount -t tmpfs tmpfs /host/run
-    HOME=/run TMPDIR=/run chroot /host '$lane' '$scene'
+    HOME=/run TMPDIR=/run chroot /host '$lane' '$scene' $renderers
     echo "HMDNODE_KERNEL_LANE_EXIT: \$?"
 else
     echo "lane: mounting the host's 9p share failed"

@@ -146,15 +146,18 @@ int main(int argc, char** argv) {
     RendererSpec rs;
     rs.type = cfg->renderer_backend;
     rs.config.msaa_samples = cfg->msaa_samples;
-    Result<std::unique_ptr<Renderer>> renderer = make_renderer(rs, panel, keys);
+    bool zero_copy = false;  // kms + gles: the warp draws into the buffers the display flips
+    Result<std::unique_ptr<Renderer>> renderer = make_renderer(rs, **display, keys, &zero_copy);
     if (!renderer.ok()) {
         spdlog::error("{}", renderer.error().message);
         return 2;
     }
-    // Pixels come back to the CPU for a KMS display (scanned out from dumb buffers) and for the
-    // frames the mock display writes.
+    // Pixels come back to the CPU for a KMS display scanning out dumb buffers (not with zero-copy
+    // scan-out, where the warp's output is the scanned-out buffer; without a warp pass the frames
+    // are copied) and for the frames the mock display writes.
     NodeConfig nc = cfg->node;
-    nc.read_back = nc.read_back && (cfg->display_type != "mock" || !dc.frames_dir.empty());
+    nc.read_back = nc.read_back && (cfg->display_type != "mock" || !dc.frames_dir.empty()) &&
+                   !(zero_copy && (nc.warp || nc.distortion));
     NodeRuntime node(*clock, **tracker, **display, **renderer, *scene, nc);
     std::string scene_error;  // why the last scene that was asked for is not running
     if (Status st = node.start(); !st.ok()) {

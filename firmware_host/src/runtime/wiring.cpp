@@ -167,4 +167,34 @@ Result<std::unique_ptr<Renderer>> make_renderer(const RendererSpec& spec, const 
     return create_renderer(rc);
 }
 
+Result<std::unique_ptr<Renderer>> make_renderer(const RendererSpec& spec, Display& display,
+                                                const WiringKeys& keys, bool* zero_copy) {
+    if (zero_copy) *zero_copy = false;
+    auto* kms = dynamic_cast<KmsDisplay*>(&display);
+    if (!kms) return make_renderer(spec, display.info(), keys);
+    RendererSpec rs = spec;
+    if (!spec.type.empty()) rs.config.backend = spec.type;
+    Result<std::string> backend = resolve_renderer_backend(rs.config);
+    if (backend.ok() && *backend == "gles") {
+        rs.config.scanout = kms->scanout_target();
+        auto r = make_renderer(rs, display.info(), keys);
+        if (!r.ok()) return r.error();
+        Renderer* renderer = r->get();
+        if (Status st = kms->attach_buffers(
+                renderer->scanout_buffers(),
+                KmsBufferSource{[renderer] { return renderer->scanout_drawn(); },
+                                [renderer](int b) { renderer->scanout_committed(b); }});
+            !st.ok())
+            return st.error();
+        spdlog::info("display: kms scan-out: GBM zero-copy, {}", renderer->scanout_describe());
+        if (zero_copy) *zero_copy = true;
+        return r;
+    }
+    spdlog::info(
+        "display: kms scan-out: dumb-buffer copy (the {} renderer's frames read back and copied; "
+        "zero-copy needs renderer.backend gles)",
+        backend.ok() ? *backend : std::string("default"));
+    return make_renderer(spec, display.info(), keys);
+}
+
 }  // namespace hmdnode

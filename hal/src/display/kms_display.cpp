@@ -16,6 +16,10 @@
 // Three buffers (shown, flip pending, written), so that a frame is written while the flip before
 // it completes. Cost per present: one pass over the frame (width x height x 4 bytes) plus one
 // ioctl and one event read; memory: three framebuffers.
+// Zero-copy (attach_buffers): buffers a renderer draws into (GBM buffer objects of the GLES
+// backend) become framebuffers once (ADDFB2 with their format, modifier and pitch), and present()
+// flips the one its source names as the newest drawn, with no copy; the dumb buffers stay for the
+// black first frame and for a present with no drawn buffer.
 #include "hmdnode/hal/display/kms_display.hpp"
 
 #include <dirent.h>
@@ -34,6 +38,8 @@
 #include <map>
 
 #include <drm_fourcc.h>
+#include <linux/dma-buf.h>
+#include <sys/ioctl.h>
 
 #include "hmdnode/hal/display/vsync_grid.hpp"
 
@@ -42,6 +48,12 @@ namespace {
 
 std::string errno_text(int e) {
     return std::strerror(e);
+}
+
+std::string hex(uint64_t v) {
+    char b[24];
+    std::snprintf(b, sizeof b, "%llx", static_cast<unsigned long long>(v));
+    return b;
 }
 
 double mode_refresh_hz(const drmModeModeInfo& m) {
@@ -171,6 +183,7 @@ class KmsDisplayImpl final : public KmsDisplay {
         (void)finish();
         // note: the CRTC keeps scanning out its last framebuffer until the next master sets
         // another; removing ours makes the kernel turn the CRTC off (the panel goes dark).
+        for (uint32_t fb : attached_fbs_) drmModeRmFB(fd_, fb);
         for (DumbBuffer& b : buffers_) {
             if (b.map) munmap(b.map, b.size);
             if (b.fb) drmModeRmFB(fd_, b.fb);
@@ -247,10 +260,25 @@ class KmsDisplayImpl final : public KmsDisplay {
     }
 
     Result<PresentResult> present(const StereoImage* image, int64_t target_vsync_ns) override {
-        // Three buffers: the one shown, the one a pending flip will show, and the one written.
-        int back = 0;
-        while (back == front_ || back == pending_) ++back;
-        if (image) copy_in(*image, buffers_[back]);
+        // Zero-copy: the newest buffer the renderer drew. Else three dumb buffers: the one shown,
+        // the one a pending flip will show, and the one written.
+        const int attached = source_.drawn ? source_.drawn() : -1;
+        if (attached >= int(attached_fbs_.size()))
+            return make_error("kms display " + device_ + ": buffer " + std::to_string(attached) +
+                              " was never attached");
+        uint32_t fb = 0;
+        if (attached >= 0) {
+            fb = attached_fbs_[size_t(attached)];
+        } else if (!image && !attached_fbs_.empty() && (pending_fb_ || front_fb_)) {
+            // Zero-copy with nothing new drawn: the newest frame is flipped again (a vsync that
+            // repeats it), not a stale dumb buffer.
+            fb = pending_fb_ ? pending_fb_ : front_fb_;
+        } else {
+            int back = 0;
+            while (buffers_[back].fb == front_fb_ || buffers_[back].fb == pending_fb_) ++back;
+            if (image) copy_in(*image, buffers_[back]);
+            fb = buffers_[back].fb;
+        }
         // The flip before must be done before the next one is committed.
         if (Status st = finish(); !st.ok()) return st.error();
         // Commit when it can only make the target: after the vsync before it (a flip latches at
@@ -262,19 +290,20 @@ class KmsDisplayImpl final : public KmsDisplay {
         int rc;
         if (atomic_) {
             drmModeAtomicReq* req = drmModeAtomicAlloc();
-            drmModeAtomicAddProperty(req, plane_, plane_props_["FB_ID"].id, buffers_[back].fb);
+            drmModeAtomicAddProperty(req, plane_, plane_props_["FB_ID"].id, fb);
             rc = drmModeAtomicCommit(fd_, req, DRM_MODE_PAGE_FLIP_EVENT | DRM_MODE_ATOMIC_NONBLOCK,
                                      this);
             drmModeAtomicFree(req);
         } else {
-            rc = drmModePageFlip(fd_, crtc_, buffers_[back].fb, DRM_MODE_PAGE_FLIP_EVENT, this);
+            rc = drmModePageFlip(fd_, crtc_, fb, DRM_MODE_PAGE_FLIP_EVENT, this);
         }
         if (rc != 0)
             return make_error("kms display " + device_ +
                               ": page flip failed: " + errno_text(errno));
         flip_pending_ = true;
-        pending_ = back;
+        pending_fb_ = fb;
         pending_commit_ns_ = commit_ns;
+        if (attached >= 0) source_.committed(attached);
         // With a vblank the event says which vsync the frame made: wait for it. Without one the
         // display's timer is the vsync, so the frame made it if committed by then; its event is
         // collected by the next present (or finish()), which keeps the frame thread free.
@@ -318,8 +347,8 @@ class KmsDisplayImpl final : public KmsDisplay {
         const int64_t timeout = std::max<int64_t>(4 * period_ns_, 200'000'000);
         if (Status st = wait_flip(timeout); !st.ok()) return st;
         last_flip_.commit_ns = pending_commit_ns_;
-        front_ = pending_;
-        pending_ = -1;
+        front_fb_ = pending_fb_;
+        pending_fb_ = 0;
         return {};
     }
 
@@ -330,15 +359,19 @@ class KmsDisplayImpl final : public KmsDisplay {
         if (!c) return make_error(where + ": GETCRTC: " + errno_text(errno));
         const uint32_t fb_id = c->buffer_id;
         drmModeFreeCrtc(c);
-        drmModeFB* fb = drmModeGetFB(fd_, fb_id);
+        drmModeFB2* fb = drmModeGetFB2(fd_, fb_id);
         if (!fb)
-            return make_error(where + ": GETFB " + std::to_string(fb_id) + ": " +
+            return make_error(where + ": GETFB2 " + std::to_string(fb_id) + ": " +
                               errno_text(errno));
-        const uint32_t handle = fb->handle, pitch = fb->pitch;
+        const uint32_t handle = fb->handles[0], pitch = fb->pitches[0], offset = fb->offsets[0];
+        const uint32_t format = fb->pixel_format;
+        const uint64_t modifier =
+            (fb->flags & DRM_MODE_FB_MODIFIERS) ? fb->modifier : DRM_FORMAT_MOD_INVALID;
         const int w = int(fb->width), h = int(fb->height);
-        drmModeFreeFB(fb);
+        drmModeFreeFB2(fb);
         bool ours = false;
         for (const DumbBuffer& b : buffers_) ours = ours || b.handle == handle;
+        for (uint32_t a : attached_handles_) ours = ours || a == handle;
         auto release = [&] {
             if (handle && !ours) {
                 drm_gem_close g{};
@@ -346,36 +379,125 @@ class KmsDisplayImpl final : public KmsDisplay {
                 drmIoctl(fd_, DRM_IOCTL_GEM_CLOSE, &g);
             }
         };
-        if (!handle) return make_error(where + ": GETFB gave no buffer handle (not master?)");
+        if (!handle) return make_error(where + ": GETFB2 gave no buffer handle (not master?)");
+        const bool bgr = format == DRM_FORMAT_XRGB8888 || format == DRM_FORMAT_ARGB8888;
+        if (!bgr && format != DRM_FORMAT_XBGR8888 && format != DRM_FORMAT_ABGR8888) {
+            release();
+            return make_error(where + ": framebuffer format 0x" + hex(format) +
+                              " (reads XRGB8888, ARGB8888, XBGR8888, ABGR8888)");
+        }
+        if (modifier != DRM_FORMAT_MOD_INVALID && modifier != DRM_FORMAT_MOD_LINEAR) {
+            release();
+            return make_error(where + ": framebuffer modifier 0x" + hex(modifier) +
+                              " is not linear: its bytes are not rows");
+        }
+        // A CPU map: the dumb-buffer map (dumb buffers, and the kms_swrast buffer objects, which
+        // are dumb buffers), else the buffer's dma-buf (PRIME) with CPU-access sync around the
+        // read.
+        const size_t size = size_t(offset) + size_t(pitch) * size_t(h);
+        void* p = MAP_FAILED;
+        int dmabuf = -1;
+        std::string why;
         drm_mode_map_dumb m{};
         m.handle = handle;
-        if (drmIoctl(fd_, DRM_IOCTL_MODE_MAP_DUMB, &m) != 0) {
-            release();
-            return make_error(where + ": MAP_DUMB: " + errno_text(errno));
-        }
-        const size_t size = size_t(pitch) * size_t(h);
-        void* p = mmap(nullptr, size, PROT_READ, MAP_SHARED, fd_, off_t(m.offset));
+        if (drmIoctl(fd_, DRM_IOCTL_MODE_MAP_DUMB, &m) == 0)
+            p = mmap(nullptr, size, PROT_READ, MAP_SHARED, fd_, off_t(m.offset));
+        else
+            why = "MAP_DUMB: " + errno_text(errno);
         if (p == MAP_FAILED) {
-            release();
-            return make_error(where + ": mmap: " + errno_text(errno));
+            if (drmPrimeHandleToFD(fd_, handle, DRM_CLOEXEC, &dmabuf) == 0)
+                p = mmap(nullptr, size, PROT_READ, MAP_SHARED, dmabuf, 0);
+            if (p == MAP_FAILED) why += "; PRIME mmap: " + errno_text(errno);
         }
+        if (p == MAP_FAILED) {
+            if (dmabuf >= 0) close(dmabuf);
+            release();
+            return make_error(where + ": no CPU map of the framebuffer (" + why + ")");
+        }
+        dma_buf_sync sync{};
+        sync.flags = DMA_BUF_SYNC_START | DMA_BUF_SYNC_READ;
+        if (dmabuf >= 0) ioctl(dmabuf, DMA_BUF_IOCTL_SYNC, &sync);
         ImageRGBA8 img;
         img.width = w;
         img.height = h;
         img.pixels.resize(size_t(w) * size_t(h) * 4);
+        const int r = bgr ? 2 : 0, b = bgr ? 0 : 2;
         for (int y = 0; y < h; ++y) {
-            const uint8_t* src = static_cast<const uint8_t*>(p) + size_t(y) * pitch;
+            const uint8_t* src = static_cast<const uint8_t*>(p) + offset + size_t(y) * pitch;
             uint8_t* dst = img.at(0, y);
             for (int x = 0; x < w; ++x, src += 4, dst += 4) {
-                dst[0] = src[2];
+                dst[0] = src[r];
                 dst[1] = src[1];
-                dst[2] = src[0];
+                dst[2] = src[b];
                 dst[3] = 255;
             }
         }
+        if (dmabuf >= 0) {
+            sync.flags = DMA_BUF_SYNC_END | DMA_BUF_SYNC_READ;
+            ioctl(dmabuf, DMA_BUF_IOCTL_SYNC, &sync);
+        }
         munmap(p, size);
+        if (dmabuf >= 0) close(dmabuf);
         release();
         return img;
+    }
+
+    ScanoutTargetInfo scanout_target() const override {
+        ScanoutTargetInfo t;
+        t.drm_fd = fd_;
+        t.device = device_;
+        t.width = mode_info_.width;
+        t.height = mode_info_.height;
+        t.formats = plane_formats_;
+        return t;
+    }
+
+    Status attach_buffers(std::span<const ScanoutBuffer> buffers, KmsBufferSource source) override {
+        const std::string where = "kms display " + device_ + ": attaching scan-out buffers";
+        if (!attached_fbs_.empty()) return make_error(where + ": buffers are attached already");
+        if (!source.drawn || !source.committed)
+            return make_error(where + ": the buffer source is incomplete");
+        std::vector<uint32_t> fbs, handles;
+        auto undo = [&] {
+            for (uint32_t fb : fbs) drmModeRmFB(fd_, fb);
+        };
+        for (size_t i = 0; i < buffers.size(); ++i) {
+            const ScanoutBuffer& b = buffers[i];
+            const std::string which = where + ": buffer " + std::to_string(i);
+            if (b.width != mode_info_.width || b.height != mode_info_.height) {
+                undo();
+                return make_error(which + " is " + std::to_string(b.width) + "x" +
+                                  std::to_string(b.height) + ", the mode " +
+                                  std::to_string(mode_info_.width) + "x" +
+                                  std::to_string(mode_info_.height));
+            }
+            uint32_t fb = 0;
+            uint64_t modifiers[4] = {b.modifier, b.modifier, b.modifier, b.modifier};
+            for (int p = b.planes; p < 4; ++p) modifiers[p] = 0;
+            const bool explicit_modifier = b.modifier != kDrmModInvalid;
+            const int rc = drmModeAddFB2WithModifiers(
+                fd_, uint32_t(b.width), uint32_t(b.height), b.fourcc, b.handles, b.pitches,
+                b.offsets, explicit_modifier ? modifiers : nullptr, &fb,
+                explicit_modifier ? DRM_MODE_FB_MODIFIERS : 0);
+            if (rc != 0) {
+                undo();
+                return make_error(which + ": ADDFB2 (format 0x" + hex(b.fourcc) + ", modifier 0x" +
+                                  hex(b.modifier) + ", pitch " + std::to_string(b.pitches[0]) +
+                                  "): " + errno_text(errno));
+            }
+            fbs.push_back(fb);
+            handles.push_back(b.handles[0]);
+        }
+        attached_fbs_ = std::move(fbs);
+        attached_handles_ = std::move(handles);
+        source_ = std::move(source);
+        return {};
+    }
+
+    std::string scanout_path() const override {
+        return attached_fbs_.empty()
+                   ? "dumb-buffer copy"
+                   : "zero-copy (" + std::to_string(attached_fbs_.size()) + " attached buffers)";
     }
 
   private:
@@ -478,10 +600,14 @@ class KmsDisplayImpl final : public KmsDisplay {
             if (primary && xrgb && (p->possible_crtcs & (1u << crtc_index_))) {
                 plane_ = p->plane_id;
                 plane_props_ = props;
+                plane_formats_ = formats_of(*p, props);
             }
             drmModeFreePlane(p);
         }
         if (planes) drmModeFreePlaneResources(planes);
+        // Legacy (no plane found): SetCrtc takes XRGB8888 everywhere.
+        if (plane_formats_.empty())
+            plane_formats_.push_back(ScanoutFormat{DRM_FORMAT_XRGB8888, kDrmModInvalid});
         if (!plane_ && atomic_)
             return make_error(where + ": no XRGB8888 primary plane for the CRTC of " + ci.name);
 
@@ -525,7 +651,7 @@ class KmsDisplayImpl final : public KmsDisplay {
 
     Status modeset(const std::string& where) {
         const DumbBuffer& front = buffers_[0];
-        front_ = 0;
+        front_fb_ = front.fb;
         if (!atomic_) {
             if (drmModeSetCrtc(fd_, crtc_, front.fb, 0, 0, &connector_, 1, &mode_) != 0)
                 return make_error(where + ": SETCRTC (legacy modeset): " + errno_text(errno));
@@ -581,6 +707,26 @@ class KmsDisplayImpl final : public KmsDisplay {
         }
     }
 
+    // The plane's formats with their modifiers: the IN_FORMATS blob where the driver has one,
+    // else its format list with the implicit layout.
+    std::vector<ScanoutFormat> formats_of(const drmModePlane& p,
+                                          const std::map<std::string, Prop>& props) const {
+        std::vector<ScanoutFormat> out;
+        auto it = props.find("IN_FORMATS");
+        if (it != props.end() && it->second.value)
+            if (drmModePropertyBlobRes* blob =
+                    drmModeGetPropertyBlob(fd_, uint32_t(it->second.value))) {
+                drmModeFormatModifierIterator iter{};
+                while (drmModeFormatModifierBlobIterNext(blob, &iter))
+                    out.push_back(ScanoutFormat{iter.fmt, iter.mod});
+                drmModeFreePropertyBlob(blob);
+            }
+        if (out.empty())
+            for (uint32_t f = 0; f < p.count_formats; ++f)
+                out.push_back(ScanoutFormat{p.formats[f], kDrmModInvalid});
+        return out;
+    }
+
     static void on_flip(int, unsigned int sequence, unsigned int sec, unsigned int usec,
                         unsigned int, void* user) {
         auto* self = static_cast<KmsDisplayImpl*>(user);
@@ -624,7 +770,11 @@ class KmsDisplayImpl final : public KmsDisplay {
     int64_t period_ns_ = 0;
     DisplayInfo info_;
     DumbBuffer buffers_[3];
-    int front_ = 0, pending_ = -1;
+    uint32_t front_fb_ = 0, pending_fb_ = 0;  // framebuffer ids: shown, flip pending (0: none)
+    std::vector<uint32_t> attached_fbs_;      // attach_buffers()'s framebuffers
+    std::vector<uint32_t> attached_handles_;  // their GEM handles (the renderer's)
+    KmsBufferSource source_;
+    std::vector<ScanoutFormat> plane_formats_;
     int64_t pending_commit_ns_ = 0;
     bool flip_pending_ = false;
     KmsFlip last_flip_;

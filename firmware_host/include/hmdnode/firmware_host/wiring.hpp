@@ -163,4 +163,14 @@ struct RendererSpec {
 Result<std::unique_ptr<Renderer>> make_renderer(const RendererSpec& spec, const DisplayInfo& panel,
                                                 const WiringKeys& keys);
 
+// The renderer for a display made by make_display. On a KMS display (display.type "kms") with the
+// gles backend: zero-copy scan-out ("GBM zero-copy"): the renderer runs on EGL's GBM platform on
+// the display's DRM device (RendererConfig::scanout), its ring of buffer objects is attached to the
+// display as framebuffers, and each present flips the buffer the warp just drew; *zero_copy is set
+// then (the node need not read frames back). Otherwise as above (KMS with Vulkan: the
+// "dumb-buffer copy"; dma-buf import of the Vulkan image is planned). Logs which path. The display
+// must outlive the renderer's presents; the renderer keeps its own duplicate of the DRM file.
+Result<std::unique_ptr<Renderer>> make_renderer(const RendererSpec& spec, Display& display,
+                                                const WiringKeys& keys, bool* zero_copy = nullptr);
+
 }  // namespace hmdnode

@@ -7,14 +7,17 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
+#include <vector>
 
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
 #include "hmdnode/core/image.hpp"
 #include "hmdnode/core/result.hpp"
+#include "hmdnode/core/scanout_buffer.hpp"
 #include "hmdnode/core/scene.hpp"
 #include "hmdnode/render/lens.hpp"
 
@@ -30,6 +33,11 @@ struct RendererConfig {
     // Samples per pixel of the eye buffers: 1, or 4 (MSAA, resolved before the warp reads them;
     // an Error of creation where the device cannot).
     int msaa_samples = 1;
+    // Zero-copy scan-out (GLES only; render/scanout.hpp): the backend renders on EGL's GBM
+    // platform on this DRM device and warp() draws the panel into a ring of `scanout_buffers`
+    // GBM buffer objects of the target's size (both eyes side by side) that the display flips.
+    std::optional<ScanoutTargetInfo> scanout;
+    int scanout_buffers = 3;  // >= 3: one shown, one queued, one drawn into
 };
 
 // Largest |DrawItem::dither|: the screen-door mask is a 4x4 tile of ranks 0..15.
@@ -128,6 +136,23 @@ class Renderer {
     virtual const char* backend_name() const = 0;
     // Samples per eye-buffer pixel (RendererConfig::msaa_samples).
     virtual int msaa_samples() const { return 1; }
+
+    // Zero-copy scan-out (RendererConfig::scanout; empty / -1 / no-op without it). The ring's
+    // buffer objects, described for the display's framebuffers (GEM handles on its DRM file);
+    // each warp() draws the panel into one that is neither shown nor queued (both eyes side by
+    // side, eye e at x = e * panel width; out_panel, when given, is read back from it), and
+    // finishes it before it returns.
+    virtual const std::vector<ScanoutBuffer>& scanout_buffers() const {
+        static const std::vector<ScanoutBuffer> none;
+        return none;
+    }
+    // The buffer the newest warp() drew and nothing has committed yet: what the display flips.
+    virtual int scanout_drawn() const { return -1; }
+    // The display committed a flip to `buffer` (scanout_drawn()), after the flip before it
+    // completed: that one's buffer is on screen, the one shown before may be drawn again.
+    virtual void scanout_committed(int buffer) { (void)buffer; }
+    // "GBM (kms_swrast) XR24 implicit modifier, 3 buffers" ("" without scan-out).
+    virtual std::string scanout_describe() const { return ""; }
 };
 
 // The backend names create_renderer() accepts, for usage texts: "vulkan|gles".
@@ -153,8 +178,11 @@ Result<std::unique_ptr<Renderer>> create_vulkan_renderer(const RendererConfig& c
 // EGL_KHR_surfaceless_context; rendering into framebuffer objects, one pass per eye. Same
 // shading, stereo, late warp and read-back as the Vulkan backend (render/src/gles_renderer.cpp;
 // where the pixels may differ: docs/rendering.md). Needs GL_EXT_texture_sRGB_decode; uses
-// GL_EXT_clip_control (Vulkan's depth range) where offered. Errors: no EGL display, no OpenGL ES 3
-// context, a shader the driver rejects, an eye buffer beyond the driver's limits.
+// GL_EXT_clip_control (Vulkan's depth range) where offered. With RendererConfig::scanout it runs
+// on EGL's GBM platform (EGL_KHR_platform_gbm) on that DRM device instead and allocates the
+// scan-out ring (render/scanout.hpp). Errors: no EGL display, no OpenGL ES 3 context, a shader the
+// driver rejects, an eye buffer beyond the driver's limits; with scan-out, GBM or EGL failing on
+// the device (the error names it), no format the plane accepts.
 Result<std::unique_ptr<Renderer>> create_gles_renderer(const RendererConfig& config);
 
 }  // namespace hmdnode

@@ -1,18 +1,22 @@
 // KMS direct output: the headset's connector on /dev/dri/card*, chosen by name, EDID identity or
 // the kernel's `non-desktop` property; its mode set with an atomic commit (legacy SetCrtc only on
-// drivers without atomic); frames copied into CPU-mapped dumb buffers and page-flipped once per
-// vsync, the page-flip event's timestamp and sequence being the display's vsync feedback.
-// docs/hardware.md ("KMS output"). No libdrm type appears here.
+// drivers without atomic); frames copied into CPU-mapped dumb buffers, or (zero-copy) buffers a
+// renderer draws into attached as framebuffers once, page-flipped once per vsync, the page-flip
+// event's timestamp and sequence being the display's vsync feedback. docs/hardware.md ("KMS
+// output"). No libdrm type appears here.
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "hmdnode/core/image.hpp"
+#include "hmdnode/core/scanout_buffer.hpp"
 #include "hmdnode/core/time.hpp"
 #include "hmdnode/hal/display.hpp"
 
@@ -78,6 +82,14 @@ struct KmsFlip {
     int64_t commit_ns = 0;     // when the flip was committed
 };
 
+// Zero-copy scan-out: where present() finds the frame to flip when buffers are attached (the
+// GLES renderer's GBM ring, connected by firmware_host's wiring). Called on the frame thread from
+// present() only.
+struct KmsBufferSource {
+    std::function<int()> drawn;          // the attached buffer holding the newest frame; -1: none
+    std::function<void(int)> committed;  // a flip to that buffer was committed
+};
+
 class KmsDisplay : public Display {
   public:
     // "atomic" or "legacy (no atomic modesetting on this driver)".
@@ -93,8 +105,23 @@ class KmsDisplay : public Display {
     // Frame thread only: waits for the pending flip's event (none pending: returns at once).
     virtual Status finish() = 0;
     // Frame thread only: the framebuffer the CRTC scans out now, read back through the kernel
-    // (GETFB, then a CPU map of its dumb buffer), converted to RGBA8 (alpha 255).
+    // (GETFB2, then a CPU map of its buffer: MAP_DUMB, else its PRIME dma-buf; linear layouts
+    // only), converted to RGBA8 (alpha 255).
     virtual Result<ImageRGBA8> read_scanout() = 0;
+
+    // What a renderer needs to allocate buffers this display can scan out: the DRM file (the
+    // display's own; borrowed), the device path, the mode's size and the primary plane's formats
+    // with their modifiers (IN_FORMATS; without it each format with kDrmModInvalid).
+    virtual ScanoutTargetInfo scanout_target() const = 0;
+    // Frame thread only. Makes each buffer a framebuffer (ADDFB2, with its modifier where it has
+    // an explicit one), once; from then on present() flips the buffer source.drawn() names and
+    // tells source.committed() (image is ignored; with no drawn buffer it falls back to copying
+    // the image, when given, into the dumb buffers). Errors name the device, the buffer and the
+    // kernel's reason; on error nothing is attached.
+    virtual Status attach_buffers(std::span<const ScanoutBuffer> buffers,
+                                  KmsBufferSource source) = 0;
+    // "dumb-buffer copy" or "zero-copy (3 attached buffers)".
+    virtual std::string scanout_path() const = 0;
 };
 
 // Opens the device, becomes DRM master (the error names the device and says what to do when a
