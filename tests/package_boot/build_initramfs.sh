@@ -65,7 +65,7 @@ UNIT
 # journal's flush, the network time, binfmt, sysctl, utmp, the random seed, kernel modules and
 # the boot-time sysusers (the postinst runs sysusers for the package itself); the API file systems
 # nothing here uses.
-echo "$(cd /lib/systemd/system-generators && ls)" >"$root/units/generators.mask"
+ls /lib/systemd/system-generators >"$root/units/generators.mask" 2>/dev/null || true
 cat >"$root/units/units.mask" <<MASK
 systemd-tmpfiles-setup.service
 systemd-tmpfiles-clean.timer
