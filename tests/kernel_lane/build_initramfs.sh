@@ -13,7 +13,6 @@ lane=$(realpath "$1")
 scene=$(realpath "$2")
 out=$3
 kver=$4
-. "$(dirname "$0")/lib.sh"
 
 root=$(mktemp -d "${TMPDIR:-/tmp}/hmdnode-initramfs.XXXXXX")
 trap 'rm -rf "$root"' EXIT
@@ -27,6 +26,7 @@ cp "$busybox" "$root/bin/busybox"
 for a in sh mount insmod poweroff echo cat chroot; do ln -s busybox "$root/bin/$a"; done
 
 # Modules in load order, each once (tests/kernel_lane/lib.sh); vivid with one capture device.
+. "$(dirname "$0")/lib.sh"
 kernel_lane_modules "$root" "$kver" hid-generic uhid vivid bochs virtio_pci 9pnet_virtio 9p
 sed -i 's/^vivid\.ko$/vivid.ko n_devs=1 node_types=0x1 num_inputs=1 input_types=0x0/' "$root/modules/load.list"
 
