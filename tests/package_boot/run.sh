@@ -6,7 +6,8 @@
 # on the installed unit, `systemctl start hmdnoded` on the installed config (READY=1), and checks
 # StatusText, the service user, `hmdnode ctl status` and a clean `systemctl stop`. The guest's
 # result marker on the serial console becomes the exit status: 0 pass, 1 fail, 77 skipped (no
-# qemu, kernel image, busybox-static, cpio, modprobe, systemd or dpkg-deb: the reason is printed).
+# qemu, kernel image, busybox-static, cpio, modprobe, systemd or dpkg-deb, or hmdnode or its user
+# already on this machine: the reason is printed).
 # docs/daemon.md, "The package on a booted system".
 #
 # usage: run.sh BUILD_DIR WORK_DIR VERSION
@@ -32,6 +33,11 @@ vmlinuz=$(ls -1 /boot/vmlinuz-* 2>/dev/null | sort -V | tail -n 1)
 kver=${vmlinuz#/boot/vmlinuz-}
 [ -d "/lib/modules/$kver" ] || skip "no /lib/modules/$kver for $vmlinuz"
 modprobe -S "$kver" --show-depends overlay >/dev/null 2>&1 || skip "no overlay module in /lib/modules/$kver"
+# The guest's root is this machine's: a fresh install there needs the package and its user absent here.
+! dpkg-query -W -f='${Status}' hmdnode 2>/dev/null | grep -q 'ok installed' ||
+    skip "hmdnode is installed on this machine: the guest, an overlay of its root, would not start fresh"
+! getent passwd hmdnode >/dev/null 2>&1 ||
+    skip "the user hmdnode exists on this machine: the guest could not show the postinst creating it"
 
 start=$(date +%s.%N)
 mkdir -p "$work"
