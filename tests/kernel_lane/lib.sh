@@ -1,6 +1,28 @@
 # Sourced by the real-kernel lanes (tests/kernel_lane, tests/package_boot): what qemu boots and
 # the modules their initramfs loads.
 #
+# kernel_lane_host: what the lanes need of this machine.
+# usage: kernel_lane_host || skip "$kernel_lane_missing"   sets $vmlinuz (the newest
+#        /boot/vmlinuz-*) and $kver (its version), or says in $kernel_lane_missing what is missing
+#        (qemu, busybox, cpio, modprobe, a readable kernel image, its modules) and returns 1.
+kernel_lane_host() {
+    kernel_lane_missing=""
+    command -v qemu-system-x86_64 >/dev/null 2>&1 ||
+        kernel_lane_missing="qemu-system-x86_64 not installed (apt-get install qemu-system-x86)"
+    command -v busybox >/dev/null 2>&1 ||
+        kernel_lane_missing="busybox not installed (apt-get install busybox-static)"
+    command -v cpio >/dev/null 2>&1 || kernel_lane_missing="cpio not installed"
+    command -v modprobe >/dev/null 2>&1 || kernel_lane_missing="modprobe not installed (apt-get install kmod)"
+    [ -z "$kernel_lane_missing" ] || return 1
+    vmlinuz=$(ls -1 /boot/vmlinuz-* 2>/dev/null | sort -V | tail -n 1)
+    if [ -z "$vmlinuz" ] || [ ! -r "$vmlinuz" ]; then
+        kernel_lane_missing="no readable /boot/vmlinuz-* (apt-get install linux-image-amd64)"
+        return 1
+    fi
+    kver=${vmlinuz#/boot/vmlinuz-}
+    [ -d "/lib/modules/$kver" ] || { kernel_lane_missing="no /lib/modules/$kver for $vmlinuz"; return 1; }
+}
+
 # kernel_lane_boot_image: picks what qemu boots. The ELF vmlinux inside the bzImage boots directly (PVH entry) with qboot: about
 # twice as fast as the bzImage through SeaBIOS. Found as the kernel's extract-vmlinux does: try
 # every offset of a compression magic and keep the first that decompresses to an ELF file. Cached

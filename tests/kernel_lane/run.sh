@@ -20,21 +20,15 @@ skip() {
     exit 77
 }
 
-command -v qemu-system-x86_64 >/dev/null 2>&1 || skip "qemu-system-x86_64 not installed (apt-get install qemu-system-x86)"
-command -v busybox >/dev/null 2>&1 || skip "busybox not installed (apt-get install busybox-static)"
-command -v cpio >/dev/null 2>&1 || skip "cpio not installed"
-command -v modprobe >/dev/null 2>&1 || skip "modprobe not installed (apt-get install kmod)"
-vmlinuz=$(ls -1 /boot/vmlinuz-* 2>/dev/null | sort -V | tail -n 1)
-[ -n "$vmlinuz" ] && [ -r "$vmlinuz" ] || skip "no readable /boot/vmlinuz-* (apt-get install linux-image-amd64)"
-kver=${vmlinuz#/boot/vmlinuz-}
-[ -d "/lib/modules/$kver" ] || skip "no /lib/modules/$kver for $vmlinuz"
+# qemu, busybox, cpio, modprobe, the kernel image ($vmlinuz, $kver) and its modules (lib.sh).
+. "$here/lib.sh"
+kernel_lane_host || skip "$kernel_lane_missing"
 [ -x "$lane" ] || { echo "kernel lane: $lane is not an executable"; exit 1; }
 [ -r "$scene" ] || { echo "kernel lane: $scene is not a readable scene"; exit 1; }
 
 start=$(date +%s.%N)
 
 # The ELF vmlinux with qboot where it can be extracted, else the bzImage (tests/kernel_lane/lib.sh).
-. "$here/lib.sh"
 kernel_lane_boot_image "$vmlinuz" "$kver" "$work"
 
 initrd="$work/initramfs-$kver.cpio"

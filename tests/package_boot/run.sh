@@ -22,16 +22,10 @@ skip() {
     echo "package boot SKIPPED: $*"
     exit 77
 }
-command -v qemu-system-x86_64 >/dev/null 2>&1 || skip "qemu-system-x86_64 not installed (apt-get install qemu-system-x86)"
-command -v busybox >/dev/null 2>&1 || skip "busybox not installed (apt-get install busybox-static)"
-command -v cpio >/dev/null 2>&1 || skip "cpio not installed"
-command -v modprobe >/dev/null 2>&1 || skip "modprobe not installed (apt-get install kmod)"
+. "$here/../kernel_lane/lib.sh"
+kernel_lane_host || skip "$kernel_lane_missing"
 command -v dpkg-deb >/dev/null 2>&1 || skip "dpkg-deb not installed"
 [ -x /lib/systemd/systemd ] && command -v systemd-analyze >/dev/null 2>&1 || skip "systemd not installed"
-vmlinuz=$(ls -1 /boot/vmlinuz-* 2>/dev/null | sort -V | tail -n 1)
-[ -n "$vmlinuz" ] && [ -r "$vmlinuz" ] || skip "no readable /boot/vmlinuz-* (apt-get install linux-image-amd64)"
-kver=${vmlinuz#/boot/vmlinuz-}
-[ -d "/lib/modules/$kver" ] || skip "no /lib/modules/$kver for $vmlinuz"
 modprobe -S "$kver" --show-depends overlay >/dev/null 2>&1 || skip "no overlay module in /lib/modules/$kver"
 # The guest's root is this machine's: a fresh install there needs the package and its user absent here.
 ! dpkg-query -W -f='${Status}' hmdnode 2>/dev/null | grep -q 'ok installed' ||
@@ -48,7 +42,6 @@ deb="$work/hmdnode_${version}_amd64.deb"
 [ -f "$deb" ] || { echo "package boot FAILED: cpack made no $deb"; exit 1; }
 packed=$(date +%s.%N)
 
-. "$here/../kernel_lane/lib.sh"
 kernel_lane_boot_image "$vmlinuz" "$kver" "$work"
 initrd="$work/initramfs-boot-$kver.cpio"
 "$here/build_initramfs.sh" "$initrd" "$kver" "$here/guest.sh" "$deb" ||
