@@ -32,27 +32,10 @@ esac
 cp "$busybox" "$root/bin/busybox"
 for a in sh mount insmod poweroff echo cat chroot; do ln -s busybox "$root/bin/$a"; done
 
-# Modules in load order, each once; .xz/.zst decompressed (busybox insmod cannot).
-
-: >"$root/modules/load.list"
-for m in hid-generic uhid vivid bochs virtio_pci 9pnet_virtio 9p; do
-    modprobe -S "$kver" --show-depends "$m" | while read -r verb path rest; do
-        [ "$verb" = insmod ] || continue
-        name=$(basename "$path")
-        name=${name%.xz}
-        name=${name%.zst}
-        if grep -q "^$name " "$root/modules/load.list"; then continue; fi
-        case "$path" in
-        *.xz) xz -dc "$path" >"$root/modules/$name" ;;
-        *.zst) zstd -qdc "$path" >"$root/modules/$name" ;;
-        *) cp "$path" "$root/modules/$name" ;;
-        esac
-        args=""
-        [ "$m" = vivid ] && [ "$name" = vivid.ko ] &&
-            args="n_devs=1 node_types=0x1 num_inputs=1 input_types=0x0"
-        echo "$name $args" >>"$root/modules/load.list"
-    done
-done
+# Modules in load order, each once (tests/kernel_lane/lib.sh); vivid with one capture device.
+. "$(dirname "$0")/lib.sh"
+kernel_lane_modules "$root" "$kver" hid-generic uhid vivid bochs virtio_pci 9pnet_virtio 9p
+sed -i 's/^vivid\.ko$/vivid.ko n_devs=1 node_types=0x1 num_inputs=1 input_types=0x0/' "$root/modules/load.list"
 
 # note: the share is mounted over directories of a read-only filesystem; proc, sys, dev and run are
 # mounted on the host's own mount points inside it (mounting does not write to it). Not /tmp: the

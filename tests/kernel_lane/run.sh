@@ -22,14 +22,9 @@ skip() {
     exit 77
 }
 
-command -v qemu-system-x86_64 >/dev/null 2>&1 || skip "qemu-system-x86_64 not installed (apt-get install qemu-system-x86)"
-command -v busybox >/dev/null 2>&1 || skip "busybox not installed (apt-get install busybox-static)"
-command -v cpio >/dev/null 2>&1 || skip "cpio not installed"
-command -v modprobe >/dev/null 2>&1 || skip "modprobe not installed (apt-get install kmod)"
-vmlinuz=$(ls -1 /boot/vmlinuz-* 2>/dev/null | sort -V | tail -n 1)
-[ -n "$vmlinuz" ] && [ -r "$vmlinuz" ] || skip "no readable /boot/vmlinuz-* (apt-get install linux-image-amd64)"
-kver=${vmlinuz#/boot/vmlinuz-}
-[ -d "/lib/modules/$kver" ] || skip "no /lib/modules/$kver for $vmlinuz"
+# qemu, busybox, cpio, modprobe, the kernel image ($vmlinuz, $kver) and its modules (lib.sh).
+. "$here/lib.sh"
+kernel_lane_host || skip "$kernel_lane_missing"
 [ -x "$lane" ] || { echo "kernel lane: $lane is not an executable"; exit 1; }
 [ -r "$scene" ] || { echo "kernel lane: $scene is not a readable scene"; exit 1; }
 
@@ -70,36 +65,8 @@ done
 
 start=$(date +%s.%N)
 
-# The ELF vmlinux inside the bzImage boots directly (PVH entry) with qboot: about twice as fast
-# as the bzImage through SeaBIOS. Found as the kernel's extract-vmlinux does: try every offset of
-# a compression magic and keep the first that decompresses to an ELF file. Cached per kernel.
-vmlinux="$work/vmlinux-$kver"
-is_elf() { [ "$(head -c 4 "$1" 2>/dev/null | od -An -c | tr -d ' \n')" = '177ELF' ]; }
-if ! is_elf "$vmlinux"; then
-    try() {  # try MAGIC_GREP_PATTERN DECOMPRESSOR...
-        magic=$1
-        shift
-        for off in $(LC_ALL=C grep -obUaP "$magic" "$vmlinuz" | cut -d: -f1); do
-            tail -c +"$((off + 1))" "$vmlinuz" | "$@" >"$vmlinux.tmp" 2>/dev/null
-            if is_elf "$vmlinux.tmp"; then mv "$vmlinux.tmp" "$vmlinux"; return 0; fi
-        done
-        return 1
-    }
-    try '\xfd7zXZ\x00' xz -dc ||
-        try '\x28\xb5\x2f\xfd' zstd -dc ||
-        try '\x1f\x8b\x08' gzip -dc ||
-        try '\x02\x21\x4c\x18' lz4 -dc ||
-        true
-    rm -f "$vmlinux.tmp"
-fi
-bios=""
-if is_elf "$vmlinux" && [ -r /usr/share/qemu/qboot.rom ]; then
-    kernel=$vmlinux
-    bios="-bios /usr/share/qemu/qboot.rom"
-else
-    echo "kernel lane: could not extract an ELF vmlinux (or no qboot.rom): booting $vmlinuz via SeaBIOS (slower)"
-    kernel=$vmlinuz
-fi
+# The ELF vmlinux with qboot where it can be extracted, else the bzImage (tests/kernel_lane/lib.sh).
+kernel_lane_boot_image "$vmlinuz" "$kver" "$work"
 
 initrd="$work/initramfs-$kver.cpio"
 "$here/build_initramfs.sh" "$lane" "$scene" "$initrd" "$kver" || { echo "kernel lane: building the initramfs failed"; exit 1; }

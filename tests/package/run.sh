@@ -5,7 +5,9 @@
 # `systemd-analyze verify --root` (its ExecStart must exist and be executable in that root; any
 # message, warnings included, fails the test); and the installed daemon runs the installed config
 # (paths moved into the scratch root, simulated clock) for a few frames.
-# Not covered: dpkg -i (needs root), the postinst (sysusers, udev reload), systemctl start.
+# This test needs no root and no VM. dpkg -i with the maintainer scripts (sysusers, udev reload),
+# systemctl start to READY=1 and stop on a booted system are tests/package_boot/run.sh's (label
+# kernel: a qemu guest with systemd as PID 1).
 # Usage: run.sh BUILD_DIR WORK_DIR VERSION. Exit 77 (skip) without dpkg-deb.
 set -eu
 build=$1
