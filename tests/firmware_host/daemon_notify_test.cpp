@@ -112,6 +112,11 @@ bool starts_with(const std::string& s, const std::string& prefix) {
     return s.rfind(prefix, 0) == 0;
 }
 
+// The start-up calibration's progress: it extends systemd's start timeout while renders go on.
+bool is_calibration_progress(const std::string& m) {
+    return starts_with(m, "EXTEND_TIMEOUT_USEC=60000000\nSTATUS=calibrating the frame cost (");
+}
+
 // The bundled trace on the real clock (the watchdog is paced by wall time), 32x32 per eye.
 nlohmann::json trace_config() {
     return {{"scene", HMDNODE_DEMO_SCENE},
@@ -145,6 +150,13 @@ TEST(DaemonNotify, ReadyAfterTheFirstFrameThenTheWatchdogWhileFramesAreShown) {
     const int code = wait_exit(pid);
     const std::string log = read_text(dir / "log");
     ASSERT_EQ(code, 0) << log;
+    // Before READY=1 only the start-up calibration's progress (it extends the start timeout).
+    size_t calibrating = 0;
+    while (!messages.empty() && is_calibration_progress(messages.front())) {
+        messages.erase(messages.begin());
+        ++calibrating;
+    }
+    EXPECT_GE(calibrating, 1u) << log;
     ASSERT_FALSE(messages.empty()) << log;
     // READY=1 first (nothing before the first frame), with its STATUS=.
     EXPECT_EQ(messages.front(), "READY=1\nSTATUS=running: first frame presented") << log;
@@ -192,6 +204,8 @@ TEST(DaemonNotify, NoReadinessAndNoWatchdogWithoutFrames) {
     const int code = wait_exit(pid);
     const std::string log = read_text(dir / "log");
     EXPECT_EQ(code, 0) << log;
+    while (!messages.empty() && is_calibration_progress(messages.front()))
+        messages.erase(messages.begin());
     ASSERT_FALSE(messages.empty()) << log;
     EXPECT_TRUE(starts_with(messages.front(),
                             "EXTEND_TIMEOUT_USEC=15000000\nSTATUS=waiting for tracker hidapi"))
@@ -206,6 +220,34 @@ TEST(DaemonNotify, NoReadinessAndNoWatchdogWithoutFrames) {
 // realtime_priority raises the frame loop's thread alone: the renderer's worker threads (Mesa's
 // llvmpipe-N, created before it) and every other thread keep the default policy. Skipped where
 // the priority is refused (no CAP_SYS_NICE and no RLIMIT_RTPRIO).
+TEST(DaemonNotify, SigtermDuringTheStartUpCalibrationStopsItThereWithStatusZero) {
+    // Large eyes make the calibration's ~50 renders take seconds (more under a sanitizer); the
+    // signal goes once the first progress message says it has begun.
+    const fs::path dir = hmdnode::test::fresh_temp_dir("hmdnode_daemon_notify_calibration");
+    NotifySocket sock(dir / "notify");
+    ASSERT_TRUE(sock.bound());
+    nlohmann::json cfg = trace_config();
+    cfg["display"] = {{"eye_width", 1440}, {"eye_height", 1600}};
+    const pid_t pid = start_daemon(dir, cfg, "");
+    ASSERT_GT(pid, 0);
+    std::vector<std::string> messages;
+    for (std::string m; !(m = sock.receive(60000)).empty();) {
+        messages.push_back(m);
+        if (is_calibration_progress(m)) break;
+    }
+    ::kill(pid, SIGTERM);
+    const int code = wait_exit(pid);
+    const std::string log = read_text(dir / "log");
+    ASSERT_FALSE(messages.empty()) << log;
+    EXPECT_TRUE(is_calibration_progress(messages.back())) << messages.back();
+    EXPECT_EQ(code, 0) << log;
+    EXPECT_NE(log.find("stopped during the start-up calibration"), std::string::npos) << log;
+    EXPECT_EQ(log.find("frame cost:"), std::string::npos) << "the calibration ran to its end\n"
+                                                          << log;
+    for (std::string m; !(m = sock.receive(100)).empty();) messages.push_back(m);
+    for (const std::string& m : messages) EXPECT_EQ(m.find("READY=1"), std::string::npos) << m;
+}
+
 TEST(DaemonNotify, RealtimePriorityIsTheFrameLoopThreadsAlone) {
     const fs::path dir = hmdnode::test::fresh_temp_dir("hmdnode_daemon_notify_rt");
     NotifySocket sock(dir / "notify");

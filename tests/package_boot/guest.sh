@@ -46,21 +46,19 @@ else
     printf '%s\n' "$out" | sed 's/^/    /'
 fi
 
-# The service, on the installed config with two changes that the emulated CPU makes necessary (a
-# TCG guest runs lavapipe some 30 times slower than the host; docs/daemon.md): a small mock panel
-# (the start renders the demo room some 40 times to learn its frame cost; at the config's 360x400
-# per eye one frame can pass the renderer's 20 s fence timeout), and a drop-in that gives the start
-# more than the unit's TimeoutStartSec=60 (READY=1 comes after that calibration and the first
-# frame). Everything else -- the scene, the trace on the real clock, the frame loop's real-time
-# priority, the status file and the control socket -- is the installed config's.
+# The service, on the installed config and unit with one change that the emulated CPU makes
+# necessary (a TCG guest runs lavapipe some 30 times slower than the host; docs/daemon.md): a small
+# mock panel (the start renders the demo room some 50 times to learn its frame cost; at the
+# config's 360x400 per eye one frame can pass the renderer's 20 s fence timeout). The unit's own
+# TimeoutStartSec=60 stands: while that calibration goes on, the daemon extends it
+# (EXTEND_TIMEOUT_USEC), so a slow start that progresses is not killed and a hung one is. Everything
+# else -- the scene, the trace on the real clock, the frame loop's real-time priority, the status
+# file and the control socket -- is the installed config's.
 cfg=/etc/hmdnode/hmdnoded.json
 sed -i -e 's/"eye_width": [0-9]*/"eye_width": 96/' -e 's/"eye_height": [0-9]*/"eye_height": 96/' "$cfg"
 grep -q '"eye_width": 96' "$cfg" && grep -q '"eye_height": 96' "$cfg" &&
     ok "$cfg: display.eye_width/eye_height set to 96x96 (the rest as installed)" ||
     bad "could not set the eye size in $cfg"
-mkdir -p /etc/systemd/system/hmdnoded.service.d
-printf '[Service]\nTimeoutStartSec=240\n' >/etc/systemd/system/hmdnoded.service.d/tcg-guest.conf
-systemctl daemon-reload
 step "systemctl start hmdnoded (Type=notify: returns once the daemon sent READY=1)"
 check "systemctl start hmdnoded" systemctl start hmdnoded
 # One systemctl call per look (each costs seconds in the guest while the daemon renders). STATUS=

@@ -160,22 +160,41 @@ int main(int argc, char** argv) {
                    !(zero_copy && (nc.warp || nc.distortion));
     NodeRuntime node(*clock, **tracker, **display, **renderer, *scene, nc);
     std::string scene_error;  // why the last scene that was asked for is not running
+    // From here a failure is the world's (the renderer or the device), not the config's: exit 1,
+    // which the unit restarts (2, a bad config, it does not).
     if (Status st = node.start(); !st.ok()) {
         spdlog::error("{}", st.error().message);
-        return 2;
+        return 1;
     }
     if (Status st = node.set_eye_tracker(eye_tracker->get()); !st.ok()) {
         spdlog::error("eye tracker: {}", st.error().message);
         return 2;
     }
-    // This renderer's costs seed the pacing estimates (and are the simulated clock's model).
-    if (Result<FrameCostModel> m = node.calibrate_frame_cost(); m.ok()) {
+    // This renderer's costs seed the pacing estimates (and are the simulated clock's model). About
+    // 50 renders and warps: seconds on a slow renderer, so SIGTERM is seen between two, and while
+    // they progress systemd's start timeout is extended (a start that hangs still times out).
+    int calibration_steps = 0;
+    auto calibrating = [&, next_extend = std::chrono::steady_clock::now()]() mutable {
+        if (g_stop) return false;
+        ++calibration_steps;
+        if (const auto now = std::chrono::steady_clock::now(); now >= next_extend) {
+            notifier.notify(fmt::format(
+                "EXTEND_TIMEOUT_USEC=60000000\nSTATUS=calibrating the frame cost ({} renders)",
+                calibration_steps));
+            next_extend = now + std::chrono::seconds(5);
+        }
+        return true;
+    };
+    if (Result<FrameCostModel> m = node.calibrate_frame_cost(calibrating); m.ok()) {
         if (clock->is_simulated()) node.set_sim_cost(*m);
         spdlog::info("frame cost: render {:.2f} ms + {:.3f} ms per 1k triangles, warp {:.2f} ms",
                      ns_to_ms(m->base_ns), m->per_triangle_ns * 1e-3, ns_to_ms(m->warp_ns));
+    } else if (g_stop) {
+        spdlog::info("hmdnoded: stopped during the start-up calibration");
+        return 0;
     } else {
         spdlog::error("{}", m.error().message);
-        return 2;
+        return 1;
     }
     spdlog::info(
         "hmdnoded: scene {} ({} objects), tracker {}: {} ({} trace samples), display {} {}x{} per "

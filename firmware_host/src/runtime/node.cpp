@@ -415,7 +415,8 @@ Status NodeRuntime::set_lod_tolerance_px(double tolerance_px) {
     return {};
 }
 
-Result<FrameCostModel> NodeRuntime::calibrate_frame_cost() {
+Result<FrameCostModel> NodeRuntime::calibrate_frame_cost(const std::function<bool()>& go_on) {
+    auto stopped = [&] { return go_on && !go_on(); };
     FrameCostModel model;
     Pose head;
     head.position = config_.default_head_position;
@@ -433,6 +434,7 @@ Result<FrameCostModel> NodeRuntime::calibrate_frame_cost() {
         for (int r = 0; r < rounds; ++r)
             for (int k = 0; k < 4; ++k) {
                 head.orientation = glm::angleAxis(kPi / 2.0 * k, glm::dvec3(0, 1, 0));
+                if (stopped()) return make_error("frame cost calibration stopped");
                 const int64_t t0 = steady_ns();
                 Result<RenderStats> s = renderer_.render(views_for(head), draws_, out);
                 if (!s.ok()) return s.error();
@@ -464,6 +466,7 @@ Result<FrameCostModel> NodeRuntime::calibrate_frame_cost() {
     if (pass_enabled()) {
         std::vector<int64_t> t;
         for (int i = 0; i < 17; ++i) {
+            if (stopped()) return make_error("frame cost calibration stopped");
             const int64_t t0 = steady_ns();
             Result<WarpStats> w =
                 renderer_.warp(glm::dquat(1, 0, 0, 0), config_.read_back ? &frame_ : nullptr);

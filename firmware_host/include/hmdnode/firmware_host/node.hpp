@@ -223,7 +223,9 @@ class NodeRuntime {
     // and returns the model the simulated clock can use (medians; triangles of both eyes). On the
     // system clock the measured costs also seed the pacing estimates and the LOD cost model, so
     // the first frames are not paced or budgeted on a guess. Blocks for about 40 frames.
-    Result<FrameCostModel> calibrate_frame_cost();
+    // `go_on`, where given, is asked before each render and warp: false ends the calibration
+    // there with an error (the daemon's SIGTERM during start-up; it also reports progress).
+    Result<FrameCostModel> calibrate_frame_cost(const std::function<bool()>& go_on = {});
     void set_sim_cost(const FrameCostModel& model) { config_.sim_cost = model; }
     // Run-time settings (the daemon's control socket), between frames: prediction on or off; the
     // LOD pixel tolerance at the gaze point (>= 0; the selector starts anew, its hysteresis too).
