@@ -2,7 +2,9 @@
 // "Control socket"), its reply printed: `status` as JSON, `metrics` as the Prometheus text,
 // the others as "ok". Commands: status, metrics, pause, resume, recentre, load-scene PATH,
 // set warp on|off, set prediction MS, set lod-bias X, set predict on|off, set lod_tolerance_px PX.
-// Exit 0 on an ok reply, 1 on an error reply or no daemon, 2 on a usage error.
+// --timeout S bounds the wait for the reply (default 5 s). Exit 0 on an ok reply, 1 on an error
+// reply, no reply in time or no daemon, 2 on a usage error.
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -19,11 +21,13 @@ namespace {
 
 struct CtlArgs {
     std::string socket = "/run/hmdnode/control";
+    double timeout_s = 5.0;  // for the reply: the loop serves the socket between frames
     std::string key, value;
 };
 
 void run_ctl(const CtlArgs& args, const nlohmann::json& command) {
-    Result<nlohmann::json> r = control_request(args.socket, command);
+    Result<nlohmann::json> r =
+        control_request(args.socket, command, int(std::lround(args.timeout_s * 1000.0)));
     if (!r.ok()) {
         std::fprintf(stderr, "hmdnode ctl: %s\n", r.error().message.c_str());
         return set_exit_code(1);
@@ -46,6 +50,11 @@ void add_ctl_command(CLI::App& app) {
     auto args = std::make_shared<CtlArgs>();
     CLI::App* ctl = app.add_subcommand("ctl", "Talk to a running hmdnoded (its control socket)");
     ctl->add_option("--socket", args->socket, "The daemon's control socket")->capture_default_str();
+    ctl->add_option("--timeout", args->timeout_s,
+                    "Seconds to wait for the reply (the daemon answers between frames; a loop "
+                    "that is setting up a pass or a scene answers after it)")
+        ->capture_default_str()
+        ->check(CLI::Range(0.001, 3600.0));
     ctl->require_subcommand(1);
     for (const char* name : {"status", "metrics", "pause", "resume", "recentre"}) {
         CLI::App* sub = ctl->add_subcommand(name, std::string("Send `") + name + "`");
