@@ -2,7 +2,8 @@
 # Configures and builds the fuzz build of this project (HMDNODE_FUZZ=ON, tests/fuzz/CMakeLists.txt:
 # one libFuzzer executable per tests/fuzz/*_fuzz.cpp, linked to the libraries' own CMake targets,
 # all compiled by clang++ with the fuzzer's coverage and -fsanitize=address,undefined) in
-# WORK_DIR/build, then runs each harness for FUZZ_SECONDS (default 10) seconds on its seeds: the
+# WORK_DIR/build, then runs each harness for FUZZ_SECONDS (default 10) seconds on its seeds (as many
+# at once as FUZZ_RUN_JOBS, default the cores online): the
 # committed ones (tests/fuzz/seeds/<harness>/) and those made below from the data.
 # Usage: run.sh CMAKE GENERATOR CLANGXX SOURCE_DIR WORK_DIR   (FUZZ_JOBS: build jobs, default 2)
 # Exit 77 (CTest: skipped) when clang++ cannot link libFuzzer; says so on stderr. A harness that
@@ -76,16 +77,31 @@ printf '0ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty flo
 } > "$WORK/corpus/mesh_file_fuzz/seed_be.ply"
 printf '0OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n' > "$WORK/corpus/mesh_file_fuzz/seed.off"
 
+# One harness per core at a time (FUZZ_RUN_JOBS, default the cores online): each runs its fixed
+# time whatever the others do, so the lane takes 10 s times the harnesses over the cores.
+run_one() {
+  if ! (cd "$WORK" && "build/tests/fuzz/$1" -max_total_time="$SECONDS_EACH" -max_len=8192 -print_final_stats=1 \
+        "corpus/$1" > "$1.log" 2>&1); then
+    echo "fuzz: $1 FAILED; see $WORK/$1.log (crash input saved there)" >&2
+    tail -40 "$WORK/$1.log" >&2
+    return 1
+  fi
+  grep -E "stat::number_of_executed_units" "$WORK/$1.log" | sed "s/^/fuzz: $1 /" >&2 || true
+}
+JOBS="${FUZZ_RUN_JOBS:-$(getconf _NPROCESSORS_ONLN 2>/dev/null || echo 1)}"
 status=0
+pids=""
+running=0
 for f in $HARNESSES; do
   echo "fuzz: running $f for ${SECONDS_EACH} s" >&2
-  if ! (cd "$WORK" && "build/tests/fuzz/$f" -max_total_time="$SECONDS_EACH" -max_len=8192 -print_final_stats=1 \
-        "corpus/$f" > "$f.log" 2>&1); then
-    echo "fuzz: $f FAILED; see $WORK/$f.log (crash input saved there)" >&2
-    tail -40 "$WORK/$f.log" >&2
-    status=1
-  else
-    grep -E "stat::number_of_executed_units" "$WORK/$f.log" | sed "s/^/fuzz: $f /" >&2 || true
+  run_one "$f" &
+  pids="$pids $!"
+  running=$((running + 1))
+  if [ "$running" -ge "$JOBS" ]; then
+    for p in $pids; do wait "$p" || status=1; done
+    pids=""
+    running=0
   fi
 done
+for p in $pids; do wait "$p" || status=1; done
 exit $status
