@@ -471,23 +471,6 @@ const char* mode_name(int mode) {
     }
 }
 
-void compute_normals(Primitive* p) {
-    p->normals.assign(p->positions.size(), glm::vec3(0.0f));
-    for (size_t t = 0; t + 2 < p->indices.size(); t += 3) {
-        const uint32_t a = p->indices[t], b = p->indices[t + 1], c = p->indices[t + 2];
-        // note: the cross product's length is twice the triangle's area: area weighting for free
-        const glm::vec3 n =
-            glm::cross(p->positions[b] - p->positions[a], p->positions[c] - p->positions[a]);
-        p->normals[a] += n;
-        p->normals[b] += n;
-        p->normals[c] += n;
-    }
-    for (glm::vec3& n : p->normals) {
-        const float len = glm::length(n);
-        n = (len > 0.0f && std::isfinite(len)) ? n / len : glm::vec3(0.0f, 1.0f, 0.0f);
-    }
-}
-
 Primitive convert_primitive(const tinygltf::Model& m, const tinygltf::Primitive& src,
                             const std::string& label) {
     const int mode = src.mode < 0 ? TINYGLTF_MODE_TRIANGLES : src.mode;
@@ -577,7 +560,7 @@ Primitive convert_primitive(const tinygltf::Model& m, const tinygltf::Primitive&
         fail(label, ": material ", src.material, " does not exist (", m.materials.size(),
              " materials)");
     p.material = src.material;
-    if (p.normals.empty()) compute_normals(&p);
+    if (p.normals.empty()) compute_vertex_normals(p);
     return p;
 }
 

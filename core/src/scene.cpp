@@ -1,12 +1,28 @@
 #include "hmdnode/core/scene.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <functional>
 #include <set>
 
 #include <glm/gtc/matrix_transform.hpp>
 
 namespace hmdnode {
+
+void compute_vertex_normals(Primitive& p, glm::vec3 no_area) {
+    p.normals.assign(p.positions.size(), glm::vec3(0.0f));
+    for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
+        const glm::vec3& a = p.positions[p.indices[t]];
+        // note: the cross product's length is twice the triangle's area: area weighting for free
+        const glm::vec3 n =
+            glm::cross(p.positions[p.indices[t + 1]] - a, p.positions[p.indices[t + 2]] - a);
+        for (size_t k = 0; k < 3; ++k) p.normals[p.indices[t + k]] += n;
+    }
+    for (glm::vec3& n : p.normals) {
+        const float len = glm::length(n);
+        n = len > 0.0f && std::isfinite(len) ? n / len : no_area;
+    }
+}
 
 size_t Mesh::triangle_count() const {
     size_t n = 0;

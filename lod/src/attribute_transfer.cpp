@@ -34,21 +34,6 @@ struct Grid {
     }
 };
 
-// Area-weighted vertex normals (the unnormalised face normal summed per corner), for the filter's
-// facing test only; a vertex of no area gets (0, 0, 0) and so takes the nearest base vertex.
-std::vector<glm::vec3> vertex_normals(const Primitive& p) {
-    std::vector<glm::vec3> n(p.positions.size(), glm::vec3(0.0f));
-    for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
-        const glm::vec3& a = p.positions[p.indices[t]];
-        const glm::vec3 f =
-            glm::cross(p.positions[p.indices[t + 1]] - a, p.positions[p.indices[t + 2]] - a);
-        for (size_t k = 0; k < 3; ++k) n[p.indices[t + k]] += f;
-    }
-    for (glm::vec3& v : n)
-        if (const float len = glm::length(v); len > 0.0f) v /= len;
-    return n;
-}
-
 }  // namespace
 
 Status carry_vertex_light(const Primitive& base, Primitive& level) {
@@ -60,11 +45,16 @@ Status carry_vertex_light(const Primitive& base, Primitive& level) {
     } else {
         Primitive b, l;  // positions, indices and light only, with normals made for the filter
         b.positions = base.positions, b.indices = base.indices, b.light = base.light;
-        b.normals =
-            base.normals.size() == base.positions.size() ? base.normals : vertex_normals(base);
+        // note: a vertex of no area gets no normal, so the filter takes the nearest base vertex.
+        if (base.normals.size() == base.positions.size())
+            b.normals = base.normals;
+        else
+            compute_vertex_normals(b, glm::vec3(0.0f));
         l.positions = level.positions, l.indices = level.indices;
-        l.normals =
-            level.normals.size() == level.positions.size() ? level.normals : vertex_normals(level);
+        if (level.normals.size() == level.positions.size())
+            l.normals = level.normals;
+        else
+            compute_vertex_normals(l, glm::vec3(0.0f));
         light = transfer_vertex_light(b, l);
     }
     if (!light.ok()) return light.error();

@@ -15,23 +15,6 @@
 #include "hmdnode/core/str_cat.hpp"
 
 namespace hmdnode {
-namespace {
-
-void compute_normals(Primitive& p) {
-    p.normals.assign(p.positions.size(), glm::vec3(0.0f));
-    for (size_t i = 0; i + 2 < p.indices.size(); i += 3) {
-        const glm::vec3 a = p.positions[p.indices[i]], b = p.positions[p.indices[i + 1]],
-                        c = p.positions[p.indices[i + 2]];
-        const glm::vec3 n = glm::cross(b - a, c - a);  // length = 2 * area
-        for (int k = 0; k < 3; ++k) p.normals[p.indices[i + k]] += n;
-    }
-    for (glm::vec3& n : p.normals) {
-        const float len = glm::length(n);
-        n = len > 0.0f && std::isfinite(len) ? n / len : glm::vec3(0.0f, 1.0f, 0.0f);
-    }
-}
-
-}  // namespace
 
 Scene single_mesh_scene(Mesh mesh) {
     Scene s;
@@ -354,7 +337,7 @@ Result<Scene> load_ply(const std::filesystem::path& path, const std::string& byt
     }
     if (!have_vertices) return make_error(cat(file, ": no element vertex"));
     if (!have_faces || prim.indices.empty()) return make_error(cat(file, ": no faces"));
-    if (prim.normals.empty()) compute_normals(prim);
+    if (prim.normals.empty()) compute_vertex_normals(prim);
     mesh.primitives.push_back(std::move(prim));
     return single_mesh_scene(std::move(mesh));
 }
@@ -424,7 +407,7 @@ Result<Scene> load_off(const std::filesystem::path& path, const std::string& byt
             return s.error();
     }
     if (prim.indices.empty()) return make_error(cat(file, ": no faces"));
-    compute_normals(prim);
+    compute_vertex_normals(prim);
     mesh.primitives.push_back(std::move(prim));
     return single_mesh_scene(std::move(mesh));
 }

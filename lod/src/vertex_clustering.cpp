@@ -144,19 +144,18 @@ Primitive cluster_vertices(const Primitive& in, float cell_size, float* out_max_
         out.uv1.resize(m);
         for (size_t j = 0; j < m; ++j) out.uv1[j] = in.uv1[rep[emitted[j]]];
     }
-    if (!in.colors.empty()) {
-        std::vector<glm::vec4> acc(clusters, glm::vec4(0.0f));
-        for (size_t i = 0; i < n; ++i) acc[cluster[i]] += in.colors[i];
-        out.colors.resize(m);
-        for (size_t j = 0; j < m; ++j) out.colors[j] = acc[emitted[j]] / float(count[emitted[j]]);
-    }
-    if (!in.light.empty()) {
-        std::vector<glm::dvec3> acc(clusters, glm::dvec3(0.0));
-        for (size_t i = 0; i < n; ++i) acc[cluster[i]] += glm::dvec3(in.light[i]);
-        out.light.resize(m);
+    // The mean over each cluster, summed in `Acc` (colours in float, light in double as before).
+    auto cluster_mean = [&]<typename Acc, typename T>(const std::vector<T>& values,
+                                                      std::vector<T>& mean) {
+        if (values.empty()) return;
+        std::vector<Acc> acc(clusters, Acc(0));
+        for (size_t i = 0; i < n; ++i) acc[cluster[i]] += Acc(values[i]);
+        mean.resize(m);
         for (size_t j = 0; j < m; ++j)
-            out.light[j] = glm::vec3(acc[emitted[j]] / double(count[emitted[j]]));
-    }
+            mean[j] = T(acc[emitted[j]] / typename Acc::value_type(count[emitted[j]]));
+    };
+    cluster_mean.operator()<glm::vec4>(in.colors, out.colors);
+    cluster_mean.operator()<glm::dvec3>(in.light, out.light);
     if (!in.normals.empty()) {
         out.normals.assign(m, glm::vec3(0.0f));
         for (size_t t = 0; t < out.indices.size(); t += 3) {

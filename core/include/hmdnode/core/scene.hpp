@@ -59,6 +59,10 @@ struct Primitive {
     size_t triangle_count() const { return indices.size() / 3; }
 };
 
+// Sets p.normals to area-weighted vertex normals (the unnormalised face normals summed at each
+// corner, then normalised); a vertex of no area (or a non-finite sum) gets `no_area`.
+void compute_vertex_normals(Primitive& p, glm::vec3 no_area = glm::vec3(0.0f, 1.0f, 0.0f));
+
 struct Mesh {
     std::string name;
     std::vector<Primitive> primitives;
