@@ -8,6 +8,7 @@ layout(set = 0, binding = 0) uniform sampler2D eye;  // this eye's rendered buff
 layout(push_constant) uniform Warp {
     mat4 reproject;
     float layer;
+    vec4 sample_rect;  // xy: the rendered fraction of the eye buffer, zw: the largest coordinate
 } warp;
 
 layout(location = 0) in vec3 in_r;
@@ -20,7 +21,7 @@ float fetch(vec3 h, int channel) {
     if (h.z <= 1e-6) return 0.0;
     vec2 uv = h.xy / h.z * 0.5 + 0.5;
     if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) return 0.0;
-    return textureLod(eye, uv, 0.0)[channel];
+    return textureLod(eye, min(uv * warp.sample_rect.xy, warp.sample_rect.zw), 0.0)[channel];
 }
 
 void main() {

@@ -5,6 +5,12 @@
 
 layout(set = 0, binding = 0) uniform sampler2D eye;  // this eye's rendered buffer
 
+layout(push_constant) uniform Warp {
+    mat4 reproject;
+    float layer;
+    vec4 sample_rect;  // xy: the rendered fraction of the eye buffer, zw: the largest coordinate
+} warp;
+
 layout(location = 1) in vec3 in_g;
 
 layout(location = 0) out vec4 out_color;
@@ -14,5 +20,6 @@ void main() {
     if (in_g.z <= 1e-6 || any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))))
         out_color = vec4(0.0, 0.0, 0.0, 1.0);
     else
-        out_color = vec4(textureLod(eye, uv, 0.0).rgb, 1.0);
+        out_color = vec4(
+            textureLod(eye, min(uv * warp.sample_rect.xy, warp.sample_rect.zw), 0.0).rgb, 1.0);
 }

@@ -31,6 +31,7 @@
 #include "gles_scene.hpp"
 #include "gles_shaders.hpp"
 #include "hmdnode/render/renderer.hpp"
+#include "lens_pass.hpp"
 #include "scene_geometry.hpp"
 
 namespace hmdnode {
@@ -61,6 +62,21 @@ class GlesRenderer final : public Renderer {
     Status set_warp(int panel_width, int panel_height, const DistortionMesh& left,
                     const DistortionMesh& right) override;
     Result<WarpStats> warp(const glm::dquat& delta, StereoImage* out_panel) override;
+    Status set_lens_warp(int panel_width, int panel_height,
+                         const HeadsetProfile& profile) override;
+    const char* lens_pass_name() const override {
+        return panel_width_ <= 0 ? "" : fused_ ? "fused" : "mesh";
+    }
+    void set_chromatic_aberration(bool on) override { chromatic_ = on; }
+    bool chromatic_aberration() const override {
+        return panel_width_ > 0 && (fused_ ? lens_chromatic_ && chromatic_ : !mesh_mono_);
+    }
+    Status set_render_scale(double scale) override {
+        if (Status s = gpu::check_render_scale(scale); !s) return s;
+        scale_ = scale;
+        return Status::success();
+    }
+    double render_scale() const override { return scale_; }
     const std::vector<ScanoutBuffer>& scanout_buffers() const override {
         return scanout_ ? scanout_->buffers() : Renderer::scanout_buffers();
     }
@@ -99,9 +115,22 @@ class GlesRenderer final : public Renderer {
     gles::Renderbuffer msaa_color_[2], msaa_depth_[2];
     gles::Framebuffer msaa_framebuffer_[2];
     std::unique_ptr<gles::GlesScene> scene_;  // null before the first upload
-    // Late warp.
+    // Late warp: the mesh pass, or the fused pass (a program per eye and variant, [eye][mono]).
+    // Checks the panel against the driver and the scan-out buffers; creates the panel textures
+    // and their framebuffers.
+    Status create_panel(int panel_width, int panel_height);
     gles::Program warp_program_;
-    GLint u_reproject_ = -1;
+    GLint u_reproject_ = -1, u_sample_rect_ = -1;
+    bool mesh_mono_ = false;
+    bool fused_ = false, lens_chromatic_ = false, chromatic_ = true;
+    struct FusedProgram {
+        gles::Program program;
+        GLint reproject = -1, sample_rect = -1;
+    };
+    FusedProgram fused_program_[2][2];
+    glm::mat3 eye_to_head_[2] = {glm::mat3(1.0f), glm::mat3(1.0f)};
+    double scale_ = 1.0;
+    gpu::ScaledViewport frame_viewport_, rendered_viewport_;
     int panel_width_ = 0, panel_height_ = 0;  // 0: no set_warp() yet
     gles::Texture panel_[2];
     gles::Framebuffer panel_framebuffer_[2];
@@ -265,11 +294,16 @@ Status GlesRenderer::begin_frame(const StereoViews& views, std::span<const DrawI
         frame_view_projection_[e] = views.projection[e] * views.view[e];
         frame_projection_[e] = views.projection[e];
     }
+    frame_viewport_ = gpu::scaled_viewport(uint32_t(config_.eye_width),
+                                           uint32_t(config_.eye_height), scale_);
     return Status::success();
 }
 
 void GlesRenderer::draw_piece(size_t first, size_t last) {
-    glViewport(0, 0, config_.eye_width, config_.eye_height);
+    // Dynamic resolution: the frame's part of the buffers only, its clear too.
+    glViewport(0, 0, GLsizei(frame_viewport_.width), GLsizei(frame_viewport_.height));
+    glScissor(0, 0, GLsizei(frame_viewport_.width), GLsizei(frame_viewport_.height));
+    glEnable(GL_SCISSOR_TEST);
     glEnable(GL_DEPTH_TEST);
     glDepthFunc(GL_LESS);
     glDepthMask(GL_TRUE);
@@ -360,6 +394,7 @@ Result<bool> GlesRenderer::run_piece(uint64_t max_triangles, int64_t* wait_ns,
     frame_.open = false;
     rendered_ = true;
     for (int e = 0; e < 2; ++e) rendered_projection_[e] = frame_projection_[e];
+    rendered_viewport_ = frame_viewport_;
     back_ = 1 - back_;
     return true;
 }
@@ -407,9 +442,7 @@ Result<RenderStats> GlesRenderer::render(const StereoViews& views, std::span<con
     return stats;
 }
 
-Status GlesRenderer::set_warp(int panel_width, int panel_height, const DistortionMesh& left,
-                              const DistortionMesh& right) {
-    if (Status s = ctx_->make_current(); !s) return s;
+Status GlesRenderer::create_panel(int panel_width, int panel_height) {
     if (panel_width < 1 || panel_height < 1)
         return make_error("renderer: panel " + std::to_string(panel_width) + "x" +
                           std::to_string(panel_height) + " is empty");
@@ -424,23 +457,6 @@ Status GlesRenderer::set_warp(int panel_width, int panel_height, const Distortio
                           std::to_string(panel_height) + " per eye does not fit the " +
                           std::to_string(scanout_->width()) + "x" +
                           std::to_string(scanout_->height()) + " scan-out buffers side by side");
-    const DistortionMesh* mesh[2] = {&left, &right};
-    for (int e = 0; e < 2; ++e)
-        if (Status s = gpu::check_distortion_mesh(*mesh[e], e); !s) return s;
-    panel_width_ = panel_height_ = 0;
-
-    // 1. The program: one sample per pixel without chromatic aberration (as the Vulkan pass).
-    const bool mono = gpu::channels_agree(left) && gpu::channels_agree(right);
-    auto program = gles::build_program(
-        gles::kWarpVertex, mono ? gles::kWarpMonoFragment : gles::kWarpFragment, "warp");
-    if (!program) return program.error();
-    warp_program_ = gles::Program(*program);
-    u_reproject_ = glGetUniformLocation(warp_program_, "u_reproject");
-    glUseProgram(warp_program_);
-    glUniform1i(glGetUniformLocation(warp_program_, "eye"), 0);
-    glUseProgram(0);
-
-    // 2. Panel textures and their framebuffers, the meshes.
     for (int e = 0; e < 2; ++e) {
         panel_[e] = gles::make<gles::Texture>(glGenTextures);
         glBindTexture(GL_TEXTURE_2D, panel_[e]);
@@ -450,7 +466,82 @@ Status GlesRenderer::set_warp(int panel_width, int panel_height, const Distortio
         glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, panel_[e], 0);
         if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
             return make_error("GLES: the panel framebuffer is incomplete");
+    }
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    glBindTexture(GL_TEXTURE_2D, 0);
+    return Status::success();
+}
 
+Status GlesRenderer::set_lens_warp(int panel_width, int panel_height,
+                                   const HeadsetProfile& profile) {
+    if (Status s = ctx_->make_current(); !s) return s;
+    auto setup = gpu::make_lens_pass_setup(profile, panel_width, panel_height);
+    if (!setup) return setup.error();
+    if (Status s = create_panel(panel_width, panel_height); !s) return s;
+    panel_width_ = panel_height_ = 0;
+    for (int e = 0; e < 2; ++e) {
+        const gpu::LensPassEye& lens = setup->eye[e];
+        eye_to_head_[e] = lens.eye_to_head;
+        for (int mono = 0; mono < 2; ++mono) {
+            FusedProgram& fp = fused_program_[e][mono];
+            fp = FusedProgram();
+            if (!mono && !setup->chromatic) continue;
+            const std::string fragment = "#version 300 es\n#define MODEL " +
+                                         std::to_string(int(lens.model)) + "\n#define MONO " +
+                                         std::to_string(mono) + "\n" +
+                                         gles::kLensWarpFragmentBody;
+            auto program = gles::build_program(gles::kLensWarpVertex, fragment.c_str(), "lens warp");
+            if (!program) return program.error();
+            fp.program = gles::Program(*program);
+            const GLuint p = fp.program;
+            glUseProgram(p);
+            glUniform1i(glGetUniformLocation(p, "eye"), 0);
+            const gpu::LensUniforms& u = lens.uniforms;
+            glUniform4fv(glGetUniformLocation(p, "u_center_limit"), 3, &u.center_limit[0][0]);
+            glUniform4fv(glGetUniformLocation(p, "u_coeffs"), 3, &u.coeffs[0][0]);
+            glUniform4fv(glGetUniformLocation(p, "u_fov"), 1, &u.fov[0]);
+            glUniform4fv(glGetUniformLocation(p, "u_panel"), 1, &u.panel[0]);
+            const glm::mat3 pre(u.pre);
+            glUniformMatrix3fv(glGetUniformLocation(p, "u_pre"), 1, GL_FALSE, &pre[0][0]);
+            fp.reproject = glGetUniformLocation(p, "u_reproject");
+            fp.sample_rect = glGetUniformLocation(p, "u_sample_rect");
+        }
+    }
+    glUseProgram(0);
+    if (Status s = gles::check_gl("lens warp set-up"); !s) return s;
+    fused_ = true;
+    lens_chromatic_ = setup->chromatic;
+    chromatic_ = true;
+    panel_width_ = panel_width;
+    panel_height_ = panel_height;
+    return Status::success();
+}
+
+Status GlesRenderer::set_warp(int panel_width, int panel_height, const DistortionMesh& left,
+                              const DistortionMesh& right) {
+    if (Status s = ctx_->make_current(); !s) return s;
+    const DistortionMesh* mesh[2] = {&left, &right};
+    for (int e = 0; e < 2; ++e)
+        if (Status s = gpu::check_distortion_mesh(*mesh[e], e); !s) return s;
+    if (Status s = create_panel(panel_width, panel_height); !s) return s;
+    panel_width_ = panel_height_ = 0;
+    fused_ = false;
+
+    // 1. The program: one sample per pixel without chromatic aberration (as the Vulkan pass).
+    const bool mono = gpu::channels_agree(left) && gpu::channels_agree(right);
+    mesh_mono_ = mono;
+    auto program = gles::build_program(
+        gles::kWarpVertex, mono ? gles::kWarpMonoFragment : gles::kWarpFragment, "warp");
+    if (!program) return program.error();
+    warp_program_ = gles::Program(*program);
+    u_reproject_ = glGetUniformLocation(warp_program_, "u_reproject");
+    u_sample_rect_ = glGetUniformLocation(warp_program_, "u_sample_rect");
+    glUseProgram(warp_program_);
+    glUniform1i(glGetUniformLocation(warp_program_, "eye"), 0);
+    glUseProgram(0);
+
+    // 2. The meshes.
+    for (int e = 0; e < 2; ++e) {
         warp_vertex_array_[e] = gles::make<gles::VertexArray>(glGenVertexArrays);
         glBindVertexArray(warp_vertex_array_[e]);
         warp_vertices_[e] = gles::make<gles::Buffer>(glGenBuffers);
@@ -504,14 +595,27 @@ Result<WarpStats> GlesRenderer::warp(const glm::dquat& delta, StereoImage* out_p
     }
     glDisable(GL_DEPTH_TEST);
     glDisable(GL_CULL_FACE);
-    glUseProgram(warp_program_);
+    glDisable(GL_SCISSOR_TEST);
     glActiveTexture(GL_TEXTURE0);
+    const glm::vec4& rect = rendered_viewport_.sample_rect;
     for (int e = 0; e < 2; ++e) {
         const glm::mat4 reproject = gpu::warp_reprojection(rendered_projection_[e], delta);
         glBindFramebuffer(GL_FRAMEBUFFER, target[e]);
         glViewport(x0[e], 0, panel_width_, panel_height_);
         glBindTexture(GL_TEXTURE_2D, color_[front][e]);
+        if (fused_) {
+            const FusedProgram& fp = fused_program_[e][lens_chromatic_ && chromatic_ ? 0 : 1];
+            glUseProgram(fp.program);
+            const glm::mat3 m = glm::mat3(reproject) * eye_to_head_[e];
+            glUniformMatrix3fv(fp.reproject, 1, GL_FALSE, &m[0][0]);
+            glUniform4fv(fp.sample_rect, 1, &rect[0]);
+            glBindVertexArray(0);
+            glDrawArrays(GL_TRIANGLES, 0, 3);
+            continue;
+        }
+        glUseProgram(warp_program_);
         glUniformMatrix4fv(u_reproject_, 1, GL_FALSE, &reproject[0][0]);
+        glUniform4fv(u_sample_rect_, 1, &rect[0]);
         glBindVertexArray(warp_vertex_array_[e]);
         glDrawElements(GL_TRIANGLES, warp_index_count_[e], GL_UNSIGNED_INT, nullptr);
     }

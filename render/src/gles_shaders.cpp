@@ -105,6 +105,7 @@ void main() {
 const char* const kWarpFragment = R"(#version 300 es
 precision highp float;
 uniform highp sampler2D eye;  // sRGB decode skipped: filters the encoded bytes, as Vulkan's
+uniform vec4 u_sample_rect;   // dynamic resolution: xy the rendered fraction, zw the largest uv
 in vec3 v_r;
 in vec3 v_g;
 in vec3 v_b;
@@ -113,7 +114,7 @@ float fetch(vec3 h, int channel) {
     if (h.z <= 1e-6) return 0.0;
     vec2 uv = h.xy / h.z * 0.5 + 0.5;
     if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) return 0.0;
-    return textureLod(eye, uv, 0.0)[channel];
+    return textureLod(eye, min(uv * u_sample_rect.xy, u_sample_rect.zw), 0.0)[channel];
 }
 void main() {
     out_color = vec4(fetch(v_r, 0), fetch(v_g, 1), fetch(v_b, 2), 1.0);
@@ -124,6 +125,7 @@ void main() {
 const char* const kWarpMonoFragment = R"(#version 300 es
 precision highp float;
 uniform highp sampler2D eye;
+uniform vec4 u_sample_rect;
 in vec3 v_r;
 in vec3 v_g;
 in vec3 v_b;
@@ -133,7 +135,78 @@ void main() {
     if (v_g.z <= 1e-6 || any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))))
         out_color = vec4(0.0, 0.0, 0.0, 1.0);
     else
-        out_color = vec4(textureLod(eye, uv, 0.0).rgb, 1.0);
+        out_color =
+            vec4(textureLod(eye, min(uv * u_sample_rect.xy, u_sample_rect.zw), 0.0).rgb, 1.0);
+}
+)";
+
+// lens_warp.vert: one triangle over the whole panel, from the vertex index.
+const char* const kLensWarpVertex = R"(#version 300 es
+void main() {
+    vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2);
+    gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
+}
+)";
+
+// lens_warp.frag without its #version line: the renderer puts `#version 300 es` and the
+// definitions of MODEL (0 none, 1 poly_radial, 2 vive) and MONO (0, 1) before it. Window row 0 is
+// the panel's first row here as in Vulkan (see gles_renderer.cpp), so gl_FragCoord gives the same
+// panel position.
+const char* const kLensWarpFragmentBody = R"(
+precision highp float;
+uniform highp sampler2D eye;
+uniform vec4 u_center_limit[3];
+uniform vec4 u_coeffs[3];
+uniform vec4 u_fov;
+uniform vec4 u_panel;
+uniform mat3 u_pre;
+uniform mat3 u_reproject;
+uniform vec4 u_sample_rect;
+layout(location = 0) out vec4 out_color;
+vec2 radial(vec2 q, int c) {
+    float lim = u_center_limit[c].z;
+    float r2 = dot(q, q);
+    if (r2 > lim) {
+        q *= sqrt(lim / r2);
+        r2 = lim;
+    }
+    vec4 k = u_coeffs[c];
+#if MODEL == 2
+    float f = 1.0 / (1.0 + r2 * (k.x + r2 * (k.y + r2 * k.z))) + k.w;
+#else
+    float f = k.x + r2 * (k.y + r2 * (k.z + r2 * k.w));
+#endif
+    return q * f;
+}
+vec3 direction(vec2 uv, int c) {
+    vec2 ctr = u_center_limit[c].xy;
+#if MODEL == 2
+    vec2 q = vec2(2.0 * uv.x - 1.0 - ctr.x, (2.0 * uv.y - 1.0) / u_panel.z - ctr.y);
+    vec3 ray = u_pre * vec3(radial(q, c) + ctr, 1.0);
+    return ray.z < 0.0 ? ray : vec3(0.0, 0.0, -1.0);
+#else
+    vec2 p = vec2(u_fov.x + uv.x * (u_fov.y - u_fov.x), u_fov.z + uv.y * (u_fov.w - u_fov.z));
+#if MODEL == 1
+    p = ctr + radial(p - ctr, c);
+#endif
+    return vec3(p, -1.0);
+#endif
+}
+vec4 fetch(vec3 d) {
+    vec3 h = u_reproject * d;
+    if (h.z <= 1e-6) return vec4(0.0);
+    vec2 uv = h.xy / h.z * 0.5 + 0.5;
+    if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) return vec4(0.0);
+    return textureLod(eye, min(uv * u_sample_rect.xy, u_sample_rect.zw), 0.0);
+}
+void main() {
+    vec2 uv = gl_FragCoord.xy * u_panel.xy;
+#if MONO
+    out_color = vec4(fetch(direction(uv, 1)).rgb, 1.0);
+#else
+    out_color = vec4(fetch(direction(uv, 0)).r, fetch(direction(uv, 1)).g,
+                     fetch(direction(uv, 2)).b, 1.0);
+#endif
 }
 )";
 

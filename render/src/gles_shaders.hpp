@@ -15,5 +15,9 @@ extern const char* const kSceneFragment;
 extern const char* const kWarpVertex;
 extern const char* const kWarpFragment;      // per-channel sampling (chromatic aberration)
 extern const char* const kWarpMonoFragment;  // one sample per pixel
+// The fused pass (render/shaders/lens_warp.*): no vertex input; the fragment source needs
+// "#version 300 es" and "#define MODEL m" / "#define MONO 0|1" before it.
+extern const char* const kLensWarpVertex;
+extern const char* const kLensWarpFragmentBody;
 
 }  // namespace hmdnode::gles

@@ -31,6 +31,7 @@
 #include <limits>
 
 #include "hmdnode/render/lens.hpp"
+#include "lens_math.hpp"
 
 namespace hmdnode {
 namespace {
@@ -39,18 +40,6 @@ double panel_aspect(const HeadsetProfile& p, const EyeLens& lens) {
     if (lens.aspect_x_over_y > 0.0) return lens.aspect_x_over_y;
     assert(p.panel_width > 0 && p.panel_height > 0);
     return double(p.panel_width) / double(p.panel_height);
-}
-
-// The radial factor of each model at r2, or NaN where the model is undefined.
-double radial_factor(LensModel model, const std::array<double, 4>& k, double r2) {
-    if (model == LensModel::vive_dpoly3_scaled) {
-        const double bottom = 1.0 + r2 * (k[0] + r2 * (k[1] + r2 * k[2]));
-        if (!(bottom > 1e-9)) return std::numeric_limits<double>::quiet_NaN();
-        const double d = 1.0 / bottom + k[3];
-        return d > 0.0 ? d : std::numeric_limits<double>::quiet_NaN();
-    }
-    const double f = k[0] + r2 * (k[1] + r2 * (k[2] + r2 * k[3]));
-    return f > 0.0 ? f : std::numeric_limits<double>::quiet_NaN();
 }
 
 // Applies the radial model to an offset q from the channel centre: q * factor(|q|^2), with |q|^2
@@ -62,16 +51,16 @@ glm::dvec2 apply_radial(const EyeLens& lens, const LensChannel& ch, glm::dvec2 q
         r2 = lens.undistort_r2_cutoff;
         *valid = false;
     }
-    double f = radial_factor(lens.model, ch.coeffs, r2);
+    double f = lens_radial_factor(lens.model, ch.coeffs, r2);
     if (std::isnan(f)) {
         *valid = false;
         double lo = 0.0, hi = r2;  // note: factor(0) is defined for every validated profile
         for (int i = 0; i < 40; ++i) {
             const double mid = 0.5 * (lo + hi);
-            (std::isnan(radial_factor(lens.model, ch.coeffs, mid)) ? hi : lo) = mid;
+            (std::isnan(lens_radial_factor(lens.model, ch.coeffs, mid)) ? hi : lo) = mid;
         }
         q *= r2 > 0.0 ? std::sqrt(lo / r2) : 0.0;
-        f = radial_factor(lens.model, ch.coeffs, lo);
+        f = lens_radial_factor(lens.model, ch.coeffs, lo);
         if (std::isnan(f)) f = 0.0;
     }
     return q * f;

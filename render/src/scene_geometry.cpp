@@ -2,6 +2,9 @@
 // (see scene_geometry.hpp). Cost: O(vertices + indices + texels) checks, one copy of the geometry.
 #include "scene_geometry.hpp"
 
+#include <algorithm>
+#include <cmath>
+
 #include <numbers>
 #include <string>
 
@@ -128,6 +131,24 @@ glm::mat4 warp_reprojection(const glm::mat4& p, const glm::dquat& delta) {
     glm::mat3 p3;
     for (int col = 0; col < 3; ++col) p3[col] = glm::vec3(p[col][0], p[col][1], p[col][3]);
     return glm::mat4(p3 * rotation);
+}
+
+ScaledViewport scaled_viewport(uint32_t width, uint32_t height, double scale) {
+    ScaledViewport v;
+    v.width = std::clamp(uint32_t(std::lround(double(width) * scale)), 1u, width);
+    v.height = std::clamp(uint32_t(std::lround(double(height) * scale)), 1u, height);
+    if (v.width == width && v.height == height) return v;  // (1, 1, 1, 1): no change at all
+    v.sample_rect = glm::vec4(float(v.width) / float(width), float(v.height) / float(height),
+                              (float(v.width) - 0.5f) / float(width),
+                              (float(v.height) - 0.5f) / float(height));
+    return v;
+}
+
+Status check_render_scale(double scale) {
+    if (!(scale > 0.0 && scale <= 1.0))
+        return make_error("renderer: render scale " + std::to_string(scale) +
+                          " is outside (0, 1]");
+    return Status::success();
 }
 
 Status check_distortion_mesh(const DistortionMesh& m, int eye) {

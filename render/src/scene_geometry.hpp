@@ -77,6 +77,18 @@ void texture_uses(const Scene& scene, std::vector<uint8_t>& srgb, std::vector<ui
 // view's translation drops out), in the upper 3x3 of the result.
 glm::mat4 warp_reprojection(const glm::mat4& rendered_projection, const glm::dquat& delta);
 
+// Dynamic resolution (Renderer::set_render_scale): the part of a width x height eye buffer a frame
+// at `scale` renders into (its top-left corner, whole pixels, at least one), and the warp's
+// sample_rect for it (xy: that part's fraction of the buffer, zw: the largest texture
+// coordinate, its last texel centre, so bilinear filtering never reads past it).
+struct ScaledViewport {
+    uint32_t width = 1, height = 1;
+    glm::vec4 sample_rect{1.0f};
+};
+ScaledViewport scaled_viewport(uint32_t width, uint32_t height, double scale);
+// Errors: a scale outside (0, 1].
+Status check_render_scale(double scale);
+
 // Errors: an empty distortion mesh, an index past its vertices (naming the eye).
 Status check_distortion_mesh(const DistortionMesh& mesh, int eye);
 

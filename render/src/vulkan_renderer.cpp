@@ -48,8 +48,25 @@ class VulkanRenderer final : public Renderer {
     Status set_warp(int panel_width, int panel_height, const DistortionMesh& left,
                     const DistortionMesh& right) override;
     Result<WarpStats> warp(const glm::dquat& delta, StereoImage* out_panel) override;
+    Status set_lens_warp(int panel_width, int panel_height,
+                         const HeadsetProfile& profile) override;
+    const char* lens_pass_name() const override {
+        return !warp_ ? "" : warp_->fused ? "fused" : "mesh";
+    }
+    void set_chromatic_aberration(bool on) override { chromatic_ = on; }
+    bool chromatic_aberration() const override {
+        return warp_ && (warp_->fused ? warp_->chromatic && chromatic_ : !warp_->mono);
+    }
+    Status set_render_scale(double scale) override {
+        if (Status s = gpu::check_render_scale(scale); !s) return s;
+        scale_ = scale;
+        return Status::success();
+    }
+    double render_scale() const override { return scale_; }
 
   private:
+    // Checks the panel size and keeps it, then (re)builds the warp pass.
+    Status configure_warp(int panel_width, int panel_height);
     // (Re)creates the warp pass over the current targets from the stored meshes.
     Status build_warp_pass();
     // (Re)creates the targets, pipelines and the per-frame descriptor set for one stereo mode.
@@ -87,6 +104,11 @@ class VulkanRenderer final : public Renderer {
     std::optional<vk::WarpPass> warp_;
     int panel_width_ = 0, panel_height_ = 0;
     DistortionMesh warp_mesh_[2];
+    std::optional<gpu::LensPassSetup> lens_setup_;  // the fused pass's, else the meshes' pass
+    bool chromatic_ = true;
+    double scale_ = 1.0;                 // dynamic resolution of the frames begun from now on
+    gpu::ScaledViewport frame_viewport_;     // of the open frame
+    gpu::ScaledViewport rendered_viewport_;  // of the finished frame
     // The frame being rendered (into slot back_) and the last finished one (slot 1 - back_).
     gpu::FrameQueue frame_;
     int back_ = 0;
@@ -195,11 +217,23 @@ Status VulkanRenderer::build_frame_path(bool multiview) {
 Status VulkanRenderer::build_warp_pass() {
     warp_.reset();
     if (panel_width_ <= 0) return Status::success();  // no set_warp() yet
-    auto pass = vk::create_warp_pass(*ctx_, targets_.color, uint32_t(panel_width_),
-                                     uint32_t(panel_height_), warp_mesh_);
+    auto pass = lens_setup_ ? vk::create_lens_warp_pass(*ctx_, targets_.color,
+                                                        uint32_t(panel_width_),
+                                                        uint32_t(panel_height_), *lens_setup_)
+                            : vk::create_warp_pass(*ctx_, targets_.color, uint32_t(panel_width_),
+                                                   uint32_t(panel_height_), warp_mesh_);
     if (!pass) return pass.error();
     warp_ = std::move(*pass);
     return Status::success();
+}
+
+Status VulkanRenderer::configure_warp(int panel_width, int panel_height) {
+    vkDeviceWaitIdle(ctx_->device);
+    panel_width_ = panel_width;
+    panel_height_ = panel_height;
+    Status s = build_warp_pass();
+    if (!s) panel_width_ = panel_height_ = 0;
+    return s;
 }
 
 Status VulkanRenderer::set_warp(int panel_width, int panel_height, const DistortionMesh& left,
@@ -208,14 +242,21 @@ Status VulkanRenderer::set_warp(int panel_width, int panel_height, const Distort
     if (panel_width < 1 || panel_height < 1)
         return make_error("renderer: panel " + std::to_string(panel_width) + "x" +
                           std::to_string(panel_height) + " is empty");
-    vkDeviceWaitIdle(ctx_->device);
-    panel_width_ = panel_width;
-    panel_height_ = panel_height;
     warp_mesh_[0] = left;
     warp_mesh_[1] = right;
-    Status s = build_warp_pass();
-    if (!s) panel_width_ = panel_height_ = 0;
-    return s;
+    lens_setup_.reset();
+    return configure_warp(panel_width, panel_height);
+}
+
+Status VulkanRenderer::set_lens_warp(int panel_width, int panel_height,
+                                     const HeadsetProfile& profile) {
+    if (!lost_.empty()) return make_error(lost_);
+    auto setup = gpu::make_lens_pass_setup(profile, panel_width, panel_height);
+    if (!setup) return setup.error();
+    lens_setup_ = std::move(*setup);
+    warp_mesh_[0] = warp_mesh_[1] = DistortionMesh();
+    chromatic_ = true;
+    return configure_warp(panel_width, panel_height);
 }
 
 Status VulkanRenderer::submit(VkCommandBuffer cmd, VkFence fence, const char* what) {
@@ -272,7 +313,8 @@ Result<WarpStats> VulkanRenderer::warp(const glm::dquat& delta, StereoImage* out
             VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
             VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, 0, 0, nullptr, 0, nullptr, 1, &barrier);
     }
-    vk::record_warp(warp_cmd_, *warp_, front, reproject, out_panel != nullptr);
+    vk::record_warp(warp_cmd_, *warp_, front, reproject, out_panel != nullptr,
+                    rendered_viewport_.sample_rect, chromatic_);
     vkEndCommandBuffer(warp_cmd_);
     const VkFence fence = warp_fence_;
     if (Status st = submit(warp_cmd_, fence, "warp"); !st) return st.error();
@@ -350,9 +392,9 @@ void VulkanRenderer::record_draws(std::span<const DrawItem> items, uint32_t view
     vkCmdPushConstants(cmd_, pipeline_.layout, VK_SHADER_STAGE_VERTEX_BIT,
                        offsetof(vk::DrawConstants, view_base), sizeof(uint32_t), &view_base);
     if (items.empty() || !scene_ || !scene_->vertices.get()) return;
-    const VkViewport viewport{0.0f, 0.0f, float(targets_.width), float(targets_.height),
-                              0.0f, 1.0f};
-    const VkRect2D scissor{{0, 0}, {targets_.width, targets_.height}};
+    const VkViewport viewport{0.0f, 0.0f, float(frame_viewport_.width),
+                              float(frame_viewport_.height), 0.0f, 1.0f};
+    const VkRect2D scissor{{0, 0}, {frame_viewport_.width, frame_viewport_.height}};
     vkCmdSetViewport(cmd_, 0, 1, &viewport);
     vkCmdSetScissor(cmd_, 0, 1, &scissor);
     vkCmdBindDescriptorSets(cmd_, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_.layout, 0, 1,
@@ -409,7 +451,8 @@ void VulkanRenderer::record(size_t first, size_t last, bool read_back) {
         pass.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
         pass.renderPass = first == 0 ? targets_.render_pass : targets_.render_pass_load;
         pass.framebuffer = targets_.framebuffer[back_][p];
-        pass.renderArea = {{0, 0}, {targets_.width, targets_.height}};
+        // (Dynamic resolution: only the part the frame renders into is cleared and drawn.)
+        pass.renderArea = {{0, 0}, {frame_viewport_.width, frame_viewport_.height}};
         pass.clearValueCount = first == 0 ? 2 : 0;
         pass.pClearValues = first == 0 ? clears : nullptr;
         vkCmdBeginRenderPass(cmd_, &pass, VK_SUBPASS_CONTENTS_INLINE);
@@ -437,6 +480,7 @@ Status VulkanRenderer::begin_frame(const StereoViews& views, std::span<const Dra
         frame.view_projection[e] = views.projection[e] * views.view[e];
         frame_projection_[e] = views.projection[e];
     }
+    frame_viewport_ = gpu::scaled_viewport(targets_.width, targets_.height, scale_);
     std::memcpy(frame_constants_.mapped(), &frame, sizeof(frame));
     return frame_constants_.flush();
 }
@@ -461,6 +505,7 @@ Result<bool> VulkanRenderer::run_piece(uint64_t max_triangles, bool read_back, i
     rendered_ = true;
     eyes_sampled_[back_] = false;
     for (int e = 0; e < 2; ++e) rendered_projection_[e] = frame_projection_[e];
+    rendered_viewport_ = frame_viewport_;
     back_ = 1 - back_;
     return true;
 }

@@ -4,6 +4,7 @@
 
 #include <cstddef>
 #include <cstring>
+#include <span>
 #include <string>
 
 #include "scene_geometry.hpp"
@@ -21,6 +22,12 @@ const uint32_t kWarpFrag[] =
     ;
 const uint32_t kWarpMonoFrag[] =
 #include "warp_mono.frag.spv.h"
+    ;
+const uint32_t kLensWarpVert[] =
+#include "lens_warp.vert.spv.h"
+    ;
+const uint32_t kLensWarpFrag[] =
+#include "lens_warp.frag.spv.h"
     ;
 
 // note: the pass reads the sRGB eye buffers through UNORM views and writes a UNORM panel, so it
@@ -75,14 +82,21 @@ Result<RenderPass> create_panel_render_pass(const DeviceContext& ctx) {
     return RenderPass(ctx.device, pass);
 }
 
+// The shaders of one warp pipeline: the mesh pass (vertex input from the distortion mesh) or the
+// fused pass (no vertex input; the fragment stage specialised on the lens model and MONO).
+struct WarpShaders {
+    std::span<const uint32_t> vert, frag;
+    bool mesh_input = true;
+    const VkSpecializationInfo* frag_specialization = nullptr;
+};
+
 Result<Pipeline> create_warp_pipeline(const DeviceContext& ctx, VkPipelineLayout layout,
-                                      VkRenderPass render_pass, bool mono) {
-    auto vert = create_module(ctx, kWarpVert, sizeof(kWarpVert), "vkCreateShaderModule (warp)");
+                                      VkRenderPass render_pass, const WarpShaders& shaders) {
+    auto vert = create_module(ctx, shaders.vert.data(), shaders.vert.size_bytes(),
+                              "vkCreateShaderModule (warp)");
     if (!vert) return vert.error();
-    auto frag =
-        mono ? create_module(ctx, kWarpMonoFrag, sizeof(kWarpMonoFrag),
-                             "vkCreateShaderModule (warp)")
-             : create_module(ctx, kWarpFrag, sizeof(kWarpFrag), "vkCreateShaderModule (warp)");
+    auto frag = create_module(ctx, shaders.frag.data(), shaders.frag.size_bytes(),
+                              "vkCreateShaderModule (warp)");
     if (!frag) return frag.error();
     VkPipelineShaderStageCreateInfo stages[2]{};
     for (int i = 0; i < 2; ++i) {
@@ -91,6 +105,7 @@ Result<Pipeline> create_warp_pipeline(const DeviceContext& ctx, VkPipelineLayout
         stages[i].module = i == 0 ? vert->get() : frag->get();
         stages[i].pName = "main";
     }
+    stages[1].pSpecializationInfo = shaders.frag_specialization;
     const VkVertexInputBindingDescription binding{0, sizeof(DistortionVertex),
                                                   VK_VERTEX_INPUT_RATE_VERTEX};
     VkVertexInputAttributeDescription attributes[4];
@@ -100,10 +115,12 @@ Result<Pipeline> create_warp_pipeline(const DeviceContext& ctx, VkPipelineLayout
                              uint32_t(offsetof(DistortionVertex, tangent) + c * sizeof(glm::vec2))};
     VkPipelineVertexInputStateCreateInfo vertex_input{};
     vertex_input.sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO;
-    vertex_input.vertexBindingDescriptionCount = 1;
-    vertex_input.pVertexBindingDescriptions = &binding;
-    vertex_input.vertexAttributeDescriptionCount = 4;
-    vertex_input.pVertexAttributeDescriptions = attributes;
+    if (shaders.mesh_input) {
+        vertex_input.vertexBindingDescriptionCount = 1;
+        vertex_input.pVertexBindingDescriptions = &binding;
+        vertex_input.vertexAttributeDescriptionCount = 4;
+        vertex_input.pVertexAttributeDescriptions = attributes;
+    }
     VkPipelineInputAssemblyStateCreateInfo assembly{};
     assembly.sType = VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO;
     assembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
@@ -152,16 +169,17 @@ Result<Pipeline> create_warp_pipeline(const DeviceContext& ctx, VkPipelineLayout
     return Pipeline(ctx.device, pipeline);
 }
 
-}  // namespace
-
-Result<WarpPass> create_warp_pass(DeviceContext& ctx, const Image eyes[2], uint32_t width,
-                                  uint32_t height, const DistortionMesh mesh[2]) {
+// Everything both passes share: the panel image (one layer per eye), its pass and framebuffers,
+// the read-back buffer, the eye buffers' sampled views behind a bilinear sampler, the descriptor
+// sets [slot][eye] (binding 0 the eye buffer; binding 1 the eye's lens uniforms when `lens_ubo`)
+// and the pipeline layout.
+Status create_common(DeviceContext& ctx, const Image eyes[2], uint32_t width, uint32_t height,
+                     const Buffer* lens_ubo, WarpPass& w) {
     const VkPhysicalDeviceLimits& limits = ctx.properties.limits;
     if (width < 1 || height < 1 || width > limits.maxFramebufferWidth ||
         height > limits.maxFramebufferHeight)
         return make_error("Vulkan: panel " + std::to_string(width) + "x" + std::to_string(height) +
                           " is empty or exceeds the device's framebuffer limit");
-    WarpPass w;
     w.width = width;
     w.height = height;
 
@@ -225,17 +243,19 @@ Result<WarpPass> create_warp_pass(DeviceContext& ctx, const Image eyes[2], uint3
             w.eyes_view[slot][e] = std::move(*eyes_view);
         }
 
-    const VkDescriptorSetLayoutBinding binding{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1,
-                                               VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
-    auto set_layout = create_set_layout(ctx, {&binding, 1});
+    const VkDescriptorSetLayoutBinding bindings[2] = {
+        {0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
+        {1, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr}};
+    auto set_layout = create_set_layout(ctx, {bindings, size_t(lens_ubo ? 2 : 1)});
     if (!set_layout) return set_layout.error();
     w.set_layout = std::move(*set_layout);
-    const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 4};
+    const VkDescriptorPoolSize sizes[2] = {{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 4},
+                                           {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 4}};
     VkDescriptorPoolCreateInfo pool_info{};
     pool_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
     pool_info.maxSets = 4;
-    pool_info.poolSizeCount = 1;
-    pool_info.pPoolSizes = &size;
+    pool_info.poolSizeCount = lens_ubo ? 2 : 1;
+    pool_info.pPoolSizes = sizes;
     VkDescriptorPool pool = VK_NULL_HANDLE;
     HMDNODE_VK_TRY(vkCreateDescriptorPool(ctx.device, &pool_info, nullptr, &pool),
                    "vkCreateDescriptorPool (warp)");
@@ -254,17 +274,27 @@ Result<WarpPass> create_warp_pass(DeviceContext& ctx, const Image eyes[2], uint3
         const int slot = i / 2, e = i % 2;
         const VkDescriptorImageInfo image_info{w.sampler, w.eyes_view[slot][e],
                                                VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-        VkWriteDescriptorSet write{};
-        write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
-        write.dstSet = w.set[slot][e];
-        write.dstBinding = 0;
-        write.descriptorCount = 1;
-        write.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-        write.pImageInfo = &image_info;
-        vkUpdateDescriptorSets(ctx.device, 1, &write, 0, nullptr);
+        VkWriteDescriptorSet writes[2]{};
+        writes[0].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+        writes[0].dstSet = w.set[slot][e];
+        writes[0].dstBinding = 0;
+        writes[0].descriptorCount = 1;
+        writes[0].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+        writes[0].pImageInfo = &image_info;
+        VkDescriptorBufferInfo buffer_info{};
+        if (lens_ubo) {
+            buffer_info = {lens_ubo[e].get(), 0, sizeof(gpu::LensUniforms)};
+            writes[1].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+            writes[1].dstSet = w.set[slot][e];
+            writes[1].dstBinding = 1;
+            writes[1].descriptorCount = 1;
+            writes[1].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+            writes[1].pBufferInfo = &buffer_info;
+        }
+        vkUpdateDescriptorSets(ctx.device, lens_ubo ? 2 : 1, writes, 0, nullptr);
     }
 
-    // 3. Pipeline.
+    // 3. The pipeline layout.
     const VkPushConstantRange push{VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
                                    sizeof(WarpConstants)};
     VkPipelineLayoutCreateInfo layout_info{};
@@ -277,15 +307,29 @@ Result<WarpPass> create_warp_pass(DeviceContext& ctx, const Image eyes[2], uint3
     HMDNODE_VK_TRY(vkCreatePipelineLayout(ctx.device, &layout_info, nullptr, &layout),
                    "vkCreatePipelineLayout (warp)");
     w.layout = PipelineLayout(ctx.device, layout);
+    return Status::success();
+}
+
+}  // namespace
+
+Result<WarpPass> create_warp_pass(DeviceContext& ctx, const Image eyes[2], uint32_t width,
+                                  uint32_t height, const DistortionMesh mesh[2]) {
+    WarpPass w;
+    for (int e = 0; e < 2; ++e)
+        if (Status s = gpu::check_distortion_mesh(mesh[e], e); !s) return s.error();
+    if (Status s = create_common(ctx, eyes, width, height, nullptr, w); !s) return s.error();
     w.mono = gpu::channels_agree(mesh[0]) && gpu::channels_agree(mesh[1]);
-    auto pipeline = create_warp_pipeline(ctx, w.layout, w.render_pass, w.mono);
+    WarpShaders shaders;
+    shaders.vert = kWarpVert;
+    shaders.frag = w.mono ? std::span<const uint32_t>(kWarpMonoFrag)
+                          : std::span<const uint32_t>(kWarpFrag);
+    auto pipeline = create_warp_pipeline(ctx, w.layout, w.render_pass, shaders);
     if (!pipeline) return pipeline.error();
     w.pipeline = std::move(*pipeline);
 
-    // 4. The meshes.
+    // The meshes.
     for (int e = 0; e < 2; ++e) {
         const DistortionMesh& m = mesh[e];
-        if (Status s = gpu::check_distortion_mesh(m, e); !s) return s.error();
         auto vb = create_buffer_with_data(ctx, std::as_bytes(std::span(m.vertices)),
                                           VK_BUFFER_USAGE_VERTEX_BUFFER_BIT, "distortion mesh");
         if (!vb) return vb.error();
@@ -299,8 +343,48 @@ Result<WarpPass> create_warp_pass(DeviceContext& ctx, const Image eyes[2], uint3
     return w;
 }
 
+Result<WarpPass> create_lens_warp_pass(DeviceContext& ctx, const Image eyes[2], uint32_t width,
+                                       uint32_t height, const gpu::LensPassSetup& lens) {
+    WarpPass w;
+    w.fused = true;
+    w.chromatic = lens.chromatic;
+    w.mono = !lens.chromatic;
+    for (int e = 0; e < 2; ++e) {
+        auto ubo = create_buffer_with_data(ctx, std::as_bytes(std::span(&lens.eye[e].uniforms, 1)),
+                                           VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, "lens uniforms");
+        if (!ubo) return ubo.error();
+        w.lens_uniforms[e] = std::move(*ubo);
+        w.eye_to_head[e] = lens.eye[e].eye_to_head;
+    }
+    if (Status s = create_common(ctx, eyes, width, height, w.lens_uniforms, w); !s)
+        return s.error();
+    // One pipeline per eye and variant, the lens model and MONO as specialisation constants, so
+    // the compiler drops the other models' code and the per-channel loop of MONO.
+    struct Spec {
+        int32_t model;
+        VkBool32 mono;
+    };
+    const VkSpecializationMapEntry entries[2] = {{0, offsetof(Spec, model), sizeof(int32_t)},
+                                                 {1, offsetof(Spec, mono), sizeof(VkBool32)}};
+    for (int e = 0; e < 2; ++e)
+        for (int mono = 0; mono < 2; ++mono) {
+            if (!mono && !lens.chromatic) continue;
+            const Spec spec{int32_t(lens.eye[e].model), VkBool32(mono)};
+            const VkSpecializationInfo info{2, entries, sizeof(spec), &spec};
+            WarpShaders shaders;
+            shaders.vert = kLensWarpVert;
+            shaders.frag = kLensWarpFrag;
+            shaders.mesh_input = false;
+            shaders.frag_specialization = &info;
+            auto pipeline = create_warp_pipeline(ctx, w.layout, w.render_pass, shaders);
+            if (!pipeline) return pipeline.error();
+            w.fused_pipeline[e][mono] = std::move(*pipeline);
+        }
+    return w;
+}
+
 void record_warp(VkCommandBuffer cmd, const WarpPass& w, int slot, const glm::mat4 reproject[2],
-                 bool read_back) {
+                 bool read_back, const glm::vec4& sample_rect, bool chromatic) {
     const VkViewport viewport{0.0f, 0.0f, float(w.width), float(w.height), 0.0f, 1.0f};
     const VkRect2D area{{0, 0}, {w.width, w.height}};
     for (int e = 0; e < 2; ++e) {
@@ -310,19 +394,30 @@ void record_warp(VkCommandBuffer cmd, const WarpPass& w, int slot, const glm::ma
         begin.framebuffer = w.framebuffer[e];
         begin.renderArea = area;
         vkCmdBeginRenderPass(cmd, &begin, VK_SUBPASS_CONTENTS_INLINE);
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, w.pipeline);
+        const VkPipeline pipeline =
+            w.fused ? w.fused_pipeline[e][w.chromatic && chromatic ? 0 : 1].get()
+                    : w.pipeline.get();
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
         vkCmdSetViewport(cmd, 0, 1, &viewport);
         vkCmdSetScissor(cmd, 0, 1, &area);
         vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, w.layout, 0, 1,
                                 &w.set[slot][e], 0, nullptr);
-        WarpConstants constants{reproject[e], float(e)};
+        WarpConstants constants{};
+        constants.reproject =
+            w.fused ? glm::mat4(glm::mat3(reproject[e]) * w.eye_to_head[e]) : reproject[e];
+        constants.layer = float(e);
+        constants.sample_rect = sample_rect;
         vkCmdPushConstants(cmd, w.layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT,
                            0, sizeof(constants), &constants);
-        const VkBuffer vb = w.vertices[e].get();
-        const VkDeviceSize zero = 0;
-        vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &zero);
-        vkCmdBindIndexBuffer(cmd, w.indices[e].get(), 0, VK_INDEX_TYPE_UINT32);
-        vkCmdDrawIndexed(cmd, w.index_count[e], 1, 0, 0, 0);
+        if (w.fused) {
+            vkCmdDraw(cmd, 3, 1, 0, 0);
+        } else {
+            const VkBuffer vb = w.vertices[e].get();
+            const VkDeviceSize zero = 0;
+            vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &zero);
+            vkCmdBindIndexBuffer(cmd, w.indices[e].get(), 0, VK_INDEX_TYPE_UINT32);
+            vkCmdDrawIndexed(cmd, w.index_count[e], 1, 0, 0, 0);
+        }
         vkCmdEndRenderPass(cmd);
     }
     if (read_back) record_copy_to_host(cmd, w.panel.get(), w.width, w.height, 2, w.readback);

@@ -97,6 +97,14 @@ class RecordingRenderer final : public Renderer {
     Result<WarpStats> warp(const glm::dquat& d, StereoImage* out) override {
         return r_->warp(d, out);
     }
+    Status set_lens_warp(int w, int h, const HeadsetProfile& p) override {
+        return r_->set_lens_warp(w, h, p);
+    }
+    const char* lens_pass_name() const override { return r_->lens_pass_name(); }
+    void set_chromatic_aberration(bool on) override { r_->set_chromatic_aberration(on); }
+    bool chromatic_aberration() const override { return r_->chromatic_aberration(); }
+    Status set_render_scale(double s) override { return r_->set_render_scale(s); }
+    double render_scale() const override { return r_->render_scale(); }
     std::string device_name() const override { return r_->device_name(); }
     const char* backend_name() const override { return r_->backend_name(); }
     int msaa_samples() const override { return r_->msaa_samples(); }

@@ -58,6 +58,15 @@ class ScriptedRenderer final : public Renderer {
         clock_.advance_ns(warp_cost_);
         return WarpStats{};
     }
+    Status set_lens_warp(int, int, const HeadsetProfile&) override { return Status::success(); }
+    const char* lens_pass_name() const override { return "fused"; }
+    void set_chromatic_aberration(bool on) override { chromatic_ = on; }
+    bool chromatic_aberration() const override { return chromatic_; }
+    Status set_render_scale(double scale) override {
+        scale_ = scale;
+        return Status::success();
+    }
+    double render_scale() const override { return scale_; }
     std::string device_name() const override { return "scripted"; }
     const char* backend_name() const override { return "scripted"; }
     int renders() const { return renders_; }
@@ -72,6 +81,8 @@ class ScriptedRenderer final : public Renderer {
     size_t items_ = 0, cursor_ = 0;
     int64_t frame_cost_ = 0;
     int64_t setup_cost_ = 0;
+    bool chromatic_ = true;
+    double scale_ = 1.0;
 };
 
 // The simulated clock as the node sees it, with a thread that wakes `late_ns` after the time it

@@ -16,6 +16,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "../../render/src/lens_pass.hpp"
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/render/lens.hpp"
 
@@ -369,6 +370,63 @@ TEST(LensMesh, ChosenMeshIsTheCoarsestWithinHalfAPixel) {
 }
 
 // --- the render FOV ---
+
+// --- the fused pass's per-pixel model (render/src/lens_pass.hpp) ---
+
+// What the fused shader computes, mirrored on the CPU in float: at every pixel centre of both
+// eyes, every channel's direction (through eye_to_head) is lens_sample()'s to a thousandth of a
+// pixel, clamped regions included, where the mesh the node would choose is off by up to half a
+// pixel.
+void check_lens_pass(const HeadsetProfile& profile, int w, int h) {
+    auto setup = gpu::make_lens_pass_setup(profile, w, h);
+    ASSERT_TRUE(setup.ok()) << setup.error().message;
+    const double tangent_per_px =
+        (profile.eye[0].fov.tan_right - profile.eye[0].fov.tan_left) / double(w);
+    double worst_px = 0.0;
+    for (int e = 0; e < 2; ++e)
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x) {
+                const glm::dvec2 uv((x + 0.5) / w, (y + 0.5) / h);
+                const LensSample ref = lens_sample(profile, e, uv);
+                for (int c = 0; c < 3; ++c) {
+                    const glm::vec3 d = setup->eye[e].eye_to_head *
+                                        gpu::lens_pass_direction(setup->eye[e], c, glm::vec2(uv));
+                    ASSERT_LT(d.z, 0.0f) << "eye " << e << " pixel " << x << "," << y;
+                    const glm::dvec2 t = glm::dvec2(d.x, d.y) / double(-d.z);
+                    worst_px = std::max(worst_px, glm::length(t - ref.tangent[c]) / tangent_per_px);
+                }
+            }
+    EXPECT_LT(worst_px, 1e-3) << profile.name;
+}
+
+TEST(LensPass, TheGenericModelPerPixelEqualsLensSample) {
+    check_lens_pass(generic_headset_profile(), 360, 400);
+    EXPECT_TRUE(gpu::make_lens_pass_setup(generic_headset_profile(), 8, 8)->chromatic);
+}
+
+TEST(LensPass, TheIndexModelPerPixelEqualsLensSampleBeyondItsCutoffToo) {
+    const HeadsetProfile index = index_profile();
+    check_lens_pass(index, 360, 400);
+    // The Index's cutoff is reached on this panel: the pass clamps there as lens_sample does.
+    bool clamped = false;
+    for (int y = 0; y < 400 && !clamped; y += 4)
+        for (int x = 0; x < 360 && !clamped; x += 4)
+            clamped = !lens_sample(index, 0, glm::dvec2((x + 0.5) / 360, (y + 0.5) / 400)).valid;
+    EXPECT_TRUE(clamped);
+}
+
+TEST(LensPass, AProfileWithoutAberrationNeedsOneSampleAndBadInputIsRefused) {
+    HeadsetProfile flat;
+    flat.name = "flat";
+    flat.panel_width = 100;
+    flat.panel_height = 100;
+    for (EyeLens& l : flat.eye) l.model = LensModel::none;
+    auto setup = gpu::make_lens_pass_setup(flat, 100, 100);
+    ASSERT_TRUE(setup.ok()) << setup.error().message;
+    EXPECT_FALSE(setup->chromatic);
+    check_lens_pass(flat, 64, 64);
+    EXPECT_FALSE(gpu::make_lens_pass_setup(flat, 0, 10).ok());
+}
 
 TEST(LensFov, RenderFovContainsEveryMeshTangent) {
     for (const HeadsetProfile& p : {index_profile(), generic_headset_profile()}) {

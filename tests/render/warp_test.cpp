@@ -171,14 +171,23 @@ TEST(Warp, RotationalWarpPutsADistantPointWhereTheDisplayedPoseSeesIt) {
 
 // A marker at each of several view directions, through a lens profile: per channel, its centroid
 // on the panel is where lens_sample says that channel shows that direction.
-void check_lens(const HeadsetProfile& profile, int w, int h, double tolerance_px) {
+// fused: the fused pass (the model per pixel) instead of the 64 x 64 mesh.
+void check_lens(const HeadsetProfile& profile, int w, int h, double tolerance_px,
+                bool fused = false) {
     auto r = make_renderer(w, h);
     ASSERT_TRUE(r);
     const DistortionMesh mesh[2] = {make_distortion_mesh(profile, 0, 64, 64),
                                     make_distortion_mesh(profile, 1, 64, 64)};
     const EyeFov fov[2] = {mesh_render_fov(mesh[0]), mesh_render_fov(mesh[1])};
-    ASSERT_TRUE(r->set_warp(w, h, mesh[0], mesh[1]).ok());
-    const glm::dvec2 directions[] = {{0.0, 0.0}, {0.45, 0.2}, {-0.6, -0.35}, {0.3, -0.55}};
+    if (fused) {
+        ASSERT_TRUE(r->set_lens_warp(w, h, profile).ok());
+        EXPECT_STREQ(r->lens_pass_name(), "fused");
+    } else {
+        ASSERT_TRUE(r->set_warp(w, h, mesh[0], mesh[1]).ok());
+        EXPECT_STREQ(r->lens_pass_name(), "mesh");
+    }
+    const glm::dvec2 directions[] = {{0.0, 0.0}, {0.45, 0.2}, {-0.6, -0.35}, {0.3, -0.55},
+                                     {-0.75, 0.6}, {0.8, 0.1}};
     for (const glm::dvec2& t : directions) {
         ASSERT_TRUE(r->upload(scene_of({marker(t.x, t.y, 0.02, 100.0, 0)}, {{1, 1, 1, 1}})).ok());
         const DrawItem item{0, glm::mat4(1.0f)};
@@ -212,6 +221,88 @@ TEST(Warp, DistortionAndChromaticAberrationFollowTheIndexLensModel) {
     const double split = glm::length(panel_position_of(*index, 0, 0, t, 360, 400) -
                                      panel_position_of(*index, 0, 2, t, 360, 400));
     EXPECT_GT(split, 1.0);
+}
+
+TEST(Warp, TheFusedPassFollowsTheGenericLensModelPerPixel) {
+    check_lens(generic_headset_profile(), 216, 240, 0.5, true);
+}
+
+TEST(Warp, TheFusedPassFollowsTheIndexLensModelAndItsChromaticAberrationPerPixel) {
+    auto index = load_headset_profile(HMDNODE_SOURCE_DIR "/data/headsets/valve-index.json");
+    ASSERT_TRUE(index.ok()) << index.error().message;
+    check_lens(*index, 360, 400, 0.5, true);
+}
+
+// With chromatic-aberration correction off, the fused pass samples every colour through the
+// green channel's lens: a white marker's red and blue land where its green does.
+TEST(Warp, WithChromaticAberrationOffEveryColourFollowsGreen) {
+    auto index = load_headset_profile(HMDNODE_SOURCE_DIR "/data/headsets/valve-index.json");
+    ASSERT_TRUE(index.ok()) << index.error().message;
+    const int w = 360, h = 400;
+    auto r = make_renderer(w, h);
+    ASSERT_TRUE(r);
+    ASSERT_TRUE(r->set_lens_warp(w, h, *index).ok());
+    EXPECT_TRUE(r->chromatic_aberration());
+    r->set_chromatic_aberration(false);
+    EXPECT_FALSE(r->chromatic_aberration());
+    const EyeFov fov[2] = {lens_render_fov(*index, 0), lens_render_fov(*index, 1)};
+    const glm::dvec2 t(-0.6, -0.35);
+    ASSERT_TRUE(r->upload(scene_of({marker(t.x, t.y, 0.02, 100.0, 0)}, {{1, 1, 1, 1}})).ok());
+    const DrawItem item{0, glm::mat4(1.0f)};
+    StereoImage panel;
+    ASSERT_TRUE(r->render(views_for(glm::dquat(1, 0, 0, 0), fov), {&item, 1}, nullptr).ok());
+    ASSERT_TRUE(r->warp(glm::dquat(1, 0, 0, 0), &panel).ok());
+    const glm::dvec2 green = panel_position_of(*index, 0, 1, t, w, h);
+    for (int c = 0; c < 3; ++c) {
+        const glm::dvec2 got = centroid(panel.eye[0], c);
+        EXPECT_NEAR(got.x, green.x, 0.5) << "channel " << c;
+        EXPECT_NEAR(got.y, green.y, 0.5) << "channel " << c;
+    }
+}
+
+// Dynamic resolution: a frame rendered into half the eye buffer per axis, with the same field of
+// view, warps to the same panel positions as a full-size one (the marker is big enough to survive
+// the coarser buffer), and a later scale applies to the next frame only.
+TEST(Warp, AFrameAtHalfResolutionLandsWhereAFullOneDoes) {
+    const HeadsetProfile profile = generic_headset_profile();
+    const int w = 216, h = 240;
+    for (bool fused : {false, true}) {
+        auto r = make_renderer(w, h);
+        ASSERT_TRUE(r);
+        const DistortionMesh mesh[2] = {make_distortion_mesh(profile, 0, 32, 32),
+                                        make_distortion_mesh(profile, 1, 32, 32)};
+        const EyeFov fov[2] = {mesh_render_fov(mesh[0]), mesh_render_fov(mesh[1])};
+        ASSERT_TRUE((fused ? r->set_lens_warp(w, h, profile) : r->set_warp(w, h, mesh[0], mesh[1]))
+                        .ok());
+        EXPECT_FALSE(r->set_render_scale(0.0).ok());
+        EXPECT_FALSE(r->set_render_scale(1.5).ok());
+        for (const glm::dvec2 t : {glm::dvec2(0.3, -0.2), glm::dvec2(-0.5, 0.4)}) {
+            ASSERT_TRUE(
+                r->upload(scene_of({marker(t.x, t.y, 0.08, 100.0, 0)}, {{1, 1, 1, 1}})).ok());
+            const DrawItem item{0, glm::mat4(1.0f)};
+            StereoImage full, half;
+            ASSERT_TRUE(r->set_render_scale(1.0).ok());
+            ASSERT_TRUE(
+                r->render(views_for(glm::dquat(1, 0, 0, 0), fov), {&item, 1}, nullptr).ok());
+            ASSERT_TRUE(r->warp(glm::dquat(1, 0, 0, 0), &full).ok());
+            ASSERT_TRUE(r->set_render_scale(0.5).ok());
+            EXPECT_DOUBLE_EQ(r->render_scale(), 0.5);
+            // The finished frame keeps its scale until the next one is rendered.
+            StereoImage again;
+            ASSERT_TRUE(r->warp(glm::dquat(1, 0, 0, 0), &again).ok());
+            EXPECT_EQ(again.eye[0].pixels, full.eye[0].pixels);
+            ASSERT_TRUE(
+                r->render(views_for(glm::dquat(1, 0, 0, 0), fov), {&item, 1}, nullptr).ok());
+            ASSERT_TRUE(r->warp(glm::dquat(1, 0, 0, 0), &half).ok());
+            EXPECT_NE(half.eye[0].pixels, full.eye[0].pixels);
+            for (int e = 0; e < 2; ++e) {
+                const glm::dvec2 a = centroid(full.eye[e], 1), b = centroid(half.eye[e], 1);
+                EXPECT_GT(a.x, 0.0);
+                EXPECT_NEAR(a.x, b.x, 1.0) << (fused ? "fused" : "mesh") << " eye " << e;
+                EXPECT_NEAR(a.y, b.y, 1.0) << (fused ? "fused" : "mesh") << " eye " << e;
+            }
+        }
+    }
 }
 
 TEST(Warp, AFrameInPiecesEqualsOneRenderAndTheWarpReadsTheFinishedFrameMeanwhile) {
@@ -262,6 +353,7 @@ TEST(Warp, BeforeSetUpOrRenderIsAnError) {
     ASSERT_FALSE(no_frame.ok());
     EXPECT_NE(no_frame.error().message.find("render"), std::string::npos);
     EXPECT_FALSE(r->set_warp(16, 16, DistortionMesh{}, linear_mesh(fov)).ok());
+    EXPECT_FALSE(r->set_lens_warp(0, 16, generic_headset_profile()).ok());
 }
 
 }  // namespace

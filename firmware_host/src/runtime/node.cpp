@@ -56,24 +56,6 @@ double registration_error(const Pose& shown, const TruthPose& truth, double dist
     return registration_error_deg(shown, t, distance_m);
 }
 
-CostWindow::CostWindow(int capacity)
-    : ring_(size_t(std::clamp(capacity, 1, 256))), scratch_(ring_.size()) {}
-
-void CostWindow::push(int64_t ns) {
-    ring_[head_] = ns;
-    head_ = (head_ + 1) % ring_.size();
-    count_ = std::min(count_ + 1, ring_.size());
-}
-
-int64_t CostWindow::percentile(double p, int64_t fallback) const {
-    if (count_ == 0) return fallback;
-    std::copy(ring_.begin(), ring_.begin() + ptrdiff_t(count_), scratch_.begin());
-    const size_t k = std::min(count_ - 1, size_t(std::ceil(p * double(count_ - 1))));
-    std::nth_element(scratch_.begin(), scratch_.begin() + ptrdiff_t(k),
-                     scratch_.begin() + ptrdiff_t(count_));
-    return scratch_[k];
-}
-
 NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Renderer& renderer,
                          const Scene& scene, const NodeConfig& config)
     : clock_(clock),
@@ -84,9 +66,8 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
       config_(config),
       history_(config.history),
       selector_(0, config.lod),
-      render_costs_(config.pacing.window),
-      warp_costs_(config.pacing.window),
-      total_costs_(config.pacing.window),
+      pacer_(config.pacing, display.info().period_ns, display.info().latch_margin_ns),
+      ladder_({LadderStep{1.0, true, "full"}}, false, config.pacing),
       feedback_(config.lod_feedback),
       fade_(0, 0) {
     // The control socket's setters check the range; a start value out of it (the config reader
@@ -95,7 +76,6 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
     (void)set_lod_bias(config.lod_bias);
     adopt_objects(scene);
     read_buf_.resize(256);
-    margin_ns_ = config.pacing.margin_ns;
 
     // The eye buffers' field of view: the lens's (or the rig's), grown for the late warp; the
     // panel's meshes map each panel point to the direction it shows.
@@ -121,6 +101,52 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
         }
     }
     pixels_per_radian_ = pixels_per_radian(render_rig_.eye[0], info.eye_height);
+    // The ladder: resolution steps, then the chromatic-aberration correction where the lens has
+    // any to correct.
+    bool chromatic = false;
+    for (const DistortionMesh& m : mesh_)
+        for (const DistortionVertex& v : m.vertices)
+            chromatic = chromatic || v.tangent[0] != v.tangent[1] || v.tangent[2] != v.tangent[1];
+    ladder_ = PixelLadder(make_ladder(chromatic && config.distortion,
+                                      std::clamp(config.min_render_scale, 0.1, 1.0)),
+                          config.pixel_ladder, config.pacing);
+}
+
+const char* lens_pass_choice_name(LensPassChoice c) {
+    switch (c) {
+        case LensPassChoice::fused: return "fused";
+        case LensPassChoice::mesh: return "mesh";
+        case LensPassChoice::automatic: break;
+    }
+    return "auto";
+}
+
+std::optional<LensPassChoice> parse_lens_pass_choice(std::string_view name) {
+    if (name == "auto") return LensPassChoice::automatic;
+    if (name == "fused") return LensPassChoice::fused;
+    if (name == "mesh") return LensPassChoice::mesh;
+    return std::nullopt;
+}
+
+HeadsetProfile NodeRuntime::pass_profile() const {
+    if (config_.distortion) return config_.headset;
+    // The panel shows the rig's field of view undistorted.
+    HeadsetProfile flat;
+    flat.name = "flat";
+    const DisplayInfo info = display_.info();
+    flat.panel_width = info.eye_width;
+    flat.panel_height = info.eye_height;
+    for (int e = 0; e < 2; ++e) {
+        flat.eye[e].model = LensModel::none;
+        flat.eye[e].fov = config_.rig.eye[e];
+    }
+    return flat;
+}
+
+Status NodeRuntime::set_up_pass(bool fused) {
+    const DisplayInfo info = display_.info();
+    if (fused) return renderer_.set_lens_warp(info.eye_width, info.eye_height, pass_profile());
+    return renderer_.set_warp(info.eye_width, info.eye_height, mesh_[0], mesh_[1]);
 }
 
 // The scene's objects and everything sized by them; the selector starts anew.
@@ -182,9 +208,7 @@ Status NodeRuntime::set_warp(bool on) {
     if (on && !pass_enabled()) {
         // The pass was never set up (warp and distortion off at start): set it up now. The eye
         // buffers have no margin for the warp (it was off when they were sized).
-        const DisplayInfo info = display_.info();
-        if (Status st = renderer_.set_warp(info.eye_width, info.eye_height, mesh_[0], mesh_[1]);
-            !st.ok())
+        if (Status st = set_up_pass(config_.lens_pass != LensPassChoice::mesh); !st.ok())
             return st;
     }
     config_.warp = on;
@@ -226,12 +250,9 @@ Status NodeRuntime::recentre() {
 
 Status NodeRuntime::start() {
     if (Status st = renderer_.upload(*scene_); !st.ok()) return st;
-    if (pass_enabled()) {
-        const DisplayInfo info = display_.info();
-        if (Status st = renderer_.set_warp(info.eye_width, info.eye_height, mesh_[0], mesh_[1]);
-            !st.ok())
+    if (pass_enabled())
+        if (Status st = set_up_pass(config_.lens_pass != LensPassChoice::mesh); !st.ok())
             return st;
-    }
     return tracker_->start();
 }
 
@@ -441,7 +462,7 @@ Result<FrameCostModel> NodeRuntime::calibrate_frame_cost(const std::function<boo
                 t.push_back(steady_ns() - t0);
                 // On the system clock these are the first frames' estimates (the coarsest levels,
                 // what a moving head mostly sees, until real frames replace them).
-                if (!clock_.is_simulated() && coarsest) render_costs_.push(t.back());
+                if (!clock_.is_simulated() && coarsest) pacer_.seed_render(t.back());
             }
         return median_ns(std::move(t));
     };
@@ -464,28 +485,82 @@ Result<FrameCostModel> NodeRuntime::calibrate_frame_cost(const std::function<boo
     }
     model.warp_ns = 0;
     if (pass_enabled()) {
-        std::vector<int64_t> t;
-        for (int i = 0; i < 17; ++i) {
-            if (stopped()) return make_error("frame cost calibration stopped");
-            const int64_t t0 = steady_ns();
-            Result<WarpStats> w =
-                renderer_.warp(glm::dquat(1, 0, 0, 0), config_.read_back ? &frame_ : nullptr);
-            if (!w.ok()) return w.error();
-            if (i > 0) t.push_back(steady_ns() - t0);
-            if (i > 0 && !clock_.is_simulated()) warp_costs_.push(t.back());
+        // The passes, each timed on its own after a warm-up: the fused one (with and without the
+        // chromatic-aberration correction), the mesh one when the choice is automatic (kept only
+        // when at least 10 % faster), and the floor (three bilinear samples per pixel: the mesh
+        // pass over a single cell, no lens model between its corners).
+        const bool auto_choice = config_.lens_pass == LensPassChoice::automatic;
+        int64_t fused_ns = 0, mesh_ns = 0;
+        if (config_.lens_pass != LensPassChoice::mesh) {
+            if (Status st = set_up_pass(true); !st.ok()) return st.error();
+            auto t = time_warps(15, go_on);
+            if (!t.ok()) return t.error();
+            fused_ns = *t;
+            pass_times_.fused_ms = ns_to_ms(fused_ns);
         }
-        model.warp_ns = median_ns(std::move(t));
+        if (config_.lens_pass != LensPassChoice::fused) {
+            if (Status st = set_up_pass(false); !st.ok()) return st.error();
+            auto t = time_warps(15, go_on);
+            if (!t.ok()) return t.error();
+            mesh_ns = *t;
+            pass_times_.mesh_ms = ns_to_ms(mesh_ns);
+        }
+        {
+            const DisplayInfo info = display_.info();
+            const HeadsetProfile p = pass_profile();
+            const DistortionMesh one[2] = {make_distortion_mesh(p, 0, 1, 1),
+                                           make_distortion_mesh(p, 1, 1, 1)};
+            if (Status st = renderer_.set_warp(info.eye_width, info.eye_height, one[0], one[1]);
+                !st.ok())
+                return st.error();
+            auto t = time_warps(15, go_on);
+            if (!t.ok()) return t.error();
+            pass_times_.floor_ms = ns_to_ms(*t);
+        }
+        const bool fused = config_.lens_pass == LensPassChoice::fused ||
+                           (auto_choice && !(double(mesh_ns) <= 0.9 * double(fused_ns)));
+        if (Status st = set_up_pass(fused); !st.ok()) return st.error();
+        model.warp_ns = fused ? fused_ns : mesh_ns;
+        model.warp_mono_ns = model.warp_ns;
+        if (renderer_.chromatic_aberration() && fused) {
+            renderer_.set_chromatic_aberration(false);
+            auto t = time_warps(15, go_on);
+            renderer_.set_chromatic_aberration(true);
+            if (!t.ok()) return t.error();
+            model.warp_mono_ns = *t;
+        }
+        if (!clock_.is_simulated()) {
+            for (int i = 0; i < 8; ++i) {
+                pacer_.seed_warp(model.warp_ns);
+                ladder_.record_warp(true, model.warp_ns);
+                ladder_.record_warp(false, model.warp_mono_ns);
+            }
+        }
     }
     return model;
+}
+
+Result<int64_t> NodeRuntime::time_warps(int n, const std::function<bool()>& go_on) {
+    std::vector<int64_t> t;
+    for (int i = 0; i < n + 2; ++i) {
+        if (go_on && !go_on()) return make_error("frame cost calibration stopped");
+        const int64_t t0 = steady_ns();
+        Result<WarpStats> w =
+            renderer_.warp(glm::dquat(1, 0, 0, 0), config_.read_back ? &frame_ : nullptr);
+        if (!w.ok()) return w.error();
+        if (i >= 2) t.push_back(steady_ns() - t0);  // the first two warm the pass up
+    }
+    return median_ns(std::move(t));
 }
 
 Status NodeRuntime::warp_and_present(int64_t target, int64_t warp_est, FrameRecord* rec,
                                      int64_t* warp_cost_ns) {
     const DisplayInfo info = display_.info();
-    const PacingConfig& pc = config_.pacing;
     const int64_t photon_offset = display_.photon_offset_ns();
-    const int64_t warp_wake = target - info.latch_margin_ns - (warp_est + margin_ns_);
-    clock_.sleep_until_ns(warp_wake);
+    const int64_t margin = pacer_.margin();
+    // The planned end of the warp: the margin before the latch.
+    const int64_t planned_end = target - info.latch_margin_ns - margin;
+    clock_.sleep_until_ns(planned_end - warp_est);
     const int64_t warp_start = clock_.now_ns();
     Pose shown = frame_pose_;
     int64_t sample_ns = frame_pose_sample_ns_;
@@ -497,25 +572,28 @@ Status NodeRuntime::warp_and_present(int64_t target, int64_t warp_est, FrameReco
         sample_ns = history_.newest_time_ns();
         predicted_for = target + photon_offset;
     }
+    const bool read_back = config_.read_back || read_back_once_;
+    read_back_once_ = false;
+    const bool chromatic = renderer_.chromatic_aberration();
     if (pass_enabled()) {
         const glm::dquat delta = glm::inverse(frame_pose_.orientation) * shown.orientation;
         const auto t0 = std::chrono::steady_clock::now();
-        Result<WarpStats> ws = renderer_.warp(delta, config_.read_back ? &frame_ : nullptr);
+        Result<WarpStats> ws = renderer_.warp(delta, read_back ? &frame_ : nullptr);
         const auto t1 = std::chrono::steady_clock::now();
         if (!ws.ok()) return ws.error();
         warp_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
-        if (clock_.is_simulated()) clock_.sleep_until_ns(warp_start + config_.sim_cost.warp_ns);
+        if (clock_.is_simulated())
+            clock_.sleep_until_ns(warp_start + config_.sim_cost.warp_cost_ns(chromatic));
     }
-    const int64_t warp_cost = clock_.now_ns() - warp_start;
-    warp_costs_.push(warp_cost);
+    const int64_t warp_end = clock_.now_ns();
+    const int64_t warp_cost = warp_end - warp_start;
+    pacer_.record_warp(warp_cost);
+    ladder_.record_warp(chromatic, warp_cost);
     if (warp_cost_ns) *warp_cost_ns = warp_cost;
 
-    Result<PresentResult> pr = display_.present(config_.read_back ? &frame_ : nullptr, target);
+    Result<PresentResult> pr = display_.present(read_back ? &frame_ : nullptr, target);
     if (!pr.ok()) return pr.error();
-    if (pr->vsync_ns != target)
-        margin_ns_ = std::min(pc.max_margin_ns, margin_ns_ + pc.miss_step_ns);
-    else
-        margin_ns_ = std::max(pc.min_margin_ns, margin_ns_ - pc.recover_step_ns);
+    pacer_.record_present(pr->vsync_ns == target, warp_end - planned_end);
 
     FrameRecord& r = *rec;
     r.index = present_index_++;
@@ -540,12 +618,51 @@ Status NodeRuntime::warp_and_present(int64_t target, int64_t warp_est, FrameReco
                   (pr->vsync_ns - last_shown_vsync_ns_ + info.period_ns / 2) / info.period_ns - 1);
     last_shown_vsync_ns_ = pr->vsync_ns;
     r.warp_ms = warp_ms;
+    r.chromatic = chromatic;
+    r.render_divisor = pacer_.divisor();
     return Status::success();
+}
+
+void NodeRuntime::plan_levers() {
+    const DisplayInfo info = display_.info();
+    const int64_t warp_est = pacer_.warp_estimate();
+    const bool chromatic_now = renderer_.chromatic_aberration();
+    const int64_t render_p = pacer_.render_estimate();
+    // The rate: from the ladder's cheapest step (with the ladder off, the frame as it is).
+    const int bottom = int(ladder_.steps().size()) - 1;
+    PixelLadder::Budget b;
+    b.margin_ns = pacer_.margin();
+    b.warp_ns = warp_est;
+    b.warp_chromatic = chromatic_now;
+    int64_t bottom_render = render_p, bottom_warp = warp_est;
+    if (ladder_.enabled()) {
+        bottom_render = ladder_.step() == bottom ? render_p : ladder_.render_cost(bottom, render_p);
+        const bool c = ladder_.steps()[size_t(bottom)].chromatic;
+        bottom_warp = c == chromatic_now ? warp_est : ladder_.warp_cost(c, warp_est);
+    }
+    b.divisor = pacer_.choose_divisor(bottom_render, bottom_warp);
+    b.available_ns = int64_t(b.divisor) * info.period_ns - info.latch_margin_ns;
+    const int before = ladder_.step();
+    if (!ladder_.choose(b, render_p)) return;
+    const LadderStep& now = ladder_.current();
+    const LadderStep& was = ladder_.steps()[size_t(before)];
+    // The estimates of what changed start again from the step's learned cost.
+    if (now.scale != was.scale) {
+        const int64_t seed = ladder_.render_cost(ladder_.step(), render_p);
+        (void)renderer_.set_render_scale(now.scale);
+        pacer_.restart_render();
+        pacer_.seed_render(seed);
+    }
+    if (now.chromatic != was.chromatic) {
+        const int64_t seed = ladder_.warp_cost(now.chromatic, warp_est);
+        renderer_.set_chromatic_aberration(now.chromatic);
+        pacer_.restart_warp();
+        pacer_.seed_warp(seed);
+    }
 }
 
 Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& truth) {
     const DisplayInfo info = display_.info();
-    const PacingConfig& pc = config_.pacing;
     const int64_t latch = info.latch_margin_ns;
     const int64_t photon_offset = display_.photon_offset_ns();
     FrameRecord& r = *rec;
@@ -567,17 +684,23 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
         return FrameOutcome::no_pose_yet;
     }
 
-    const int64_t render_est = render_costs_.percentile(pc.percentile, info.period_ns / 2);
-    const int64_t warp_est = warp_costs_.percentile(pc.percentile, info.period_ns / 10);
+    // The render rate and the ladder's step for a new frame, chosen before it is planned.
+    if (!open_) plan_levers();
+    const int64_t render_est = pacer_.render_estimate();
+    const int64_t warp_est = pacer_.warp_estimate();
     // A new frame's render and warp together: the percentile of their sum, not the sum of their
     // percentiles (a slow render rarely meets a slow warp).
-    const int64_t frame_est = total_costs_.percentile(pc.percentile, render_est + warp_est);
+    const int64_t frame_est = pacer_.frame_estimate();
+    const int64_t margin = pacer_.margin();
+    const int divisor = pacer_.divisor();
 
     // A re-warp of the finished frame for `vsync`, presented; the open frame (if any) resumes on
     // the next call.
     auto rewarp = [&](int64_t vsync) -> Result<FrameOutcome> {
-        const int64_t wake = vsync - latch - (warp_est + margin_ns_);
+        const int64_t wake = vsync - latch - (warp_est + margin);
         if (Status st = warp_and_present(vsync, warp_est, &r, nullptr); !st.ok()) return st.error();
+        r.ladder_step = frame_step_;
+        r.render_scale = ladder_.steps()[size_t(frame_step_)].scale;
         r.kind = FrameKind::rewarp;
         r.wake_ns = wake;
         r.late = false;
@@ -598,11 +721,19 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
     // before the new frame starts if that fits, else between its pieces (it starts at once).
     if (!open_) {
         const int64_t now = clock_.now_ns();
-        const int64_t target = display_.free_vsync_ns(now + frame_est + margin_ns_);
-        open_wake_ns_ = target - latch - (frame_est + margin_ns_);
+        // At a render rate of 1/d the frame's time holds d - 1 re-warps of the finished frame
+        // besides its own render and warp, and it aims at least d vsyncs after the previous new
+        // frame's, so new frames come at a steady 1/d of the refresh.
+        const int64_t need = frame_est + margin + int64_t(divisor - 1) * (warp_est + margin);
+        int64_t target = display_.free_vsync_ns(now + need);
+        if (divisor > 1 && has_frame_)
+            target = std::max(target, display_.free_vsync_ns(frame_target_vsync_ns_ +
+                                                              divisor * info.period_ns - latch -
+                                                              info.period_ns / 2));
+        open_wake_ns_ = target - latch - need;
         // (Never when a warp alone takes a period: nothing else would run.)
         if (config_.warp && has_frame_ && warp_est < info.period_ns) {
-            const int64_t v_any = display_.free_vsync_ns(now + warp_est + margin_ns_);
+            const int64_t v_any = display_.free_vsync_ns(now + warp_est + margin);
             if (v_any < target) {
                 if (v_any - latch <= open_wake_ns_) return rewarp(v_any);
                 open_wake_ns_ = now;
@@ -619,13 +750,15 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
         // The render time that lets a new frame make every vsync: a frame's render and warp
         // within one period (the wake-up and the present shift by the same margin), less headroom
         // for the estimates' error.
-        const double target_ms = ns_to_ms(std::max<int64_t>(0, info.period_ns - warp_est)) *
-                                 (1.0 - config_.lod_budget_headroom);
+        const double target_ms =
+            ns_to_ms(std::max<int64_t>(0, divisor * (info.period_ns - warp_est - margin))) *
+            (1.0 - config_.lod_budget_headroom);
         const StereoViews views = views_for(open_pose_);
         open_triangles_ = select_and_sort(open_pose_, views, &r, target_ms);
         std::copy(r.levels.begin(), r.levels.end(), open_levels_.begin());
         std::copy(r.eccentricity_deg.begin(), r.eccentricity_deg.end(), open_eccentricity_.begin());
         if (Status st = renderer_.begin_frame(views, draws_); !st.ok()) return st.error();
+        open_step_ = ladder_.step();
         open_ = true;
         open_cursor_ = 0;
         open_rewarps_ = 0;
@@ -650,7 +783,7 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
             // The finished frame is re-warped for v_any when the open one, at its planned render
             // cost, would not make it.
             const int64_t remaining = std::max<int64_t>(0, render_budget - open_render_ns_);
-            const int64_t v_any = display_.free_vsync_ns(now + warp_est + margin_ns_);
+            const int64_t v_any = display_.free_vsync_ns(now + warp_est + margin);
             // (The margin was spent planning the wake-up: it is the slack for a late wake-up and
             // the estimates' error, not a second time here, or any late wake-up gives the vsync
             // away and the loop shows a new frame every other vsync.)
@@ -660,7 +793,7 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
             // frame at most twice.
             const bool affordable = 2 * warp_est <= info.period_ns || open_rewarps_ < 2;
             if (v_done > v_any && affordable) {
-                const int64_t rewarp_wake = v_any - latch - (warp_est + margin_ns_);
+                const int64_t rewarp_wake = v_any - latch - (warp_est + margin);
                 const size_t fit =
                     rewarp_wake > now ? size_t(0.3 * double(rewarp_wake - now) / per_item_ns) : 0;
                 // Progress: after a re-warp at least one piece, whatever the estimates say.
@@ -689,11 +822,11 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
             for (size_t i = open_cursor_; i < open_cursor_ + items; ++i)
                 piece_triangles += draw_triangles_[i];
             // The model's base (mostly fill) spread over the draw items, as pieces are sized.
+            const double scale = ladder_.steps()[size_t(open_step_)].scale;
+            const int64_t base = int64_t(double(config_.sim_cost.base_ns) * scale * scale);
             const int64_t cost =
                 int64_t(config_.sim_cost.per_triangle_ns * double(piece_triangles)) +
-                (draws_.empty()
-                     ? config_.sim_cost.base_ns
-                     : config_.sim_cost.base_ns * int64_t(items) / int64_t(draws_.size()));
+                (draws_.empty() ? base : base * int64_t(items) / int64_t(draws_.size()));
             clock_.sleep_until_ns(piece_start + cost);
         }
         open_cursor_ += items;
@@ -701,7 +834,7 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
         open_render_ns_ += clock_.now_ns() - piece_start;
         open_ = !*done;
     }
-    render_costs_.push(open_render_ns_);
+    ladder_.record_render(open_step_, open_render_ns_);
     // The cost model learns from every frame (node clock: on the simulated clock, the model's);
     // the budget's feedback from the allocator's frames.
     const double measured_ms = ns_to_ms(open_render_ns_);
@@ -716,6 +849,7 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
     frame_target_vsync_ns_ = open_target_ns_;
     frame_pose_sample_ns_ = open_pose_sample_ns_;
     frame_triangles_ = open_triangles_;
+    frame_step_ = open_step_;
     std::copy(open_levels_.begin(), open_levels_.end(), frame_levels_.begin());
     std::copy(open_eccentricity_.begin(), open_eccentricity_.end(), frame_eccentricity_.begin());
 
@@ -727,7 +861,9 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
     if (after + warp_est > target - latch) target = display_.free_vsync_ns(after + warp_est);
     int64_t warp_cost = 0;
     if (Status st = warp_and_present(target, warp_est, &r, &warp_cost); !st.ok()) return st.error();
-    total_costs_.push(open_render_ns_ + warp_cost);
+    pacer_.record_frame(open_render_ns_, warp_cost);
+    r.ladder_step = frame_step_;
+    r.render_scale = ladder_.steps()[size_t(frame_step_)].scale;
     r.kind = FrameKind::new_frame;
     r.wake_ns = open_wake_ns_;
     r.late = r.vsync_ns > frame_target_vsync_ns_;

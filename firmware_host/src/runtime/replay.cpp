@@ -250,7 +250,9 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     // Pixels come back to the CPU only for the frames the mock display writes; a real display
     // scans the panel image out itself.
     NodeConfig nc = opt.node;
-    nc.read_back = nc.read_back && !dc.frames_dir.empty();
+    // (Only the frames the mock display writes: every frames_every-th present.)
+    const bool writes_frames = nc.read_back && !dc.frames_dir.empty();
+    nc.read_back = false;
     std::unique_ptr<Tracker> restarted;  // see below; outlives the node that reads it
     NodeRuntime node(*clock, *tracker, **display, **renderer, *scene, nc);
     if (Status st = node.start(); !st.ok()) return st.error();
@@ -324,6 +326,8 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
                                     : std::numeric_limits<int64_t>::max();
     while (!node.tracker_finished() && clock->now_ns() < capture_end &&
            (opt.max_frames <= 0 || int64_t(result.frames.size()) < opt.max_frames)) {
+        if (writes_frames && result.frames.size() % uint64_t(dc.frames_every) == 0)
+            node.read_back_next();
         Result<FrameOutcome> fr = node.run_frame(&rec, truth);
         if (!fr.ok()) {
             node.stop();

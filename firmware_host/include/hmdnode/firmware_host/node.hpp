@@ -22,6 +22,7 @@
 #include "hmdnode/core/scene.hpp"
 #include "hmdnode/core/stereo.hpp"
 #include "hmdnode/core/time.hpp"
+#include "hmdnode/firmware_host/frame_pacer.hpp"
 #include "hmdnode/firmware_host/pose_history.hpp"
 #include "hmdnode/hal/display.hpp"
 #include "hmdnode/hal/eye_tracker.hpp"
@@ -42,24 +43,16 @@ struct FrameCostModel {
     int64_t base_ns = 2'000'000;   // a render of no triangles at the run's eye size (both eyes)
     double per_triangle_ns = 0.0;  // both eyes
     int64_t warp_ns = 500'000;     // the warp + distortion pass with its read-back
-    int64_t render_ns(uint64_t triangles) const {
-        return base_ns + int64_t(per_triangle_ns * double(triangles));
+    // The pass with chromatic-aberration correction off (one sample per pixel); 0: half warp_ns.
+    int64_t warp_mono_ns = 0;
+    // At a render scale (dynamic resolution) the base, mostly fill, scales with the pixels.
+    int64_t render_ns(uint64_t triangles, double scale = 1.0) const {
+        return int64_t(double(base_ns) * scale * scale) +
+               int64_t(per_triangle_ns * double(triangles));
     }
-};
-
-// Pacing (docs/latency.md): the loop targets the first vsync that is free and reachable (the
-// display says which vsync a present lands on), wakes at vsync - latch - (render estimate + warp
-// estimate + margin), and samples the pose again just before the warp. The estimates are a high
-// percentile of the recent frames, not the last one; the margin grows on a missed latch and
-// shrinks slowly while frames make it (after Monado's compositor pacing, u_pacing_compositor.c).
-struct PacingConfig {
-    int window = 90;                    // recent costs the estimates look at (<= 256)
-    double percentile = 0.95;           // the estimate: this percentile of the window
-    int64_t margin_ns = 1'000'000;      // initial margin
-    int64_t min_margin_ns = 300'000;    // the margin never shrinks below this
-    int64_t max_margin_ns = 4'000'000;  // nor grows above this
-    int64_t miss_step_ns = 500'000;     // growth on a missed latch
-    int64_t recover_step_ns = 10'000;   // shrink on a vsync made
+    int64_t warp_cost_ns(bool chromatic) const {
+        return chromatic ? warp_ns : (warp_mono_ns > 0 ? warp_mono_ns : warp_ns / 2);
+    }
 };
 
 // How the frame loop turns the selector's levels into the levels it draws (docs/lod-selection.md):
@@ -77,6 +70,15 @@ const char* gaze_source_name(GazeSource s);
 const char* lod_allocator_name(LodAllocator a);
 // "threshold", "greedy" or "iga"; nullopt for anything else.
 std::optional<LodAllocator> parse_lod_allocator(std::string_view name);
+
+// Which late-warp pass the node uses (docs/latency.md, "The lens pass"): the fused pass (the lens
+// model per pixel, one full-screen triangle per eye), the distortion-mesh pass, or `automatic`:
+// the fused pass unless the start-up calibration measures the mesh pass at least 10 % faster on
+// this device (so noise cannot flip the choice).
+enum class LensPassChoice { automatic, fused, mesh };
+const char* lens_pass_choice_name(LensPassChoice c);
+// "auto", "fused" or "mesh"; nullopt for anything else.
+std::optional<LensPassChoice> parse_lens_pass_choice(std::string_view name);
 
 struct NodeConfig {
     StereoRig rig = StereoRig::typical();  // eye offsets, near/far; the field of view when
@@ -114,7 +116,13 @@ struct NodeConfig {
     double mesh_max_error_px = 0.5;
     double warp_fov_margin = 0.1;  // the eye buffers cover this much more per side (fraction of
                                    // the panel's tangent span) so a late rotation finds pixels
-    PacingConfig pacing;
+    LensPassChoice lens_pass = LensPassChoice::automatic;
+    // The pixel-cost ladder (frame_pacer.hpp): eye-buffer resolution down to min_render_scale per
+    // axis, then chromatic-aberration correction off, when a frame does not fit its budget. Off:
+    // always full resolution with the correction on.
+    bool pixel_ladder = true;
+    double min_render_scale = 0.5;
+    PacingConfig pacing;  // with the render rate (pacing.max_divisor; 1: every vsync)
     FrameCostModel sim_cost;
     bool read_back = true;                 // copy frames back to the CPU for the display
     double registration_distance_m = 1.0;  // position error is seen at this distance
@@ -153,6 +161,13 @@ struct FrameRecord {
     double render_ms = 0.0;            // measured wall time of the render call (0 for a re-warp)
     double warp_ms = 0.0;              // measured wall time of the warp call (0 when there is none)
     double frame_cost_ms = 0.0;        // on the node's clock: wake to present
+    // The pixel-cost ladder and the render rate when the shown frame was rendered / warped: its
+    // ladder step (index into NodeRuntime::ladder().steps()), eye-buffer scale, whether the warp
+    // corrected chromatic aberration, and the render rate's divisor (new frames every N vsyncs).
+    int ladder_step = 0;
+    double render_scale = 1.0;
+    bool chromatic = true;
+    int render_divisor = 1;
     // greedy or iga allocator (NaN / 0 otherwise): the render budget it allocated against, the
     // render time the learned cost model predicted for the levels chosen, and how many drawn
     // objects it left coarser than the selector wanted.
@@ -192,21 +207,6 @@ enum class FrameOutcome {
     no_pose_yet,  // the tracker has delivered no sample yet: nothing was rendered or presented,
                   // the frame's vsync has passed (so the next call aims at the one after), and
                   // the record is left as it was
-};
-
-// A fixed window of recent costs and a percentile over it (no allocation after construction).
-class CostWindow {
-  public:
-    explicit CostWindow(int capacity = 90);
-    void push(int64_t ns);
-    bool empty() const { return count_ == 0; }
-    // The p-quantile (0..1) of the window; `fallback` while it is empty.
-    int64_t percentile(double p, int64_t fallback) const;
-
-  private:
-    std::vector<int64_t> ring_;
-    mutable std::vector<int64_t> scratch_;
-    size_t head_ = 0, count_ = 0;
 };
 
 class NodeRuntime {
@@ -293,6 +293,22 @@ class NodeRuntime {
     const FrameCostFit& lod_cost_fit() const { return cost_fit_; }
     // The last rendered frame (empty unless config.read_back).
     const StereoImage& last_frame() const { return frame_; }
+    // Reads the panel image back at the next present only (config.read_back off): a display that
+    // writes only some frames asks for those.
+    void read_back_next() { read_back_once_ = true; }
+    const FramePacer& pacer() const { return pacer_; }
+    const PixelLadder& ladder() const { return ladder_; }
+    // "fused" or "mesh" (the pass in use), "" without one.
+    const char* lens_pass() const { return renderer_.lens_pass_name(); }
+    // What the start-up calibration measured of the passes (medians, ms; NaN where not measured):
+    // the fused pass, the mesh pass, and the pass's floor (three bilinear samples per pixel, no
+    // lens model, same panel).
+    struct PassTimes {
+        double fused_ms = std::numeric_limits<double>::quiet_NaN();
+        double mesh_ms = std::numeric_limits<double>::quiet_NaN();
+        double floor_ms = std::numeric_limits<double>::quiet_NaN();
+    };
+    const PassTimes& pass_times() const { return pass_times_; }
 
   private:
     void drain_tracker();
@@ -310,6 +326,14 @@ class NodeRuntime {
     Status warp_and_present(int64_t target, int64_t warp_est, FrameRecord* rec,
                             int64_t* warp_cost_ns);
     bool pass_enabled() const { return config_.warp || config_.distortion; }
+    // The profile the fused pass evaluates: the headset's, or the rig's field of view flat.
+    HeadsetProfile pass_profile() const;
+    // Sets up the pass `choice` names (fused unless mesh).
+    Status set_up_pass(bool fused);
+    // Chooses the render rate and the ladder's step for the next new frame and applies the step.
+    void plan_levers();
+    // Times `n` warps of the current pass (median, ns).
+    Result<int64_t> time_warps(int n, const std::function<bool()>& go_on);
 
     Clock& clock_;
     Tracker* tracker_;
@@ -337,8 +361,12 @@ class NodeRuntime {
     StereoImage frame_;
     StereoRig render_rig_;
     DistortionMesh mesh_[2];
-    CostWindow render_costs_, warp_costs_, total_costs_;  // total: a new frame's render + warp
-    int64_t margin_ns_ = 0;
+    FramePacer pacer_;
+    PixelLadder ladder_;
+    PassTimes pass_times_;
+    bool read_back_once_ = false;
+    int open_step_ = 0;  // the ladder step the open frame is rendered at
+    int frame_step_ = 0;
     uint64_t present_index_ = 0, render_index_ = 0;
     int64_t last_shown_vsync_ns_ = INT64_MIN;
     // The frame being rendered in pieces, between which the finished one may be re-warped.

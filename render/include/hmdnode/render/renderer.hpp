@@ -121,6 +121,31 @@ class Renderer {
     virtual Status set_warp(int panel_width, int panel_height, const DistortionMesh& left,
                             const DistortionMesh& right) = 0;
 
+    // The fused late-warp + lens pass instead (render/src/lens_pass.hpp): one full-screen pass per
+    // eye that evaluates the profile's lens model per panel pixel (no mesh, no interpolation
+    // error), reprojects rotationally and corrects chromatic aberration, at about the cost of its
+    // three bilinear samples. Same contract as set_warp(), which it replaces (and the other way
+    // round). Errors: an empty panel, a profile validate_headset_profile() refuses, a panel beyond
+    // the device's limits.
+    virtual Status set_lens_warp(int panel_width, int panel_height,
+                                 const HeadsetProfile& profile) = 0;
+    // "mesh" (set_warp), "fused" (set_lens_warp), or "" before either.
+    virtual const char* lens_pass_name() const = 0;
+    // Chromatic-aberration correction of the fused pass (on after set_lens_warp): off, one sample
+    // per pixel through the green channel's lens serves all three colours (the pixel-cost
+    // ladder's last step). No effect on the mesh pass or a profile without aberration. Between
+    // frames only; allocates nothing.
+    virtual void set_chromatic_aberration(bool on) = 0;
+    virtual bool chromatic_aberration() const = 0;  // true only where the pass corrects it now
+
+    // Dynamic resolution: frames begun from now on render into the top-left scale x scale of the
+    // eye buffers (per axis, (0, 1], rounded to whole pixels, at least one) with the same field of
+    // view, and the warp samples that part; the finished frame keeps the scale it was rendered
+    // at, so a re-warp stays right. render()'s read-back returns the whole buffers. Allocates
+    // nothing. Errors: a scale outside (0, 1].
+    virtual Status set_render_scale(double scale) = 0;
+    virtual double render_scale() const = 0;
+
     // Late warp: resamples the eye buffers of the last render() through the distortion meshes
     // into the panel image, for a head whose orientation differs from the rendered one by
     // `delta` = inverse(rendered orientation) * displayed orientation (rotational reprojection, per

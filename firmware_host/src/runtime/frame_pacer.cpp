@@ -1,0 +1,224 @@
+// The frame pacer and the pixel-cost ladder (hmdnode/firmware_host/frame_pacer.hpp,
+// docs/latency.md). After Monado's compositor pacing (src/xrt/auxiliary/util/
+// u_pacing_compositor.c: estimates from recent frames, a margin, a present-to-display offset) and
+// the dynamic resolution and half-rate reprojection of VR runtimes under load (SteamVR's motion
+// smoothing and Oculus' ASW render at half the refresh and re-warp between).
+//
+// Margin: the percentile of how far recent presents overran their planned end (wake-up lateness
+// plus cost beyond the estimate), so a jittery CPU renderer plans with room and a steady GPU does
+// not wake milliseconds early; plus a bump per missed latch that halves every miss_half_life
+// vsyncs made.
+// Render rate: divisor d fits when render + d (warp + margin) <= d period: a new frame every d
+// vsyncs with d - 1 re-warps between.
+// Ladder: per step, the median of its recent renders, else fixed + per-pixel cost fitted over the
+// steps measured (per pixel alone while one is); finest step that fits the render budget.
+// Cost: O(window) per estimate (nth_element), O(steps) per choice.
+#include "hmdnode/firmware_host/frame_pacer.hpp"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <cstddef>
+#include <cstdio>
+
+namespace hmdnode {
+
+CostWindow::CostWindow(int capacity)
+    : ring_(size_t(std::clamp(capacity, 1, 256))), scratch_(ring_.size()) {}
+
+void CostWindow::push(int64_t ns) {
+    ring_[head_] = ns;
+    head_ = (head_ + 1) % ring_.size();
+    count_ = std::min(count_ + 1, ring_.size());
+}
+
+int64_t CostWindow::percentile(double p, int64_t fallback) const {
+    if (count_ == 0) return fallback;
+    std::copy(ring_.begin(), ring_.begin() + std::ptrdiff_t(count_), scratch_.begin());
+    const size_t k = std::min(count_ - 1, size_t(std::ceil(p * double(count_ - 1))));
+    std::nth_element(scratch_.begin(), scratch_.begin() + std::ptrdiff_t(k),
+                     scratch_.begin() + std::ptrdiff_t(count_));
+    return scratch_[k];
+}
+
+FramePacer::FramePacer(const PacingConfig& config, int64_t period_ns, int64_t latch_ns)
+    : config_(config),
+      period_ns_(period_ns),
+      latch_ns_(latch_ns),
+      render_(config.window),
+      warp_(config.window),
+      total_(config.window),
+      overrun_(config.window),
+      margin_ns_(std::clamp(config.margin_ns, config.min_margin_ns, config.max_margin_ns)) {
+    assert(period_ns > 0);
+}
+
+int64_t FramePacer::render_estimate() const {
+    return render_.percentile(config_.percentile, period_ns_ / 2);
+}
+
+int64_t FramePacer::warp_estimate() const {
+    return warp_.percentile(config_.percentile, period_ns_ / 10);
+}
+
+int64_t FramePacer::frame_estimate() const {
+    return total_.percentile(config_.percentile, render_estimate() + warp_estimate());
+}
+
+void FramePacer::record_frame(int64_t render_ns, int64_t warp_ns) {
+    render_.push(render_ns);
+    total_.push(render_ns + warp_ns);
+}
+
+void FramePacer::record_warp(int64_t warp_ns) {
+    warp_.push(warp_ns);
+}
+
+void FramePacer::record_present(bool on_time, int64_t overrun_ns) {
+    // The overrun is measured against the margin the present was planned with: what it used of
+    // that margin is overrun + margin. The margin to plan with is a high percentile of that use.
+    overrun_.push(overrun_ns + margin_ns_);
+    if (on_time)
+        miss_bump_ns_ *= std::exp2(-1.0 / double(std::max(1, config_.miss_half_life)));
+    else
+        miss_bump_ns_ = std::min(double(config_.max_margin_ns),
+                                 miss_bump_ns_ + double(config_.miss_step_ns));
+    const int64_t used = std::max<int64_t>(0, overrun_.percentile(config_.margin_percentile, 0));
+    margin_ns_ = std::clamp(used + config_.min_margin_ns + int64_t(miss_bump_ns_),
+                            config_.min_margin_ns, config_.max_margin_ns);
+}
+
+int64_t FramePacer::frame_plan_ns(int64_t render_ns, int64_t warp_ns, int d) const {
+    return render_ns + int64_t(d) * (warp_ns + margin_ns_);
+}
+
+int FramePacer::choose_divisor(int64_t render_ns, int64_t warp_ns) {
+    const int max_d = std::max(1, config_.max_divisor);
+    auto fits = [&](int d, double spare) {
+        return double(frame_plan_ns(render_ns, warp_ns, d)) <=
+               double(int64_t(d) * period_ns_ - latch_ns_) * (1.0 - spare);
+    };
+    if (!fits(divisor_, 0.0)) {
+        // Slower at once, to the first rate that fits (the slowest when none does).
+        while (divisor_ < max_d && !fits(divisor_, 0.0)) ++divisor_;
+        fits_faster_ = 0;
+        return divisor_;
+    }
+    if (divisor_ > 1 && fits(divisor_ - 1, config_.rate_spare)) {
+        if (++fits_faster_ >= config_.rate_recover) {
+            --divisor_;
+            fits_faster_ = 0;
+        }
+    } else {
+        fits_faster_ = 0;
+    }
+    return divisor_;
+}
+
+std::vector<LadderStep> make_ladder(bool chromatic, double min_scale) {
+    std::vector<LadderStep> steps;
+    char name[64];
+    for (int i = 10; i >= 1; --i) {
+        const double s = i / 10.0;
+        if (s < min_scale - 1e-9) break;
+        if (i == 10)
+            std::snprintf(name, sizeof name, "full");
+        else
+            std::snprintf(name, sizeof name, "resolution %.1f", s);
+        steps.push_back(LadderStep{s, chromatic, name});
+    }
+    if (chromatic) {
+        std::snprintf(name, sizeof name, "resolution %.1f, no CA correction",
+                      steps.back().scale);
+        steps.push_back(LadderStep{steps.back().scale, false, name});
+    }
+    return steps;
+}
+
+PixelLadder::PixelLadder(std::vector<LadderStep> steps, bool enabled, const PacingConfig& config)
+    : steps_(std::move(steps)),
+      enabled_(enabled),
+      recover_(config.rate_recover),
+      spare_(config.rate_spare),
+      warp_on_(config.window),
+      warp_off_(config.window) {
+    assert(!steps_.empty());
+    render_.reserve(steps_.size());
+    for (size_t i = 0; i < steps_.size(); ++i) render_.emplace_back(31);
+}
+
+void PixelLadder::record_render(int step, int64_t ns) {
+    render_[size_t(step)].push(ns);
+}
+
+void PixelLadder::record_warp(bool chromatic, int64_t ns) {
+    (chromatic ? warp_on_ : warp_off_).push(ns);
+}
+
+int64_t PixelLadder::render_cost(int step, int64_t fallback_ns) const {
+    const CostWindow& own = render_[size_t(step)];
+    if (own.size() >= 3) return own.percentile(0.9, fallback_ns);
+    // A line through the steps measured, cost against pixels (scale^2); per pixel alone from one.
+    double n = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
+    for (size_t i = 0; i < steps_.size(); ++i) {
+        if (render_[i].size() < 3) continue;
+        const double x = steps_[i].scale * steps_[i].scale;
+        const double y = double(render_[i].percentile(0.9, 0));
+        n += 1, sx += x, sy += y, sxx += x * x, sxy += x * y;
+    }
+    const double x = steps_[size_t(step)].scale * steps_[size_t(step)].scale;
+    if (n == 0) {
+        const double cur = steps_[size_t(step_)].scale * steps_[size_t(step_)].scale;
+        return int64_t(double(fallback_ns) * x / cur);
+    }
+    const double var = n * sxx - sx * sx;
+    if (n < 2 || var <= 1e-12) return int64_t(sy / sx * x);
+    const double b = (n * sxy - sx * sy) / var;
+    const double a = (sy - b * sx) / n;
+    // A negative slope is noise: no cheaper than the cheapest measured.
+    return int64_t(std::max(a + std::max(0.0, b) * x, 0.0));
+}
+
+int64_t PixelLadder::warp_cost(bool chromatic, int64_t fallback_ns) const {
+    const CostWindow& w = chromatic ? warp_on_ : warp_off_;
+    if (w.size() >= 3) return w.percentile(0.5, fallback_ns);
+    if (!chromatic && warp_on_.size() >= 3) return warp_on_.percentile(0.5, fallback_ns) / 2;
+    return fallback_ns;
+}
+
+int64_t PixelLadder::frame_cost(int step, const Budget& b, int64_t render_p_ns) const {
+    const LadderStep& st = steps_[size_t(step)];
+    const int64_t warp = st.chromatic == b.warp_chromatic ? b.warp_ns
+                                                          : warp_cost(st.chromatic, b.warp_ns);
+    int64_t render = render_cost(step, render_p_ns);
+    if (step == step_) render = std::max(render, render_p_ns);
+    return render + int64_t(b.divisor) * (warp + b.margin_ns);
+}
+
+bool PixelLadder::choose(const Budget& b, int64_t render_p_ns) {
+    if (!enabled_) return false;
+    const int last = int(steps_.size()) - 1;
+    if (frame_cost(step_, b, render_p_ns) > b.available_ns) {
+        // Cheaper at once: the first step down whose frame fits, else the last.
+        int s = step_ + 1;
+        while (s < last && frame_cost(s, b, render_p_ns) > b.available_ns) ++s;
+        s = std::min(last, s);
+        fits_finer_ = 0;
+        if (s == step_) return false;
+        step_ = s;
+        return true;
+    }
+    if (step_ > 0 &&
+        double(frame_cost(step_ - 1, b, render_p_ns)) <= double(b.available_ns) * (1.0 - spare_)) {
+        if (++fits_finer_ >= recover_) {
+            --step_;
+            fits_finer_ = 0;
+            return true;
+        }
+    } else {
+        fits_finer_ = 0;
+    }
+    return false;
+}
+
+}  // namespace hmdnode
