@@ -1,9 +1,9 @@
-// The two renderer backends side by side: Vulkan (lavapipe) and OpenGL ES 3 on EGL (llvmpipe),
-// both on Mesa's software rasteriser, at 360x400 per eye on the demo room, per stereo frame: the
-// scene pass (both eyes, no read-back), the scene pass with the read-back of both eyes, the late
-// warp + distortion pass (generic profile, 32x32 mesh, no read-back) and scene + warp together.
-// Medians and 99th percentiles of interleaved rounds (one frame of each backend per round), so
-// machine drift hits both alike, against the target GLES <= 1.3x Vulkan (issue 25).
+// The two renderer backends side by side: Vulkan (lavapipe) and OpenGL ES 3 on EGL (llvmpipe), both
+// on Mesa's software rasteriser, at 360x400 per eye on the demo room, per stereo frame: the scene
+// pass (both eyes, no read-back), the scene pass with the read-back of both eyes, the late warp +
+// distortion pass (generic profile, 32x32 mesh, no read-back) and scene + warp together. Medians
+// and 99th percentiles of interleaved rounds (one frame of each backend per round), so machine
+// drift hits both alike, against the GLES backend's target: GLES <= 1.3x Vulkan.
 //
 // Usage: bench_backend_bench [rounds=200] [--write-docs]   (--write-docs: into docs/rendering.md)
 #include <cstdio>

@@ -1,14 +1,15 @@
-// Issue 21 item 6, "per LOD algorithm of `hmdnode lod` as 001 compares them": seed 001's method
-// (simplifications compared by the render time they save and the image they keep) across every
-// simplifier of `hmdnode lod`. Per algorithm, the demo room's LOD chains are rebuilt with
-// `hmdnode lod --algorithm A` (default ratios 0.5, 0.1, 0.01, measured errors), then
-// `render-bench --compare full` (the node's selector, threshold allocator, 360x400 per eye, a short
-// frame range of the bundled trace) renders each frame at the node's levels and at full detail
-// from the same pose: LOD and full render ms (p50, both eyes, lavapipe), PSNR and SSIM against full
-// detail, triangles drawn. Full detail is the same mesh for every algorithm; what differs is the
-// levels the selector picks (by their measured errors) and how those levels look. `hmdnode lod`
-// keeps the demo room's per-vertex light (_LIGHT_0) at level 0 and carries it to every level
-// (docs/lod-generation.md), so the re-chained objects are lit like the room's own.
+// Every simplifier of `hmdnode lod` compared as H. Li, S. Kim, "Mesh Simplification Algorithms for
+// Rendering Performance", International Journal of Engineering Research and Technology 13(6), 2020,
+// compare theirs: by the render time they save and the image they keep. Per algorithm, the demo
+// room's LOD chains are rebuilt with `hmdnode lod --algorithm A` (default ratios 0.5, 0.1, 0.01,
+// measured errors), then `render-bench --compare full` (the node's selector, threshold allocator,
+// 360x400 per eye, a short frame range of the bundled trace) renders each frame at the node's
+// levels and at full detail from the same pose: LOD and full render ms (p50, both eyes, lavapipe),
+// PSNR and SSIM against full detail, triangles drawn. Full detail is the same mesh for every
+// algorithm; what differs is the levels the selector picks (by their measured errors) and how those
+// levels look. `hmdnode lod` keeps the demo room's per-vertex light (_LIGHT_0) at level 0 and
+// carries it to every level (docs/lod-generation.md), so the re-chained objects are lit like the
+// room's own.
 //
 // Every row records the 1-minute load average at its start and end.
 //

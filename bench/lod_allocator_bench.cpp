@@ -1,19 +1,19 @@
-// Issue 21 item 2's comparison: the LOD allocators side by side (docs/lod-selection.md,
-// "Allocators compared").
+// The LOD allocators side by side (docs/lod-selection.md, "Allocators compared").
 //
-//  1. Decision time per frame: the perceptual selector for every object, then each allocator on
-//     the same candidates (threshold: none; greedy: Funkhouser & Sequin 1993; iga: seed 002's
-//     immune genetic algorithm, warm-started from its own previous frame) under a budget that
-//     holds back half the detail the selector wants, for 100 and 1,000 objects of 4-6 levels
-//     around a turning viewer. One thread: wall time and the thread's CPU time (p50 and p99;
-//     this machine is shared, CPU time is what the work costs), beside the issue's 0.2 ms target
-//     for 1,000 objects; with the visible error each leaves (sum over objects, in tolerances) and
-//     the objects whose level changed from the previous frame (each is a cross-fade).
-//  2. Image quality per ms of frame time: `render-bench --compare full` (seed 001's method) with
-//     each allocator on the demo room and, with --heavy, the heavy scene (`hmdnode scene
-//     stress`), 360x400 per eye, a short frame range of the bundled trace: LOD render ms (p50,
-//     both eyes, lavapipe: all of its threads), full-detail ms, PSNR and SSIM against full detail
-//     of the same pose, and PSNR median per LOD ms.
+//  1. Decision time per frame: the perceptual selector for every object, then each allocator on the
+//     same candidates (threshold: none; greedy: Funkhouser & Sequin 1993; iga: the immune genetic
+//     algorithm of He et al., warm-started from its own previous frame; full citations in
+//     docs/references.md) under a budget that holds back half the detail the selector wants, for
+//     100 and 1,000 objects of 4-6 levels around a turning viewer. One thread: wall time and the
+//     thread's CPU time (p50 and p99; this machine is shared, CPU time is what the work costs),
+//     beside the 0.2 ms target for 1,000 objects; with the visible error each leaves (sum over
+//     objects, in tolerances) and the objects whose level changed from the previous frame (each is
+//     a cross-fade).
+//  2. Image quality per ms of frame time: `render-bench --compare full` (the method of
+//     Li and Kim 2020) with each allocator on the demo room and, with --heavy, the heavy scene
+//     (`hmdnode scene stress`), 360x400 per eye, a short frame range of the bundled trace: LOD
+//     render ms (p50, both eyes, lavapipe: all of its threads), full-detail ms, PSNR and SSIM
+//     against full detail of the same pose, and PSNR median per LOD ms.
 //
 // Every render row records the 1-minute load average at its start and end.
 //

@@ -1,10 +1,11 @@
 // The LOD decision per frame with the frame-budget controller: the perceptual selector for every
-// object, then the greedy benefit/cost allocator (Funkhouser & Sequin 1993) under a budget that
-// holds back half the detail the selector wants (half-way between every object's coarsest level and
-// the selector's, in triangles), for 1,000 objects of 4-6 levels each around a turning viewer.
-// One thread; medians and 99th percentiles of the per-frame time, beside the issue's target of
-// 0.2 ms per frame (issue 21). The selector alone and the allocator alone are timed in the same
-// frames.
+// object, then the greedy benefit/cost allocator (T. A. Funkhouser, C. H. Sequin, "Adaptive display
+// algorithm for interactive frame rates during visualization of complex virtual environments",
+// SIGGRAPH 1993) under a budget that holds back half the detail the selector wants (half-way
+// between every object's coarsest level and the selector's, in triangles), for 1,000 objects of 4-6
+// levels each around a turning viewer. One thread; medians and 99th percentiles of the per-frame
+// time, beside the target of 0.2 ms per frame for 1,000 objects. The selector alone and the
+// allocator alone are timed in the same frames.
 //
 // Usage: bench_lod_budget_bench [frames=2000] [--write-docs]   (--write-docs: into
 // docs/lod-selection.md)

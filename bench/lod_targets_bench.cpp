@@ -1,4 +1,5 @@
-// Issue 21's targets, measured in one run on this machine's renderer (lavapipe here):
+// The runtime LOD targets (docs/lod-selection.md, "Measuring LOD"), measured in one run on this
+// machine's renderer (lavapipe here):
 //
 //  1. LOD against full detail on pose-identical frames (render-bench, --compare full): render
 //     time ratio (full / LOD, p50), PSNR and SSIM, on the demo room and on the heavy scene

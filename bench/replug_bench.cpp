@@ -1,10 +1,11 @@
-// Replug benchmark (issue 24 item 5): the simulated reference tracker (1 kHz) under the device
-// tracker on the real clock, with its reader thread and the default reopen interval (150 ms),
-// unplugged and replugged N times (every other replug a reboot: new sequence and device clock).
-// Recovery of one cycle: the replug to the arrival of the first sample after it, on the host
-// clock. It prints the minimum, median, p99 and maximum recovery beside the target (< 1 s each),
-// the cycles that resumed, and the open file descriptors (/proc/self/fd) and threads of this
-// process before the tracker started and after it stopped (target: equal).
+// Replug benchmark (the service's fault-injection target: recovery < 1 s): the simulated reference
+// tracker (1 kHz) under the device tracker on the real clock, with its reader thread and the
+// default reopen interval (150 ms), unplugged and replugged N times (every other replug a reboot:
+// new sequence and device clock). Recovery of one cycle: the replug to the arrival of the first
+// sample after it, on the host clock. It prints the minimum, median, p99 and maximum recovery
+// beside the target (< 1 s each), the cycles that resumed, and the open file descriptors
+// (/proc/self/fd) and threads of this process before the tracker started and after it stopped
+// (target: equal).
 //
 // Usage: bench_replug_bench [--cycles N=100] [--unplugged-ms MS=200] [--write-docs [--docs FILE]]
 // --write-docs puts the table between <!-- replug-bench-table --> markers (bench/doc_table.hpp).

@@ -1,17 +1,17 @@
-// Soak benchmark (issue 24 item 5): hmdnoded as deployed -- its own process, a config on the
-// simulated clock (or the real one) with the simulated tracker, a status file and a control socket
-// -- runs for a given time while this program samples, every few seconds, its resident memory
-// (VmRSS), open file descriptors (/proc/PID/fd) and threads, and asks the control socket for
-// `status` and `metrics` (so the socket's own path is soaked too). It prints each sample and the
-// least-squares slopes after a warm-up (the first fifth of the run, at least one sample: caches,
-// the allocator's arenas and the pipeline settle) beside the targets: RSS < 1 KiB/min, no fd
-// growth, a constant thread count, no crash (the daemon exits 0 on SIGTERM at the end).
-// Descriptors are read by what they point at (readlink of /proc/PID/fd/N). The status file's
-// atomic write (core/src/atomic_file.cpp) holds its temporary `.status.json.tmp.XXXXXX` open
-// while it writes and fsyncs it, several times a wall second on the simulated clock, so a sample
-// can catch it; it is named in the output and not counted. Growth is a descriptor open at the
-// last two samples that was not open at the first after the warm-up (a leak stays open); any
-// other open at a sample in between and gone by the end is transient and named too.
+// Soak benchmark (the service's reliability targets): hmdnoded as deployed -- its own process, a
+// config on the simulated clock (or the real one) with the simulated tracker, a status file and a
+// control socket -- runs for a given time while this program samples, every few seconds, its
+// resident memory (VmRSS), open file descriptors (/proc/PID/fd) and threads, and asks the control
+// socket for `status` and `metrics` (so the socket's own path is soaked too). It prints each sample
+// and the least-squares slopes after a warm-up (the first fifth of the run, at least one sample:
+// caches, the allocator's arenas and the pipeline settle) beside the targets: RSS < 1 KiB/min, no
+// fd growth, a constant thread count, no crash (the daemon exits 0 on SIGTERM at the end).
+// Descriptors are read by what they point at (readlink of /proc/PID/fd/N). The status file's atomic
+// write (core/src/atomic_file.cpp) holds its temporary `.status.json.tmp.XXXXXX` open while it
+// writes and fsyncs it, several times a wall second on the simulated clock, so a sample can catch
+// it; it is named in the output and not counted. Growth is a descriptor open at the last two
+// samples that was not open at the first after the warm-up (a leak stays open); any other open at a
+// sample in between and gone by the end is transient and named too.
 //
 // Usage: bench_soak_bench [--minutes M=1] [--every S=5] [--clock sim|real] [--tracker
 //        trace|sim] [--eye N=64] [--write-docs [--docs FILE=docs/benchmarks.md]]

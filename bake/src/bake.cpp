@@ -1,8 +1,9 @@
-// The bake pipeline (bake.hpp): the order of the passes and their bookkeeping; each pass is its
-// own file (uv_atlas, texel_raster, texel_validity, path_tracer, atrous_denoise, dilate,
-// seam_blend, lightmap_encode, vertex_bake). Monte Carlo estimation of the texel mean
-// irradiance: N paths per texel, path j starting at the texel's sample j mod S (S stratified
-// sample points), so the texel's area is covered evenly (stratified sampling, Owen 2013 ch. 10).
+// The bake pipeline (bake.hpp): the order of the passes and their bookkeeping; each pass is its own
+// file (uv_atlas, texel_raster, texel_validity, path_tracer, atrous_denoise, dilate, seam_blend,
+// lightmap_encode, vertex_bake). Monte Carlo estimation of the texel mean irradiance: N paths per
+// texel, path j starting at the texel's sample j mod S (S stratified sample points), so the texel's
+// area is covered evenly (stratified sampling, A. B. Owen, "Monte Carlo theory, methods and
+// examples", 2013, ch. 10).
 // Cost: O(texels x samples x bounces) rays; memory O(texels) per map.
 #include "hmdnode/bake/bake.hpp"
 

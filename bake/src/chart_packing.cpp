@@ -1,11 +1,12 @@
 // The scene's lightmap atlas: segments every chosen primitive into charts (uv_charts.cpp),
-// parameterises each chart (planar projection or LSCM, lscm.cpp; a chart whose map flips a
-// triangle or overlaps itself is cut in two across its longest axis and each part redone), turns
-// it to its minimum-area bounding rectangle (Freeman & Shapira 1975: a side lies on a hull edge),
-// scales it to texels (surface area x texels_per_metre^2), and packs the chart rectangles with the
-// skyline packer of stb_rect_pack (Jukka Jylanki 2010, "A Thousand Ways to Pack the Bin",
-// SKYLINE-BL-WM) into the atlas of least area (power-of-two width, height cropped) that holds
-// them, or into as many max-size atlases as needed.
+// parameterises each chart (planar projection or LSCM, lscm.cpp; a chart whose map flips a triangle
+// or overlaps itself is cut in two across its longest axis and each part redone), turns it to its
+// minimum-area bounding rectangle (H. Freeman, R. Shapira, "Determining the minimum-area encasing
+// rectangle for an arbitrary closed curve", Communications of the ACM 18(7), 1975: a side lies on a
+// hull edge), scales it to texels (surface area x texels_per_metre^2), and packs the chart
+// rectangles with the skyline packer of stb_rect_pack (J. Jylanki, "A Thousand Ways to Pack the
+// Bin", online report, 2010: SKYLINE-BL-WM) into the atlas of least area (power-of-two width,
+// height cropped) that holds them, or into as many max-size atlases as needed.
 // Cost: O(C log C) per packing attempt for C charts, log2(max/16) attempts per atlas; O(F log F)
 // to rewrite the primitives; memory O(C) plus O(V + F) for the rewritten primitives and a copy of
 // the scene (so that an error leaves the caller's scene unchanged).

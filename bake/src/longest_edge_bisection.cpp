@@ -1,5 +1,6 @@
-// Conforming refinement by longest-edge bisection (Rivara 1984, "Algorithms for refining
-// triangular grids suitable for adaptive and multigrid techniques"; the "backward" variant as
+// Conforming refinement by longest-edge bisection (M.-C. Rivara, "Algorithms for refining
+// triangular grids suitable for adaptive and multigrid techniques", International Journal for
+// Numerical Methods in Engineering 20(4), 1984; the "backward" variant as
 // repeated passes): each pass marks the longest edge of every triangle longer than the limit,
 // then splits every triangle along all of its marked edges, longest first, so a marked edge is
 // split at its midpoint on both sides and no T-junction appears. Edges are identified by welded

@@ -1,12 +1,13 @@
-// Least-squares conformal maps: Levy, Petitjean, Ray & Maillot 2002, "Least Squares Conformal
-// Maps for Automatic Texture Atlas Generation", section 3. On every triangle, in its own
-// orthonormal frame, the Cauchy-Riemann equations u_x = v_y, u_y = -v_x of the piecewise-linear
-// map are residuals weighted by sqrt(area); two pinned vertices remove the similarity freedom and
-// the remaining least-squares problem is solved through its normal equations (sparse, SPD) with
-// Eigen's SimplicialLDLT. Also here: the orthogonal projection used for near-planar charts and
-// the Jacobian-based quality measure (conformal distortion sigma_max/sigma_min, area ratio,
-// flipped triangles, and overlaps: triangle centroids strictly inside another triangle, found
-// through a uniform grid) that both the atlas and its tests use.
+// Least-squares conformal maps: Levy, Petitjean, Ray & Maillot, "Least Squares Conformal Maps for
+// Automatic Texture Atlas Generation", ACM Transactions on Graphics 21(3), SIGGRAPH 2002,
+// section 3. On every triangle, in its own orthonormal frame, the Cauchy-Riemann equations
+// u_x = v_y, u_y = -v_x of the piecewise-linear map are residuals weighted by sqrt(area); two
+// pinned vertices remove the similarity freedom and the remaining least-squares problem is solved
+// through its normal equations (sparse, SPD) with Eigen's SimplicialLDLT. Also here: the orthogonal
+// projection used for near-planar charts and the Jacobian-based quality measure (conformal
+// distortion sigma_max/sigma_min, area ratio, flipped triangles, and overlaps: triangle centroids
+// strictly inside another triangle, found through a uniform grid) that both the atlas and its tests
+// use.
 // Cost: O(V + F) to assemble, sparse Cholesky of a 2V x 2V matrix with ~18 non-zeros per row
 // (about O(V^1.5) for a disc-like chart); memory O(V + F).
 // Departures: the real-valued gradient form of the energy (equivalent to the paper's complex

@@ -1,9 +1,12 @@
-// Unidirectional path tracing of diffuse irradiance (Kajiya, "The Rendering Equation", 1986),
-// with next-event estimation and multiple importance sampling by the balance heuristic (Veach &
-// Guibas, "Optimally Combining Sampling Techniques for Monte Carlo Rendering", 1995, sec. 3),
-// cosine-weighted hemisphere sampling (Malley's method), triangle area sampling (Turk 1990 /
-// Shirley's square-root mapping), Russian roulette (Arvo & Kirk 1990) and the branchless
-// orthonormal basis of Duff et al. 2017.
+// Unidirectional path tracing of diffuse irradiance (J. T. Kajiya, "The rendering equation",
+// SIGGRAPH 1986), with next-event estimation and multiple importance sampling by the balance
+// heuristic (E. Veach, L. J. Guibas, "Optimally combining sampling techniques for Monte Carlo
+// rendering", SIGGRAPH 1995, sec. 3), cosine-weighted hemisphere sampling (Malley's method),
+// triangle area sampling (G. Turk, "Generating random points in triangles", Graphics Gems, Academic
+// Press 1990 / Shirley's square-root mapping), Russian roulette (J. Arvo, D. Kirk, "Particle
+// transport and image synthesis", SIGGRAPH 1990) and the branchless orthonormal basis of T. Duff et
+// al., "Building an orthonormal basis, revisited", Journal of Computer Graphics Techniques 6(1),
+// 2017. Full citations: docs/references.md.
 //
 // Departures: Lambertian only (the baker stores irradiance; the renderer multiplies by albedo);
 // one light sample per vertex: the emissive triangles are one "light" chosen by power, punctual

@@ -1,8 +1,9 @@
-// Seam blending between lightmap charts: the texels on both sides of an edge that is shared in
-// 3-D but split in uv1 are adjusted so that bilinear lookups along the edge agree -- a simplified
-// form of least-squares seam stitching (Sloan, "Stitching UV Seams", 2017; Liu, Ferguson &
-// Jacobson, "Seamless: Seam erasure and seam-aware decoupling of shape from mesh resolution",
-// 2017).
+// Seam blending between lightmap charts: the texels on both sides of an edge that is shared in 3-D
+// but split in uv1 are adjusted so that bilinear lookups along the edge agree -- a simplified form
+// of least-squares seam stitching (P.-P. Sloan, "Stitching UV Seams", 2017, venue not recorded:
+// docs/references.md; S. Liu, Z. Ferguson, A. Jacobson, Y. Gingold, "Seamless: Seam erasure and
+// seam-aware decoupling of shape from mesh resolution", ACM Transactions on Graphics 36(6),
+// SIGGRAPH Asia 2017).
 //
 // Departure: instead of solving the least-squares system, each constraint "lookup on side A =
 // lookup on side B" at sample points along the edge is relaxed in turn (Gauss-Seidel / Kaczmarz

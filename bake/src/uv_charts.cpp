@@ -1,8 +1,9 @@
 // Chart segmentation by normal cone: greedy region growing in the manner of the "chart growing"
-// step of Sander et al. 2002 ("Signal-specialized parametrization") and of Levy et al. 2002
-// (LSCM, section 5 "segmentation"), simplified: a seed (the largest unassigned face) grows
-// across edges, breadth first, admitting a neighbour while the angle between its normal and the
-// chart's running area-weighted mean normal stays below a threshold.
+// step of Sander, Gortler, Snyder & Hoppe, "Signal-specialized parametrization", Eurographics
+// Workshop on Rendering 2002, and of Levy et al. 2002 (LSCM, lscm.cpp; section 5 "segmentation"),
+// simplified: a seed (the largest unassigned face) grows across edges, breadth first, admitting a
+// neighbour while the angle between its normal and the chart's running area-weighted mean normal
+// stays below a threshold.
 // Cost: O(F log F) time (sorting faces by area; each face enters a queue a bounded number of
 // times per adjacent edge), O(V + F) memory.
 // Departures: no feature detection and no Lloyd-style re-seeding (the paper's iterative chart

@@ -1,5 +1,6 @@
 // Variance-guided A-trous filter for the indirect light (SVGF: Schied et al., "Spatiotemporal
-// Variance-Guided Filtering", HPG 2017, sec. 4.4, without the temporal part): the edge-avoiding
+// Variance-Guided Filtering: Real-Time Reconstruction for Path-Traced Global Illumination", High
+// Performance Graphics 2017, sec. 4.4, without the temporal part): the edge-avoiding
 // A-trous wavelet of Dammertz et al. 2010 (5 x 5 B3 kernel, holes of 2^i texels) whose luminance
 // edge stop is scaled by the noise: exp(-|l - l'| / (sigma_l x sqrt(var~ + var~') + eps)), var~
 // the 3 x 3 Gaussian blur of the per-texel variance of the mean (SVGF uses the centre texel's

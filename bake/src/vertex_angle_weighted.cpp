@@ -1,9 +1,12 @@
-// Per-vertex irradiance as 000_ section 3.2 does it ("the color of each vertex was composed by
-// using the color of the adjacent patches; each patch color was weighted with the angle belonging
-// to the patch at the examined vertex"): every face is a patch whose value is the mean of the
-// oracle at its n^2 sub-triangle centroids, and a vertex takes the corner-angle-weighted average
-// of its incident faces. The same corner-angle weights as Thuermer & Wuethrich 1998 use for vertex
-// normals.
+// Per-vertex irradiance as I. Zs. Lazányi, "... virtual worlds for virtual reality applications",
+// Central European Seminar on Computer Graphics (CESCG) 2003, Budapest University of Technology and
+// Economics (the first words of the title are missing from our copy; docs/references.md), section
+// 3.2, does it ("the color of each vertex was composed by using the color of the adjacent patches;
+// each patch color was weighted with the angle belonging to the patch at the examined vertex"):
+// every face is a patch whose value is the mean of the oracle at its n^2 sub-triangle centroids,
+// and a vertex takes the corner-angle-weighted average of its incident faces. The same corner-angle
+// weights as G. Thürmer, C. A. Wüthrich, "Computing vertex normals from polygonal facets", Journal
+// of Graphics Tools 3(1), 1998, use for vertex normals.
 //
 // Cost: O(F n^2) oracle calls, O(V + F) memory.
 // Departures: the paper's patches came from RenderX's tessellation; here the "patches" are the

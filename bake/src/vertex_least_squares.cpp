@@ -1,12 +1,13 @@
-// Least-squares vertex baking: Kavan, Bargteil & Sloan 2011, "Least Squares Vertex Baking"
-// (EGSR), section 3: the vertex values c minimise the L2 distance between the signal f and its
-// piecewise-linear interpolant  E(c) = integral |f - sum_i c_i phi_i|^2, i.e. M c = b with the
-// mass matrix M_ij = integral phi_i phi_j and b_i = integral f phi_i, both integrated here by the
-// same sampling rule (n^2 sub-triangle centroids per face, equal weights), so that a signal that
-// is itself piecewise linear is reproduced exactly. Section 4's regularisation, simplified: an
-// optional term  seam_weight * a * sum |c_i - c_j|^2  over vertex pairs sharing a position (a =
-// mean triangle area) pulls the two sides of a seam together. Also here: the dispatcher
-// bake_vertex_irradiance and the L2 error measure used to compare both methods.
+// Least-squares vertex baking: Kavan, Bargteil & Sloan, "Least Squares Vertex Baking", Computer
+// Graphics Forum 30(4) (EGSR 2011), section 3: the vertex values c minimise the L2 distance between
+// the signal f and its piecewise-linear interpolant  E(c) = integral |f - sum_i c_i phi_i|^2, i.e.
+// M c = b with the mass matrix M_ij = integral phi_i phi_j and b_i = integral f phi_i, both
+// integrated here by the same sampling rule (n^2 sub-triangle centroids per face, equal weights),
+// so that a signal that is itself piecewise linear is reproduced exactly. Section 4's
+// regularisation, simplified: an optional term  seam_weight * a * sum |c_i - c_j|^2  over vertex
+// pairs sharing a position (a = mean triangle area) pulls the two sides of a seam together. Also
+// here: the dispatcher bake_vertex_irradiance and the L2 error measure used to compare both
+// methods.
 // Cost: O(F n^2) oracle calls, a sparse Cholesky (SimplicialLDLT) of the V x V mass matrix (7
 // non-zeros per row on a regular mesh), three right-hand sides; memory O(V + F).
 // Departures: no edge-based regularisation of the paper's section 4.2 (smoothness term); the

@@ -24,8 +24,10 @@ glm::dvec4 as_vec(const glm::dquat& q) {
     return {q.w, q.x, q.y, q.z};
 }
 
-// Markley et al. 2007: the mean of unit quaternions (sign-free) is the eigenvector of the
-// largest eigenvalue of sum q q^T; power iteration from `start` (the previous mean, close to it).
+// F. L. Markley, Y. Cheng, J. L. Crassidis, Y. Oshman, "Averaging quaternions", Journal of
+// Guidance, Control, and Dynamics 30(4), 2007: the mean of unit quaternions (sign-free) is the
+// eigenvector of the largest eigenvalue of sum q q^T; power iteration from `start` (the previous
+// mean, close to it).
 glm::dquat quaternion_mean(const Mat4& m, const glm::dquat& start) {
     glm::dvec4 v = as_vec(start);
     for (int it = 0; it < 60; ++it) {

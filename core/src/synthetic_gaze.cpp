@@ -1,6 +1,7 @@
 // Synthetic gaze from a head trace: fixations and saccades with eye-head coordination.
 //
-// Model (docs/trace-format.md, "Synthetic gaze", has the sources):
+// Model (docs/trace-format.md, "Synthetic gaze", has the sources; docs/references.md, "Eye and
+// head movement", their full citations):
 //  - Fixations last a log-normal time (median 250 ms; fixation durations in scene viewing are
 //    typically 200-400 ms, Rayner 1998, Henderson 2003). During one the gaze holds still in the
 //    world: the eye counter-rotates the head (vestibulo-ocular reflex), so the eye in head drifts

@@ -20,7 +20,8 @@ using AlgorithmFn = Result<std::vector<SimplifiedLevel>> (*)(const Primitive& in
 
 // Edge collapse runs on one shared engine (lod/src/collapse_engine.*) with one cost per file; the
 // table in simplify.cpp holds their factories (collapse_engine.hpp), not functions of this kind.
-// 001: vertex clustering, vertex removal and their hybrids, on OpenMesh connectivity.
+// Li and Kim 2020 (docs/references.md): vertex clustering, vertex removal and their hybrids, on
+// OpenMesh connectivity.
 Result<std::vector<SimplifiedLevel>> simplify_ss(const Primitive&, std::span<const size_t>,
                                                  const SimplifyOptions&);
 Result<std::vector<SimplifiedLevel>> simplify_fad(const Primitive&, std::span<const size_t>,

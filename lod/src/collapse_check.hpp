@@ -21,7 +21,9 @@
 // A new guard goes into check_collapse() (or the functions it calls), and so into both schedules.
 //
 // Papers: T. Dey, H. Edelsbrunner, S. Guha, D. Nekhayev, "Topology preserving edge contraction",
-// 1999 (the link condition); M. Garland, P. Heckbert, SIGGRAPH 1997 (the flip guard).
+// Publications de l'Institut Mathematique (Beograd) 66(80), 1999 (the link condition);
+// M. Garland, P. Heckbert, "Surface simplification using quadric error metrics", SIGGRAPH 1997
+// (the flip guard).
 // Cost: one walk of the faces around each endpoint, O(valence); the fold check O(valence^2)
 // comparisons of indices plus one walk around an outer corner per face that turned by more than
 // kFoldMinTurn (few: most collapses turn every face by less). No allocation.
@@ -83,8 +85,8 @@ inline bool EngineCore::fan_face(Worker& w, bool of_kept, const glm::dvec3& from
     w.fan.push_back({p1, p2, of_kept, n0, n1});
     const double l0 = glm::dot(n0, n0);
     if (l0 == 0.0) return false;  // degenerate already: nothing to keep
-    // note: exactly 90 degrees passes (000's cube diagonal); the input face's normal guards
-    // against a face turning over in several small steps.
+    // note: exactly 90 degrees passes (the cube diagonal of Lazányi 2003, Figure 5); the input
+    // face's normal guards against a face turning over in several small steps.
     const double l1 = glm::dot(n1, n1);
     return l1 <= 1e-12 * l0 || glm::dot(n0, n1) < 0.0 ||
            glm::dot(glm::dvec3(input_normals_[f]), n1) < 0.0;

@@ -35,7 +35,7 @@
 //   position; lock_borders forbids removing them at all (they can still be collapse targets,
 //   where they stay bit-exact). Only two free positions merge at a new point.
 //
-// Departure: the issue asks for the edge-collapse algorithms on OpenMesh's Decimater. Its generic
+// Departure: the edge-collapse algorithms were first planned on OpenMesh's Decimater. Its generic
 // module and property machinery make ModQuadric slow; this engine does the same work with QEM on
 // flat arrays, so OpenMesh stays the baseline only (simplify_openmesh_quadric). The measurements:
 // docs/simplification.md ("Measurements behind the engine's choices") and docs/lod-generation.md

@@ -1,17 +1,20 @@
 // Curvature-weighted QEM (cost "curvature-qem").
 //
-// Paper: 002 (LOD generation with an improved QEM), eq. (7)-(12): collapsing (v_i, v_j) to v
-// costs |v_i v_j| * v^T (K_abs,i Q_i + K_abs,j Q_j) v, with Q the Garland-Heckbert quadrics and
-// K_abs = |k1| + |k2|, k1,2 = H +- sqrt(max(H^2 - K, 0)) from the mean curvature H and the
-// Gaussian curvature K of each vertex; the new point minimises the weighted quadric (the same
+// Paper: J. He, P. Wang, J. Zhu, J. Zeng, "Application and Optimization of Mesh Simplification in
+// 3D virtual Reality Scene in a High-performance Environment" (venue and year not stated in our
+// copy; docs/references.md), LOD generation with an improved QEM, eq. (7)-(12): collapsing (v_i,
+// v_j) to v costs |v_i v_j| * v^T (K_abs,i Q_i + K_abs,j Q_j) v, with Q the Garland-Heckbert
+// quadrics and K_abs = |k1| + |k2|, k1,2 = H +- sqrt(max(H^2 - K, 0)) from the mean curvature H and
+// the Gaussian curvature K of each vertex; the new point minimises the weighted quadric (the same
 // placement as qem.cpp: 3x3 solve, else on the edge, else endpoints or midpoint).
 //
 // Departures:
 // - H and K are the discrete operators of Meyer, Desbrun, Schroeder & Barr, "Discrete
-//   differential-geometry operators for triangulated 2-manifolds" (2003): H = |sum (cot a + cot b)
-//   (x_i - x_j)| / (4 A_mixed) (cotangent Laplacian) and K = (2 pi - sum theta) / A_mixed (angle
-//   deficit; pi on a border), with the mixed Voronoi area. The paper's eq. (7) sums dihedral
-//   angles instead; the cotangent form is the standard estimator and converges on smooth surfaces.
+//   differential-geometry operators for triangulated 2-manifolds", Visualization and Mathematics
+//   III, Springer 2003: H = |sum (cot a + cot b) (x_i - x_j)| / (4 A_mixed) (cotangent Laplacian)
+//   and K = (2 pi - sum theta) / A_mixed (angle deficit; pi on a border), with the mixed Voronoi
+//   area. The paper's eq. (7) sums dihedral angles instead; the cotangent form is the standard
+//   estimator and converges on smooth surfaces.
 // - Flat regions have K_abs = 0, which would make their quadrics vanish: every flat edge would
 //   cost 0 and, once merged with a curved vertex, would no longer hold the point on its plane. We
 //   weight by K_abs + eps with eps = 1 / (bounding-box diagonal), the curvature of a sphere twice

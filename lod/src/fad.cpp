@@ -1,9 +1,11 @@
 // FAD, "face angle dependency": vertex removal ordered by the angles between the normals of the
 // faces around a vertex.
 //
-// Paper: 001, sec. III.II (FAD): for every vertex, the angles between the normals of all faces
-// around it are computed pairwise; when all of them are below a threshold the vertex lies in a
-// flat region and is removed; holes are re-triangulated by Delaunay.
+// Paper: H. Li, S. Kim, "Mesh Simplification Algorithms for Rendering Performance", International
+// Journal of Engineering Research and Technology 13(6), 2020, pp. 1110-1119, sec. III.II (FAD): for
+// every vertex, the angles between the normals of all faces around it are computed pairwise; when
+// all of them are below a threshold the vertex lies in a flat region and is removed; holes are
+// re-triangulated by Delaunay.
 //
 // Departures from the paper:
 // - Target instead of threshold: vertices are removed in increasing order of the paper's

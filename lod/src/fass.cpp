@@ -1,8 +1,9 @@
 // FASS, "face angle spherical scanning": FAD vertex removal in flat regions, then SS clustering.
 //
-// Paper: 001, sec. III.V.II (FASS): first every vertex whose face-normal angles are all below the
-// angle threshold is removed (FAD), then the remaining vertices are clustered by spherical
-// scanning (SS) with a radius threshold.
+// Paper: H. Li, S. Kim, "Mesh Simplification Algorithms for Rendering Performance", International
+// Journal of Engineering Research and Technology 13(6), 2020, pp. 1110-1119, sec. III.V.II (FASS):
+// first every vertex whose face-normal angles are all below the angle threshold is removed (FAD),
+// then the remaining vertices are clustered by spherical scanning (SS) with a radius threshold.
 //
 // Departures from the paper (beyond those of fad.cpp and ss.cpp, whose code this reuses):
 // - Targets instead of (angle, radius): the angle threshold stays the paper's kAngleDeg; FAD

@@ -1,11 +1,14 @@
-// Formula 1 of 000 (cost "formula1"): cost(e) = |e| / (n1 . n2), the edge length over the dot
-// product of the unit normals of the two faces beside the edge; the edge is collapsed onto one of
-// its endpoints (half-edge collapse), as the paper does.
+// Formula 1 of Lazányi 2003 (cost "formula1"): cost(e) = |e| / (n1 . n2), the edge length over the
+// dot product of the unit normals of the two faces beside the edge; the edge is collapsed onto one
+// of its endpoints (half-edge collapse), as the paper does.
 //
-// Paper: 000, section 2.2, Formula 1 and Figure 4: the cost grows with the length and with the
-// "crack" between the two faces and is infinite at a right angle. The paper notes it is
-// short-sighted: on a cube split into triangles, a face diagonal has parallel face normals, so it
-// is among the cheapest edges and its collapse pulls a corner across the face (Figure 5).
+// Paper: I. Zs. Lazányi, "... virtual worlds for virtual reality applications", Central European
+// Seminar on Computer Graphics (CESCG) 2003, Budapest University of Technology and Economics (the
+// first words of the title are missing from our copy; docs/references.md), section 2.2, Formula 1
+// and Figure 4: the cost grows with the length and with the "crack" between the two faces and is
+// infinite at a right angle. The paper notes it is short-sighted: on a cube split into triangles, a
+// face diagonal has parallel face normals, so it is among the cheapest edges and its collapse pulls
+// a corner across the face (Figure 5).
 //
 // Edge cases the paper leaves open, and what we do:
 // - n1 . n2 <= 0 (a right or wider angle): "infinite". We use 1e20 * |e|, so such edges go last,

@@ -1,10 +1,10 @@
 // A frame's render cost learned online: render ms = base + per_triangle * triangles, fitted by
 // exponentially weighted least squares (recursive: the weighted means and co-moments updated per
-// frame, West 1979, "Updating mean and variance estimates: an improved method", with every older
-// weight multiplied by the decay), so the fit follows a renderer whose cost drifts. While the
-// triangle counts seen barely differ (relative spread under 1 %) the slope is not identifiable:
-// the last identified slope is kept (at first: the whole mean cost over the mean count, base 0).
-// Cost: O(1) per frame, no allocation.
+// frame, D. H. D. West, "Updating mean and variance estimates: an improved method", Communications
+// of the ACM 22(9), 1979, with every older weight multiplied by the decay), so the fit follows a
+// renderer whose cost drifts. While the triangle counts seen barely differ (relative spread
+// under 1 %) the slope is not identifiable: the last identified slope is kept (at first: the whole
+// mean cost over the mean count, base 0). Cost: O(1) per frame, no allocation.
 #include <algorithm>
 #include <cmath>
 

@@ -2,7 +2,8 @@
 // greedy order, as the papers do (these costs are cheap to mis-order otherwise: a collapse in the
 // ring changes them).
 //
-// Paper: M. Garland, P. Heckbert, SIGGRAPH 1997 (the greedy loop over a heap of edge candidates).
+// Paper: M. Garland, P. Heckbert, "Surface simplification using quadric error metrics", SIGGRAPH
+// 1997 (the greedy loop over a heap of edge candidates).
 // Method: a binary min-heap of edge candidates with lazy deletion: each entry carries the version
 // of both endpoints, a collapse bumps the kept position and its 1-ring and re-evaluates every
 // edge of the ring; an entry whose cost rose since it was queued goes back at the new cost. The

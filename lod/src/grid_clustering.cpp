@@ -1,13 +1,14 @@
-// "grid": uniform-grid vertex clustering (Rossignac & Borrel 1993) behind simplify().
+// "grid": uniform-grid vertex clustering behind simplify().
 //
-// Paper and method: see vertex_clustering.cpp. This entry only reaches each target with
-// cluster_to_triangle_count (bisection on the cell size, closest non-empty count kept), one
-// independent clustering per target, and reports the largest vertex displacement as the estimated
-// error. Departure: the grid ignores connectivity, so closed input may come back non-manifold or
-// with holes closed, and UV seams are not kept (the representative's UVs are used); lock_borders
-// and locked_positions are ignored. Clustering can leave the same three corners twice with opposite
-// orientations (a pinched sheet); the second of such a pair is dropped here so that no face
-// repeats.
+// Paper: J. Rossignac, P. Borrel, "Multi-resolution 3D approximations for rendering complex
+// scenes", Modeling in Computer Graphics, Springer 1993; the method: see vertex_clustering.cpp.
+// This entry only reaches each target with cluster_to_triangle_count (bisection on the cell size,
+// closest non-empty count kept), one independent clustering per target, and reports the largest
+// vertex displacement as the estimated error. Departure: the grid ignores connectivity, so closed
+// input may come back non-manifold or with holes closed, and UV seams are not kept (the
+// representative's UVs are used); lock_borders and locked_positions are ignored. Clustering can
+// leave the same three corners twice with opposite orientations (a pinched sheet); the second of
+// such a pair is dropped here so that no face repeats.
 //
 // Cost: O((V + T) log(1/eps)) per target (24 bisection steps at most); memory O(V + T).
 #include <algorithm>

@@ -1,7 +1,9 @@
-// LOD allocation under a frame budget by the immune genetic algorithm of seed 002: J. He, P. Wang,
-// J. Zhu, J. Zeng, "Application and Optimization of Mesh Simplification in 3D virtual Reality
-// Scene in a High-performance Environment", section 2.2 (3), eqs. (13)-(18). The paper applies it
-// to collision distances; here the problem is the greedy allocator's (Funkhouser & Sequin 1993):
+// LOD allocation under a frame budget by the immune genetic algorithm of J. He, P. Wang, J. Zhu, J.
+// Zeng, "Application and Optimization of Mesh Simplification in 3D virtual Reality Scene in a
+// High-performance Environment" (venue and year not stated in our copy; docs/references.md),
+// section 2.2 (3), eqs. (13)-(18). The paper applies it to collision distances; here the problem is
+// the greedy allocator's (T. A. Funkhouser, C. H. Sequin, "Adaptive display algorithm for
+// interactive frame rates during visualization of complex virtual environments", SIGGRAPH 1993):
 // choose a level per drawn object, no finer than the selector's, that minimises the visible error
 // left, f = sum_i e_i(l_i) * k_i (in tolerances), subject to base + b * sum_i triangles_i(l_i) <=
 // budget.
@@ -16,7 +18,9 @@
 //     its genes reset at random.
 //  3) vaccine: the rounded mean of the best `vaccine_donors` antibodies' genes; a vaccinated
 //     child gets `vaccine_genes` of its genes from it (the paper extracts the vaccine but does not
-//     say how it is injected; this is Jiao & Wang 2000's gene injection).
+//     say how it is injected; this is the gene injection of L. Jiao, L. Wang, "A novel genetic
+//     algorithm based on immunity", IEEE Transactions on Systems, Man, and Cybernetics, Part A
+//     30(5), 2000).
 //  4) affinity (eq. 16): F = 1 / f^2 (M_max when f = 0), used relative to the best (f_min / f)^2
 //     so that it does not overflow.
 //  5) selection: the paper's probabilities are garbled ("inversely proportional to the affinity");
@@ -49,8 +53,8 @@ namespace hmdnode {
 
 namespace {
 
-// SplitMix64 (Steele, Lea & Flood 2014): the same numbers on every platform, unlike <random>'s
-// distributions.
+// SplitMix64 (G. L. Steele, D. Lea, C. H. Flood, "Fast splittable pseudorandom number
+// generators", OOPSLA 2014): the same numbers on every platform, unlike <random>'s distributions.
 struct SplitMix {
     uint64_t s;
     uint64_t next() {

@@ -1,9 +1,11 @@
 // IVDD, "intervertex distance dependence": iterative folding of the shortest edges to their
 // midpoints, and of small triangles to their circumcentres.
 //
-// Paper: 001, sec. III.III (IVDD): in each triangle, two vertices closer than a distance threshold
-// are folded into their midpoint; when a vertex is closer than the threshold to both others, the
-// three are folded into the circumcentre of the triangle; the result is re-triangulated.
+// Paper: H. Li, S. Kim, "Mesh Simplification Algorithms for Rendering Performance", International
+// Journal of Engineering Research and Technology 13(6), 2020, pp. 1110-1119, sec. III.III (IVDD):
+// in each triangle, two vertices closer than a distance threshold are folded into their midpoint;
+// when a vertex is closer than the threshold to both others, the three are folded into the
+// circumcentre of the triangle; the result is re-triangulated.
 //
 // Departures from the paper:
 // - Target instead of threshold: edges are folded shortest first (the threshold is the length of

@@ -2,7 +2,7 @@
 // models for visible surface algorithms", CACM 1976) with levels made by simplify() and each level
 // annotated with its measured error, the symmetric Hausdorff distance to level 0 (Metro method,
 // mesh_distance.cpp), as the error-driven selection of Luebke et al. ("Level of Detail for 3D
-// Graphics", 2003, ch. 4) needs; stored as MSFT_lod.
+// Graphics", Morgan Kaufmann 2003, ch. 4) needs; stored as MSFT_lod.
 //
 // Target by error (--error): a halving ladder of triangle counts (one simplify() pass for an
 // edge-collapse algorithm) brackets the count where the measured error crosses the bound, then

@@ -1,12 +1,15 @@
-// Melax's cost, Formula 2 of 000 (cost "melax"): collapsing u onto v costs
+// Melax's cost, Formula 2 of Lazányi 2003 (cost "melax"): collapsing u onto v costs
 //   |u - v| * max over faces f around u of ( min over faces n on the edge uv of (1 - f.n . n.n)/2 )
 // with unit face normals; the edge is collapsed onto an endpoint (half-edge collapse), in the
 // cheaper of the directions the engine's rules allow.
 //
 // Papers: S. Melax, "A simple, fast and effective polygon reduction algorithm", Game Developer,
-// November 1998; 000, section 2.2, Formula 2 and Figures 6-7: on a flat surface the cost is 0;
-// across a cube's face diagonal, a face of u in a perpendicular side gives (1 - 0)/2 = 0.5, so
-// the diagonal waits until nothing cheaper is left (unlike Formula 1).
+// November 1998; I. Zs. Lazányi, "... virtual worlds for virtual reality applications", Central
+// European Seminar on Computer Graphics (CESCG) 2003, Budapest University of Technology and
+// Economics (the first words of the title are missing from our copy; docs/references.md), section
+// 2.2, Formula 2 and Figures 6-7: on a flat surface the cost is 0; across a cube's face diagonal, a
+// face of u in a perpendicular side gives (1 - 0)/2 = 0.5, so the diagonal waits until nothing
+// cheaper is left (unlike Formula 1).
 //
 // Departures: none in the cost. faces(u) includes the faces on the edge (they contribute 0, as in
 // Melax's code). Border edges have one face on the edge; Melax's code special-cases nothing for

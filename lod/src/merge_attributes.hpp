@@ -11,7 +11,7 @@
 // Paper: H. Hoppe, "New quadric metric for simplifying meshes with appearance attributes", IEEE
 // Visualization 1999 (attributes of the new vertex where it lies on the surface, rather than
 // along the edge); M. Garland, P. Heckbert, "Simplifying surfaces with color and texture using
-// quadric error metrics", 1998.
+// quadric error metrics", IEEE Visualization 1998.
 // Cost: one walk of the faces around each endpoint, O(valence), no allocation.
 #pragma once
 

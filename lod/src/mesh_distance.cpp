@@ -4,13 +4,14 @@
 // over the samples is a lower bound of the one-sided Hausdorff distance, the area-weighted average
 // the mean error.
 //
-// Sampling: triangle i gets N * area_i / total_area samples, rounded on the running sum
-// (at least one when its area is non-zero), placed by a randomly rotated R2
-// low-discrepancy sequence (Roberts 2018) folded into the triangle, so the samples are stratified
-// and reproducible for a seed. Each sample weighs area_i / samples_i. The mean's standard error is
-// the weighted mean's, sqrt(sum w_i^2 (d_i - mean)^2) / sum w_i, as if the samples were
-// independent; stratification only makes the true error smaller. N defaults to an eighth of the
-// sampled mesh's triangle count (at least 1024).
+// Sampling: triangle i gets N * area_i / total_area samples, rounded on the running sum (at least
+// one when its area is non-zero), placed by a randomly rotated R2 low-discrepancy sequence
+// (M. Roberts, "The unreasonable effectiveness of quasirandom sequences", web article, 2018) folded
+// into the triangle, so the samples are stratified and reproducible for a seed. Each sample weighs
+// area_i / samples_i. The mean's standard error is the weighted mean's,
+// sqrt(sum w_i^2 (d_i - mean)^2) / sum w_i, as if the samples were independent; stratification only
+// makes the true error smaller. N defaults to an eighth of the sampled mesh's triangle count (at
+// least 1024).
 //
 // Upper bound of the Hausdorff distance (branch and bound, as in Tang, Lee & Kim, "Interactive
 // Hausdorff distance computation for general polygonal models", SIGGRAPH 2009, with the bound of
@@ -23,10 +24,11 @@
 // distance (the Hausdorff distance is then exact) or the refinement's query budget is spent.
 // The midpoints count for the maximum (the lower bound) too.
 //
-// Nearest point: Embree 3 BVH over the target triangles, rtcPointQuery with a closest-point-on-
-// triangle callback (Ericson, Real-Time Collision Detection, 5.1.5) that shrinks the query radius;
-// each query starts with the radius of its predecessor's nearest triangle (the samples are in
-// triangle order, so that is near), which prunes most of the tree from the start.
+// Nearest point: Embree 3 BVH over the target triangles, rtcPointQuery with a
+// closest-point-on-triangle callback (C. Ericson, "Real-Time Collision Detection", Morgan Kaufmann
+// 2005, 5.1.5) that shrinks the query radius; each query starts with the radius of its
+// predecessor's nearest triangle (the samples are in triangle order, so that is near), which prunes
+// most of the tree from the start.
 // Cost: O(T log T) to build a BVH (level 0's once per MeshDistanceReference), O(log T) per query
 // typically; time O((N + V + R) log T) with R refinement queries, memory O(N + T + R).
 // If Embree cannot make a device the queries fall back to a brute-force loop (O(N T)), which is

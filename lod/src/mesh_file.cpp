@@ -1,6 +1,6 @@
-// Mesh file input for the LOD tool: PLY (Turk, "The PLY polygon file format", 1994: ascii and
-// both binary byte orders) and OFF (Geomview) readers written here, glTF and OBJ through core's
-// loaders. Cost: O(file size) time, the mesh plus the file in memory.
+// Mesh file input for the LOD tool: PLY (G. Turk, "The PLY polygon file format", Stanford
+// University, 1994: ascii and both binary byte orders) and OFF (Geomview) readers written here,
+// glTF and OBJ through core's loaders. Cost: O(file size) time, the mesh plus the file in memory.
 #include "hmdnode/lod/mesh_file.hpp"
 
 #include <algorithm>

@@ -1,9 +1,13 @@
 // Primitive <-> OpenMesh conversion, checked half-edge collapse and the greedy driver shared by the
-// algorithms of 001 (see openmesh_mesh.hpp for the contract).
+// algorithms of H. Li, S. Kim, "Mesh Simplification Algorithms for Rendering Performance",
+// International Journal of Engineering Research and Technology 13(6), 2020 (see openmesh_mesh.hpp
+// for the contract).
 //
-// No paper: plumbing. The collapse is Hoppe's half-edge collapse (Hoppe 1996, "Progressive
-// meshes", sec. 3) restricted by the link condition (Dey et al. 1999) that OpenMesh checks, plus
-// seam and flip rules of our own (see the header).
+// No paper: plumbing. The collapse is Hoppe's half-edge collapse (H. Hoppe, "Progressive meshes",
+// SIGGRAPH 1996, sec. 3) restricted by the link condition (T. Dey, H. Edelsbrunner, S. Guha,
+// D. Nekhayev, "Topology preserving edge contraction", Publications de l'Institut Mathematique
+// (Beograd) 66(80), 1999) that OpenMesh checks, plus seam and flip rules of our own (see the
+// header).
 //
 // Cost: welding O(V + T) expected (hash maps); a collapse check O(valence^2); the greedy driver
 // O(n log n) over its queue. Memory: the OpenMesh mesh, 3 corners per face, a copy of the input

@@ -1,5 +1,7 @@
 // Primitive <-> OpenMesh conversion for the simplifiers of lod/ (private: OpenMesh never appears in
-// a public header), and the checked half-edge collapse the algorithms of 001 share.
+// a public header), and the checked half-edge collapse the algorithms of Li and Kim 2020 share
+// (H. Li, S. Kim, "Mesh Simplification Algorithms for Rendering Performance", International
+// Journal of Engineering Research and Technology 13(6), 2020).
 //
 // Welding: input vertices whose positions are equal bit for bit (after +0 == -0) become one
 // OpenMesh vertex. Each face keeps, per corner, the "wedge" it had: the input vertex index,

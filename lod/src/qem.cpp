@@ -9,19 +9,19 @@
 // perpendicular to its face with a large weight (section 6.1 of the paper), so borders and seams
 // keep their shape; flips are rejected by the engine.
 //
-// Departures: face quadrics are weighted by face area (Garland's thesis, section 3.4), so the
-// result does not depend on the tessellation; the solved point is only accepted within one edge
-// length of the edge's midpoint (further away the system is nearly singular and the point is
-// noise), otherwise the segment minimiser is used, unless the quadric is flat along the edge to
-// within 1e-8 of its trace (an edge along a crease or in a plane: every point of it fits, and
-// rounding alone chose one, sliding crease vertices along their creases), where the better
-// endpoint is kept (the midpoint only where it is cheaper by more than that). Collapses are
-// ordered by the quadric error over W^0.75, W the area the two quadrics sum, not by the plain
-// area-weighted sum, which removed small features first (order_scale()). Only two free positions
-// merge at a new point; where a border, seam or locked endpoint is involved the candidate is the
-// cheaper allowed endpoint (the engine keeps borders and seams exactly, as meshoptimizer does).
-// The estimated error is sqrt(quadric error / total area weight), the RMS plane distance in
-// metres.
+// Departures: face quadrics are weighted by face area (M. Garland, "Quadric-Based Polygonal Surface
+// Simplification", PhD thesis, Carnegie Mellon University 1999, section 3.4), so the result does
+// not depend on the tessellation; the solved point is only accepted within one edge length of the
+// edge's midpoint (further away the system is nearly singular and the point is noise), otherwise
+// the segment minimiser is used, unless the quadric is flat along the edge to within 1e-8 of its
+// trace (an edge along a crease or in a plane: every point of it fits, and rounding alone chose
+// one, sliding crease vertices along their creases), where the better endpoint is kept (the
+// midpoint only where it is cheaper by more than that). Collapses are ordered by the quadric error
+// over W^0.75, W the area the two quadrics sum, not by the plain area-weighted sum, which removed
+// small features first (order_scale()). Only two free positions merge at a new point; where a
+// border, seam or locked endpoint is involved the candidate is the cheaper allowed endpoint (the
+// engine keeps borders and seams exactly, as meshoptimizer does). The estimated error is
+// sqrt(quadric error / total area weight), the RMS plane distance in metres.
 //
 // Cost: O(F) to build the quadrics (88 bytes per position); O(1) per edge evaluation (one 3x3
 // solve); the engine's O(E log E) for the rest.

@@ -1,9 +1,14 @@
-// Runtime LOD selection: screen-space error (Luebke et al., "Level of Detail for 3D Graphics",
-// 2003, ch. 4) against a perceptual tolerance, the eccentricity and velocity criteria of 002_...
-// (Reddy's perceptual LOD) made quantitative: acuity as the minimum angle of resolution that grows
-// linearly with eccentricity (Guenter et al., "Foveated 3D graphics", SIGGRAPH Asia 2012), and
-// the smear of a head turn during the display's persistence; hysteresis against flicker.
-// Cost: O(levels) per object per frame, no allocation.
+// Runtime LOD selection: screen-space error (D. Luebke, M. Reddy, J. D. Cohen, A. Varshney, B.
+// Watson, R. Huebner, "Level of Detail for 3D Graphics", Morgan Kaufmann 2003, ch. 4) against a
+// perceptual tolerance, the eccentricity and speed criteria of J. He, P. Wang, J. Zhu, J. Zeng,
+// "Application and Optimization of Mesh Simplification in 3D virtual Reality Scene in a
+// High-performance Environment" (venue and year not stated in our copy) and of Reddy's perceptual
+// LOD (M. Reddy, "Perceptually Modulated Level of Detail for Virtual Environments", PhD thesis,
+// University of Edinburgh, 1997) made quantitative: acuity as the minimum angle of resolution that
+// grows linearly with eccentricity (B. Guenter, M. Finch, S. Drucker, D. Tan, J. Snyder, "Foveated
+// 3D graphics", ACM Transactions on Graphics 31(6), SIGGRAPH Asia 2012), and the smear of a head
+// turn during the display's persistence; hysteresis against flicker. Full citations:
+// docs/references.md. Cost: O(levels) per object per frame, no allocation.
 #include "hmdnode/lod/selector.hpp"
 
 #include <algorithm>

@@ -1,5 +1,7 @@
 // simplify(): the table of algorithms (name -> entry point) and the checks of its arguments.
-// Each algorithm is in its own file; lod/src/algorithms.hpp declares the entry points.
+// Each algorithm is in its own file; lod/src/algorithms.hpp declares the entry points. The
+// sources below are short author-year forms (`hmdnode lod --list-algorithms` prints them); each
+// algorithm file opens with its full citation, and docs/references.md lists them all.
 //
 // Cost: O(V + F) for the checks, then the algorithm's.
 #include "hmdnode/lod/simplify.hpp"
@@ -26,38 +28,38 @@ struct Entry {
 const std::vector<Entry>& table() {
     static const std::vector<Entry> entries = {
         {{"qem", "Garland-Heckbert quadric error metric, optimal placement",
-          "Garland & Heckbert 1997, 002 eq. (1)-(5)"},
+          "Garland & Heckbert 1997; He et al. eq. (1)-(5)"},
          nullptr,
          lod_detail::make_qem_cost},
         {{"curvature-qem", "QEM weighted by absolute curvature |k1|+|k2| and edge length",
-          "002 eq. (7)-(12)"},
+          "He et al. eq. (7)-(12)"},
          nullptr,
          lod_detail::make_curvature_qem_cost},
         {{"formula1", "edge length / dot of the two face normals, half-edge collapse",
-          "000 Formula 1"},
+          "Lazanyi 2003, Formula 1"},
          nullptr,
          lod_detail::make_formula1_cost},
         {{"melax", "Melax: |u-v| * max_f min_n (1 - f.n)/2, half-edge collapse",
-          "000 Formula 2 (Melax 1998)"},
+          "Lazanyi 2003, Formula 2 (Melax 1998)"},
          nullptr,
          lod_detail::make_melax_cost},
         {{"ss", "spherical scanning: vertices within a sphere merged, radius found for the target",
-          "001 sec. III.IV (SS)"},
+          "Li & Kim 2020 sec. III.IV (SS)"},
          lod_detail::simplify_ss},
         {{"fad", "face angle dependency: flattest vertices removed first (half-edge collapse)",
-          "001 sec. III.II (FAD)"},
+          "Li & Kim 2020 sec. III.II (FAD)"},
          lod_detail::simplify_fad},
         {{"vt", "vertex triplex: smallest triangles aggregated into their circumcentres",
-          "001 sec. III.I (VT)"},
+          "Li & Kim 2020 sec. III.I (VT)"},
          lod_detail::simplify_vt},
         {{"ivdd", "intervertex distance: shortest edges to midpoints, small triangles to centres",
-          "001 sec. III.III (IVDD)"},
+          "Li & Kim 2020 sec. III.III (IVDD)"},
          lod_detail::simplify_ivdd},
         {{"vtd", "vertex triplex distance: hybrid of VT and IVDD, by shortest triangle edge",
-          "001 sec. III.V.I (VTD)"},
+          "Li & Kim 2020 sec. III.V.I (VTD)"},
          lod_detail::simplify_vtd},
         {{"fass", "face angle spherical scanning: FAD under 30 degrees, then SS to the target",
-          "001 sec. III.V.II (FASS)"},
+          "Li & Kim 2020 sec. III.V.II (FASS)"},
          lod_detail::simplify_fass},
         {{"grid", "uniform-grid vertex clustering, cell size found for the target",
           "Rossignac & Borrel 1993"},

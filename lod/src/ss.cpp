@@ -1,8 +1,9 @@
 // SS, "spherical scanning": vertex clustering with a sphere moved over the vertices in order.
 //
-// Paper: 001, sec. III.IV (SS): a sphere of a given radius visits the vertices in their order;
-// the vertices around the visited one that fall inside its sphere are merged into one new vertex;
-// the result is re-triangulated.
+// Paper: H. Li, S. Kim, "Mesh Simplification Algorithms for Rendering Performance", International
+// Journal of Engineering Research and Technology 13(6), 2020, pp. 1110-1119, sec. III.IV (SS): a
+// sphere of a given radius visits the vertices in their order; the vertices around the visited one
+// that fall inside its sphere are merged into one new vertex; the result is re-triangulated.
 //
 // Departures from the paper:
 // - Target instead of radius: the scan stops as soon as the target is reached, and the radius is

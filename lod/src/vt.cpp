@@ -1,8 +1,9 @@
 // VT, "vertex triplex": every triangle's three vertices aggregated into its circumcentre.
 //
-// Paper: 001, sec. III.I (VT): the circumcentre of each triangle (equations 1-4) replaces its
-// three vertices; the resulting point cloud, evenly spread over the surface, is re-triangulated
-// by Delaunay.
+// Paper: H. Li, S. Kim, "Mesh Simplification Algorithms for Rendering Performance", International
+// Journal of Engineering Research and Technology 13(6), 2020, pp. 1110-1119, sec. III.I (VT): the
+// circumcentre of each triangle (equations 1-4) replaces its three vertices; the resulting point
+// cloud, evenly spread over the surface, is re-triangulated by Delaunay.
 //
 // Departures from the paper:
 // - Target instead of one fixed pass: triangles are aggregated one at a time, smallest

@@ -1,10 +1,11 @@
 // VTD, "vertex triplex distance": the hybrid of VT and IVDD.
 //
-// Paper: 001, sec. III.V.I (VTD): for each triangle P1 P2 P3 with edge lengths d12, d13, d23:
-// when all three are under the distance threshold, the triangle is aggregated into its
-// circumcentre (VT); otherwise, when one edge (say d12) is under the threshold, the third vertex
-// P3 and the end of that edge farther from it (P1 when d13 > d23, else P2) are merged into their
-// midpoint. The point cloud is then re-triangulated.
+// Paper: H. Li, S. Kim, "Mesh Simplification Algorithms for Rendering Performance", International
+// Journal of Engineering Research and Technology 13(6), 2020, pp. 1110-1119, sec. III.V.I (VTD):
+// for each triangle P1 P2 P3 with edge lengths d12, d13, d23: when all three are under the distance
+// threshold, the triangle is aggregated into its circumcentre (VT); otherwise, when one edge (say
+// d12) is under the threshold, the third vertex P3 and the end of that edge farther from it (P1
+// when d13 > d23, else P2) are merged into their midpoint. The point cloud is then re-triangulated.
 //
 // Departures from the paper:
 // - Target instead of threshold: triangles are processed in increasing order of their shortest

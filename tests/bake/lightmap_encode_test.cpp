@@ -129,10 +129,11 @@ TEST(LightmapEncode, StoreLightmapSetsTextureAndIntensity) {
     EXPECT_FALSE(store_lightmap(s, 2, im).ok());
 }
 
-// Issue 23: the linear 8-bit PNG lost the dark end (14 % error at 1 % of the scale, 0 at 0.1 %).
-// RGBM with the map's maximum as its range keeps every channel within 2 % (in fact 0.77 %) of the
-// texel's brightest channel, against the exact E, for E from 1e-3 to 1 of the maximum (grey and
-// two tints, 601 values a decade apart in equal log steps); grey texels within that of E itself.
+// HDR precision: the linear 8-bit PNG lost the dark end (14 % error at 1 % of the scale, 0 at
+// 0.1 %). RGBM with the map's maximum as its range keeps every channel within 2 % (in fact 0.77 %)
+// of the texel's brightest channel, against the exact E, for E from 1e-3 to 1 of the maximum (grey
+// and two tints, 601 values a decade apart in equal log steps); grey texels within that of E
+// itself.
 TEST(LightmapEncode, RgbmKeepsTwoPercentDownToATenthOfAPercentOfTheMaximum) {
     const float range = 37.0f;  // the map's maximum
     const glm::vec3 tints[3] = {glm::vec3(1.0f), {1.0f, 0.6f, 0.3f}, {0.25f, 0.5f, 1.0f}};

@@ -1,7 +1,8 @@
-// The edges of the command lines (issue 24): every usage error exits 2, in every subcommand and in
-// the daemon; no floating-point option takes nan or inf; implausible or inconsistent values are
-// refused naming the option (or the config key); outputs are checked before the work, so a bad
-// path fails at once and leaves nothing; a truncated capture keeps its whole records.
+// The edges of the command lines (the service's usage conventions): every usage error exits 2, in
+// every subcommand and in the daemon; no floating-point option takes nan or inf; implausible or
+// inconsistent values are refused naming the option (or the config key); outputs are checked before
+// the work, so a bad path fails at once and leaves nothing; a truncated capture keeps its whole
+// records.
 #include <gtest/gtest.h>
 
 #include <filesystem>

@@ -1,8 +1,8 @@
-// Faults from the world (issue 24 item 5): the status directory unwritable under the daemon, the
-// scene file replaced under the running daemon, and SIGTERM in the middle of `hmdnode bake`, `lod`
-// and `record` (README "Commands": the command ends by the signal, leaving no output and no
-// temporary file). No test waits for a time: each waits for an event (a file, CPU time
-// spent inside the command) with a bound only against a hang.
+// Faults from the world (the service's fault-injection targets): the status directory unwritable
+// under the daemon, the scene file replaced under the running daemon, and SIGTERM in the middle of
+// `hmdnode bake`, `lod` and `record` (README "Commands": the command ends by the signal, leaving no
+// output and no temporary file). No test waits for a time: each waits for an event (a file, CPU
+// time spent inside the command) with a bound only against a hang.
 #include <gtest/gtest.h>
 
 #include <fcntl.h>

@@ -1,11 +1,12 @@
-// The end-to-end check of issue 22's first target: the bundled libsurvive recording of a Valve
-// Index (data/traces/compare-test-index.rec.gz) through `hmdnode record --backend rec` (the Index
-// codec with the recording's factory calibration, clock sync, fusion), its lighthouse poses written
-// beside it, and `hmdnode tracking eval` of the one against the other. The figures asserted are the
-// ones measured (docs/tracking.md §8), against the target p95 <= 1.0 deg, max <= 2.0 deg: with and
-// without the fitted time offset, without the intervals the saturated samples disturb, the gyro
-// alone (the fusion's share), one second of violent motion (the reference's share), and the poses
-// at their recorded TIME. Also: the report's and the plot's shape, and the usage errors.
+// The end-to-end check of the tracking target (fused orientation against lighthouse-solved poses):
+// the bundled libsurvive recording of a Valve Index (data/traces/compare-test-index.rec.gz) through
+// `hmdnode record --backend rec` (the Index codec with the recording's factory calibration, clock
+// sync, fusion), its lighthouse poses written beside it, and `hmdnode tracking eval` of the one
+// against the other. The figures asserted are the ones measured (docs/tracking.md §8), against the
+// target p95 <= 1.0 deg, max <= 2.0 deg: with and without the fitted time offset, without the
+// intervals the saturated samples disturb, the gyro alone (the fusion's share), one second of
+// violent motion (the reference's share), and the poses at their recorded TIME. Also: the report's
+// and the plot's shape, and the usage errors.
 #include <gtest/gtest.h>
 
 #include <filesystem>

@@ -1,10 +1,11 @@
-// Fault injection (issue 24 item 5): the simulated reference tracker unplugged and replugged 100
-// times under the device tracker. On the simulated clock (the frame thread pumps the device) every
-// cycle resumes tracking within one reopen interval of the replug, each disconnect and reopen is
-// counted, and the process holds no more file descriptors after the hundred cycles than before.
-// On the real clock (the tracker's reader thread) the same hundred cycles all resume, with a short
-// reopen interval so the test stays brief; how long recovery takes with the default interval is
-// bench/replug_bench.cpp's figure (no timed assertion here).
+// Fault injection (the service's target: 100 unplug/replug cycles, each recovered in < 1 s): the
+// simulated reference tracker unplugged and replugged 100 times under the device tracker. On the
+// simulated clock (the frame thread pumps the device) every cycle resumes tracking within one
+// reopen interval of the replug, each disconnect and reopen is counted, and the process holds no
+// more file descriptors after the hundred cycles than before. On the real clock (the tracker's
+// reader thread) the same hundred cycles all resume, with a short reopen interval so the test stays
+// brief; how long recovery takes with the default interval is bench/replug_bench.cpp's figure (no
+// timed assertion here).
 #include <gtest/gtest.h>
 
 #include <filesystem>

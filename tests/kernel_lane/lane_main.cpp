@@ -284,11 +284,11 @@ int open_fds() {
     return n;
 }
 
-// 3b. kReplugs unplug/replug cycles through the kernel's uhid (issue 24 item 5): each destroys the
-// device and creates it again 20 ms later (a rebooted firmware), then the backend finds it, opens
-// it and reads a decoded report; recovery = that report's host time - the re-creation. Checks
-// every cycle recovers within a second and that the process holds as many fds after the cycles as
-// before (no leak per cycle).
+// 3b. kReplugs unplug/replug cycles through the kernel's uhid (the service's fault-injection
+// target): each destroys the device and creates it again 20 ms later (a rebooted firmware), then
+// the backend finds it, opens it and reads a decoded report; recovery = that report's host time -
+// the re-creation. Checks every cycle recovers within a second and that the process holds as many
+// fds after the cycles as before (no leak per cycle).
 constexpr int kReplugs = 100;
 void replug_cycles(UhidTracker& tracker, TransportBackend& backend) {
     const int fds_before = open_fds();

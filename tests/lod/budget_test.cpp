@@ -1,6 +1,6 @@
 // The frame-budget controller's parts: the learned cost model, the greedy benefit/cost allocator
-// (Funkhouser & Sequin 1993), the immune genetic allocator (seed 002) and the budget's integral
-// feedback.
+// (Funkhouser & Sequin 1993), the immune genetic allocator (He et al.; docs/references.md) and the
+// budget's integral feedback.
 #include <gtest/gtest.h>
 
 #include <algorithm>

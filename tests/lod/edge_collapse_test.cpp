@@ -49,7 +49,8 @@ Primitive flat_grid(int n) {
 }
 
 // The cube [-1,1]^3, each face an n x n grid, vertices shared along the cube's edges, outward
-// counter-clockwise faces. n = 1: the 12-triangle cube of 000's Figure 5.
+// counter-clockwise faces. n = 1: the 12-triangle cube of Lazányi 2003, Figure 5
+// (docs/references.md).
 Primitive cube(int n) {
     Primitive p;
     std::map<std::array<int, 3>, uint32_t> ids;
@@ -197,9 +198,9 @@ TEST(EdgeCollapse, CubeKeepsItsEightCornersUnderMelaxAndQem) {
     }
 }
 
-// 000, Figure 5: on the 12-triangle cube a face diagonal has parallel face normals, so Formula 1
-// rates it cheapest (cost = its length), pulling a corner across the face; Melax rates the
-// diagonal 0.5 * 2 sqrt 2 and a cube edge 0.5 * 2, and takes a cube edge first. The diagonal's
+// Lazányi 2003, Figure 5: on the 12-triangle cube a face diagonal has parallel face normals, so
+// Formula 1 rates it cheapest (cost = its length), pulling a corner across the face; Melax rates
+// the diagonal 0.5 * 2 sqrt 2 and a cube edge 0.5 * 2, and takes a cube edge first. The diagonal's
 // collapse leaves faces 135 degrees apart, short of the engine's fold limit (143 degrees), so it
 // stays allowed, and its level has no folded pair.
 TEST(EdgeCollapse, Formula1CollapsesTheCubeDiagonalFirstMelaxDoesNot) {
@@ -380,11 +381,11 @@ TEST(EdgeCollapse, NoFaceFlips) {
                 if (std::string(algorithm) != "formula1") {
                     EXPECT_GT(cosine, 0.0) << algorithm << " target " << target << " face " << f;
                 } else {
-                    // note: Formula 1 is short-sighted (000): it leaves slivers standing at about
-                    // 90 degrees along the border (the engine lets a face reach 90 degrees from
-                    // its own input normal, not pass it, which 000's cube diagonal needs); the
-                    // nearest input face may lean slightly the other way. A turned-over face
-                    // would be near -1.
+                    // note: Formula 1 is short-sighted (Lazányi 2003): it leaves slivers standing
+                    // at about 90 degrees along the border (the engine lets a face reach 90
+                    // degrees from its own input normal, not pass it, which Lazányi's cube
+                    // diagonal needs); the nearest input face may lean slightly the other way. A
+                    // turned-over face would be near -1.
                     EXPECT_GT(cosine, -0.25) << algorithm << " target " << target << " face " << f;
                 }
             }
@@ -602,11 +603,11 @@ TEST(EdgeCollapse, AllLevelsFromOnePassAndAttributesKept) {
     }
 }
 
-// Issue 20: the flip guard checks each face alone against its own normals, so Formula 1 folded
-// neighbouring faces onto each other on closed meshes (each face turning less than 90 degrees,
-// in opposite directions: 18 folded pairs on the spot at 10 % before the fold guard). No collapse
-// may fold two faces around the kept position by more than 143 degrees where they were not
-// before, whatever the cost.
+// A defect found on real meshes: the flip guard checks each face alone against its own normals, so
+// Formula 1 folded neighbouring faces onto each other on closed meshes (each face turning less than
+// 90 degrees, in opposite directions: 18 folded pairs on the spot at 10 % before the fold guard).
+// No collapse may fold two faces around the kept position by more than 143 degrees where they were
+// not before, whatever the cost.
 TEST(EdgeCollapse, NoTwoAdjacentFacesFoldOntoEachOtherOnClosedMeshes) {
     Result<Mesh> spot = load_obj(HMDNODE_SOURCE_DIR "/data/meshes/spot.obj");
     ASSERT_TRUE(spot.ok()) << spot.error().message;
@@ -639,12 +640,13 @@ TEST(EdgeCollapse, NoTwoAdjacentFacesFoldOntoEachOtherOnClosedMeshes) {
     }
 }
 
-// Issue 20: a merged vertex takes its attributes where it lies. On a height field z = h(x, y) with
-// uv0 = (x, y), qem merges free positions at points off their edge; the attributes come from the
-// barycentric coordinates of the point projected into the face around the two endpoints that
-// contains it, so uv0 stays (x, y) of the vertex up to the projection along the face normal
-// (|uv0 - (x, y)| <= distance to the face's plane times its slope: at most 8e-4 here). The
-// parameter of the point projected on the edge drifted by 0.013 to 0.034 (an edge is 0.031).
+// A defect found on real meshes (texture drift): a merged vertex takes its attributes where it
+// lies. On a height field z = h(x, y) with uv0 = (x, y), qem merges free positions at points off
+// their edge; the attributes come from the barycentric coordinates of the point projected into the
+// face around the two endpoints that contains it, so uv0 stays (x, y) of the vertex up to the
+// projection along the face normal (|uv0 - (x, y)| <= distance to the face's plane times its slope:
+// at most 8e-4 here). The parameter of the point projected on the edge drifted by 0.013 to 0.034
+// (an edge is 0.031).
 TEST(EdgeCollapse, MergedVertexTakesItsAttributesWhereItLies) {
     Primitive in =
         grid(32, [](float x, float y) { return 0.08f * std::sin(4.0f * x) * std::cos(3.0f * y); });

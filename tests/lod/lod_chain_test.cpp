@@ -424,10 +424,10 @@ glm::vec3 linear_light(const glm::vec3& p) {
 
 // `hmdnode lod` dropped _LIGHT_0 from every level it wrote. Every algorithm's every level now has
 // each vertex attribute the input has, and its light is the closed form within sqrt(2) times half
-// the level's longest edge: the light is filtered over a footprint of half the mean edge length
-// at the vertex (edge collapse, 001's methods; grid: averaged over the vertex's cluster), and a
-// mean of a linear field is the field at the mean position, inside the footprint. (Measured: at
-// most 0.17 at 26 triangles, against a bound of 0.97 or more.)
+// the level's longest edge: the light is filtered over a footprint of half the mean edge length at
+// the vertex (edge collapse, Li and Kim 2020's methods; grid: averaged over the vertex's cluster),
+// and a mean of a linear field is the field at the mean position, inside the footprint. (Measured:
+// at most 0.17 at 26 triangles, against a bound of 0.97 or more.)
 TEST(LodChain, EveryAlgorithmsLevelsCarryEveryVertexAttribute) {
     Primitive ball = icosphere(3);  // 1280 triangles
     for (const glm::vec3& p : ball.positions) {

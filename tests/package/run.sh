@@ -1,5 +1,5 @@
 #!/bin/sh
-# The Debian package as an integrator gets it (issue 24): cpack builds hmdnode_<version>_amd64.deb
+# The Debian package as an integrator gets it: cpack builds hmdnode_<version>_amd64.deb
 # from the build tree; its contents and control fields are checked; it is unpacked into a scratch
 # root (dpkg -x: files only, no maintainer scripts, no root needed); the unit is checked there with
 # `systemd-analyze verify --root` (its ExecStart must exist and be executable in that root; any

@@ -1,5 +1,6 @@
 #!/bin/sh
-# The Debian package on a booted Debian 12 (issue 24's first target): cpack builds
+# The Debian package on a booted Debian 12 (the package's first target: installed and started to
+# READY on a fresh system): cpack builds
 # hmdnode_<version>_amd64.deb; qemu boots Debian's kernel (TCG) into a throwaway system whose root
 # is an overlay of the host's root (9p, read-only) under a tmpfs, with the host's systemd as PID 1;
 # there guest.sh runs `dpkg -i` for real (maintainer scripts included), `systemd-analyze verify`

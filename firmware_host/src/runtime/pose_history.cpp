@@ -1,8 +1,8 @@
 // Pose history with slerp inside and bounded, damped prediction beyond (docs/prediction.md).
 //
 // Sources: the history and its slerp/extrapolate split follow Monado's m_relation_history and
-// m_predict and OpenHMD; the prediction follows LaValle, Yershova, Katsev, Antonov 2014, "Head
-// tracking for the Oculus Rift" (ICRA): constant-velocity prediction is exact for steady turns but
+// m_predict and OpenHMD; the prediction follows LaValle, Yershova, Katsev, Antonov, "Head tracking
+// for the Oculus Rift", IEEE ICRA 2014: constant-velocity prediction is exact for steady turns but
 // overshoots when the head stops, while constant acceleration is noisy; so the acceleration is
 // fitted, clamped and extrapolated in part, and a deceleration is followed only until the motion
 // stops.
@@ -11,9 +11,10 @@
 // vectors r_i = log(q_i q_newest^-1) (and the displacements p_i - p_newest) are fitted through the
 // origin by least squares: r(tau) = w tau + 1/2 a tau^2 (linear only with fewer than two older
 // samples). The window shrinks with the speed of a first fit over the long window, as the One-Euro
-// filter (Casiez, Roussel, Vogel 2012) lowers its smoothing with speed: long against noise at
-// rest, short against lag in fast turns. A steady turn gives a = 0 and is predicted exactly. The
-// prediction over dt is
+// filter (G. Casiez, N. Roussel, D. Vogel, "1 Euro filter: a simple speed-based low-pass filter for
+// noisy input in interactive systems", ACM CHI 2012) lowers its smoothing with speed: long against
+// noise at rest, short against lag in fast turns. A steady turn gives a = 0 and is predicted
+// exactly. The prediction over dt is
 //   a' = clamp(a, a_max) * (a'.w < 0 ? decel_gain : accel_gain),
 //   s  = min(dt, |w| / -(a'.w_hat))  when slowing down, else dt   (stop, never reverse),
 //   r  = w s + 1/2 a' s^2, |r| <= max_rotation   (translation: |d| <= max_translation),

@@ -1,5 +1,7 @@
-// Render bench: seed 001's comparison of LOD methods by render time and image quality ("rendering
-// performance improves by 25%–35% while maintaining the geometry"), as a tool over a replay.
+// Render bench: the comparison of LOD methods by render time and image quality of H. Li, S. Kim,
+// "Mesh Simplification Algorithms for Rendering Performance", International Journal of
+// Engineering Research and Technology 13(6), 2020 ("rendering performance improves by 25%–35%
+// while maintaining the geometry"), as a tool over a replay.
 //
 // Phase 1 replays the trace through the node on the simulated clock with the late warp and the lens
 // pass off, so each rendered frame's pose and levels are the node's own (selector, allocator,

@@ -166,7 +166,8 @@ class Outputs {
 };
 
 void list_algorithms() {
-    std::printf("%-18s %-13s %s\n", "algorithm", "edge collapse", "summary (source)");
+    std::printf("%-18s %-13s %s\n", "algorithm", "edge collapse",
+                "summary (source; full citations: docs/references.md)");
     for (const AlgorithmInfo& a : simplification_algorithms())
         std::printf("%-18s %-13s %s (%s)\n", a.name.c_str(), a.edge_collapse ? "yes" : "no",
                     a.summary.c_str(), a.source.c_str());

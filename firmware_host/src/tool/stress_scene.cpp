@@ -1,6 +1,6 @@
-// The heavy scene behind `hmdnode scene stress`: what an LOD allocator needs to be measured on
-// (issue 21 item 5). Hundreds of objects whose full detail no software renderer draws at 90 Hz,
-// so that frame time depends on the levels chosen.
+// The heavy scene behind `hmdnode scene stress`: what an LOD allocator needs to be measured on (a
+// scene heavy enough that full detail misses frames). Hundreds of objects whose full detail no
+// software renderer draws at 90 Hz, so that frame time depends on the levels chosen.
 //
 // Geometry: per model one LOD chain (make_lod_levels: QEM levels with their measured Hausdorff
 // error, as `hmdnode lod` makes them), its meshes shared by every copy (glTF instancing: a copy is

@@ -36,7 +36,9 @@
 
 namespace hmdnode {
 
-// PCG32 (O'Neill 2014, pcg32_random_r): 64-bit state, stream selected by `stream`.
+// PCG32 (M. E. O'Neill, "PCG: A family of simple fast space-efficient statistically good
+// algorithms for random number generation", HMC-CS-2014-0905, Harvey Mudd College 2014,
+// pcg32_random_r): 64-bit state, stream selected by `stream`.
 class Pcg32 {
   public:
     Pcg32(uint64_t seed, uint64_t stream) : inc_((stream << 1u) | 1u) {

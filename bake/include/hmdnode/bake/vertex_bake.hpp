@@ -1,6 +1,6 @@
 // Per-vertex baking of irradiance into _LIGHT_0 (Primitive::light; docs/baking.md "Per-vertex
 // mode"), two ways side by side:
-//  * AngleWeighted (vertex_angle_weighted.cpp): as 000_ section 3 does it -- every face is
+//  * AngleWeighted (vertex_angle_weighted.cpp): as Lazányi 2003 section 3 does it -- every face is
 //    sampled at several points, its value is their mean, and a vertex takes the average of its
 //    incident faces' values weighted by each face's corner angle at that vertex;
 //  * LeastSquares (vertex_least_squares.cpp): Kavan, Bargteil & Sloan 2011, "Least Squares

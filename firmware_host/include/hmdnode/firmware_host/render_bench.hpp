@@ -1,7 +1,8 @@
-// Render bench (seed 001's method: LOD methods compared by render time and image quality): the
-// frames of a trace replay rendered off-screen at the levels the node chose and, on request, at
-// full detail from the same pose, timed per frame, with PSNR and SSIM of each LOD frame against
-// its full-detail twin; a JSON report (docs/formats.md, "Render bench report") and an SVG plot.
+// Render bench (the method of Li and Kim 2020, docs/references.md: LOD methods compared by render
+// time and image quality): the frames of a trace replay rendered off-screen at the levels the node
+// chose and, on request, at full detail from the same pose, timed per frame, with PSNR and SSIM of
+// each LOD frame against its full-detail twin; a JSON report (docs/formats.md, "Render bench
+// report") and an SVG plot.
 #pragma once
 
 #include <cstdint>

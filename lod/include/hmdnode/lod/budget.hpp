@@ -1,7 +1,10 @@
 // The frame-budget controller for runtime LOD (docs/lod-selection.md, "Frame budget"): a render
 // cost model learned online from measured frames, a greedy benefit/cost allocator that coarsens
-// the selector's levels until the predicted render fits a budget (Funkhouser & Sequin 1993), and
-// an integral correction of that budget from the measured render times.
+// the selector's levels until the predicted render fits a budget (T. A. Funkhouser, C. H. Sequin,
+// "Adaptive display algorithm for interactive frame rates during visualization of complex virtual
+// environments", SIGGRAPH 1993) or the immune genetic allocator of He et al. (below), and an
+// integral correction of that budget from the measured render times. Full citations:
+// docs/references.md.
 //
 // Threads: every object here belongs to the frame thread. After construction (and the allocator's
 // first frames, which size its scratch) nothing allocates.
@@ -99,16 +102,17 @@ class GreedyLodAllocator {
     std::vector<Step> heap_;
 };
 
-// The immune genetic algorithm of seed 002 (He et al., "Application and Optimization of Mesh
-// Simplification in 3D virtual Reality Scene in a High-performance Environment", section 2.2 (3))
-// as a second allocator: an antibody is a level per object, its affinity 1/f^2 of f = the visible
-// error left (in tolerances, the greedy's benefit model), kept within the budget by repair;
-// selection by affinity and antibody concentration, arithmetic crossover (eq. 17), random-reset
-// mutation (eq. 18), a vaccine from the best antibodies' mean genes, the best kept as memory cell;
-// warm-started from last frame's levels (BudgetCandidate::previous). Deterministic: the generator
-// is reseeded from `seed` on every call, and the work is capped by generations, never by a clock.
-// The greedy's answer is one initial antibody. O(G P n L) for G generations of P antibodies over
-// n objects of L levels, plus the greedy's cost (iga_allocator.cpp).
+// The immune genetic algorithm of J. He, P. Wang, J. Zhu, J. Zeng, "Application and Optimization of
+// Mesh Simplification in 3D virtual Reality Scene in a High-performance Environment" (venue and
+// year not stated in our copy), section 2.2 (3), as a second allocator: an antibody is a level per
+// object, its affinity 1/f^2 of f = the visible error left (in tolerances, the greedy's benefit
+// model), kept within the budget by repair; selection by affinity and antibody concentration,
+// arithmetic crossover (eq. 17), random-reset mutation (eq. 18), a vaccine from the best
+// antibodies' mean genes, the best kept as memory cell; warm-started from last frame's levels
+// (BudgetCandidate::previous). Deterministic: the generator is reseeded from `seed` on every call,
+// and the work is capped by generations, never by a clock. The greedy's answer is one initial
+// antibody. O(G P n L) for G generations of P antibodies over n objects of L levels, plus the
+// greedy's cost (iga_allocator.cpp).
 struct IgaParams {
     int population = 8;            // antibodies (>= 4)
     int max_generations = 8;       // hard cap: the decision time is bounded by it

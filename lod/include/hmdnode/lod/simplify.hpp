@@ -1,6 +1,8 @@
-// Mesh simplification: every algorithm of the source papers behind one entry point, selectable by
-// name (`hmdnode lod --algorithm NAME`). Each algorithm lives in its own file under lod/src/ that
-// opens with the paper it implements and its cost; lod/src/algorithms.hpp is the private table.
+// Mesh simplification: every algorithm `hmdnode lod` offers (those of Lazányi 2003, Li and Kim 2020
+// and He et al., and the classics they build on: Garland and Heckbert 1997, Melax 1998, Rossignac
+// and Borrel 1993; full citations in docs/references.md) behind one entry point, selectable by name
+// (`hmdnode lod --algorithm NAME`). Each algorithm lives in its own file under lod/src/ that opens
+// with the paper it implements and its cost; lod/src/algorithms.hpp is the private table.
 //
 // Functions over caller-owned data, no I/O; `progress` is called on the calling thread. What a
 // call uses besides the calling thread and its own heap memory is what the caller asks for:
@@ -95,7 +97,7 @@ struct SimplifiedLevel {
 struct AlgorithmInfo {
     std::string name;            // as given to --algorithm: "qem", "curvature-qem", "formula1", ...
     std::string summary;         // one line for --help
-    std::string source;          // the paper (and formula) it implements
+    std::string source;          // the paper (and formula) it implements, author-year
     bool edge_collapse = false;  // true: ordered edge collapses, so progressive meshes and --step
 };
 

@@ -1,5 +1,7 @@
-// Uniform-grid vertex clustering (Rossignac & Borrel 1993): the `grid` algorithm of `hmdnode lod`,
-// the fastest and coarsest; the edge-collapse methods (QEM, Melax, ...) have a file each.
+// Uniform-grid vertex clustering (J. Rossignac, P. Borrel, "Multi-resolution 3D approximations for
+// rendering complex scenes", Modeling in Computer Graphics, Springer 1993): the `grid` algorithm of
+// `hmdnode lod`, the fastest and coarsest; the edge-collapse methods (QEM, Melax, ...) have a file
+// each.
 //
 // Pure functions over caller-owned data: no I/O, no threads, no globals.
 #pragma once

@@ -1,6 +1,8 @@
-// The algorithms of 001 (SS, FAD, VT, IVDD, VTD, FASS), uniform-grid clustering and OpenMesh's
-// ModQuadric baseline, called through the private table (lod/src/algorithms.hpp) so that this
-// suite does not depend on the name table in simplify.cpp.
+// The algorithms of H. Li, S. Kim, "Mesh Simplification Algorithms for Rendering Performance",
+// International Journal of Engineering Research and Technology 13(6), 2020 (SS, FAD, VT, IVDD, VTD,
+// FASS), uniform-grid clustering and OpenMesh's ModQuadric baseline, called through the private
+// table (lod/src/algorithms.hpp) so that this suite does not depend on the name table in
+// simplify.cpp.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -131,9 +133,9 @@ double sphere_error(const Primitive& p) {
     return e;
 }
 
-class Paper001 : public ::testing::TestWithParam<Algo> {};
+class LiKim2020 : public ::testing::TestWithParam<Algo> {};
 
-TEST_P(Paper001, SphereReachesTargetsStaysClosedUnflippedAndErrorFallsWithCount) {
+TEST_P(LiKim2020, SphereReachesTargetsStaysClosedUnflippedAndErrorFallsWithCount) {
     const Algo& algo = GetParam();
     const Primitive in = icosphere(3);  // 1280 triangles
     ASSERT_EQ(in.triangle_count(), 1280u);
@@ -167,7 +169,7 @@ TEST_P(Paper001, SphereReachesTargetsStaysClosedUnflippedAndErrorFallsWithCount)
     EXPECT_LE(err[0], err[1] * 1.05) << algo.name;
 }
 
-TEST_P(Paper001, FlatGridStaysFlatAndUnflipped) {
+TEST_P(LiKim2020, FlatGridStaysFlatAndUnflipped) {
     const Algo& algo = GetParam();
     const Primitive in = flat_grid(16);  // 512 triangles
     const std::vector<size_t> targets = {256, 64};
@@ -186,14 +188,14 @@ TEST_P(Paper001, FlatGridStaysFlatAndUnflipped) {
     }
 }
 
-INSTANTIATE_TEST_SUITE_P(All, Paper001, ::testing::ValuesIn(kAlgos), [](const auto& info) {
+INSTANTIATE_TEST_SUITE_P(All, LiKim2020, ::testing::ValuesIn(kAlgos), [](const auto& info) {
     std::string s = info.param.name;
     std::replace(s.begin(), s.end(), '-', '_');
     return s;
 });
 
 // Locked borders: the 64 border vertices of a 16 x 16 grid all survive, where they are.
-TEST(Paper001Borders, LockedBordersKeepEveryBorderVertex) {
+TEST(LiKim2020Borders, LockedBordersKeepEveryBorderVertex) {
     const Primitive in = flat_grid(16);
     SimplifyOptions options;
     options.lock_borders = true;
@@ -212,7 +214,7 @@ TEST(Paper001Borders, LockedBordersKeepEveryBorderVertex) {
 
 // FAD removes flat-region vertices first and keeps the sharp ones: a cube with 4 x 4 faces
 // brought to 12 triangles is the cube, all 8 corners kept.
-TEST(Paper001Fad, CubeKeepsItsCorners) {
+TEST(LiKim2020Fad, CubeKeepsItsCorners) {
     const Primitive in = subdivided_cube(4);  // 192 triangles
     for (size_t target : {48u, 12u}) {
         const std::vector<size_t> targets = {target};
@@ -242,7 +244,7 @@ TEST(Paper001Fad, CubeKeepsItsCorners) {
 
 // FAD on a flat square grid: every inner vertex is flat and every border vertex but the four
 // corners lies on a straight border, so it goes down to the two triangles of the square.
-TEST(Paper001Fad, FlatGridReducesToTwoTriangles) {
+TEST(LiKim2020Fad, FlatGridReducesToTwoTriangles) {
     const Primitive in = flat_grid(16);
     const std::vector<size_t> targets = {2};
     auto result = simplify_fad(in, targets, {});
@@ -257,7 +259,7 @@ TEST(Paper001Fad, FlatGridReducesToTwoTriangles) {
 // A flat grid cut into two UV charts along x = 0.5 (split vertices there): uv is an affine map of
 // the position in each chart, so every output vertex must still satisfy its chart's map exactly
 // (a seam vertex may only slide along the seam, interpolation stays inside a chart).
-TEST(Paper001Seams, UvSeamsSurvive) {
+TEST(LiKim2020Seams, UvSeamsSurvive) {
     const int n = 16;
     Primitive in;
     auto uv_of = [](glm::vec3 p, int chart) {
@@ -306,7 +308,7 @@ TEST(Paper001Seams, UvSeamsSurvive) {
 // The OpenMesh conversion: split seam vertices weld into one OpenMesh vertex, and the round trip
 // gives back every triangle with the attributes of each corner exactly; a face OpenMesh refuses
 // (third face on an edge) and one with a repeated corner are counted, not added.
-TEST(Paper001Weld, RoundTripKeepsCornersAndCountsRefusedFaces) {
+TEST(LiKim2020Weld, RoundTripKeepsCornersAndCountsRefusedFaces) {
     Primitive in = flat_grid(2);  // 9 vertices, 8 triangles
     in.uv0.resize(in.positions.size());
     for (size_t i = 0; i < in.positions.size(); ++i) in.uv0[i] = glm::vec2(in.positions[i]);
@@ -347,7 +349,7 @@ TEST(Paper001Weld, RoundTripKeepsCornersAndCountsRefusedFaces) {
 
 // Non-manifold input (three faces on one edge) does not crash: the face OpenMesh refuses is left
 // out and the rest simplified.
-TEST(Paper001Robust, NonManifoldEdgeIsSurvived) {
+TEST(LiKim2020Robust, NonManifoldEdgeIsSurvived) {
     Primitive in = flat_grid(8);
     uint32_t extra = uint32_t(in.positions.size());
     in.positions.push_back({0.0625f, 0.0f, 0.5f});
