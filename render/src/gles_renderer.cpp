@@ -128,7 +128,7 @@ class GlesRenderer final : public Renderer {
         GLint reproject = -1, sample_rect = -1;
     };
     FusedProgram fused_program_[2][2];
-    glm::mat3 eye_to_head_[2] = {glm::mat3(1.0f), glm::mat3(1.0f)};
+    gpu::LensPassEye lens_[2];
     double scale_ = 1.0;
     gpu::ScaledViewport frame_viewport_, rendered_viewport_;
     int panel_width_ = 0, panel_height_ = 0;  // 0: no set_warp() yet
@@ -481,15 +481,16 @@ Status GlesRenderer::set_lens_warp(int panel_width, int panel_height,
     panel_width_ = panel_height_ = 0;
     for (int e = 0; e < 2; ++e) {
         const gpu::LensPassEye& lens = setup->eye[e];
-        eye_to_head_[e] = lens.eye_to_head;
+        lens_[e] = lens;
         for (int mono = 0; mono < 2; ++mono) {
             FusedProgram& fp = fused_program_[e][mono];
             fp = FusedProgram();
             if (!mono && !setup->chromatic) continue;
-            const std::string fragment = "#version 300 es\n#define MODEL " +
-                                         std::to_string(int(lens.model)) + "\n#define MONO " +
-                                         std::to_string(mono) + "\n" +
-                                         gles::kLensWarpFragmentBody;
+            const std::string fragment =
+                "#version 300 es\n#define MODEL " + std::to_string(int(lens.model)) +
+                "\n#define MONO " + std::to_string(mono) + "\n#define SHARED " +
+                std::to_string(int(lens.shared)) + "\n#define CLAMP " +
+                std::to_string(int(lens.clamped)) + "\n" + gles::kLensWarpFragmentBody;
             auto program = gles::build_program(gles::kLensWarpVertex, fragment.c_str(), "lens warp");
             if (!program) return program.error();
             fp.program = gles::Program(*program);
@@ -501,8 +502,9 @@ Status GlesRenderer::set_lens_warp(int panel_width, int panel_height,
             glUniform4fv(glGetUniformLocation(p, "u_coeffs"), 3, &u.coeffs[0][0]);
             glUniform4fv(glGetUniformLocation(p, "u_fov"), 1, &u.fov[0]);
             glUniform4fv(glGetUniformLocation(p, "u_panel"), 1, &u.panel[0]);
-            const glm::mat3 pre(u.pre);
-            glUniformMatrix3fv(glGetUniformLocation(p, "u_pre"), 1, GL_FALSE, &pre[0][0]);
+            const glm::vec3 row2(u.pre[0][2], u.pre[1][2], u.pre[2][2]), ahead(u.pre[3]);
+            glUniform3fv(glGetUniformLocation(p, "u_pre_row2"), 1, &row2[0]);
+            glUniform3fv(glGetUniformLocation(p, "u_ahead"), 1, &ahead[0]);
             fp.reproject = glGetUniformLocation(p, "u_reproject");
             fp.sample_rect = glGetUniformLocation(p, "u_sample_rect");
         }
@@ -606,7 +608,7 @@ Result<WarpStats> GlesRenderer::warp(const glm::dquat& delta, StereoImage* out_p
         if (fused_) {
             const FusedProgram& fp = fused_program_[e][lens_chromatic_ && chromatic_ ? 0 : 1];
             glUseProgram(fp.program);
-            const glm::mat3 m = glm::mat3(reproject) * eye_to_head_[e];
+            const glm::mat3 m = glm::mat3(gpu::lens_pass_reprojection(reproject, lens_[e]));
             glUniformMatrix3fv(fp.reproject, 1, GL_FALSE, &m[0][0]);
             glUniform4fv(fp.sample_rect, 1, &rect[0]);
             glBindVertexArray(0);

@@ -149,9 +149,9 @@ void main() {
 )";
 
 // lens_warp.frag without its #version line: the renderer puts `#version 300 es` and the
-// definitions of MODEL (0 none, 1 poly_radial, 2 vive) and MONO (0, 1) before it. Window row 0 is
-// the panel's first row here as in Vulkan (see gles_renderer.cpp), so gl_FragCoord gives the same
-// panel position.
+// definitions of MODEL (0 none, 1 poly_radial, 2 vive), MONO, SHARED and CLAMP (0, 1) before it.
+// Window row 0 is the panel's first row here as in Vulkan (see gles_renderer.cpp), so
+// gl_FragCoord gives the same panel position. The same maths as the Vulkan shader, line for line.
 const char* const kLensWarpFragmentBody = R"(
 precision highp float;
 uniform highp sampler2D eye;
@@ -159,53 +159,69 @@ uniform vec4 u_center_limit[3];
 uniform vec4 u_coeffs[3];
 uniform vec4 u_fov;
 uniform vec4 u_panel;
-uniform mat3 u_pre;
-uniform mat3 u_reproject;
+uniform vec3 u_pre_row2;   // vive: row 2 of K^-1 diag(1, -a, 1)
+uniform vec3 u_ahead;      // vive: the (g, 1) whose ray is straight ahead
+uniform mat3 u_reproject;  // vive: with K^-1 diag(1, -a, 1) folded in
 uniform vec4 u_sample_rect;
 layout(location = 0) out vec4 out_color;
-vec2 radial(vec2 q, int c) {
-    float lim = u_center_limit[c].z;
-    float r2 = dot(q, q);
-    if (r2 > lim) {
-        q *= sqrt(lim / r2);
-        r2 = lim;
-    }
+float factor(float r2, int c) {
     vec4 k = u_coeffs[c];
 #if MODEL == 2
-    float f = 1.0 / (1.0 + r2 * (k.x + r2 * (k.y + r2 * k.z))) + k.w;
+    return 1.0 / (1.0 + r2 * (k.x + r2 * (k.y + r2 * k.z))) + k.w;
 #else
-    float f = k.x + r2 * (k.y + r2 * (k.z + r2 * k.w));
+    return k.x + r2 * (k.y + r2 * (k.z + r2 * k.w));
 #endif
-    return q * f;
 }
-vec3 direction(vec2 uv, int c) {
+vec2 offset(vec2 uv, int c, out float r2) {
     vec2 ctr = u_center_limit[c].xy;
 #if MODEL == 2
-    vec2 q = vec2(2.0 * uv.x - 1.0 - ctr.x, (2.0 * uv.y - 1.0) / u_panel.z - ctr.y);
-    vec3 ray = u_pre * vec3(radial(q, c) + ctr, 1.0);
-    return ray.z < 0.0 ? ray : vec3(0.0, 0.0, -1.0);
+    vec2 q = vec2(2.0 * uv.x - 1.0 - ctr.x, (2.0 * uv.y - 1.0) * u_panel.w - ctr.y);
 #else
-    vec2 p = vec2(u_fov.x + uv.x * (u_fov.y - u_fov.x), u_fov.z + uv.y * (u_fov.w - u_fov.z));
-#if MODEL == 1
-    p = ctr + radial(p - ctr, c);
+    vec2 q = vec2(u_fov.x + uv.x * (u_fov.y - u_fov.x), u_fov.z + uv.y * (u_fov.w - u_fov.z)) - ctr;
 #endif
-    return vec3(p, -1.0);
+    r2 = dot(q, q);
+#if CLAMP
+    float lim = u_center_limit[c].z;
+    q *= sqrt(min(1.0, lim / max(r2, 1e-30)));
+    r2 = min(r2, lim);
 #endif
+    return q;
 }
-vec4 fetch(vec3 d) {
-    vec3 h = u_reproject * d;
+vec4 fetch(vec3 h) {
     if (h.z <= 1e-6) return vec4(0.0);
-    vec2 uv = h.xy / h.z * 0.5 + 0.5;
+    vec2 uv = h.xy * (0.5 / h.z) + 0.5;
     if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) return vec4(0.0);
     return textureLod(eye, min(uv * u_sample_rect.xy, u_sample_rect.zw), 0.0);
 }
+vec3 channel_position(vec2 uv, int c) {
+    float r2;
+    vec2 q = offset(uv, c, r2);
+#if MODEL == 0
+    return u_reproject * vec3(q + u_center_limit[c].xy, -1.0);
+#else
+    vec2 d = u_center_limit[c].xy + factor(r2, c) * q;
+#if MODEL == 2
+    vec3 g1 = vec3(d, 1.0);
+    return u_reproject * (dot(u_pre_row2, g1) >= 0.0 ? u_ahead : g1);
+#else
+    return u_reproject * vec3(d, -1.0);
+#endif
+#endif
+}
 void main() {
     vec2 uv = gl_FragCoord.xy * u_panel.xy;
-#if MONO
-    out_color = vec4(fetch(direction(uv, 1)).rgb, 1.0);
+#if MONO || MODEL == 0
+    out_color = vec4(fetch(channel_position(uv, 1)).rgb, 1.0);
+#elif SHARED && MODEL == 1
+    float r2;
+    vec2 q = offset(uv, 1, r2);
+    vec3 base = u_reproject * vec3(u_center_limit[1].xy, -1.0);
+    vec3 dq = u_reproject * vec3(q, 0.0);
+    out_color = vec4(fetch(base + factor(r2, 0) * dq).r, fetch(base + factor(r2, 1) * dq).g,
+                     fetch(base + factor(r2, 2) * dq).b, 1.0);
 #else
-    out_color = vec4(fetch(direction(uv, 0)).r, fetch(direction(uv, 1)).g,
-                     fetch(direction(uv, 2)).b, 1.0);
+    out_color = vec4(fetch(channel_position(uv, 0)).r, fetch(channel_position(uv, 1)).g,
+                     fetch(channel_position(uv, 2)).b, 1.0);
 #endif
 }
 )";

@@ -93,7 +93,8 @@ Result<LensPassSetup> make_lens_pass_setup(const HeadsetProfile& profile, int pa
         }
         u.fov = glm::vec4(float(lens.fov.tan_left), float(lens.fov.tan_right),
                           float(lens.fov.tan_up), float(lens.fov.tan_down));
-        u.panel = glm::vec4(1.0f / float(panel_width), 1.0f / float(panel_height), float(a), 0.0f);
+        u.panel = glm::vec4(1.0f / float(panel_width), 1.0f / float(panel_height), float(a),
+                            float(1.0 / a));
         u.pre = glm::mat4(1.0f);
         if (out.model == LensPassModel::vive) {
             // (x, y, z) = K^-1 (g.x, -a g.y, 1): the aspect's diagonal folded in.
@@ -101,7 +102,14 @@ Result<LensPassSetup> make_lens_pass_setup(const HeadsetProfile& profile, int pa
                                    glm::dmat3(glm::dvec3(1, 0, 0), glm::dvec3(0, -a, 0),
                                               glm::dvec3(0, 0, 1));
             u.pre = glm::mat4(glm::mat3(pre));
+            u.pre[3] = glm::vec4(glm::vec3(glm::inverse(pre) * glm::dvec3(0.0, 0.0, -1.0)), 1.0f);
         }
+        // Shared centre and clamp: one offset and radius serve every channel.
+        out.shared = out.model != LensPassModel::vive;
+        for (int c = 1; c < 3; ++c)
+            out.shared = out.shared &&
+                         glm::vec3(u.center_limit[c]) == glm::vec3(u.center_limit[0]);
+        for (int c = 0; c < 3; ++c) out.clamped = out.clamped || u.center_limit[c].z < 1e29f;
         out.eye_to_head = glm::mat3(lens.eye_to_head);
     }
     return setup;
@@ -135,7 +143,8 @@ glm::vec3 lens_pass_direction(const LensPassEye& eye, int c, glm::vec2 uv) {
 }
 
 glm::mat4 lens_pass_reprojection(const glm::mat4& warp_reprojection, const LensPassEye& eye) {
-    return glm::mat4(glm::mat3(warp_reprojection) * eye.eye_to_head);
+    const glm::mat3 m = glm::mat3(warp_reprojection) * eye.eye_to_head;
+    return glm::mat4(eye.model == LensPassModel::vive ? m * glm::mat3(eye.uniforms.pre) : m);
 }
 
 }  // namespace hmdnode::gpu

@@ -30,8 +30,9 @@ struct LensUniforms {
     glm::vec4 center_limit[3];  // per channel: xy centre, z the r^2 the model is clamped at
     glm::vec4 coeffs[3];        // per channel
     glm::vec4 fov;              // tan_left, tan_right, tan_up, tan_down (none, poly_radial)
-    glm::vec4 panel;            // x 1 / panel width, y 1 / panel height, z aspect (vive), w 0
-    glm::mat4 pre;              // vive: K^-1 diag(1, -aspect, 1) in the upper 3x3; else identity
+    glm::vec4 panel;            // x 1 / panel width, y 1 / panel height, z aspect, w 1 / aspect
+    glm::mat4 pre;  // vive: K^-1 diag(1, -aspect, 1) in the upper 3x3, and in column 3 the (g, 1)
+                    // whose ray is straight ahead (pre^-1 (0, 0, -1)); else identity
 };
 static_assert(sizeof(LensUniforms) == 192, "std140 layout of the Lens block");
 
@@ -39,6 +40,8 @@ struct LensPassEye {
     LensPassModel model = LensPassModel::none;
     LensUniforms uniforms{};
     glm::mat3 eye_to_head{1.0f};  // folded into the per-frame reprojection matrix
+    bool shared = false;   // the channels share one centre and one clamp (poly_radial, none)
+    bool clamped = false;  // the panel reaches where some channel's model is clamped
 };
 
 struct LensPassSetup {
@@ -56,7 +59,8 @@ Result<LensPassSetup> make_lens_pass_setup(const HeadsetProfile& profile, int pa
 // lens_sample().
 glm::vec3 lens_pass_direction(const LensPassEye& eye, int channel, glm::vec2 uv);
 
-// The per-frame matrix of one eye: warp_reprojection(rendered_projection, delta) * eye_to_head.
+// The per-frame matrix of one eye: warp_reprojection(rendered_projection, delta) * eye_to_head,
+// times the vive model's pre matrix (so the shader projects (g, 1) directly).
 glm::mat4 lens_pass_reprojection(const glm::mat4& warp_reprojection, const LensPassEye& eye);
 
 }  // namespace hmdnode::gpu

@@ -354,7 +354,7 @@ Result<WarpPass> create_lens_warp_pass(DeviceContext& ctx, const Image eyes[2], 
                                            VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, "lens uniforms");
         if (!ubo) return ubo.error();
         w.lens_uniforms[e] = std::move(*ubo);
-        w.eye_to_head[e] = lens.eye[e].eye_to_head;
+        w.lens[e] = lens.eye[e];
     }
     if (Status s = create_common(ctx, eyes, width, height, w.lens_uniforms, w); !s)
         return s.error();
@@ -362,15 +362,18 @@ Result<WarpPass> create_lens_warp_pass(DeviceContext& ctx, const Image eyes[2], 
     // the compiler drops the other models' code and the per-channel loop of MONO.
     struct Spec {
         int32_t model;
-        VkBool32 mono;
+        VkBool32 mono, shared, clamp;
     };
-    const VkSpecializationMapEntry entries[2] = {{0, offsetof(Spec, model), sizeof(int32_t)},
-                                                 {1, offsetof(Spec, mono), sizeof(VkBool32)}};
+    const VkSpecializationMapEntry entries[4] = {{0, offsetof(Spec, model), sizeof(int32_t)},
+                                                 {1, offsetof(Spec, mono), sizeof(VkBool32)},
+                                                 {2, offsetof(Spec, shared), sizeof(VkBool32)},
+                                                 {3, offsetof(Spec, clamp), sizeof(VkBool32)}};
     for (int e = 0; e < 2; ++e)
         for (int mono = 0; mono < 2; ++mono) {
             if (!mono && !lens.chromatic) continue;
-            const Spec spec{int32_t(lens.eye[e].model), VkBool32(mono)};
-            const VkSpecializationInfo info{2, entries, sizeof(spec), &spec};
+            const Spec spec{int32_t(lens.eye[e].model), VkBool32(mono),
+                            VkBool32(lens.eye[e].shared), VkBool32(lens.eye[e].clamped)};
+            const VkSpecializationInfo info{4, entries, sizeof(spec), &spec};
             WarpShaders shaders;
             shaders.vert = kLensWarpVert;
             shaders.frag = kLensWarpFrag;
@@ -404,7 +407,7 @@ void record_warp(VkCommandBuffer cmd, const WarpPass& w, int slot, const glm::ma
                                 &w.set[slot][e], 0, nullptr);
         WarpConstants constants{};
         constants.reproject =
-            w.fused ? glm::mat4(glm::mat3(reproject[e]) * w.eye_to_head[e]) : reproject[e];
+            w.fused ? gpu::lens_pass_reprojection(reproject[e], w.lens[e]) : reproject[e];
         constants.layer = float(e);
         constants.sample_rect = sample_rect;
         vkCmdPushConstants(cmd, w.layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT,

@@ -54,7 +54,7 @@ struct WarpPass {
     bool chromatic = false;  // the profile has chromatic aberration to correct
     Pipeline fused_pipeline[2][2];
     Buffer lens_uniforms[2];
-    glm::mat3 eye_to_head[2] = {glm::mat3(1.0f), glm::mat3(1.0f)};
+    gpu::LensPassEye lens[2];
     Buffer vertices[2], indices[2];
     uint32_t index_count[2] = {0, 0};
     Buffer readback;  // width * height * 4 bytes per eye, left first

@@ -36,6 +36,8 @@ class ScriptedRenderer final : public Renderer {
         items_ = items.size();
         cursor_ = 0;
         frame_cost_ = render_cost_(renders_++);
+        // A pixel-bound renderer: the cost falls with the pixels of the eye buffers.
+        if (pixel_bound_) frame_cost_ = int64_t(double(frame_cost_) * scale_ * scale_);
         return Status::success();
     }
     // One item per piece when max_triangles is limited (the test's items have 12 triangles).
@@ -55,7 +57,11 @@ class ScriptedRenderer final : public Renderer {
         return Status::success();
     }
     Result<WarpStats> warp(const glm::dquat&, StereoImage*) override {
-        clock_.advance_ns(warp_cost_);
+        int64_t cost = warp_sequence_ ? warp_sequence_(warps_) : warp_cost_;
+        ++warps_;
+        // Without chromatic-aberration correction: one sample per pixel instead of three.
+        if (!chromatic_) cost = cost * 2 / 5;
+        clock_.advance_ns(cost);
         return WarpStats{};
     }
     Status set_lens_warp(int, int, const HeadsetProfile&) override { return Status::success(); }
@@ -71,6 +77,8 @@ class ScriptedRenderer final : public Renderer {
     const char* backend_name() const override { return "scripted"; }
     int renders() const { return renders_; }
     void set_setup_cost(int64_t ns) { setup_cost_ = ns; }
+    void set_pixel_bound(bool on) { pixel_bound_ = on; }
+    void set_warp_sequence(std::function<int64_t(int)> f) { warp_sequence_ = std::move(f); }
     int pieces() const { return pieces_; }
 
   private:
@@ -83,6 +91,9 @@ class ScriptedRenderer final : public Renderer {
     int64_t setup_cost_ = 0;
     bool chromatic_ = true;
     double scale_ = 1.0;
+    bool pixel_bound_ = false;
+    std::function<int64_t(int)> warp_sequence_;
+    int warps_ = 0;
 };
 
 // The simulated clock as the node sees it, with a thread that wakes `late_ns` after the time it
@@ -101,7 +112,8 @@ class OversleepingClock final : public Clock {
     int64_t late_ns_;
 };
 
-// Twenty boxes of 12 triangles ahead of the viewer, one draw item each.
+// Twenty boxes of 12 triangles on a ring around the viewer, one draw item each: whatever the
+// heading, a few are in view (a frame always has items to render in pieces).
 Scene boxes() {
     Scene s;
     s.materials.push_back(Material{});
@@ -117,7 +129,8 @@ Scene boxes() {
         Node n;
         n.name = "box" + std::to_string(i);
         n.mesh = 0;
-        n.translation = {0.3 * (i % 5) - 0.6, 1.6, -2.0 - 0.3 * (i / 5)};
+        const double a = deg_to_rad(18.0 * i);
+        n.translation = {2.5 * std::sin(a), 1.6, -2.5 * std::cos(a)};
         s.nodes.push_back(n);
         s.roots.push_back(i);
     }
@@ -152,6 +165,8 @@ struct RunOptions {
     std::function<void(NodeRuntime&)> midway = {};
     int64_t setup_cost_ns = 0;
     int64_t oversleep_ns = 0;
+    bool pixel_bound = false;                    // render cost x scale^2 (the ladder's lever)
+    std::function<int64_t(int)> warp_sequence = {};  // per warp, instead of the fixed warp cost
 };
 
 // Runs the node for `seconds` with the scripted costs and returns its presents and summary.
@@ -173,6 +188,8 @@ PacedRun run(std::function<int64_t(int)> render_cost, int64_t warp_cost, double 
     EXPECT_TRUE(display.ok());
     ScriptedRenderer renderer(clock, std::move(render_cost), warp_cost);
     renderer.set_setup_cost(o.setup_cost_ns);
+    renderer.set_pixel_bound(o.pixel_bound);
+    if (o.warp_sequence) renderer.set_warp_sequence(o.warp_sequence);
     const Scene scene = boxes();
     NodeConfig nc;
     nc.warp = warp;
@@ -268,7 +285,14 @@ TEST(Pacing, VsyncsDuringASlowRenderGetTheFinishedFrameReWarped) {
             EXPECT_TRUE(f.on_time) << f.index;
             EXPECT_LT(f.registration_error_deg, 0.01) << f.index;  // warped to the newest pose
         }
-    EXPECT_LT(r.summary.latency_ms.p99, 11.1);
+    // Once the costs are learnt (the ladder tries a lower resolution first and finds that it saves
+    // nothing here), every present is on time and shows a pose sampled just before its latch.
+    for (const FrameRecord& f : r.frames)
+        if (f.photon_time_ns > s_to_ns(0.5)) {
+            EXPECT_TRUE(f.on_time) << f.index;
+            EXPECT_LT(f.latency_ms, 11.1) << f.index;
+        }
+    EXPECT_EQ(r.frames.back().render_scale, 1.0);  // the resolution that saved nothing is left
     // Without the warp the same vsyncs repeat an old image: missed, and it ages.
     const PacedRun plain = run([](int) { return 25 * kNsPerMs; }, kNsPerMs, 3.0, {.warp = false});
     EXPECT_EQ(plain.summary.rewarps, 0u);
@@ -399,3 +423,109 @@ TEST(Controls, APredictionOffsetFromTheConfigTurnsTheShownPoseAhead) {
     ASSERT_EQ(plain.frames[i].vsync_ns, ahead.frames[i].vsync_ns);
     EXPECT_NEAR(heading(ahead.frames[i]) - heading(plain.frames[i]), 1.8, 1e-6);
 }
+
+namespace hmdnode {
+namespace {
+
+// The presents' share at the ladder's first (full) step, and the largest render-rate divisor.
+double full_share(const PacedRun& r) {
+    size_t full = 0;
+    for (const FrameRecord& f : r.frames) full += f.ladder_step == 0;
+    return double(full) / double(std::max<size_t>(1, r.frames.size()));
+}
+
+}  // namespace
+
+TEST(Ladder, APixelBoundFrameStepsDownTheResolutionAndKeepsEveryVsync) {
+    // 16 ms at full resolution (pixel-bound) in an 11.1 ms period with a 1.5 ms warp: only a lower
+    // eye-buffer resolution makes every vsync.
+    const PacedRun r = run([](int) { return 16 * kNsPerMs; }, 3 * kNsPerMs / 2, 4.0,
+                           {.pixel_bound = true});
+    // After the first frames it settles on a step that fits and keeps it.
+    size_t late_after = 0, step_changes = 0;
+    int last_step = -1;
+    for (const FrameRecord& f : r.frames) {
+        if (f.index > 45 && !f.on_time) ++late_after;
+        if (f.kind == FrameKind::new_frame && f.ladder_step != last_step) ++step_changes;
+        if (f.kind == FrameKind::new_frame) last_step = f.ladder_step;
+    }
+    EXPECT_EQ(late_after, 0u);
+    EXPECT_GE(r.summary.on_time_rate, 0.99);
+    EXPECT_GT(r.summary.new_frames_per_vsync, 0.95);
+    EXPECT_LT(full_share(r), 0.05);
+    EXPECT_LE(step_changes, 6u);  // no oscillation
+    const FrameRecord& f = r.frames.back();
+    EXPECT_LT(f.render_scale, 0.9);
+    EXPECT_GE(f.render_scale, 0.5);
+    EXPECT_EQ(f.render_divisor, 1);
+}
+
+TEST(Ladder, WhenEvenTheBottomStepMissesTheNodeRendersAtHalfRateAndReWarpsBetween) {
+    // 44 ms at full resolution: 11 ms at half resolution per axis, with a 2 ms warp more than a
+    // period. At half the refresh every vsync still gets a freshly warped image.
+    const PacedRun r = run([](int) { return 44 * kNsPerMs; }, 2 * kNsPerMs, 4.0,
+                           {.pixel_bound = true});
+    size_t half = 0, missed_after = 0;
+    for (const FrameRecord& f : r.frames) {
+        half += f.render_divisor == 2;
+        if (f.index > 60 && !f.on_time) ++missed_after;
+    }
+    EXPECT_GT(double(half) / double(r.frames.size()), 0.9);
+    EXPECT_EQ(missed_after, 0u);
+    EXPECT_GE(r.summary.on_time_rate, 0.99);
+    EXPECT_NEAR(r.summary.new_frames_per_vsync, 0.5, 0.03);
+    EXPECT_LE(r.summary.longest_late_run, 2u);
+    // Each re-warp samples the newest pose: latency stays within a period of the new frames'.
+    EXPECT_LT(r.summary.latency_ms.p99, 11.1 + 5.0);
+}
+
+TEST(Ladder, ChromaticAberrationCorrectionIsTheLastStepOfTheLadder) {
+    // 28 ms at full resolution and a 3.5 ms warp: half resolution (7 ms) with the full warp and
+    // its margin does not fit a period; without the aberration correction (1.4 ms) it does.
+    const PacedRun r = run([](int) { return 28 * kNsPerMs; }, 7 * kNsPerMs / 2, 4.0,
+                           {.pixel_bound = true});
+    // Once learnt (the second half of the run): every present on time, a new frame at every
+    // vsync, at half resolution without the correction.
+    size_t later = 0, no_ca = 0, late = 0, rewarps = 0;
+    for (const FrameRecord& f : r.frames)
+        if (f.photon_time_ns > s_to_ns(2.0)) {
+            ++later;
+            no_ca += !f.chromatic;
+            late += !f.on_time;
+            rewarps += f.kind == FrameKind::rewarp;
+            EXPECT_EQ(f.render_divisor, 1) << f.index;
+        }
+    EXPECT_GT(later, 150u);
+    EXPECT_EQ(no_ca, later);
+    EXPECT_EQ(late, 0u);
+    EXPECT_EQ(rewarps, 0u);
+    EXPECT_GE(r.summary.on_time_rate, 0.97);
+}
+
+TEST(Ladder, OffItStaysAtFullResolutionAndTheRateCarriesTheLoad) {
+    const PacedRun r = run([](int) { return 16 * kNsPerMs; }, 3 * kNsPerMs / 2, 3.0,
+                           {.config = [](NodeConfig& c) { c.pixel_ladder = false; },
+                            .pixel_bound = true});
+    EXPECT_DOUBLE_EQ(full_share(r), 1.0);
+    EXPECT_GE(r.summary.on_time_rate, 0.99);
+    EXPECT_NEAR(r.summary.new_frames_per_vsync, 0.5, 0.03);
+}
+
+TEST(Ladder, CostsThatReturnBelowTheBudgetClimbBackToFullResolutionWithoutOscillating) {
+    // Pixel-bound 16 ms for the first 1.5 s, then 6 ms: the ladder steps down, then back up once
+    // the finer steps fit with room, and stays.
+    const PacedRun r = run(
+        [](int i) { return (i < 135 ? 16 : 6) * kNsPerMs; }, kNsPerMs, 5.0, {.pixel_bound = true});
+    size_t changes = 0;
+    int last = 0;
+    for (const FrameRecord& f : r.frames)
+        if (f.kind == FrameKind::new_frame) {
+            changes += f.ladder_step != last;
+            last = f.ladder_step;
+        }
+    EXPECT_EQ(r.frames.back().ladder_step, 0);
+    EXPECT_LE(changes, 12u);
+    EXPECT_GE(r.summary.on_time_rate, 0.98);
+}
+
+}  // namespace hmdnode

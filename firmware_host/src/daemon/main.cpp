@@ -189,6 +189,9 @@ int main(int argc, char** argv) {
         if (clock->is_simulated()) node.set_sim_cost(*m);
         spdlog::info("frame cost: render {:.2f} ms + {:.3f} ms per 1k triangles, warp {:.2f} ms",
                      ns_to_ms(m->base_ns), m->per_triangle_ns * 1e-3, ns_to_ms(m->warp_ns));
+        const NodeRuntime::PassTimes& pt = node.pass_times();
+        spdlog::info("lens pass {} (fused {:.2f} ms, mesh {:.2f} ms, floor {:.2f} ms)",
+                     node.lens_pass(), pt.fused_ms, pt.mesh_ms, pt.floor_ms);
     } else if (g_stop) {
         spdlog::info("hmdnoded: stopped during the start-up calibration");
         return 0;
@@ -536,7 +539,13 @@ int main(int argc, char** argv) {
                 {"lod_switches", metrics.lod_switches},
                 {"renderer_backend", renderer_backend},
                 {"lod_pops", metrics.lod_pops},
-                {"lod_pops_per_min", metrics.lod_pops_per_min()}};
+                {"lod_pops_per_min", metrics.lod_pops_per_min()},
+                // The lens pass, and the pixel-cost ladder and render rate of the last present
+                // (docs/latency.md); presents per step and per rate since the start.
+                {"lens_pass", node.lens_pass()},
+                {"ladder_step", node.ladder().steps()[size_t(metrics.ladder_step)].name},
+                {"render_scale", metrics.render_scale},
+                {"render_rate_divisor", metrics.render_divisor}};
             if (device_tracker) {
                 // Recovery figures: a replug shows as a disconnect and the gap it left.
                 const DeviceTrackerStatus ts = device_tracker->status();

@@ -23,6 +23,12 @@ void DaemonMetrics::add_frame(const FrameRecord& rec, bool first) {
     late_frames += rec.late;
     rewarps += rec.kind == FrameKind::rewarp;
     mtp.observe(rec.latency_ms * 1e-3);
+    ladder_step = rec.ladder_step;
+    render_scale = rec.render_scale;
+    render_divisor = rec.render_divisor;
+    if (size_t(rec.ladder_step) < presents_by_step.size()) ++presents_by_step[size_t(rec.ladder_step)];
+    if (rec.render_divisor >= 1 && size_t(rec.render_divisor) <= presents_by_divisor.size())
+        ++presents_by_divisor[size_t(rec.render_divisor) - 1];
     if (rec.kind == FrameKind::new_frame) {
         render.observe(rec.render_ms * 1e-3);
         triangles = rec.triangles;
@@ -80,6 +86,25 @@ std::string DaemonMetrics::prometheus(const DeviceTrackerStatus* t) const {
     gauge(out, "hmdnode_lod_pops_per_minute", "LOD pops per minute since the first present.",
           lod_pops_per_min());
     gauge(out, "hmdnode_triangles", "Triangles of the last new frame.", double(triangles));
+    gauge(out, "hmdnode_ladder_step",
+          "Pixel-cost ladder step of the last present (0: full resolution).", double(ladder_step));
+    gauge(out, "hmdnode_render_scale", "Eye-buffer resolution per axis of the last present.",
+          render_scale);
+    gauge(out, "hmdnode_render_rate_divisor",
+          "New frames every this many vsyncs (re-warps between), last present.",
+          double(render_divisor));
+    out += "# HELP hmdnode_ladder_presents_total Presents per pixel-cost ladder step.\n"
+           "# TYPE hmdnode_ladder_presents_total counter\n";
+    for (size_t i = 0; i < presents_by_step.size(); ++i)
+        if (presents_by_step[i] > 0)
+            out += fmt::format("hmdnode_ladder_presents_total{{step=\"{}\"}} {}\n", i,
+                               presents_by_step[i]);
+    out += "# HELP hmdnode_render_rate_presents_total Presents per render-rate divisor.\n"
+           "# TYPE hmdnode_render_rate_presents_total counter\n";
+    for (size_t i = 0; i < presents_by_divisor.size(); ++i)
+        if (presents_by_divisor[i] > 0)
+            out += fmt::format("hmdnode_render_rate_presents_total{{divisor=\"{}\"}} {}\n", i + 1,
+                               presents_by_divisor[i]);
     histogram(out, "hmdnode_motion_to_photon_seconds",
               "Motion-to-photon latency of each present (panel centre, mid-persistence).", mtp);
     histogram(out, "hmdnode_render_seconds", "Render time of each new frame.", render);

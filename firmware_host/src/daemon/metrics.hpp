@@ -34,6 +34,14 @@ struct DaemonMetrics {
     int64_t first_photon_ns = 0, last_photon_ns = 0;
     double lod_pops_per_min() const;
     uint64_t triangles = 0;  // of the last new frame
+    // The pixel-cost ladder and the render rate (docs/latency.md): presents per ladder step
+    // (index as NodeRuntime::ladder().steps(), at most kMaxLadderSteps), presents per render rate
+    // (index d - 1), and the last present's.
+    static constexpr size_t kMaxLadderSteps = 16, kMaxDivisor = 4;
+    std::array<uint64_t, kMaxLadderSteps> presents_by_step{};
+    std::array<uint64_t, kMaxDivisor> presents_by_divisor{};
+    int ladder_step = 0, render_divisor = 1;
+    double render_scale = 1.0;
     Histogram mtp, render;
     std::vector<int> last_levels;
 

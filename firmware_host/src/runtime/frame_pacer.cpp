@@ -48,20 +48,28 @@ FramePacer::FramePacer(const PacingConfig& config, int64_t period_ns, int64_t la
       render_(config.window),
       warp_(config.window),
       total_(config.window),
+      gap_(config.window),
       overrun_(config.window),
       margin_ns_(std::clamp(config.margin_ns, config.min_margin_ns, config.max_margin_ns)) {
     assert(period_ns > 0);
 }
 
+// While fewer than three costs are measured since a restart, the larger of the prediction and
+// the largest measured (a prediction too low is corrected by the first frame).
 int64_t FramePacer::render_estimate() const {
+    if (render_.size() < 3 && render_predicted_ >= 0)
+        return std::max(render_predicted_, render_.percentile(1.0, 0));
     return render_.percentile(config_.percentile, period_ns_ / 2);
 }
 
 int64_t FramePacer::warp_estimate() const {
+    if (warp_.size() < 3 && warp_predicted_ >= 0)
+        return std::max(warp_predicted_, warp_.percentile(1.0, 0));
     return warp_.percentile(config_.percentile, period_ns_ / 10);
 }
 
 int64_t FramePacer::frame_estimate() const {
+    if (total_.size() < 3) return render_estimate() + warp_estimate();
     return total_.percentile(config_.percentile, render_estimate() + warp_estimate());
 }
 
@@ -75,9 +83,9 @@ void FramePacer::record_warp(int64_t warp_ns) {
 }
 
 void FramePacer::record_present(bool on_time, int64_t overrun_ns) {
-    // The overrun is measured against the margin the present was planned with: what it used of
-    // that margin is overrun + margin. The margin to plan with is a high percentile of that use.
-    overrun_.push(overrun_ns + margin_ns_);
+    // The overrun is how far past its planned end (target - latch - margin) the warp finished:
+    // how much of the margin it used. The margin to plan with is a high percentile of that use.
+    overrun_.push(overrun_ns);
     if (on_time)
         miss_bump_ns_ *= std::exp2(-1.0 / double(std::max(1, config_.miss_half_life)));
     else
@@ -89,7 +97,7 @@ void FramePacer::record_present(bool on_time, int64_t overrun_ns) {
 }
 
 int64_t FramePacer::frame_plan_ns(int64_t render_ns, int64_t warp_ns, int d) const {
-    return render_ns + int64_t(d) * (warp_ns + margin_ns_);
+    return render_ns + int64_t(d) * (warp_ns + margin_ns_) + int64_t(d - 1) * gap_estimate();
 }
 
 int FramePacer::choose_divisor(int64_t render_ns, int64_t warp_ns) {
@@ -138,7 +146,7 @@ std::vector<LadderStep> make_ladder(bool chromatic, double min_scale) {
 PixelLadder::PixelLadder(std::vector<LadderStep> steps, bool enabled, const PacingConfig& config)
     : steps_(std::move(steps)),
       enabled_(enabled),
-      recover_(config.rate_recover),
+      recover_(config.ladder_recover),
       spare_(config.rate_spare),
       warp_on_(config.window),
       warp_off_(config.window) {
@@ -148,35 +156,29 @@ PixelLadder::PixelLadder(std::vector<LadderStep> steps, bool enabled, const Paci
 }
 
 void PixelLadder::record_render(int step, int64_t ns) {
-    render_[size_t(step)].push(ns);
+    CostWindow& w = render_[size_t(step)];
+    w.push(ns);
+    if (not_pixel_bound_ > 0) --not_pixel_bound_;
+    if (step == step_ && cost_before_down_ >= 0 && w.size() >= 3 &&
+        steps_[size_t(step)].scale < 1.0) {
+        if (double(w.percentile(0.5, ns)) > 0.95 * double(cost_before_down_))
+            not_pixel_bound_ = kNotPixelBoundFrames;
+        cost_before_down_ = -1;
+    }
 }
 
 void PixelLadder::record_warp(bool chromatic, int64_t ns) {
     (chromatic ? warp_on_ : warp_off_).push(ns);
 }
 
-int64_t PixelLadder::render_cost(int step, int64_t fallback_ns) const {
-    const CostWindow& own = render_[size_t(step)];
-    if (own.size() >= 3) return own.percentile(0.9, fallback_ns);
-    // A line through the steps measured, cost against pixels (scale^2); per pixel alone from one.
-    double n = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
-    for (size_t i = 0; i < steps_.size(); ++i) {
-        if (render_[i].size() < 3) continue;
-        const double x = steps_[i].scale * steps_[i].scale;
-        const double y = double(render_[i].percentile(0.9, 0));
-        n += 1, sx += x, sy += y, sxx += x * x, sxy += x * y;
-    }
-    const double x = steps_[size_t(step)].scale * steps_[size_t(step)].scale;
-    if (n == 0) {
-        const double cur = steps_[size_t(step_)].scale * steps_[size_t(step_)].scale;
-        return int64_t(double(fallback_ns) * x / cur);
-    }
-    const double var = n * sxx - sx * sx;
-    if (n < 2 || var <= 1e-12) return int64_t(sy / sx * x);
-    const double b = (n * sxy - sx * sy) / var;
-    const double a = (sy - b * sx) / n;
-    // A negative slope is noise: no cheaper than the cheapest measured.
-    return int64_t(std::max(a + std::max(0.0, b) * x, 0.0));
+int64_t PixelLadder::render_cost(int step, int64_t fallback_ns, int fallback_step) const {
+    if (fallback_step < 0) fallback_step = step_;
+    auto pixels = [&](int s) { return steps_[size_t(s)].scale * steps_[size_t(s)].scale; };
+    const CostWindow& own = render_[size_t(step_)];
+    const int64_t base = own.size() >= 3 ? own.percentile(0.9, fallback_ns) : fallback_ns;
+    const int base_step = own.size() >= 3 ? step_ : fallback_step;
+    if (not_pixel_bound_ > 0) return base;
+    return int64_t(double(base) * pixels(step) / pixels(base_step));
 }
 
 int64_t PixelLadder::warp_cost(bool chromatic, int64_t fallback_ns) const {
@@ -198,23 +200,44 @@ int64_t PixelLadder::frame_cost(int step, const Budget& b, int64_t render_p_ns) 
 bool PixelLadder::choose(const Budget& b, int64_t render_p_ns) {
     if (!enabled_) return false;
     const int last = int(steps_.size()) - 1;
+    auto change_to = [&](int s) {
+        // A step to another resolution starts its window anew, and a step down is checked.
+        if (steps_[size_t(s)].scale != steps_[size_t(step_)].scale) {
+            // (While a check is pending, its reference stays: a descent of several steps is
+            // checked against the cost before the first.)
+            if (s > step_ && cost_before_down_ < 0 && !render_[size_t(step_)].empty())
+                cost_before_down_ = render_[size_t(step_)].percentile(0.5, 0);
+            render_[size_t(s)].clear();
+        }
+        step_ = s;
+        fits_finer_ = 0;
+        return true;
+    };
     if (frame_cost(step_, b, render_p_ns) > b.available_ns) {
-        // Cheaper at once: the first step down whose frame fits, else the last.
+        // Cheaper at once: the first step down whose frame fits, else the last (without
+        // resolution steps while the frame is not bound by its pixels).
         int s = step_ + 1;
         while (s < last && frame_cost(s, b, render_p_ns) > b.available_ns) ++s;
         s = std::min(last, s);
+        if (not_pixel_bound_ > 0)
+            while (s < last && steps_[size_t(s)].chromatic == steps_[size_t(step_)].chromatic &&
+                   steps_[size_t(s)].scale != steps_[size_t(step_)].scale)
+                ++s;
         fits_finer_ = 0;
         if (s == step_) return false;
-        step_ = s;
-        return true;
+        return change_to(s);
+    }
+    // A resolution that saves nothing (a frame not bound by its pixels) is left at once, for the
+    // finest step with the same chromatic setting.
+    if (not_pixel_bound_ > 0 && step_ > 0 &&
+        steps_[size_t(step_ - 1)].chromatic == steps_[size_t(step_)].chromatic) {
+        int s = step_;
+        while (s > 0 && steps_[size_t(s - 1)].chromatic == steps_[size_t(step_)].chromatic) --s;
+        return change_to(s);
     }
     if (step_ > 0 &&
         double(frame_cost(step_ - 1, b, render_p_ns)) <= double(b.available_ns) * (1.0 - spare_)) {
-        if (++fits_finer_ >= recover_) {
-            --step_;
-            fits_finer_ = 0;
-            return true;
-        }
+        if (++fits_finer_ >= recover_) return change_to(step_ - 1);
     } else {
         fits_finer_ = 0;
     }

@@ -168,6 +168,23 @@ std::string latency_table(const std::vector<LatencyModeResult>& results) {
         [](const LatencyModeResult& r) { return fmt("%.2f", r.summary.warp_ms.p99); });
     row("render p50 (ms)",
         [](const LatencyModeResult& r) { return fmt("%.2f", r.summary.render_ms.p50); });
+    row("MTP floor (ms)",
+        [](const LatencyModeResult& r) { return fmt("%.2f", r.summary.mtp_floor_ms); });
+    row("lens pass", [](const LatencyModeResult& r) { return r.summary.lens_pass; });
+    row("full-resolution presents (%)", [](const LatencyModeResult& r) {
+        const ReplaySummary& s = r.summary;
+        return s.ladder.empty() || s.frames == 0
+                   ? std::string("n/a")
+                   : fmt("%.1f", 100.0 * double(s.ladder[0].presents) / double(s.frames));
+    });
+    row("render rate 1/1 presents (%)", [](const LatencyModeResult& r) {
+        const ReplaySummary& s = r.summary;
+        return s.presents_by_divisor.empty() || s.frames == 0
+                   ? std::string("n/a")
+                   : fmt("%.1f", 100.0 * double(s.presents_by_divisor[0]) / double(s.frames));
+    });
+    for (const LatencyModeResult& r : results)
+        out << r.mode.name << ": " << lens_pass_summary(r.summary);
     return out.str();
 }
 

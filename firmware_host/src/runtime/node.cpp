@@ -29,6 +29,10 @@
 namespace hmdnode {
 namespace {
 
+// A piece of a frame rendered before a re-warp gets this share of the time left until the
+// re-warp's wake-up, for the per-item estimate's error (draw items differ in cost).
+constexpr double kPieceShare = 0.6;
+
 int64_t steady_ns() {
     return std::chrono::duration_cast<std::chrono::nanoseconds>(
                std::chrono::steady_clock::now().time_since_epoch())
@@ -554,13 +558,13 @@ Result<int64_t> NodeRuntime::time_warps(int n, const std::function<bool()>& go_o
 }
 
 Status NodeRuntime::warp_and_present(int64_t target, int64_t warp_est, FrameRecord* rec,
-                                     int64_t* warp_cost_ns) {
+                                     int64_t* warp_cost_ns, bool early) {
     const DisplayInfo info = display_.info();
     const int64_t photon_offset = display_.photon_offset_ns();
     const int64_t margin = pacer_.margin();
     // The planned end of the warp: the margin before the latch.
     const int64_t planned_end = target - info.latch_margin_ns - margin;
-    clock_.sleep_until_ns(planned_end - warp_est);
+    if (!early) clock_.sleep_until_ns(planned_end - warp_est);
     const int64_t warp_start = clock_.now_ns();
     Pose shown = frame_pose_;
     int64_t sample_ns = frame_pose_sample_ns_;
@@ -648,16 +652,12 @@ void NodeRuntime::plan_levers() {
     const LadderStep& was = ladder_.steps()[size_t(before)];
     // The estimates of what changed start again from the step's learned cost.
     if (now.scale != was.scale) {
-        const int64_t seed = ladder_.render_cost(ladder_.step(), render_p);
         (void)renderer_.set_render_scale(now.scale);
-        pacer_.restart_render();
-        pacer_.seed_render(seed);
+        pacer_.restart_render(ladder_.render_cost(ladder_.step(), render_p, before));
     }
     if (now.chromatic != was.chromatic) {
-        const int64_t seed = ladder_.warp_cost(now.chromatic, warp_est);
         renderer_.set_chromatic_aberration(now.chromatic);
-        pacer_.restart_warp();
-        pacer_.seed_warp(seed);
+        pacer_.restart_warp(ladder_.warp_cost(now.chromatic, warp_est));
     }
 }
 
@@ -696,9 +696,12 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
 
     // A re-warp of the finished frame for `vsync`, presented; the open frame (if any) resumes on
     // the next call.
-    auto rewarp = [&](int64_t vsync) -> Result<FrameOutcome> {
-        const int64_t wake = vsync - latch - (warp_est + margin);
-        if (Status st = warp_and_present(vsync, warp_est, &r, nullptr); !st.ok()) return st.error();
+    // early: at once rather than at its wake-up (the time until then is more than a draw item
+    // takes, and would be lost to the open frame; the pose it shows is that much older).
+    auto rewarp = [&](int64_t vsync, bool early = false) -> Result<FrameOutcome> {
+        const int64_t wake = early ? clock_.now_ns() : vsync - latch - (warp_est + margin);
+        if (Status st = warp_and_present(vsync, warp_est, &r, nullptr, early); !st.ok())
+            return st.error();
         r.ladder_step = frame_step_;
         r.render_scale = ladder_.steps()[size_t(frame_step_)].scale;
         r.kind = FrameKind::rewarp;
@@ -724,10 +727,11 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
         // At a render rate of 1/d the frame's time holds d - 1 re-warps of the finished frame
         // besides its own render and warp, and it aims at least d vsyncs after the previous new
         // frame's, so new frames come at a steady 1/d of the refresh.
-        const int64_t need = frame_est + margin + int64_t(divisor - 1) * (warp_est + margin);
+        const int64_t need = frame_est + margin +
+                             int64_t(divisor - 1) * (warp_est + margin + pacer_.gap_estimate());
         int64_t target = display_.free_vsync_ns(now + need);
         if (divisor > 1 && has_frame_)
-            target = std::max(target, display_.free_vsync_ns(frame_target_vsync_ns_ +
+            target = std::max(target, display_.free_vsync_ns(last_new_vsync_ns_ +
                                                               divisor * info.period_ns - latch -
                                                               info.period_ns / 2));
         open_wake_ns_ = target - latch - need;
@@ -795,11 +799,17 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
             if (v_done > v_any && affordable) {
                 const int64_t rewarp_wake = v_any - latch - (warp_est + margin);
                 const size_t fit =
-                    rewarp_wake > now ? size_t(0.3 * double(rewarp_wake - now) / per_item_ns) : 0;
+                    rewarp_wake > now
+                        ? size_t(kPieceShare * double(rewarp_wake - now) / per_item_ns)
+                        : 0;
                 // Progress: after a re-warp at least one piece, whatever the estimates say.
-                if ((fit == 0 && pieces_since_rewarp_ > 0) || open_cursor_ >= draws_.size()) {
+                // (A frame with no draw items is one piece: it re-warps once at most, never
+                // forever.)
+                if (fit == 0 && pieces_since_rewarp_ > 0) {
                     pieces_since_rewarp_ = 0;
                     ++open_rewarps_;
+                    // The time until the re-warp is lost to the frame: the plans count it.
+                    pacer_.record_gap(std::max<int64_t>(0, rewarp_wake - now));
                     return rewarp(v_any);
                 }
                 max_triangles = 0;
@@ -858,9 +868,17 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
     int64_t target = open_target_ns_;
     const int64_t after = clock_.now_ns();
     // (Against the latch itself: the margin was the slack the wake-up was planned with.)
-    if (after + warp_est > target - latch) target = display_.free_vsync_ns(after + warp_est);
+    if (after + warp_est > target - latch) {
+        target = display_.free_vsync_ns(after + warp_est);
+    } else if (config_.warp) {
+        // Done early (a render rate below the refresh, or a cheap frame): shown at the first free
+        // vsync it makes rather than left waiting while that vsync repeats the old image; the
+        // warp predicts for the vsync it is shown at.
+        target = std::min(target, display_.free_vsync_ns(after + warp_est + margin));
+    }
     int64_t warp_cost = 0;
     if (Status st = warp_and_present(target, warp_est, &r, &warp_cost); !st.ok()) return st.error();
+    last_new_vsync_ns_ = r.vsync_ns;
     pacer_.record_frame(open_render_ns_, warp_cost);
     r.ladder_step = frame_step_;
     r.render_scale = ladder_.steps()[size_t(frame_step_)].scale;

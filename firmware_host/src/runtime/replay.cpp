@@ -365,6 +365,22 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
             ? ns_to_s(result.frames.back().photon_time_ns - result.frames.front().photon_time_ns)
             : 0.0;
     s.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+    s.lens_pass = node.lens_pass();
+    s.pass_times = node.pass_times();
+    for (const LadderStep& st : node.ladder().steps())
+        s.ladder.push_back({st.name, st.scale, st.chromatic, 0, 0});
+    s.presents_by_divisor.assign(size_t(std::max(1, opt.node.pacing.max_divisor)), 0);
+    for (const FrameRecord& f : result.frames) {
+        ReplaySummary::LadderShare& l = s.ladder[size_t(f.ladder_step)];
+        ++l.presents;
+        if (f.kind == FrameKind::new_frame) ++l.new_frames;
+        const size_t d = size_t(std::max(1, f.render_divisor)) - 1;
+        if (d < s.presents_by_divisor.size()) ++s.presents_by_divisor[d];
+    }
+    if (std::isfinite(s.warp_ms.p99))
+        s.mtp_floor_ms = ns_to_ms((*display)->photon_offset_ns() +
+                                  (*display)->info().latch_margin_ns + opt.tracker.latency_ns) +
+                         s.warp_ms.p99;
 
     if (!opt.report.empty()) {
         const std::string text = replay_report_json(opt, result).dump(1);
@@ -385,7 +401,15 @@ nlohmann::json replay_summary_json(const ReplaySummary& s) {
         cost = {{"render_base", ns_to_ms(s.frame_cost_model->base_ns)},
                 {"render_per_1k_triangles", s.frame_cost_model->per_triangle_ns * 1e-3},
                 {"warp", ns_to_ms(s.frame_cost_model->warp_ns)},
+                {"warp_no_ca", ns_to_ms(s.frame_cost_model->warp_cost_ns(false))},
                 {"calibrated", s.frame_cost_calibrated}};
+    json ladder = json::array();
+    for (const ReplaySummary::LadderShare& l : s.ladder)
+        ladder.push_back({{"step", l.name},
+                          {"scale", l.scale},
+                          {"chromatic_aberration_corrected", l.chromatic},
+                          {"new_frames", l.new_frames},
+                          {"presents", l.presents}});
     json fit = nullptr;
     if (s.lod_cost_fit)
         fit = {{"render_base", s.lod_cost_fit->base_ms},
@@ -413,6 +437,14 @@ nlohmann::json replay_summary_json(const ReplaySummary& s) {
             {"lod_fading_frames", s.lod_fading_frames},
             {"gaze_source", gaze_source_summary(s)},
             {"gaze_frames", s.gaze_frames},
+            {"lens_pass", s.lens_pass},
+            {"pass_ms",
+             {{"fused", finite_or_null(s.pass_times.fused_ms)},
+              {"mesh", finite_or_null(s.pass_times.mesh_ms)},
+              {"floor", finite_or_null(s.pass_times.floor_ms)}}},
+            {"ladder", ladder},
+            {"presents_by_render_rate", s.presents_by_divisor},
+            {"mtp_floor_ms", finite_or_null(s.mtp_floor_ms)},
             {"replayed_s", s.replayed_s},
             {"wall_s", s.wall_s}};
 }
@@ -452,7 +484,11 @@ nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& 
                           {"gaze_source", gaze_source_name(f.gaze_source)},
                           {"render_ms", f.render_ms},
                           {"warp_ms", f.warp_ms},
-                          {"frame_cost_ms", f.frame_cost_ms}});
+                          {"frame_cost_ms", f.frame_cost_ms},
+                          {"ladder_step", f.ladder_step},
+                          {"render_scale", f.render_scale},
+                          {"chromatic_aberration_corrected", f.chromatic},
+                          {"render_rate_divisor", f.render_divisor}});
     }
     const ReplaySummary& s = r.summary;
     return {{"format", "hmdnode-replay-report/2"},
@@ -482,6 +518,56 @@ nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& 
             {"trace_samples", r.trace_samples},
             {"summary", replay_summary_json(s)},
             {"frames", frames}};
+}
+
+std::string lens_pass_summary(const ReplaySummary& s) {
+    if (s.lens_pass.empty()) return "";
+    char buf[512];
+    std::ostringstream out;
+    auto ms = [](double v) {
+        char b[32];
+        if (std::isfinite(v))
+            std::snprintf(b, sizeof b, "%.2f ms", v);
+        else
+            std::snprintf(b, sizeof b, "n/a");
+        return std::string(b);
+    };
+    std::snprintf(buf, sizeof buf,
+                  "lens pass %s (start-up: fused %s, mesh %s, floor %s = three bilinear samples "
+                  "per pixel)",
+                  s.lens_pass.c_str(), ms(s.pass_times.fused_ms).c_str(),
+                  ms(s.pass_times.mesh_ms).c_str(), ms(s.pass_times.floor_ms).c_str());
+    out << buf;
+    if (std::isfinite(s.mtp_floor_ms)) {
+        std::snprintf(buf, sizeof buf,
+                      "; motion-to-photon floor %.2f ms (photon offset + latch + pass p99 + "
+                      "tracker latency)",
+                      s.mtp_floor_ms);
+        out << buf;
+    }
+    out << "\npixel-cost ladder (share of presents):";
+    const double n = double(std::max<size_t>(1, s.frames));
+    bool any = false;
+    for (const ReplaySummary::LadderShare& l : s.ladder) {
+        if (l.presents == 0) continue;
+        std::snprintf(buf, sizeof buf, "%s %s %.1f %%", any ? "," : "", l.name.c_str(),
+                      100.0 * double(l.presents) / n);
+        out << buf;
+        any = true;
+    }
+    if (!any) out << " none";
+    out << "; render rate:";
+    any = false;
+    for (size_t d = 0; d < s.presents_by_divisor.size(); ++d) {
+        if (s.presents_by_divisor[d] == 0) continue;
+        std::snprintf(buf, sizeof buf, "%s 1/%zu %.1f %%", any ? "," : "", d + 1,
+                      100.0 * double(s.presents_by_divisor[d]) / n);
+        out << buf;
+        any = true;
+    }
+    if (!any) out << " none";
+    out << '\n';
+    return out.str();
 }
 
 std::string replay_summary_table(const ReplayResult& r) {
@@ -538,7 +624,7 @@ std::string replay_summary_table(const ReplayResult& r) {
                       s.lod_cost_fit->base_ms, s.lod_cost_fit->per_triangle_ms * 1e3);
         out << buf;
     }
-    out << '\n';
+    out << '\n' << lens_pass_summary(s);
     return out.str();
 }
 

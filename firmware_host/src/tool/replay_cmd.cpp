@@ -29,6 +29,8 @@ void add_replay_command(CLI::App& app) {
     auto backend = std::make_shared<std::string>();
     auto capture = std::make_shared<std::string>();
     auto eye_tracker = std::make_shared<std::string>("none");
+    auto lens_pass = std::make_shared<std::string>("auto");
+    auto no_ladder = std::make_shared<bool>(false);
 
     CLI::App* c = app.add_subcommand("replay",
                                      "Replay a head trace through tracking, LOD selection, "
@@ -98,7 +100,7 @@ void add_replay_command(CLI::App& app) {
     c->add_option("--allocator", *allocator,
                   "LOD allocator: threshold (the perceptual selector's levels) greedy (coarsen "
                   "them until the learned render cost fits the frame budget, Funkhouser & Sequin) "
-                  "or iga (the same trade by the immune genetic algorithm of seed 002)")
+                  "or iga (the same trade by the immune genetic algorithm of He et al.)")
         ->check(CLI::IsMember({"threshold", "greedy", "iga"}));
     c->add_option("--lod-fade-frames", opt->node.lod_fade_frames,
                   "New frames a visible LOD level change cross-fades over (dithered, both levels "
@@ -118,6 +120,21 @@ void add_replay_command(CLI::App& app) {
                   "Distortion mesh cells per side (default 0: the coarsest mesh within 0.5 px of "
                   "the lens model at this eye size)")
         ->check(CLI::Range(0, 512));
+    c->add_option("--lens-pass", *lens_pass,
+                  "The late warp's pass: fused (the lens model per pixel, one full-screen "
+                  "triangle per eye), mesh (the distortion mesh), or auto (fused unless the "
+                  "start-up calibration measures the mesh at least 10 % faster)")
+        ->check(CLI::IsMember({"auto", "fused", "mesh"}));
+    c->add_flag("--no-ladder", *no_ladder,
+                "No pixel-cost ladder: full eye-buffer resolution and chromatic-aberration "
+                "correction always (docs/latency.md)");
+    c->add_option("--min-render-scale", opt->node.min_render_scale,
+                  "The ladder's lowest eye-buffer resolution per axis (default 0.5)")
+        ->check(CLI::Range(0.1, 1.0));
+    c->add_option("--max-render-divisor", opt->node.pacing.max_divisor,
+                  "The slowest render rate: new frames every N vsyncs at the least, re-warped "
+                  "between (default 3; 1: a new frame for every vsync or none)")
+        ->check(CLI::Range(1, 4));
     c->add_option("--frame-cost-ms", *frame_cost_ms,
                   "Simulated clock: a fixed render cost per frame instead of the model calibrated "
                   "on the renderer at start-up")
@@ -182,6 +199,8 @@ void add_replay_command(CLI::App& app) {
         o.eye_tracker = *parse_eye_tracker_backend(*eye_tracker, WiringKeys::command_line());
         o.node.distortion = !*no_distortion;
         o.node.mesh_cols = o.node.mesh_rows = *mesh;
+        o.node.lens_pass = *parse_lens_pass_choice(*lens_pass);  // checked by IsMember
+        o.node.pixel_ladder = !*no_ladder;
         if (!headset->empty()) {
             Result<HeadsetProfile> p = load_headset_profile(*headset);
             if (!p.ok()) {

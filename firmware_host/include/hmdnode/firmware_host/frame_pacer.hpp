@@ -42,7 +42,10 @@ struct PacingConfig {
     // new frames in a row that fit it with `rate_spare` to spare.
     int max_divisor = 3;
     int rate_recover = 45;
-    double rate_spare = 0.15;
+    double rate_spare = 0.08;
+    // The pixel-cost ladder: a finer step after `ladder_recover` new frames in a row that fit it
+    // with rate_spare to spare (a cheaper one at once when the frame does not fit).
+    int ladder_recover = 20;
 };
 
 // A fixed window of recent costs and percentiles over it (no allocation after construction).
@@ -77,23 +80,32 @@ class FramePacer {
     int divisor() const { return divisor_; }
 
     // Measured costs. A change of pass (chromatic aberration on or off, another scale) starts
-    // the affected window anew: restart_warp() / restart_render().
+    // the affected window anew from a predicted cost, which stands for the estimate until three
+    // costs are measured: restart_warp() / restart_render().
     void seed_render(int64_t ns) { render_.push(ns); }
     void seed_warp(int64_t ns) { warp_.push(ns); }
-    void restart_warp() { warp_.clear(); }
-    void restart_render() {
+    void restart_warp(int64_t predicted_ns) {
+        warp_.clear();
+        warp_predicted_ = predicted_ns;
+    }
+    void restart_render(int64_t predicted_ns) {
         render_.clear();
         total_.clear();
+        render_predicted_ = predicted_ns;
     }
     void record_frame(int64_t render_ns, int64_t warp_ns);  // a new frame's render and warp
+    // The time a frame rendered in pieces lay idle before a re-warp between two of them (its
+    // next piece would not have ended before the re-warp was due).
+    void record_gap(int64_t ns) { gap_.push(ns); }
+    int64_t gap_estimate() const { return gap_.percentile(0.9, 0); }
     void record_warp(int64_t warp_ns);                       // every warp
     // A present: on time at its target or not, and how far past its planned end (target - latch
     // - margin) its warp finished (`overrun_ns`, negative when early: wake-up lateness plus cost
     // beyond the estimates). Adapts the margin.
     void record_present(bool on_time, int64_t overrun_ns);
 
-    // The plan of a new frame at divisor d: its render and d warps (d - 1 re-warps between), each
-    // warp with the margin.
+    // The plan of a new frame at divisor d: its render and d warps (d - 1 re-warps between, each
+    // after an idle gap), each warp with the margin.
     int64_t frame_plan_ns(int64_t render_ns, int64_t warp_ns, int d) const;
     // Chooses the render rate for a render of `render_ns` and warps of `warp_ns` (the ladder's
     // bottom step): slower at once when the current rate does not fit, faster after rate_recover
@@ -103,9 +115,10 @@ class FramePacer {
   private:
     PacingConfig config_;
     int64_t period_ns_, latch_ns_;
-    CostWindow render_, warp_, total_;
+    CostWindow render_, warp_, total_, gap_;
     CostWindow overrun_;  // per present: how far past its planned end its warp finished
     int64_t margin_ns_ = 0;
+    int64_t render_predicted_ = -1, warp_predicted_ = -1;  // -1: none
     double miss_bump_ns_ = 0.0;
     int divisor_ = 1;
     int fits_faster_ = 0;
@@ -138,10 +151,13 @@ class PixelLadder {
     // chromatic setting: the learned costs.
     void record_render(int step, int64_t ns);
     void record_warp(bool chromatic, int64_t ns);
-    // The learned render cost of `step` (ns): the step's own recent median where it has one,
-    // else a fixed cost plus a cost per pixel fitted to the steps measured (per pixel only
-    // while one step is measured), from `fallback_ns` at the current step before anything.
-    int64_t render_cost(int step, int64_t fallback_ns) const;
+    // The learned render cost of `step` (ns): at the current step the 90th percentile of its
+    // recent renders (from three on); another step's is the current one's scaled by their pixels
+    // (a fill-bound frame; costs measured at other steps go stale as the scene and the view
+    // change), or, where a step down saved nothing (a frame not bound by its pixels), the same.
+    // `fallback_ns` stands for the cost at step `fallback_step` (default: the current one) before
+    // any measurement.
+    int64_t render_cost(int step, int64_t fallback_ns, int fallback_step = -1) const;
     // The learned warp cost with chromatic-aberration correction on or off (off, before any
     // measurement: half the cost with it on).
     int64_t warp_cost(bool chromatic, int64_t fallback_ns) const;
@@ -172,6 +188,13 @@ class PixelLadder {
     int step_ = 0;
     int fits_finer_ = 0;
     std::vector<CostWindow> render_;  // per step
+    // A step down is checked once three frames are measured at the new step: a render that did
+    // not get cheaper (above 95 % of the cost before the first step of the descent) marks the
+    // frame as not bound by its pixels for `kNotPixelBoundFrames` new frames: resolution steps
+    // are then not taken.
+    static constexpr int kNotPixelBoundFrames = 300;
+    int64_t cost_before_down_ = -1;
+    int not_pixel_bound_ = 0;
     CostWindow warp_on_, warp_off_;
 };
 

@@ -58,8 +58,8 @@ struct FrameCostModel {
 // How the frame loop turns the selector's levels into the levels it draws (docs/lod-selection.md):
 // `threshold` draws the selector's level (the finest the eye needs); `greedy` coarsens them, least
 // benefit per millisecond first, until the render predicted by the learned cost model fits the
-// frame budget left by pacing; `iga` makes the same trade with the immune genetic algorithm of seed
-// 002, warm-started from the previous frame's levels.
+// frame budget left by pacing; `iga` makes the same trade with the immune genetic algorithm of He et al.
+// (docs/references.md), warm-started from the previous frame's levels.
 enum class LodAllocator { threshold, greedy, iga };
 
 // Where a frame's LOD eccentricity was measured from (docs/lod-selection.md, "Gaze"): the eye
@@ -323,8 +323,9 @@ class NodeRuntime {
                              double target_ms);
     // Warps the finished frame for `target` (sampling the newest pose first when the warp is on),
     // presents it and fills the record's present fields; adapts the margin.
+    // early: at once, not at its wake-up (a re-warp between pieces of a frame).
     Status warp_and_present(int64_t target, int64_t warp_est, FrameRecord* rec,
-                            int64_t* warp_cost_ns);
+                            int64_t* warp_cost_ns, bool early = false);
     bool pass_enabled() const { return config_.warp || config_.distortion; }
     // The profile the fused pass evaluates: the headset's, or the rig's field of view flat.
     HeadsetProfile pass_profile() const;
@@ -366,6 +367,7 @@ class NodeRuntime {
     PassTimes pass_times_;
     bool read_back_once_ = false;
     int open_step_ = 0;  // the ladder step the open frame is rendered at
+    int64_t last_new_vsync_ns_ = 0;  // the vsync the newest new frame was shown at
     int frame_step_ = 0;
     uint64_t present_index_ = 0, render_index_ = 0;
     int64_t last_shown_vsync_ns_ = INT64_MIN;

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -94,6 +95,22 @@ struct ReplaySummary {
     std::optional<LearnedCost> lod_cost_fit;
     double replayed_s = 0.0;  // trace time covered
     double wall_s = 0.0;      // wall time the replay took
+    // The lens pass and the pixel-cost ladder (docs/latency.md): the pass in use ("fused",
+    // "mesh"; "" without one), what the start-up calibration measured of the passes (NaN where
+    // none ran), per ladder step the new frames rendered at it and the presents that showed them,
+    // the presents per render rate (index d - 1: new frames every d vsyncs), and the
+    // motion-to-photon floor: photon offset + latch + the pass's p99 + the tracker's latency.
+    std::string lens_pass;
+    NodeRuntime::PassTimes pass_times;
+    struct LadderShare {
+        std::string name;
+        double scale = 1.0;
+        bool chromatic = true;
+        size_t new_frames = 0, presents = 0;
+    };
+    std::vector<LadderShare> ladder;
+    std::vector<size_t> presents_by_divisor;
+    double mtp_floor_ms = std::numeric_limits<double>::quiet_NaN();
 };
 
 enum class VsyncShown {
@@ -165,6 +182,9 @@ ReplaySummary summarize_vsyncs(const std::vector<FrameRecord>& frames,
 // "eye_tracker" (every new frame's LOD eccentricity from the gaze), "lens_centre" (none), "mixed".
 const char* gaze_source_summary(const ReplaySummary& s);
 nlohmann::json replay_summary_json(const ReplaySummary& summary);
+// Two lines for people: the lens pass with its start-up times and the motion-to-photon floor, the
+// ladder's steps and the render rates with their shares of the presents ("" without a pass).
+std::string lens_pass_summary(const ReplaySummary& summary);
 // The JSON report (docs/formats.md).
 nlohmann::json replay_report_json(const ReplayOptions& options, const ReplayResult& result);
 // A short table for people ("n/a" where a percentile is NaN).
