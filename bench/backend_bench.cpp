@@ -5,7 +5,8 @@
 // and 99th percentiles of interleaved rounds (one frame of each backend per round), so machine
 // drift hits both alike, against the GLES backend's target: GLES <= 1.3x Vulkan.
 //
-// Usage: bench_backend_bench [rounds=200] [--write-docs]   (--write-docs: into docs/rendering.md)
+// Usage: bench_backend_bench [rounds=200] [--write-docs]
+//   (--write-docs: into docs/results/backend-bench.md)
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
@@ -134,15 +135,22 @@ int main(int argc, char** argv) {
                   ratio(&Bench::scene_ms), ratio(&Bench::scene_rb_ms), ratio(&Bench::warp_ms),
                   frame_ratio, frame_ratio <= 1.3 ? "met" : "NOT met");
     out += line;
-    out += "devices: vulkan " + benches[0].renderer->device_name() + ", gles " +
-           benches[1].renderer->device_name() + "\n";
-    out += "machine: " + machine + "; " + bench::build_kind() + "\n";
-    out +=
+    const std::string devices = "vulkan " + benches[0].renderer->device_name() + ", gles " +
+                                benches[1].renderer->device_name();
+    out += "devices: " + devices + "\n";
+    const std::string legend =
         "frame = scene (no read-back) + warp (no read-back); scene+rb = the scene pass with the "
         "read-back of both eyes\n";
+    // The results file names the machine in its header: the table there is `out` and the legend.
+    const std::string table = "```\n" + out + legend + "```\n";
+    out += "machine: " + machine + "; " + bench::build_kind() + "\n";
+    out += legend;
     std::fputs(out.c_str(), stdout);
-    if (write_docs && !bench::write_doc_table(HMDNODE_SOURCE_DIR "/docs/rendering.md",
-                                              "backend-bench-table", "```\n" + out + "```\n"))
+    if (write_docs &&
+        !bench::write_result("backend-bench",
+                             "Renderer backends side by side: Vulkan against OpenGL ES 3, per "
+                             "stereo frame",
+                             bench::command_line(argc, argv), table, devices))
         return 1;
     return 0;
 }

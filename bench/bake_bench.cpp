@@ -5,7 +5,8 @@
 // Also the time to bake the demo scene at the default settings of `hmdnode bake`.
 //
 // usage: bench_bake_bench [scene.glb] [threads] [--write-docs]
-//   (default: the built demo scene, all cores; --write-docs: also into docs/baking.md)
+//   (default: the built demo scene, all cores; --write-docs: also into
+//   docs/results/bake-bench.md)
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -69,15 +70,18 @@ int main(int argc, char** argv) {
     if (write_docs) command += " --write-docs";
 
     const BakeOptions defaults;  // what `hmdnode bake` uses
-    std::string out = "Measured by `" + command + "` (" + std::to_string(resolve_threads(threads)) +
-                      " threads" + (threads == 0 ? " = all cores" : "") + "; " +
-                      bench::build_kind() + "; " + bench::machine_facts() +
-                      "; `hmdnode bake`'s defaults: " + std::to_string(defaults.samples) +
-                      " paths per texel, " +
-                      (defaults.bounces < 0 ? std::string("bounces until Russian roulette")
-                                            : std::to_string(defaults.bounces) + " bounces") +
-                      ", " +
-                      std::to_string(defaults.denoise_iterations) + " denoiser passes):\n\n";
+    const std::string threads_text = std::to_string(resolve_threads(threads)) + " threads" +
+                                     (threads == 0 ? " = all cores" : "");
+    const std::string defaults_text =
+        "`hmdnode bake`'s defaults: " + std::to_string(defaults.samples) + " paths per texel, " +
+        (defaults.bounces < 0 ? std::string("bounces until Russian roulette")
+                              : std::to_string(defaults.bounces) + " bounces") +
+        ", " + std::to_string(defaults.denoise_iterations) + " denoiser passes";
+    std::string out = "Measured by `" + command + "` (" + threads_text + "; " +
+                      bench::build_kind() + "; " + bench::machine_facts() + "; " + defaults_text +
+                      "):\n\n";
+    // The results file names the command and the machine in its header.
+    const size_t table_start = out.size();
     out +=
         "| scene | triangles | texels | vertices | bake (s) | trace (s) | rays | baker (Mrays/s) "
         "| raw rtcIntersect1 (Mrays/s) | baker / raw |\n"
@@ -98,11 +102,11 @@ int main(int argc, char** argv) {
         "in the scene's bounds and directions uniform (incoherent, like the bake's bounces), "
         "best of 3 x 2 M rays. Target: baker / raw >= 60 % on the demo scene.\n";
     std::fputs(out.c_str(), stdout);
-    if (demo_row.empty() || cornell_row.empty()) return 1;  // the docs keep their table
-    if (write_docs) {
-        if (!bench::write_doc_table(HMDNODE_SOURCE_DIR "/docs/baking.md", "bake-bench-table", out))
-            return 1;
-        std::fprintf(stderr, "bake bench: wrote the table into docs/baking.md\n");
-    }
+    if (demo_row.empty() || cornell_row.empty()) return 1;  // the results file keeps its table
+    if (write_docs &&
+        !bench::write_result(
+            "bake-bench", "Baker throughput against raw Embree", command,
+            "Settings: " + threads_text + "; " + defaults_text + ".\n\n" + out.substr(table_start)))
+        return 1;
     return 0;
 }

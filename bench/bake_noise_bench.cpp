@@ -2,11 +2,12 @@
 // firmware_host/src/tool/demo_scene.hpp), before and after the firefly clamp moved to the indirect
 // part and the indirect light got its own variance-guided filter: isolated bright texels
 // (lightmap_noise.hpp; on the lightmap as shipped, RGBM-decoded) and a crop of the atlas around
-// the worst 128 x 128 window of "before", for docs/baking.md "Noise".
+// the worst 128 x 128 window of "before", for docs/baking.md "Noise" (the table in
+// docs/results/bake-noise-bench.md).
 //
 // usage: bench_bake_noise_bench [demo_room.glb] [threads] [--write-docs]
-//   (default: the built demo scene, all cores; --write-docs: the table into docs/baking.md and
-//   the crops to docs/images/bake_noise_{before,after}.png)
+//   (default: the built demo scene, all cores; --write-docs: the table into
+//   docs/results/bake-noise-bench.md and the crops to docs/images/bake_noise_{before,after}.png)
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -124,9 +125,11 @@ int main(int argc, char** argv) {
     worst_window(b, wx, wy);
 
     char buf[2048];
+    const std::string measured_by =
+        "Measured by `" + command + "` (" + bench::build_kind() + "; " + machine + "): ";
+    // The results file names the command and the machine in its header: it holds the rest.
     std::string out =
-        "Measured by `" + command + "` (" + bench::build_kind() + "; " + machine +
-        "): the demo room rebaked at its build-time settings (32 paths per texel, "
+        "the demo room rebaked at its build-time settings (32 paths per texel, "
         "firefly factor 8 (before: 4), 5 filter passes, 2 bounces), one 512 x 512 lightmap; "
         "isolated bright texels (above 1.3 x each of their 8 neighbours) counted on "
         "the lightmap as the .glb ships it (RGBM decoded) and on the unfiltered "
@@ -147,7 +150,7 @@ int main(int argc, char** argv) {
                   "texels before, 3x nearest, E / %.2f through the sRGB curve.\n",
                   wx, wx + 128, wy, wy + 128, a.intensity);
     out += buf;
-    std::fputs(out.c_str(), stdout);
+    std::fputs((measured_by + out).c_str(), stdout);
     if (write_docs) {
         if (Status s = write_png(crop_png(b, wx, wy, a.intensity),
                                  HMDNODE_SOURCE_DIR "/docs/images/bake_noise_before.png");
@@ -157,9 +160,13 @@ int main(int argc, char** argv) {
                                  HMDNODE_SOURCE_DIR "/docs/images/bake_noise_after.png");
             !s.ok())
             return std::fprintf(stderr, "%s\n", s.error().message.c_str()), 1;
-        if (!bench::write_doc_table(HMDNODE_SOURCE_DIR "/docs/baking.md", "bake-noise-table", out))
+        out[0] = 'T';  // "The demo room rebaked ..."
+        if (!bench::write_result("bake-noise-bench",
+                                 "Lightmap noise of the demo room, before and after the indirect "
+                                 "light's own clamp and filter",
+                                 command, out))
             return 1;
-        std::fprintf(stderr, "bake noise bench: wrote the table and the crops\n");
+        std::fprintf(stderr, "bake noise bench: wrote the crops\n");
     }
     return 0;
 }

@@ -1,4 +1,5 @@
-// The baker against raw Embree on the baker's own rays (docs/baking.md "Benchmark"): each round
+// The baker against raw Embree on the baker's own rays (docs/baking.md "Benchmark",
+// docs/results/bake-replay-bench.md): each round
 // bakes the scene at `hmdnode bake`'s defaults while recording every k-th ray each thread casts
 // (bounce, shadow, validity, coplanar re-query; start_ray_recording), then replays those rays
 // through raw Embree right after (interleaved in time, so both see the same machine load): single
@@ -9,7 +10,8 @@
 // Rates are rays over wall time; CPU time beside them. Both scenes also run single-threaded.
 //
 // usage: bench_bake_replay_bench [scene.glb] [threads] [--rounds R] [--write-docs]
-//   (default: the built demo scene, all cores, 2 rounds; --write-docs: into docs/baking.md)
+//   (default: the built demo scene, all cores, 2 rounds; --write-docs: into
+//   docs/results/bake-replay-bench.md)
 #include <time.h>
 
 #include <algorithm>
@@ -130,10 +132,12 @@ int main(int argc, char** argv) {
     const std::string c1 = run("cornell box", cornell, 1, 1, rounds);
     const std::string cn = run("cornell box", cornell, threads, 1, rounds);
     if (d1.empty() || demo_row.empty() || c1.empty() || cn.empty()) return 1;
-    std::string out =
-        "Measured by `" + command + "` (" + bench::build_kind() + "; " + machine +
-        "; `hmdnode bake`'s defaults; mean over the rounds; the demo scene records every 64th "
-        "ray of each thread, the Cornell box every ray):\n\n"
+    const std::string settings =
+        "`hmdnode bake`'s defaults; mean over the rounds; the demo scene records every 64th ray "
+        "of each thread, the Cornell box every ray";
+    // The results file names the command and the machine in its header: the table follows the
+    // settings there.
+    const std::string table =
         "| scene | threads | ray mix: bounce / shadow / validity / coplanar | baker (Mrays/s) | "
         "raw "
         "single rays (Mrays/s) | baker / raw single | raw packets of 8 (Mrays/s) | raw streams of "
@@ -149,11 +153,12 @@ int main(int argc, char** argv) {
         "casts as the streams column does: shadow rays (a texel's paths' or a vertex sample's "
         "paths' at once, rtcOccluded1M) and validity rays (a texel's, rtcIntersect1M) as streams, "
         "bounce and coplanar rays single; baker / raw streams is the like-for-like ratio.\n";
+    const std::string out = "Measured by `" + command + "` (" + bench::build_kind() + "; " +
+                            machine + "; " + settings + "):\n\n" + table;
     std::fputs(out.c_str(), stdout);
-    if (write_docs) {
-        if (!bench::write_doc_table(HMDNODE_SOURCE_DIR "/docs/baking.md", "bake-replay-table", out))
-            return 1;
-        std::fprintf(stderr, "bake replay bench: wrote the table into docs/baking.md\n");
-    }
+    if (write_docs &&
+        !bench::write_result("bake-replay-bench", "The baker against raw Embree on its own rays",
+                             command, "Settings: " + settings + ".\n\n" + table))
+        return 1;
     return 0;
 }

@@ -1,6 +1,8 @@
-// Benchmarks write the tables the docs show: `--write-docs` replaces the text between
-// `<!-- NAME -->` and `<!-- /NAME -->` in a markdown file, atomically. Header-only (benches are
-// one file each).
+// Benchmarks write the tables the docs link: `--write-docs` writes each table into its own file,
+// docs/results/NAME.md (write_result: a title, the machine, the command that reproduces it and the
+// date, then the table), atomically; docs/results/README.md lists them. write_doc_table, which
+// replaces the text between `<!-- NAME -->` and `<!-- /NAME -->` in a markdown file, stays for the
+// benches not yet moved to results files. Header-only (benches are one file each).
 #pragma once
 
 #include <time.h>
@@ -10,6 +12,8 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -79,23 +83,83 @@ inline const char* build_kind() {
 #endif
 }
 
-// What the bench can read about the machine it runs on: the CPU's model name (/proc/cpuinfo), its
-// hardware threads and the 1-minute load average now, e.g. "Intel Xeon ..., 2 hardware threads,
-// 1-minute load average 3.1 at the start".
-inline std::string machine_facts() {
-    std::string model = "unknown CPU";
+// The CPU's model name as /proc/cpuinfo gives it, e.g. "AMD EPYC 7B13"; "unknown CPU" when it
+// cannot be read.
+inline std::string cpu_model() {
     std::ifstream in("/proc/cpuinfo");
     for (std::string l; std::getline(in, l);)
         if (l.rfind("model name", 0) == 0 && l.find(':') != std::string::npos) {
-            model = l.substr(l.find(':') + 1);
+            std::string model = l.substr(l.find(':') + 1);
             model.erase(0, model.find_first_not_of(" \t"));
-            break;
+            return model;
         }
+    return "unknown CPU";
+}
+
+// What the bench can read about the machine it runs on: the CPU's model name (/proc/cpuinfo), its
+// hardware threads and the 1-minute load average now, e.g. "Intel Xeon ..., 2 hardware threads,
+// 1-minute load average 3.1 at the start". Printed on the terminal; results files carry
+// machine_line() instead.
+inline std::string machine_facts() {
     double load[3] = {0.0, 0.0, 0.0};
     char load_text[32] = "unknown";
     if (getloadavg(load, 3) == 3) std::snprintf(load_text, sizeof load_text, "%.1f", load[0]);
-    return model + ", " + std::to_string(std::thread::hardware_concurrency()) +
+    return cpu_model() + ", " + std::to_string(std::thread::hardware_concurrency()) +
            " hardware threads, 1-minute load average " + load_text + " at the start";
+}
+
+// The machine a results file names: the CPU's model name, its hardware threads and, where the
+// bench knows it, the renderer's device, e.g. "AMD EPYC 7B13, 2 hardware threads; renderer
+// llvmpipe (LLVM 15.0.6, 256 bits)".
+inline std::string machine_line(const std::string& renderer = "") {
+    std::string line = cpu_model() + ", " + std::to_string(std::thread::hardware_concurrency()) +
+                       " hardware threads";
+    if (!renderer.empty()) line += "; renderer " + renderer;
+    return line;
+}
+
+// The command that ran this bench, as a results file quotes it: the binary under
+// build/release/bench/ and the arguments, paths inside the source tree relative to it (in_tree).
+inline std::string command_line(int argc, char** argv) {
+    std::string command =
+        "build/release/bench/" + std::filesystem::path(argv[0]).filename().string();
+    for (int i = 1; i < argc; ++i) command += ' ' + in_tree(argv[i]);
+    return command;
+}
+
+// Today's date (UTC), YYYY-MM-DD.
+inline std::string today() {
+    const std::time_t now = std::time(nullptr);
+    std::tm utc{};
+    gmtime_r(&now, &utc);
+    char text[16];
+    std::strftime(text, sizeof text, "%Y-%m-%d", &utc);
+    return text;
+}
+
+// Writes docs/results/<name>.md, atomically: a one-line title, the machine (machine_line with
+// `renderer`), the command that reproduces the table (`command`, as the bench prints it; this
+// build's kind beside it) and today's date, then `table` (markdown: what was measured, the table,
+// what its columns mean). One table per file. Prints why and returns false when it cannot write.
+inline bool write_result(const std::string& name, const std::string& title,
+                         const std::string& command, const std::string& table,
+                         const std::string& renderer = "") {
+    const std::string path = HMDNODE_SOURCE_DIR "/docs/results/" + name + ".md";
+    std::string text = "# " + title + "\n\n";
+    text += "- Machine: " + machine_line(renderer) + "\n";
+    text += "- Command: `" + command + "` (" + build_kind() + ")\n";
+    text += "- Date: " + today() + "\n\n";
+    text += table;
+    if (text.back() != '\n') text += '\n';
+    text +=
+        "\n<!-- Written by the command above (bench/doc_table.hpp, write_result): edit the "
+        "bench, not this file. -->\n";
+    if (Status s = write_file_atomically(path, text); !s.ok()) {
+        std::fprintf(stderr, "%s\n", s.error().message.c_str());
+        return false;
+    }
+    std::fprintf(stderr, "wrote docs/results/%s.md\n", name.c_str());
+    return true;
 }
 
 // Replaces the marked block of `path` with `text`; prints why and returns false when it cannot.

@@ -14,7 +14,7 @@
 // Every row records the 1-minute load average at its start and end.
 //
 // Usage: bench_lod_algorithms_render_bench [--frames A:B] [--algorithms a,b,...] [--write-docs]
-//        (--write-docs: into docs/lod-selection.md)
+//        (--write-docs: into docs/results/lod-algorithms-render-bench.md)
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -61,7 +61,11 @@ int main(int argc, char** argv) {
     const std::string demo = HMDNODE_BINARY_DIR "/data/demo_room.glb";
     const fs::path dir = fs::temp_directory_path() / "hmdnode_lod_algorithms_render";
     fs::create_directories(dir);
+    // The first line names the machine on the terminal; the results file names it in its header
+    // and holds the rest.
     std::string out = "machine: " + bench::machine_facts() + "; " + bench::build_kind() + "\n";
+    const size_t table_start = out.size();
+    std::string device;
     char line[512];
     std::snprintf(line, sizeof line,
                   "demo room re-chained per algorithm (hmdnode lod, ratios 0.5/0.1/0.01); "
@@ -106,6 +110,7 @@ int main(int argc, char** argv) {
             std::fputs(line, stderr);
             continue;
         }
+        device = r->device_name;
         const RenderBenchSummary& s = r->summary;
         std::snprintf(line, sizeof line,
                       "%-17s %7.1f %8.1f %8.1f %6.2fx %9.2f %9.2f %7.4f %9.0f %5.1f->%-5.1f\n",
@@ -119,8 +124,10 @@ int main(int argc, char** argv) {
         "p50; ratio: full / LOD; triangles: drawn per LOD frame, mean)\n";
     std::fputs(out.c_str(), stdout);
     if (write_docs &&
-        !bench::write_doc_table(HMDNODE_SOURCE_DIR "/docs/lod-selection.md",
-                                "lod-algorithms-render-bench-table", "```\n" + out + "```\n"))
+        !bench::write_result("lod-algorithms-render-bench",
+                             "Every simplifier's LOD chains on the demo room, against full detail",
+                             bench::command_line(argc, argv),
+                             "```\n" + out.substr(table_start) + "```\n", device))
         return 1;
     return 0;
 }

@@ -1,4 +1,5 @@
-// The LOD allocators side by side (docs/lod-selection.md, "Allocators compared").
+// The LOD allocators side by side (docs/lod-selection.md, "Allocators compared"; the tables in
+// docs/results/lod-allocator-decision.md and lod-allocator-render.md).
 //
 //  1. Decision time per frame: the perceptual selector for every object, then each allocator on the
 //     same candidates (threshold: none; greedy: Funkhouser & Sequin 1993; iga: the immune genetic
@@ -18,7 +19,9 @@
 // Every render row records the 1-minute load average at its start and end.
 //
 // Usage: bench_lod_allocator_bench [--frames N] [--render-frames A:B] [--heavy SCENE.glb]
-//        [--no-render] [--write-docs]   (--write-docs: into docs/lod-selection.md)
+//        [--no-render] [--write-docs]
+//        (--write-docs: part 1 into docs/results/lod-allocator-decision.md, part 2 into
+//        docs/results/lod-allocator-render.md)
 #include <time.h>
 
 #include <algorithm>
@@ -158,10 +161,15 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "%s: --render-frames is A:B with A < B\n", argv[0]);
         return 2;
     }
-    std::string out = "machine: " + bench::machine_facts() + "; " + bench::build_kind() + "\n";
+    // The first line names the machine on the terminal; the results files name it in their
+    // headers and hold one part each.
+    std::string out = "machine: " + bench::machine_facts() + "; " + bench::build_kind() + "\n\n";
+    const size_t decision_start = out.size();
+    size_t render_start = std::string::npos;
+    std::string device;
     char line[512];
     std::snprintf(line, sizeof line,
-                  "\nLOD decision per frame, %d frames, one thread, budget half-way between the "
+                  "LOD decision per frame, %d frames, one thread, budget half-way between the "
                   "coarsest levels and the selector's (target: 0.2 ms for 1,000 objects)\n",
                   frames);
     out += line;
@@ -182,8 +190,10 @@ int main(int argc, char** argv) {
     if (render) {
         const std::string trace = HMDNODE_SOURCE_DIR "/data/traces/corbillon2018_user1.csv";
         const std::string demo = HMDNODE_BINARY_DIR "/data/demo_room.glb";
+        out += "\n";
+        render_start = out.size();
         std::snprintf(line, sizeof line,
-                      "\nrender-bench --compare full, 360x400 per eye, frames %s of the bundled "
+                      "render-bench --compare full, 360x400 per eye, frames %s of the bundled "
                       "trace, lavapipe\n",
                       render_frames.c_str());
         out += line;
@@ -206,6 +216,7 @@ int main(int argc, char** argv) {
                     std::fprintf(stderr, "%s: %s\n", name.c_str(), r.error().message.c_str());
                     return 1;
                 }
+                device = r->device_name;
                 const RenderBenchSummary& s = r->summary;
                 std::snprintf(line, sizeof line,
                               "%-6s %-10s %8.1f %8.1f %6.2fx %9.2f %9.2f %7.4f %9.0f %9.2f "
@@ -223,8 +234,20 @@ int main(int argc, char** argv) {
             "LOD frame, mean)\n";
     }
     std::fputs(out.c_str(), stdout);
-    if (write_docs && !bench::write_doc_table(HMDNODE_SOURCE_DIR "/docs/lod-selection.md",
-                                              "lod-allocator-bench-table", "```\n" + out + "```\n"))
-        return 1;
+    if (write_docs) {
+        const std::string command = bench::command_line(argc, argv);
+        const size_t decision_end =
+            render_start == std::string::npos ? out.size() : render_start - 1;
+        if (!bench::write_result(
+                "lod-allocator-decision", "LOD allocators compared: decision time per frame",
+                command,
+                "```\n" + out.substr(decision_start, decision_end - decision_start) + "```\n"))
+            return 1;
+        if (render_start != std::string::npos &&
+            !bench::write_result("lod-allocator-render",
+                                 "LOD allocators compared: image quality per ms of frame time",
+                                 command, "```\n" + out.substr(render_start) + "```\n", device))
+            return 1;
+    }
     return 0;
 }

@@ -13,7 +13,8 @@
 //                        [--write-docs]
 //   MESH_DIR defaults to HMDNODE_SOURCE_DIR/data/meshes; writes PREFIX.json and
 //   PREFIX.svg (default ./lod_bench) and a markdown table on stdout, then the target line;
-//   --write-docs also puts the tables into docs/lod-generation.md and the plot into
+//   --write-docs also writes the tables to docs/results/lod-bench.md (every algorithm) and
+//   docs/results/lod-bench-target.md (qem against meshopt_simplify), and the plot to
 //   docs/lod-generation-bench.svg.
 #include <meshoptimizer.h>
 
@@ -533,11 +534,15 @@ int main(int argc, char** argv) {
         }
     }
 
-    // Markdown tables: printed, and with --write-docs also put into docs/lod-generation.md.
+    // Markdown tables: printed, and with --write-docs also written to docs/results/ (their
+    // headers name the command and the machine).
+    const std::string command = "build/release/bench/bench_lod_bench" +
+                                (only.empty() ? "" : " --only " + only_arg) + " --write-docs";
+    const std::string settings =
+        "one run; times are medians, see above; errors against the original";
     std::string out;
-    appendf(out, "Measured by `build/release/bench/bench_lod_bench%s --write-docs` (%s):\n\n",
-            only.empty() ? "" : (" --only " + only_arg).c_str(),
-            "one run; times are medians, see above; errors against the original");
+    appendf(out, "Measured by `%s` (%s):\n\n", command.c_str(), settings.c_str());
+    const size_t table_start = out.size();
     appendf(
         out,
         "| mesh | algorithm | target | triangles | time ms | mean %% diag | Hausdorff %% diag |\n");
@@ -555,6 +560,7 @@ int main(int argc, char** argv) {
     }
 
     // Target line: qem against meshopt_simplify.
+    const size_t target_start = out.size() + 1;  // after the blank line
     appendf(out,
             "\nTarget: qem no slower than meshopt_simplify, mean <= 0.7x, Hausdorff <= 1.0x\n");
     appendf(out,
@@ -634,8 +640,16 @@ int main(int argc, char** argv) {
     }
     std::fprintf(stderr, "wrote %s.json and %s.svg\n", prefix.c_str(), prefix.c_str());
     if (write_docs) {
-        if (!bench::write_doc_table(HMDNODE_SOURCE_DIR "/docs/lod-generation.md", "lod-bench-table",
-                                    out))
+        if (!bench::write_result(
+                "lod-bench", "LOD generation: every simplifier against meshoptimizer", command,
+                "Settings: wall time, median of 5 runs when a run takes under 0.2 s, of 3 under "
+                "2 s, else one run; simplify() on one thread, one SimplifyScratch for all its "
+                "calls; errors against the original, " +
+                    std::to_string(distance.samples) + " samples per direction.\n\n" +
+                    out.substr(table_start, target_start - 1 - table_start)) ||
+            !bench::write_result("lod-bench-target",
+                                 "LOD generation target: qem against meshopt_simplify", command,
+                                 out.substr(target_start)))
             return 1;
         if (const Status s =
                 write_file_atomically(HMDNODE_SOURCE_DIR "/docs/lod-generation-bench.svg",
@@ -644,7 +658,7 @@ int main(int argc, char** argv) {
             std::fprintf(stderr, "bench_lod_bench: %s\n", s.error().message.c_str());
             return 1;
         }
-        std::fprintf(stderr, "wrote docs/lod-generation.md and docs/lod-generation-bench.svg\n");
+        std::fprintf(stderr, "wrote docs/lod-generation-bench.svg\n");
     }
     return 0;
 }

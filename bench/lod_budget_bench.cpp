@@ -8,7 +8,7 @@
 // allocator alone are timed in the same frames.
 //
 // Usage: bench_lod_budget_bench [frames=2000] [--write-docs]   (--write-docs: into
-// docs/lod-selection.md)
+// docs/results/lod-budget-bench.md)
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -82,10 +82,14 @@ int main(int argc, char** argv) {
                   "(mean)\n",
                   100.0 * double(limited) / double(frames), double(coarsened) / double(frames));
     out += line;
+    // The results file names the machine in its header.
+    const std::string table = "```\n" + out + "```\n";
     out += "machine: " + bench::machine_facts() + "\n";
     std::fputs(out.c_str(), stdout);
-    if (write_docs && !bench::write_doc_table(HMDNODE_SOURCE_DIR "/docs/lod-selection.md",
-                                              "lod-budget-bench-table", "```\n" + out + "```\n"))
+    if (write_docs &&
+        !bench::write_result("lod-budget-bench",
+                             "LOD decision per frame with the frame-budget controller",
+                             bench::command_line(argc, argv), table))
         return 1;
     return 0;
 }

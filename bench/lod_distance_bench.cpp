@@ -12,8 +12,8 @@
 // and the peak resident memory.
 //
 // Usage: bench_lod_distance_bench [MESH_FILE...] [--big N] [--runs N] [--write-docs]
-//   --write-docs puts the table between <!-- lod-distance-table --> markers of
-//   docs/lod-generation.md (and the --big figures between <!-- lod-big-table --> markers).
+//   --write-docs writes the table to docs/results/lod-distance-bench.md (and the --big figures to
+//   docs/results/lod-distance-big.md).
 #include <time.h>
 
 #include <algorithm>
@@ -251,14 +251,19 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "%s: %zu faces\n", input.name.c_str(), in.triangle_count());
         rows.push_back(measure_mesh(input.name, in, runs));
     }
+    const std::string run_text =
+        "one thread, thread CPU time, medians of " + std::to_string(runs) + " runs";
     std::string out;
+    appendf(
+        out,
+        "Measured by `build/release/bench/bench_lod_distance_bench --write-docs` (%s, %s; %s). ",
+        bench::build_kind(), bench::machine_facts().c_str(), run_text.c_str());
+    // The results file names the command and the machine in its header: it holds the rest.
+    const size_t what_start = out.size();
     appendf(out,
-            "Measured by `build/release/bench/bench_lod_distance_bench --write-docs` (%s, %s; "
-            "one thread, thread CPU time, medians of %d runs). Simplify: qem to 50/10/1 %% in "
-            "one call; prepare: level 0's BVH and samples, once (charged to the 50 %% level in "
-            "the worst-level column); the bracket is [sampled Hausdorff, its upper bound], %% of "
-            "the diagonal:\n\n",
-            bench::build_kind(), bench::machine_facts().c_str(), runs);
+            "Simplify: qem to 50/10/1 %% in one call; prepare: level 0's BVH and samples, once "
+            "(charged to the 50 %% level in the worst-level column); the bracket is [sampled "
+            "Hausdorff, its upper bound], %% of the diagonal:\n\n");
     appendf(out,
             "| mesh | faces | simplify ms | prepare ms | measure 50 / 10 / 1 %% ms | all levels / "
             "simplify | worst level / simplify | Hausdorff 50 %% | Hausdorff 10 %% | Hausdorff 1 "
@@ -281,9 +286,15 @@ int main(int argc, char** argv) {
         std::printf("%s\n", big_text.c_str());
     }
     if (write_docs) {
-        const std::string doc = HMDNODE_SOURCE_DIR "/docs/lod-generation.md";
-        if (!bench::write_doc_table(doc, "lod-distance-table", out)) return 1;
-        if (big > 0 && !bench::write_doc_table(doc, "lod-big-table", big_text)) return 1;
+        const std::string command = bench::command_line(argc, argv);
+        if (!bench::write_result("lod-distance-bench",
+                                 "What measuring a level costs against simplifying it", command,
+                                 "Settings: " + run_text + ". " + out.substr(what_start)))
+            return 1;
+        if (big > 0 && !bench::write_result("lod-distance-big",
+                                            "hmdnode lod on a mesh of a million faces and more",
+                                            command, big_text))
+            return 1;
     }
     return 0;
 }

@@ -3,7 +3,7 @@
 // multiview, depth, a textured lightmap-like fetch x vertex colour; medians per stereo frame).
 //
 // Usage: bench_replay_bench [seconds_of_trace_per_run=4] [--write-docs]   (--write-docs: also into
-// docs/benchmarks.md)
+// docs/results/replay-bench.md)
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -74,26 +74,31 @@ int main(int argc, char** argv) {
                       ref, s.render_ms.p50 / ref, double(s.frames) / s.wall_s);
         rows += line;
     }
-    std::string out;
+    std::snprintf(line, sizeof line, "build/release/bench/bench_replay_bench %g --write-docs",
+                  seconds);
+    const std::string command = line;
     std::snprintf(line, sizeof line,
-                  "Measured by `build/release/bench/bench_replay_bench %g --write-docs` (renderer "
-                  "%s; demo scene, Corbillon 2018 user 1 from t = 20 s, %g s of trace per run, "
-                  "simulated clock with the frame-cost model calibrated at start-up):\n\n",
-                  seconds, device.c_str(), seconds);
-    out += line;
-    out +=
+                  "demo scene, Corbillon 2018 user 1 from t = 20 s, %g s of trace per run, "
+                  "simulated clock with the frame-cost model calibrated at start-up",
+                  seconds);
+    const std::string settings = line;
+    // The results file names the command and the renderer in its header.
+    std::string table =
         "| eye | vsyncs | new frames | triangles/frame | render p50 (ms) | render p95 (ms) | "
         "reference (ms) | ours/ref | replay fps |\n"
         "|---|---|---|---|---|---|---|---|---|\n";
-    out += rows;
-    out +=
+    table += rows;
+    table +=
         "\nrender = the scene pass alone, both eyes, no read-back; reference = DESIGN.md §9's "
         "table at the same triangle count (log-linear between its points); replay fps = presents "
         "(new frames and re-warps) per wall second, the start-up calibration, warp + distortion, "
         "tracking, LOD and pacing included.\n";
+    const std::string out =
+        "Measured by `" + command + "` (renderer " + device + "; " + settings + "):\n\n" + table;
     std::fputs(out.c_str(), stdout);
-    if (write_docs && !bench::write_doc_table(HMDNODE_SOURCE_DIR "/docs/benchmarks.md",
-                                              "replay-bench-table", out))
+    if (write_docs &&
+        !bench::write_result("replay-bench", "Replay throughput and render time per frame", command,
+                             "Settings: " + settings + ".\n\n" + table, device))
         return 1;
     return 0;
 }

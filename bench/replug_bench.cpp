@@ -7,8 +7,8 @@
 // (/proc/self/fd) and threads of this process before the tracker started and after it stopped
 // (target: equal).
 //
-// Usage: bench_replug_bench [--cycles N=100] [--unplugged-ms MS=200] [--write-docs [--docs FILE]]
-// --write-docs puts the table between <!-- replug-bench-table --> markers (bench/doc_table.hpp).
+// Usage: bench_replug_bench [--cycles N=100] [--unplugged-ms MS=200] [--write-docs]
+// --write-docs writes the table to docs/results/replug-bench.md (bench/doc_table.hpp).
 // Cost: N x (MS + recovery) of wall time; one reader thread.
 #include <algorithm>
 #include <cstdio>
@@ -45,8 +45,7 @@ size_t threads() {
 
 int usage() {
     std::fprintf(stderr,
-                 "usage: bench_replug_bench [--cycles N] [--unplugged-ms MS] "
-                 "[--write-docs [--docs FILE]]\n");
+                 "usage: bench_replug_bench [--cycles N] [--unplugged-ms MS] [--write-docs]\n");
     return 2;
 }
 
@@ -54,7 +53,6 @@ int usage() {
 
 int main(int argc, char** argv) {
     int cycles = 100, unplugged_ms = 200;
-    std::string docs = HMDNODE_SOURCE_DIR "/docs/benchmarks.md";
     const bool write_docs = bench::wants_docs(argc, argv);
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
@@ -65,8 +63,6 @@ int main(int argc, char** argv) {
             cycles = std::atoi(v.c_str());
         else if (a == "--unplugged-ms")
             unplugged_ms = std::atoi(v.c_str());
-        else if (a == "--docs")
-            docs = v;
         else
             return usage();
     }
@@ -125,15 +121,20 @@ int main(int argc, char** argv) {
         recovery_ms.empty() ? 0.0 : *std::max_element(recovery_ms.begin(), recovery_ms.end());
     const bool met = resumed == cycles && worst < 1000.0 && fds_after == fds_before &&
                      threads_after == threads_before;
-    std::string out;
     char line[1024];
     std::snprintf(line, sizeof line,
-                  "Measured by `build/release/bench/bench_replug_bench --cycles %d --unplugged-ms "
-                  "%d` (%s; %s): the simulated reference tracker at 1 kHz under the device "
+                  "build/release/bench/bench_replug_bench --cycles %d --unplugged-ms %d", cycles,
+                  unplugged_ms);
+    const std::string command = line;
+    const std::string measured_by = "Measured by `" + command + "` (" + bench::build_kind() + "; " +
+                                    bench::machine_facts() + "): ";
+    // The results file names the command and the machine in its header: it holds the rest.
+    std::string out;
+    std::snprintf(line, sizeof line,
+                  "the simulated reference tracker at 1 kHz under the device "
                   "tracker (reader thread, reopen interval %lld ms), %d unplug/replug cycles of "
                   "%d ms, every other replug a reboot; the tracker counted %llu disconnects and "
                   "%llu opens.\n\n",
-                  cycles, unplugged_ms, bench::build_kind(), bench::machine_facts().c_str(),
                   static_cast<long long>(tc.reopen_interval_ns / kNsPerMs), cycles, unplugged_ms,
                   static_cast<unsigned long long>(st.disconnects),
                   static_cast<unsigned long long>(st.opens));
@@ -154,7 +155,11 @@ int main(int argc, char** argv) {
     std::snprintf(line, sizeof line, "| threads, before / after | %zu / %zu | equal | %s |\n",
                   threads_before, threads_after, threads_after == threads_before ? "yes" : "no");
     out += line;
-    std::printf("%s", out.c_str());
-    if (write_docs && !bench::write_doc_table(docs, "replug-bench-table", out)) return 1;
+    std::printf("%s%s", measured_by.c_str(), out.c_str());
+    out[0] = 'T';  // "The simulated reference tracker ..."
+    if (write_docs && !bench::write_result("replug-bench",
+                                           "Recovery of the device tracker from unplug and replug",
+                                           command + " --write-docs", out))
+        return 1;
     return met ? 0 : 1;
 }

@@ -14,9 +14,9 @@
 // sample in between and gone by the end is transient and named too.
 //
 // Usage: bench_soak_bench [--minutes M=1] [--every S=5] [--clock sim|real] [--tracker
-//        trace|sim] [--eye N=64] [--write-docs [--docs FILE=docs/benchmarks.md]]
-// --write-docs puts the table between <!-- soak-bench-table --> markers (bench/doc_table.hpp), or
-// <!-- soak-bench-real-table --> with --clock real.
+//        trace|sim] [--eye N=64] [--write-docs]
+// --write-docs writes the table to docs/results/soak-bench.md (bench/doc_table.hpp), or to
+// docs/results/soak-bench-real.md with --clock real.
 // Cost: one daemon rendering two N x N eyes as fast as it can (sim clock) for M minutes.
 #include <fcntl.h>
 #include <signal.h>
@@ -103,7 +103,7 @@ double slope(const std::vector<Sample>& v, double Sample::*y) {
 int usage() {
     std::fprintf(stderr,
                  "usage: bench_soak_bench [--minutes M] [--every S] [--clock sim|real] "
-                 "[--tracker trace|sim] [--eye N] [--write-docs [--docs FILE]]\n");
+                 "[--tracker trace|sim] [--eye N] [--write-docs]\n");
     return 2;
 }
 
@@ -112,7 +112,7 @@ int usage() {
 int main(int argc, char** argv) {
     double minutes = 1.0, every_s = 5.0;
     int eye = 64;
-    std::string clock = "sim", tracker = "trace", docs = HMDNODE_SOURCE_DIR "/docs/benchmarks.md";
+    std::string clock = "sim", tracker = "trace";
     const bool write_docs = bench::wants_docs(argc, argv);
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
@@ -130,8 +130,6 @@ int main(int argc, char** argv) {
             tracker = v;
         else if (a == "--eye")
             eye = std::atoi(v.c_str());
-        else if (a == "--docs")
-            docs = v;
         else
             return usage();
     }
@@ -257,16 +255,21 @@ int main(int argc, char** argv) {
     const double fps = double(last.frames - first.frames) / ((last.minutes - first.minutes) * 60.0);
 
     char buf[1024];
+    std::snprintf(buf, sizeof buf,
+                  "build/release/bench/bench_soak_bench --minutes %g --every %g --clock %s "
+                  "--tracker %s --eye %d",
+                  minutes, every_s, clock.c_str(), tracker.c_str(), eye);
+    const std::string command = buf;
+    const std::string measured_by = "Measured by `" + command + "` (" + bench::build_kind() + "; " +
+                                    bench::machine_facts() + "): ";
+    // The results file names the command and the machine in its header: it holds the rest.
     std::string out;
-    std::snprintf(
-        buf, sizeof buf,
-        "Measured by `build/release/bench/bench_soak_bench --minutes %g --every %g "
-        "--clock %s --tracker %s --eye %d` (%s; %s): hmdnoded on the demo scene, %zu "
-        "samples, the first %zu (%.1f min) a warm-up left out of the slopes; %.0f frames/s "
-        "over the measured part; the daemon %s.\n\n",
-        minutes, every_s, clock.c_str(), tracker.c_str(), eye, bench::build_kind(),
-        bench::machine_facts().c_str(), samples.size(), warm, first.minutes, fps,
-        clean ? "exited 0 on SIGTERM" : "DID NOT exit cleanly");
+    std::snprintf(buf, sizeof buf,
+                  "hmdnoded on the demo scene, %zu samples, the first %zu (%.1f min) a warm-up "
+                  "left out of the slopes; %.0f frames/s over the measured part; the daemon "
+                  "%s.\n\n",
+                  samples.size(), warm, first.minutes, fps,
+                  clean ? "exited 0 on SIGTERM" : "DID NOT exit cleanly");
     out += buf;
     out += "| measure | first | last | slope | target | met |\n|---|---|---|---|---|---|\n";
     std::snprintf(buf, sizeof buf,
@@ -295,7 +298,7 @@ int main(int argc, char** argv) {
     out += transients.empty() ? "" : transients + " samples";
     out += ".\n";
     for (const std::string& f : grown) out += "\nnew at the end: " + f + "\n";
-    std::printf("\n%s", out.c_str());
+    std::printf("\n%s%s", measured_by.c_str(), out.c_str());
     std::printf("\nopen at the first sample after the warm-up:\n");
     for (const std::string& f : first.open) std::printf("  %s\n", f.c_str());
     if (clean)
@@ -304,8 +307,13 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "the daemon's log: %s\n", log.c_str());
     // One table per clock: the hour on the simulated clock, the 10 minutes on the real one.
     if (write_docs &&
-        !bench::write_doc_table(
-            docs, clock == "real" ? "soak-bench-real-table" : "soak-bench-table", out))
+        !bench::write_result(
+            clock == "real" ? "soak-bench-real" : "soak-bench",
+            clock == "real" ? "Soak on the real clock: memory, file descriptors and threads of "
+                              "the running daemon"
+                            : "Soak on the simulated clock: memory, file descriptors and threads "
+                              "of the running daemon",
+            command + " --write-docs", out))
         return 1;
     return clean ? 0 : 1;
 }

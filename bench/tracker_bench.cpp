@@ -10,7 +10,8 @@
 //
 // Usage: bench_tracker_bench [seconds=3] [--capture FILE.pcap[.gz]] [--write-docs]
 //   (--capture: decode that capture's Vive IMU reports instead of the bundled one; an unreadable
-//   one is an error. --write-docs: also into docs/tracking.md)
+//   one is an error. --write-docs: also 1. into docs/results/tracker-bench-decode.md and 2. into
+//   docs/results/tracker-bench-latency.md)
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -38,7 +39,7 @@ using Clk = std::chrono::steady_clock;
 
 namespace {
 
-std::string out;  // what the bench prints, and writes into the docs with --write-docs
+std::string out;  // what the bench prints, and writes into the results files with --write-docs
 
 template <typename... Args>
 void appendf(const char* fmt, Args... args) {
@@ -237,15 +238,30 @@ int main(int argc, char** argv) {
     if (write_docs) command += " --write-docs";
     out = "Measured by `" + command + "` (" + bench::build_kind() + "; " + bench::machine_facts() +
           "; 1. on one thread, 2. a reader thread per tracker and the polling thread):\n\n```\n";
+    // The results files name the command and the machine in their headers and hold one part
+    // each.
+    const size_t decode_start = out.size();
     if (!bench_decode(capture)) return 1;
+    const size_t latency_start = out.size();
     bench_latency(seconds);
+    const size_t latency_end = out.size();
     out += "```\n";
     std::fputs(out.c_str(), stdout);
     if (write_docs) {
-        if (!bench::write_doc_table(HMDNODE_SOURCE_DIR "/docs/tracking.md", "tracker-bench-table",
-                                    out))
+        const std::string decode = out.substr(decode_start, latency_start - decode_start);
+        // The latency part opens with a blank line on the terminal.
+        const std::string latency = out.substr(latency_start + 1, latency_end - latency_start - 1);
+        if (!bench::write_result("tracker-bench-decode",
+                                 "Tracker pipeline cost per sample at 1 kHz", command,
+                                 "Settings: one thread.\n\n```\n" + decode + "```\n") ||
+            !bench::write_result("tracker-bench-latency",
+                                 "Sample arrival to pose history through the tracker's reader "
+                                 "thread, at 1 kHz",
+                                 command,
+                                 "Settings: a reader thread per tracker and the polling "
+                                 "thread.\n\n```\n" +
+                                     latency + "```\n"))
             return 1;
-        std::fprintf(stderr, "tracker bench: wrote the table into docs/tracking.md\n");
     }
     return 0;
 }
