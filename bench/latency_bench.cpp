@@ -4,16 +4,16 @@
 // warp, the fused lens pass, the pixel-cost ladder and the chosen render rate) at 360x400 and
 // 540x600 per eye, beside the same at 360x400 with the ladder off and every frame aimed at every
 // vsync (the node before them), and on the simulated clock with the cost model calibrated on this
-// renderer. Prints a markdown table beside the targets; `--write-docs` also puts it into
-// docs/latency.md between its bench markers.
+// renderer. Prints a markdown table beside the targets; `--write-docs` also writes it to
+// docs/results/latency-bench.md.
 //
 // Usage: bench_latency_bench [seconds=60] [--write-docs]
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
-#include <thread>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "doc_table.hpp"
@@ -111,11 +111,10 @@ int main(int argc, char** argv) {
     });
     row("MTP floor (ms): photon offset + latch + pass p99 + tracker latency", "",
         [](const ReplaySummary& s) { return fmt("%.2f", s.mtp_floor_ms); });
-    row("registration error p50 / p99 (deg)", "p99 <= 0.5",
-        [](const ReplaySummary& s) {
-            return fmt("%.3f", s.registration_error_deg.p50) + " / " +
-                   fmt("%.3f", s.registration_error_deg.p99);
-        });
+    row("registration error p50 / p99 (deg)", "p99 <= 0.5", [](const ReplaySummary& s) {
+        return fmt("%.3f", s.registration_error_deg.p50) + " / " +
+               fmt("%.3f", s.registration_error_deg.p99);
+    });
     row("render p50 / p99 (ms, measured)", "", [](const ReplaySummary& s) {
         return fmt("%.2f", s.render_ms.p50) + " / " + fmt("%.2f", s.render_ms.p99);
     });
@@ -163,10 +162,11 @@ int main(int argc, char** argv) {
     std::fputs(table.c_str(), stdout);
 
     if (write_docs) {
-        if (!bench::write_doc_table(HMDNODE_SOURCE_DIR "/docs/latency.md", "latency-bench-table",
-                                    table))
+        if (!bench::write_result("latency-bench",
+                                 "Frames on time, motion-to-photon and registration error",
+                                 bench::command_line(argc, argv), table, ref.device_name))
             return 1;
-        std::fprintf(stderr, "latency bench: wrote the table into docs/latency.md\n");
+        std::fprintf(stderr, "latency bench: wrote docs/results/latency-bench.md\n");
     }
     return 0;
 }

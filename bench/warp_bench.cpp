@@ -3,11 +3,12 @@
 // same run: the fused pass (the lens model per pixel; with and without chromatic-aberration
 // correction), the distortion-mesh pass at the mesh the node would choose (the coarsest within
 // 0.5 px of the model), and the floor (three bilinear samples per pixel, no lens model: the mesh
-// pass over one cell). Target: the fused pass <= 1.15x its floor. Medians and 99th percentiles of
-// interleaved runs (one warp of each pass per round), so machine drift hits all alike; the
-// renderer is HMDNODE_RENDERER's (vulkan by default).
+// pass over one cell). Target: the fused pass <= 1.15x its floor. Every pass of a configuration
+// runs on one renderer, in alternating blocks of warps (see below), so machine drift hits all
+// alike; medians and 99th percentiles; the renderer is HMDNODE_RENDERER's (vulkan by default).
 //
-// Usage: bench_warp_bench [rounds=200] [--write-docs]   (--write-docs: also into docs/latency.md)
+// Usage: bench_warp_bench [rounds=200] [--write-docs]   (--write-docs: also into
+//        docs/results/warp-bench.md)
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -46,15 +47,17 @@ int main(int argc, char** argv) {
         const char* profile;
         int w, h;
     };
-    const Config configs[] = {{"generic", 360, 400},   {"valve-index", 360, 400},
-                              {"generic", 540, 600},   {"valve-index", 540, 600},
+    const Config configs[] = {{"generic", 360, 400},       {"valve-index", 360, 400},
+                              {"generic", 540, 600},       {"valve-index", 540, 600},
                               {"valve-index", 1440, 1600}, {"none", 360, 400}};
     enum Pass { fused, fused_no_ca, mesh_pass, floor_pass, kPasses };
     const char* pass_names[kPasses] = {"fused", "fused, no CA", "mesh", "floor"};
     struct Bench {
         Config config;
         int mesh_cells = 0;
-        std::unique_ptr<Renderer> renderer[kPasses];
+        std::unique_ptr<Renderer> renderer;  // one device: the passes differ in the pass alone
+        HeadsetProfile profile;
+        DistortionMesh mesh[2], one[2];
         StereoViews views;
         std::vector<DrawItem> items;
         std::vector<double> warp_ms[kPasses], scene_ms;
@@ -71,36 +74,27 @@ int main(int argc, char** argv) {
                 profile.eye[e] = EyeLens{};
                 profile.eye[e].fov = StereoRig::typical().eye[e];
             }
-        b.mesh_cells = std::string(c.profile) == "none"
-                           ? 1
-                           : choose_mesh_cells(profile, c.w, c.h, 0.5);
-        const DistortionMesh mesh[2] = {make_distortion_mesh(profile, 0, b.mesh_cells, b.mesh_cells),
-                                        make_distortion_mesh(profile, 1, b.mesh_cells, b.mesh_cells)};
+        b.mesh_cells =
+            std::string(c.profile) == "none" ? 1 : choose_mesh_cells(profile, c.w, c.h, 0.5);
+        const DistortionMesh mesh[2] = {
+            make_distortion_mesh(profile, 0, b.mesh_cells, b.mesh_cells),
+            make_distortion_mesh(profile, 1, b.mesh_cells, b.mesh_cells)};
         const DistortionMesh one[2] = {make_distortion_mesh(profile, 0, 1, 1),
                                        make_distortion_mesh(profile, 1, 1, 1)};
-        for (int p = 0; p < kPasses; ++p) {
-            RendererConfig rc;
-            rc.eye_width = c.w;
-            rc.eye_height = c.h;
-            auto renderer = create_renderer(rc);
-            if (!renderer.ok()) {
-                std::fprintf(stderr, "warp bench: %s\n", renderer.error().message.c_str());
-                return 1;
-            }
-            Renderer& r = **renderer;
-            device = r.device_name();
-            backend = r.backend_name();
-            if (Status s = r.upload(*scene); !s.ok()) return 1;
-            Status s = p == fused || p == fused_no_ca ? r.set_lens_warp(c.w, c.h, profile)
-                       : p == mesh_pass               ? r.set_warp(c.w, c.h, mesh[0], mesh[1])
-                                                      : r.set_warp(c.w, c.h, one[0], one[1]);
-            if (!s.ok()) {
-                std::fprintf(stderr, "warp bench: %s\n", s.error().message.c_str());
-                return 1;
-            }
-            if (p == fused_no_ca) r.set_chromatic_aberration(false);
-            b.renderer[p] = std::move(*renderer);
+        RendererConfig rc;
+        rc.eye_width = c.w;
+        rc.eye_height = c.h;
+        auto renderer = create_renderer(rc);
+        if (!renderer.ok()) {
+            std::fprintf(stderr, "warp bench: %s\n", renderer.error().message.c_str());
+            return 1;
         }
+        b.renderer = std::move(*renderer);
+        device = b.renderer->device_name();
+        backend = b.renderer->backend_name();
+        if (Status s = b.renderer->upload(*scene); !s.ok()) return 1;
+        b.profile = profile;
+        b.mesh[0] = mesh[0], b.mesh[1] = mesh[1], b.one[0] = one[0], b.one[1] = one[1];
         StereoRig rig = StereoRig::typical();
         rig.eye[0] = mesh_render_fov(mesh[0], 0.1);
         rig.eye[1] = mesh_render_fov(mesh[1], 0.1);
@@ -112,35 +106,52 @@ int main(int argc, char** argv) {
         }
         for (const SceneObject& o : flatten_objects(*scene))
             b.items.push_back(DrawItem{o.levels.back().mesh, glm::mat4(o.world)});
-        for (auto& r : b.renderer)
-            if (!r->render(b.views, b.items, nullptr).ok()) return 1;
         benches.push_back(std::move(b));
     }
-    // Interleaved: one warp of every pass of every configuration per round (headset resolution
-    // every 10th), without read-back (a display scans the panel image out itself).
-    for (int i = 0; i < rounds + 3; ++i)
+    // In blocks: per configuration and pass, the pass set up on the configuration's renderer
+    // (untimed), two warps to warm it, then `block` timed warps without read-back (a display
+    // scans the panel image out itself); the passes take turns at going first, and blocks of all
+    // configurations alternate, so machine drift hits every pass alike. Headset resolution gets
+    // a tenth of the warps.
+    const int block = 10, blocks = std::max(1, rounds / block);
+    auto set_up = [&](Bench& b, int p) -> Status {
+        const Config& c = b.config;
+        Renderer& r = *b.renderer;
+        Status s = p == fused || p == fused_no_ca ? r.set_lens_warp(c.w, c.h, b.profile)
+                   : p == mesh_pass               ? r.set_warp(c.w, c.h, b.mesh[0], b.mesh[1])
+                                                  : r.set_warp(c.w, c.h, b.one[0], b.one[1]);
+        if (!s.ok()) return s;
+        if (p == fused_no_ca) r.set_chromatic_aberration(false);
+        return r.render(b.views, b.items, nullptr).ok() ? Status::success()
+                                                        : make_error("render failed");
+    };
+    for (int i = 0; i < blocks; ++i)
         for (Bench& b : benches) {
-            if (b.config.w > 1000 && i % 10 != 3) continue;
-            const glm::dquat delta =
-                glm::angleAxis(deg_to_rad(0.5 * (i % 5)), glm::dvec3(0.0, 1.0, 0.0));
-            for (int p = 0; p < kPasses; ++p) {
-                const int64_t t0 = now_ns();
-                if (!b.renderer[p]->warp(delta, nullptr).ok()) return 1;
-                const int64_t t1 = now_ns();
-                if (i >= 3) b.warp_ms[p].push_back(double(t1 - t0) * 1e-6);  // after warm-up
+            const int n = b.config.w > 1000 ? std::max(1, block / 10) : block;
+            for (int k = 0; k < kPasses; ++k) {
+                const int p = (k + i) % kPasses;
+                if (Status s = set_up(b, p); !s.ok()) {
+                    std::fprintf(stderr, "warp bench: %s\n", s.error().message.c_str());
+                    return 1;
+                }
+                for (int j = 0; j < n + 2; ++j) {
+                    const glm::dquat delta =
+                        glm::angleAxis(deg_to_rad(0.5 * (j % 5)), glm::dvec3(0.0, 1.0, 0.0));
+                    const int64_t t0 = now_ns();
+                    if (!b.renderer->warp(delta, nullptr).ok()) return 1;
+                    if (j >= 2) b.warp_ms[p].push_back(double(now_ns() - t0) * 1e-6);
+                }
             }
-            if (i % 20 == 3) {
-                const int64_t t0 = now_ns();
-                if (!b.renderer[0]->render(b.views, b.items, nullptr).ok()) return 1;
-                b.scene_ms.push_back(double(now_ns() - t0) * 1e-6);
-            }
+            const int64_t t0 = now_ns();
+            if (!b.renderer->render(b.views, b.items, nullptr).ok()) return 1;
+            b.scene_ms.push_back(double(now_ns() - t0) * 1e-6);
         }
     std::string out;
     char line[512];
     std::snprintf(line, sizeof line,
-                  "late warp + lens pass per stereo frame (ms, no read-back), %d interleaved "
-                  "rounds; floor = three bilinear samples per pixel, no lens model\n",
-                  rounds);
+                  "late warp + lens pass per stereo frame (ms, no read-back), %d blocks of %d "
+                  "warps per pass; floor = three bilinear samples per pixel, no lens model\n",
+                  blocks, block);
     out += line;
     std::snprintf(line, sizeof line, "%-12s %10s %5s | %-13s %8s %8s %8s %8s\n", "profile", "eye",
                   "mesh", "pass", "p50", "p99", "x floor", "target");
@@ -168,8 +179,10 @@ int main(int argc, char** argv) {
         "chooses); none = the rotational warp alone (one sample per pixel in every pass); scene "
         "= the demo room at its coarsest levels, same run\n";
     std::fputs(out.c_str(), stdout);
-    if (write_docs && !bench::write_doc_table(HMDNODE_SOURCE_DIR "/docs/latency.md",
-                                              "warp-bench-table", "```\n" + out + "```\n"))
+    if (write_docs &&
+        !bench::write_result("warp-bench", "The late warp + lens pass beside its floor",
+                             bench::command_line(argc, argv), "```\n" + out + "```\n",
+                             device + " (" + backend + ")"))
         return 1;
     return 0;
 }

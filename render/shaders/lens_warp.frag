@@ -65,11 +65,14 @@ vec3 position(vec3 base, vec3 dq, float f) {
     return base + f * dq;
 }
 
+// Branch-free: every lane samples (clamped to the buffer's edge) and the mask blacks out what
+// lies outside the rendered field of view or behind the eye; on a software rasteriser a sample
+// under a divergent branch costs more than one taken by all.
 vec4 fetch(vec3 h) {
-    if (h.z <= 1e-6) return vec4(0.0);
-    vec2 uv = h.xy * (0.5 / h.z) + 0.5;
-    if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) return vec4(0.0);
-    return textureLod(eye, min(uv * warp.sample_rect.xy, warp.sample_rect.zw), 0.0);
+    vec2 uv = h.xy * (0.5 / max(h.z, 1e-6)) + 0.5;
+    vec2 inside = step(vec2(0.0), uv) * step(uv, vec2(1.0));
+    float mask = inside.x * inside.y * step(1e-6, h.z);
+    return mask * textureLod(eye, min(uv * warp.sample_rect.xy, warp.sample_rect.zw), 0.0);
 }
 
 // The vive model's ray for (g, 1) in front of the eye, else straight ahead (as lens_sample()).

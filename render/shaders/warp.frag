@@ -17,11 +17,12 @@ layout(location = 2) in vec3 in_b;
 
 layout(location = 0) out vec4 out_color;
 
+// Branch-free (every lane samples, a mask blacks out the outside), as lens_warp.frag.
 float fetch(vec3 h, int channel) {
-    if (h.z <= 1e-6) return 0.0;
-    vec2 uv = h.xy / h.z * 0.5 + 0.5;
-    if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) return 0.0;
-    return textureLod(eye, min(uv * warp.sample_rect.xy, warp.sample_rect.zw), 0.0)[channel];
+    vec2 uv = h.xy * (0.5 / max(h.z, 1e-6)) + 0.5;
+    vec2 inside = step(vec2(0.0), uv) * step(uv, vec2(1.0));
+    float mask = inside.x * inside.y * step(1e-6, h.z);
+    return mask * textureLod(eye, min(uv * warp.sample_rect.xy, warp.sample_rect.zw), 0.0)[channel];
 }
 
 void main() {

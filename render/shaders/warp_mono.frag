@@ -16,10 +16,9 @@ layout(location = 1) in vec3 in_g;
 layout(location = 0) out vec4 out_color;
 
 void main() {
-    vec2 uv = in_g.xy / in_g.z * 0.5 + 0.5;
-    if (in_g.z <= 1e-6 || any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))))
-        out_color = vec4(0.0, 0.0, 0.0, 1.0);
-    else
-        out_color = vec4(
-            textureLod(eye, min(uv * warp.sample_rect.xy, warp.sample_rect.zw), 0.0).rgb, 1.0);
+    vec2 uv = in_g.xy * (0.5 / max(in_g.z, 1e-6)) + 0.5;
+    vec2 inside = step(vec2(0.0), uv) * step(uv, vec2(1.0));
+    float mask = inside.x * inside.y * step(1e-6, in_g.z);
+    out_color = vec4(
+        mask * textureLod(eye, min(uv * warp.sample_rect.xy, warp.sample_rect.zw), 0.0).rgb, 1.0);
 }

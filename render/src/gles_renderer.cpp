@@ -62,14 +62,13 @@ class GlesRenderer final : public Renderer {
     Status set_warp(int panel_width, int panel_height, const DistortionMesh& left,
                     const DistortionMesh& right) override;
     Result<WarpStats> warp(const glm::dquat& delta, StereoImage* out_panel) override;
-    Status set_lens_warp(int panel_width, int panel_height,
-                         const HeadsetProfile& profile) override;
+    Status set_lens_warp(int panel_width, int panel_height, const HeadsetProfile& profile) override;
     const char* lens_pass_name() const override {
         return panel_width_ <= 0 ? "" : fused_ ? "fused" : "mesh";
     }
     void set_chromatic_aberration(bool on) override { chromatic_ = on; }
     bool chromatic_aberration() const override {
-        return panel_width_ > 0 && (fused_ ? lens_chromatic_ && chromatic_ : !mesh_mono_);
+        return panel_width_ > 0 && chromatic_ && (fused_ ? lens_chromatic_ : !mesh_mono_);
     }
     Status set_render_scale(double scale) override {
         if (Status s = gpu::check_render_scale(scale); !s) return s;
@@ -121,6 +120,10 @@ class GlesRenderer final : public Renderer {
     Status create_panel(int panel_width, int panel_height);
     gles::Program warp_program_;
     GLint u_reproject_ = -1, u_sample_rect_ = -1;
+    // The mesh pass's one-sample program for chromatic-aberration correction off (a mesh with
+    // aberration only).
+    gles::Program warp_mono_program_;
+    GLint u_mono_reproject_ = -1, u_mono_sample_rect_ = -1;
     bool mesh_mono_ = false;
     bool fused_ = false, lens_chromatic_ = false, chromatic_ = true;
     struct FusedProgram {
@@ -294,8 +297,8 @@ Status GlesRenderer::begin_frame(const StereoViews& views, std::span<const DrawI
         frame_view_projection_[e] = views.projection[e] * views.view[e];
         frame_projection_[e] = views.projection[e];
     }
-    frame_viewport_ = gpu::scaled_viewport(uint32_t(config_.eye_width),
-                                           uint32_t(config_.eye_height), scale_);
+    frame_viewport_ =
+        gpu::scaled_viewport(uint32_t(config_.eye_width), uint32_t(config_.eye_height), scale_);
     return Status::success();
 }
 
@@ -491,7 +494,8 @@ Status GlesRenderer::set_lens_warp(int panel_width, int panel_height,
                 "\n#define MONO " + std::to_string(mono) + "\n#define SHARED " +
                 std::to_string(int(lens.shared)) + "\n#define CLAMP " +
                 std::to_string(int(lens.clamped)) + "\n" + gles::kLensWarpFragmentBody;
-            auto program = gles::build_program(gles::kLensWarpVertex, fragment.c_str(), "lens warp");
+            auto program =
+                gles::build_program(gles::kLensWarpVertex, fragment.c_str(), "lens warp");
             if (!program) return program.error();
             fp.program = gles::Program(*program);
             const GLuint p = fp.program;
@@ -528,6 +532,7 @@ Status GlesRenderer::set_warp(int panel_width, int panel_height, const Distortio
     if (Status s = create_panel(panel_width, panel_height); !s) return s;
     panel_width_ = panel_height_ = 0;
     fused_ = false;
+    chromatic_ = true;
 
     // 1. The program: one sample per pixel without chromatic aberration (as the Vulkan pass).
     const bool mono = gpu::channels_agree(left) && gpu::channels_agree(right);
@@ -540,6 +545,16 @@ Status GlesRenderer::set_warp(int panel_width, int panel_height, const Distortio
     u_sample_rect_ = glGetUniformLocation(warp_program_, "u_sample_rect");
     glUseProgram(warp_program_);
     glUniform1i(glGetUniformLocation(warp_program_, "eye"), 0);
+    if (!mono) {
+        auto mono_program =
+            gles::build_program(gles::kWarpVertex, gles::kWarpMonoFragment, "warp (no CA)");
+        if (!mono_program) return mono_program.error();
+        warp_mono_program_ = gles::Program(*mono_program);
+        u_mono_reproject_ = glGetUniformLocation(warp_mono_program_, "u_reproject");
+        u_mono_sample_rect_ = glGetUniformLocation(warp_mono_program_, "u_sample_rect");
+        glUseProgram(warp_mono_program_);
+        glUniform1i(glGetUniformLocation(warp_mono_program_, "eye"), 0);
+    }
     glUseProgram(0);
 
     // 2. The meshes.
@@ -615,9 +630,11 @@ Result<WarpStats> GlesRenderer::warp(const glm::dquat& delta, StereoImage* out_p
             glDrawArrays(GL_TRIANGLES, 0, 3);
             continue;
         }
-        glUseProgram(warp_program_);
-        glUniformMatrix4fv(u_reproject_, 1, GL_FALSE, &reproject[0][0]);
-        glUniform4fv(u_sample_rect_, 1, &rect[0]);
+        const bool one_sample = !mesh_mono_ && !chromatic_;
+        glUseProgram(one_sample ? warp_mono_program_ : warp_program_);
+        glUniformMatrix4fv(one_sample ? u_mono_reproject_ : u_reproject_, 1, GL_FALSE,
+                           &reproject[0][0]);
+        glUniform4fv(one_sample ? u_mono_sample_rect_ : u_sample_rect_, 1, &rect[0]);
         glBindVertexArray(warp_vertex_array_[e]);
         glDrawElements(GL_TRIANGLES, warp_index_count_[e], GL_UNSIGNED_INT, nullptr);
     }

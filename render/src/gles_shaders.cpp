@@ -101,7 +101,8 @@ void main() {
 }
 )";
 
-// warp.frag: three bilinear samples, black outside the rendered field of view or behind the eye.
+// warp.frag: three bilinear samples, black outside the rendered field of view or behind the eye
+// (branch-free: every lane samples, a mask blacks out the outside).
 const char* const kWarpFragment = R"(#version 300 es
 precision highp float;
 uniform highp sampler2D eye;  // sRGB decode skipped: filters the encoded bytes, as Vulkan's
@@ -111,10 +112,10 @@ in vec3 v_g;
 in vec3 v_b;
 layout(location = 0) out vec4 out_color;
 float fetch(vec3 h, int channel) {
-    if (h.z <= 1e-6) return 0.0;
-    vec2 uv = h.xy / h.z * 0.5 + 0.5;
-    if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) return 0.0;
-    return textureLod(eye, min(uv * u_sample_rect.xy, u_sample_rect.zw), 0.0)[channel];
+    vec2 uv = h.xy * (0.5 / max(h.z, 1e-6)) + 0.5;
+    vec2 inside = step(vec2(0.0), uv) * step(uv, vec2(1.0));
+    float mask = inside.x * inside.y * step(1e-6, h.z);
+    return mask * textureLod(eye, min(uv * u_sample_rect.xy, u_sample_rect.zw), 0.0)[channel];
 }
 void main() {
     out_color = vec4(fetch(v_r, 0), fetch(v_g, 1), fetch(v_b, 2), 1.0);
@@ -131,12 +132,11 @@ in vec3 v_g;
 in vec3 v_b;
 layout(location = 0) out vec4 out_color;
 void main() {
-    vec2 uv = v_g.xy / v_g.z * 0.5 + 0.5;
-    if (v_g.z <= 1e-6 || any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))))
-        out_color = vec4(0.0, 0.0, 0.0, 1.0);
-    else
-        out_color =
-            vec4(textureLod(eye, min(uv * u_sample_rect.xy, u_sample_rect.zw), 0.0).rgb, 1.0);
+    vec2 uv = v_g.xy * (0.5 / max(v_g.z, 1e-6)) + 0.5;
+    vec2 inside = step(vec2(0.0), uv) * step(uv, vec2(1.0));
+    float mask = inside.x * inside.y * step(1e-6, v_g.z);
+    out_color =
+        vec4(mask * textureLod(eye, min(uv * u_sample_rect.xy, u_sample_rect.zw), 0.0).rgb, 1.0);
 }
 )";
 
@@ -188,10 +188,10 @@ vec2 offset(vec2 uv, int c, out float r2) {
     return q;
 }
 vec4 fetch(vec3 h) {
-    if (h.z <= 1e-6) return vec4(0.0);
-    vec2 uv = h.xy * (0.5 / h.z) + 0.5;
-    if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) return vec4(0.0);
-    return textureLod(eye, min(uv * u_sample_rect.xy, u_sample_rect.zw), 0.0);
+    vec2 uv = h.xy * (0.5 / max(h.z, 1e-6)) + 0.5;
+    vec2 inside = step(vec2(0.0), uv) * step(uv, vec2(1.0));
+    float mask = inside.x * inside.y * step(1e-6, h.z);
+    return mask * textureLod(eye, min(uv * u_sample_rect.xy, u_sample_rect.zw), 0.0);
 }
 vec3 channel_position(vec2 uv, int c) {
     float r2;

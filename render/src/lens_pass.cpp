@@ -62,8 +62,8 @@ Result<LensPassSetup> make_lens_pass_setup(const HeadsetProfile& profile, int pa
     if (panel_width < 1 || panel_height < 1)
         return make_error("lens pass: panel " + std::to_string(panel_width) + "x" +
                           std::to_string(panel_height) + " is empty");
-    if (Status s = validate_headset_profile(profile, profile.name.empty() ? "headset profile"
-                                                                           : profile.name);
+    if (Status s = validate_headset_profile(
+            profile, profile.name.empty() ? "headset profile" : profile.name);
         !s)
         return s.error();
     LensPassSetup setup;
@@ -81,8 +81,9 @@ Result<LensPassSetup> make_lens_pass_setup(const HeadsetProfile& profile, int pa
                                     : 1.0);
         for (int c = 0; c < 3; ++c) {
             const LensChannel& ch = lens.channel[c];
-            const double limit =
-                out.model == LensPassModel::none ? 1e30 : clamp_r2(lens, ch, reach_r2(profile, lens, ch));
+            const double limit = out.model == LensPassModel::none
+                                     ? 1e30
+                                     : clamp_r2(lens, ch, reach_r2(profile, lens, ch));
             u.center_limit[c] = glm::vec4(float(ch.center.x), float(ch.center.y),
                                           float(std::min(limit, 1e30)), 0.0f);
             u.coeffs[c] = glm::vec4(float(ch.coeffs[0]), float(ch.coeffs[1]), float(ch.coeffs[2]),
@@ -98,17 +99,16 @@ Result<LensPassSetup> make_lens_pass_setup(const HeadsetProfile& profile, int pa
         u.pre = glm::mat4(1.0f);
         if (out.model == LensPassModel::vive) {
             // (x, y, z) = K^-1 (g.x, -a g.y, 1): the aspect's diagonal folded in.
-            const glm::dmat3 pre = glm::inverse(lens.intrinsics) *
-                                   glm::dmat3(glm::dvec3(1, 0, 0), glm::dvec3(0, -a, 0),
-                                              glm::dvec3(0, 0, 1));
+            const glm::dmat3 pre =
+                glm::inverse(lens.intrinsics) *
+                glm::dmat3(glm::dvec3(1, 0, 0), glm::dvec3(0, -a, 0), glm::dvec3(0, 0, 1));
             u.pre = glm::mat4(glm::mat3(pre));
             u.pre[3] = glm::vec4(glm::vec3(glm::inverse(pre) * glm::dvec3(0.0, 0.0, -1.0)), 1.0f);
         }
         // Shared centre and clamp: one offset and radius serve every channel.
         out.shared = out.model != LensPassModel::vive;
         for (int c = 1; c < 3; ++c)
-            out.shared = out.shared &&
-                         glm::vec3(u.center_limit[c]) == glm::vec3(u.center_limit[0]);
+            out.shared = out.shared && glm::vec3(u.center_limit[c]) == glm::vec3(u.center_limit[0]);
         for (int c = 0; c < 3; ++c) out.clamped = out.clamped || u.center_limit[c].z < 1e29f;
         out.eye_to_head = glm::mat3(lens.eye_to_head);
     }

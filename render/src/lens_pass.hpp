@@ -40,8 +40,8 @@ struct LensPassEye {
     LensPassModel model = LensPassModel::none;
     LensUniforms uniforms{};
     glm::mat3 eye_to_head{1.0f};  // folded into the per-frame reprojection matrix
-    bool shared = false;   // the channels share one centre and one clamp (poly_radial, none)
-    bool clamped = false;  // the panel reaches where some channel's model is clamped
+    bool shared = false;          // the channels share one centre and one clamp (poly_radial, none)
+    bool clamped = false;         // the panel reaches where some channel's model is clamped
 };
 
 struct LensPassSetup {

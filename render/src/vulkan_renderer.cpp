@@ -48,15 +48,12 @@ class VulkanRenderer final : public Renderer {
     Status set_warp(int panel_width, int panel_height, const DistortionMesh& left,
                     const DistortionMesh& right) override;
     Result<WarpStats> warp(const glm::dquat& delta, StereoImage* out_panel) override;
-    Status set_lens_warp(int panel_width, int panel_height,
-                         const HeadsetProfile& profile) override;
+    Status set_lens_warp(int panel_width, int panel_height, const HeadsetProfile& profile) override;
     const char* lens_pass_name() const override {
         return !warp_ ? "" : warp_->fused ? "fused" : "mesh";
     }
     void set_chromatic_aberration(bool on) override { chromatic_ = on; }
-    bool chromatic_aberration() const override {
-        return warp_ && (warp_->fused ? warp_->chromatic && chromatic_ : !warp_->mono);
-    }
+    bool chromatic_aberration() const override { return warp_ && warp_->chromatic && chromatic_; }
     Status set_render_scale(double scale) override {
         if (Status s = gpu::check_render_scale(scale); !s) return s;
         scale_ = scale;
@@ -106,7 +103,7 @@ class VulkanRenderer final : public Renderer {
     DistortionMesh warp_mesh_[2];
     std::optional<gpu::LensPassSetup> lens_setup_;  // the fused pass's, else the meshes' pass
     bool chromatic_ = true;
-    double scale_ = 1.0;                 // dynamic resolution of the frames begun from now on
+    double scale_ = 1.0;                     // dynamic resolution of the frames begun from now on
     gpu::ScaledViewport frame_viewport_;     // of the open frame
     gpu::ScaledViewport rendered_viewport_;  // of the finished frame
     // The frame being rendered (into slot back_) and the last finished one (slot 1 - back_).
@@ -217,11 +214,11 @@ Status VulkanRenderer::build_frame_path(bool multiview) {
 Status VulkanRenderer::build_warp_pass() {
     warp_.reset();
     if (panel_width_ <= 0) return Status::success();  // no set_warp() yet
-    auto pass = lens_setup_ ? vk::create_lens_warp_pass(*ctx_, targets_.color,
-                                                        uint32_t(panel_width_),
-                                                        uint32_t(panel_height_), *lens_setup_)
-                            : vk::create_warp_pass(*ctx_, targets_.color, uint32_t(panel_width_),
-                                                   uint32_t(panel_height_), warp_mesh_);
+    auto pass = lens_setup_
+                    ? vk::create_lens_warp_pass(*ctx_, targets_.color, uint32_t(panel_width_),
+                                                uint32_t(panel_height_), *lens_setup_)
+                    : vk::create_warp_pass(*ctx_, targets_.color, uint32_t(panel_width_),
+                                           uint32_t(panel_height_), warp_mesh_);
     if (!pass) return pass.error();
     warp_ = std::move(*pass);
     return Status::success();
@@ -245,6 +242,7 @@ Status VulkanRenderer::set_warp(int panel_width, int panel_height, const Distort
     warp_mesh_[0] = left;
     warp_mesh_[1] = right;
     lens_setup_.reset();
+    chromatic_ = true;
     return configure_warp(panel_width, panel_height);
 }
 
@@ -392,8 +390,8 @@ void VulkanRenderer::record_draws(std::span<const DrawItem> items, uint32_t view
     vkCmdPushConstants(cmd_, pipeline_.layout, VK_SHADER_STAGE_VERTEX_BIT,
                        offsetof(vk::DrawConstants, view_base), sizeof(uint32_t), &view_base);
     if (items.empty() || !scene_ || !scene_->vertices.get()) return;
-    const VkViewport viewport{0.0f, 0.0f, float(frame_viewport_.width),
-                              float(frame_viewport_.height), 0.0f, 1.0f};
+    const VkViewport viewport{
+        0.0f, 0.0f, float(frame_viewport_.width), float(frame_viewport_.height), 0.0f, 1.0f};
     const VkRect2D scissor{{0, 0}, {frame_viewport_.width, frame_viewport_.height}};
     vkCmdSetViewport(cmd_, 0, 1, &viewport);
     vkCmdSetScissor(cmd_, 0, 1, &scissor);

@@ -321,11 +321,18 @@ Result<WarpPass> create_warp_pass(DeviceContext& ctx, const Image eyes[2], uint3
     w.mono = gpu::channels_agree(mesh[0]) && gpu::channels_agree(mesh[1]);
     WarpShaders shaders;
     shaders.vert = kWarpVert;
-    shaders.frag = w.mono ? std::span<const uint32_t>(kWarpMonoFrag)
-                          : std::span<const uint32_t>(kWarpFrag);
+    shaders.frag =
+        w.mono ? std::span<const uint32_t>(kWarpMonoFrag) : std::span<const uint32_t>(kWarpFrag);
     auto pipeline = create_warp_pipeline(ctx, w.layout, w.render_pass, shaders);
     if (!pipeline) return pipeline.error();
     w.pipeline = std::move(*pipeline);
+    w.chromatic = !w.mono;
+    if (!w.mono) {  // chromatic-aberration correction off: the green channel's tangents alone
+        shaders.frag = kWarpMonoFrag;
+        auto mono = create_warp_pipeline(ctx, w.layout, w.render_pass, shaders);
+        if (!mono) return mono.error();
+        w.mono_pipeline = std::move(*mono);
+    }
 
     // The meshes.
     for (int e = 0; e < 2; ++e) {
@@ -398,8 +405,9 @@ void record_warp(VkCommandBuffer cmd, const WarpPass& w, int slot, const glm::ma
         begin.renderArea = area;
         vkCmdBeginRenderPass(cmd, &begin, VK_SUBPASS_CONTENTS_INLINE);
         const VkPipeline pipeline =
-            w.fused ? w.fused_pipeline[e][w.chromatic && chromatic ? 0 : 1].get()
-                    : w.pipeline.get();
+            w.fused               ? w.fused_pipeline[e][w.chromatic && chromatic ? 0 : 1].get()
+            : w.mono || chromatic ? w.pipeline.get()
+                                  : w.mono_pipeline.get();
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
         vkCmdSetViewport(cmd, 0, 1, &viewport);
         vkCmdSetScissor(cmd, 0, 1, &area);

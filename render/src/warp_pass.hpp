@@ -25,9 +25,9 @@ namespace hmdnode::vk {
 struct WarpConstants {
     glm::mat4 reproject;  // upper 3x3: eye-frame direction -> (clip.x, clip.y, clip.w)
     float layer;
-    float pad[3];            // std430: the vec4 below starts at byte 80
-    glm::vec4 sample_rect;   // xy: the rendered fraction of the eye buffer, zw: the largest
-                             // texture coordinate sampled (its last texel centre)
+    float pad[3];           // std430: the vec4 below starts at byte 80
+    glm::vec4 sample_rect;  // xy: the rendered fraction of the eye buffer, zw: the largest
+                            // texture coordinate sampled (its last texel centre)
 };
 static_assert(sizeof(WarpConstants) == 96, "push-constant layout of the warp shaders");
 
@@ -46,7 +46,8 @@ struct WarpPass {
     VkDescriptorSet set[2][2] = {};  // [slot][eye]
     PipelineLayout layout;
     Pipeline pipeline;
-    bool mono = false;  // the meshes have no chromatic aberration: one sample per pixel
+    Pipeline mono_pipeline;  // the mesh pass with chromatic aberration: its one-sample variant
+    bool mono = false;       // the meshes have no chromatic aberration: one sample per pixel
     // The fused pass (no meshes): a pipeline per eye and per variant ([eye][0] three samples,
     // [eye][1] one), the lens uniforms per eye, the eye-to-head rotation folded into the
     // reprojection.

@@ -186,8 +186,8 @@ void check_lens(const HeadsetProfile& profile, int w, int h, double tolerance_px
         ASSERT_TRUE(r->set_warp(w, h, mesh[0], mesh[1]).ok());
         EXPECT_STREQ(r->lens_pass_name(), "mesh");
     }
-    const glm::dvec2 directions[] = {{0.0, 0.0}, {0.45, 0.2}, {-0.6, -0.35}, {0.3, -0.55},
-                                     {-0.5, 0.45}, {0.6, 0.05}};
+    const glm::dvec2 directions[] = {{0.0, 0.0},   {0.45, 0.2},  {-0.6, -0.35},
+                                     {0.3, -0.55}, {-0.5, 0.45}, {0.6, 0.05}};
     for (const glm::dvec2& t : directions) {
         ASSERT_TRUE(r->upload(scene_of({marker(t.x, t.y, 0.02, 100.0, 0)}, {{1, 1, 1, 1}})).ok());
         const DrawItem item{0, glm::mat4(1.0f)};
@@ -233,30 +233,37 @@ TEST(Warp, TheFusedPassFollowsTheIndexLensModelAndItsChromaticAberrationPerPixel
     check_lens(*index, 360, 400, 0.5, true);
 }
 
-// With chromatic-aberration correction off, the fused pass samples every colour through the
-// green channel's lens: a white marker's red and blue land where its green does.
+// With chromatic-aberration correction off, either pass samples every colour through the green
+// channel's lens: a white marker's red and blue land where its green does.
 TEST(Warp, WithChromaticAberrationOffEveryColourFollowsGreen) {
     auto index = load_headset_profile(HMDNODE_SOURCE_DIR "/data/headsets/valve-index.json");
     ASSERT_TRUE(index.ok()) << index.error().message;
     const int w = 360, h = 400;
-    auto r = make_renderer(w, h);
-    ASSERT_TRUE(r);
-    ASSERT_TRUE(r->set_lens_warp(w, h, *index).ok());
-    EXPECT_TRUE(r->chromatic_aberration());
-    r->set_chromatic_aberration(false);
-    EXPECT_FALSE(r->chromatic_aberration());
-    const EyeFov fov[2] = {lens_render_fov(*index, 0), lens_render_fov(*index, 1)};
-    const glm::dvec2 t(-0.6, -0.35);
-    ASSERT_TRUE(r->upload(scene_of({marker(t.x, t.y, 0.02, 100.0, 0)}, {{1, 1, 1, 1}})).ok());
-    const DrawItem item{0, glm::mat4(1.0f)};
-    StereoImage panel;
-    ASSERT_TRUE(r->render(views_for(glm::dquat(1, 0, 0, 0), fov), {&item, 1}, nullptr).ok());
-    ASSERT_TRUE(r->warp(glm::dquat(1, 0, 0, 0), &panel).ok());
-    const glm::dvec2 green = panel_position_of(*index, 0, 1, t, w, h);
-    for (int c = 0; c < 3; ++c) {
-        const glm::dvec2 got = centroid(panel.eye[0], c);
-        EXPECT_NEAR(got.x, green.x, 0.5) << "channel " << c;
-        EXPECT_NEAR(got.y, green.y, 0.5) << "channel " << c;
+    for (bool fused : {true, false}) {
+        auto r = make_renderer(w, h);
+        ASSERT_TRUE(r);
+        if (fused)
+            ASSERT_TRUE(r->set_lens_warp(w, h, *index).ok());
+        else
+            ASSERT_TRUE(r->set_warp(w, h, make_distortion_mesh(*index, 0, 64, 64),
+                                    make_distortion_mesh(*index, 1, 64, 64))
+                            .ok());
+        EXPECT_TRUE(r->chromatic_aberration());
+        r->set_chromatic_aberration(false);
+        EXPECT_FALSE(r->chromatic_aberration());
+        const EyeFov fov[2] = {lens_render_fov(*index, 0), lens_render_fov(*index, 1)};
+        const glm::dvec2 t(-0.6, -0.35);
+        ASSERT_TRUE(r->upload(scene_of({marker(t.x, t.y, 0.02, 100.0, 0)}, {{1, 1, 1, 1}})).ok());
+        const DrawItem item{0, glm::mat4(1.0f)};
+        StereoImage panel;
+        ASSERT_TRUE(r->render(views_for(glm::dquat(1, 0, 0, 0), fov), {&item, 1}, nullptr).ok());
+        ASSERT_TRUE(r->warp(glm::dquat(1, 0, 0, 0), &panel).ok());
+        const glm::dvec2 green = panel_position_of(*index, 0, 1, t, w, h);
+        for (int c = 0; c < 3; ++c) {
+            const glm::dvec2 got = centroid(panel.eye[0], c);
+            EXPECT_NEAR(got.x, green.x, 0.5) << "channel " << c << (fused ? " fused" : " mesh");
+            EXPECT_NEAR(got.y, green.y, 0.5) << "channel " << c << (fused ? " fused" : " mesh");
+        }
     }
 }
 
@@ -272,8 +279,8 @@ TEST(Warp, AFrameAtHalfResolutionLandsWhereAFullOneDoes) {
         const DistortionMesh mesh[2] = {make_distortion_mesh(profile, 0, 32, 32),
                                         make_distortion_mesh(profile, 1, 32, 32)};
         const EyeFov fov[2] = {mesh_render_fov(mesh[0]), mesh_render_fov(mesh[1])};
-        ASSERT_TRUE((fused ? r->set_lens_warp(w, h, profile) : r->set_warp(w, h, mesh[0], mesh[1]))
-                        .ok());
+        ASSERT_TRUE(
+            (fused ? r->set_lens_warp(w, h, profile) : r->set_warp(w, h, mesh[0], mesh[1])).ok());
         EXPECT_FALSE(r->set_render_scale(0.0).ok());
         EXPECT_FALSE(r->set_render_scale(1.5).ok());
         for (const glm::dvec2 t : {glm::dvec2(0.3, -0.2), glm::dvec2(-0.5, 0.4)}) {

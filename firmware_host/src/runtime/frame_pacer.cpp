@@ -89,8 +89,8 @@ void FramePacer::record_present(bool on_time, int64_t overrun_ns) {
     if (on_time)
         miss_bump_ns_ *= std::exp2(-1.0 / double(std::max(1, config_.miss_half_life)));
     else
-        miss_bump_ns_ = std::min(double(config_.max_margin_ns),
-                                 miss_bump_ns_ + double(config_.miss_step_ns));
+        miss_bump_ns_ =
+            std::min(double(config_.max_margin_ns), miss_bump_ns_ + double(config_.miss_step_ns));
     const int64_t used = std::max<int64_t>(0, overrun_.percentile(config_.margin_percentile, 0));
     margin_ns_ = std::clamp(used + config_.min_margin_ns + int64_t(miss_bump_ns_),
                             config_.min_margin_ns, config_.max_margin_ns);
@@ -136,8 +136,7 @@ std::vector<LadderStep> make_ladder(bool chromatic, double min_scale) {
         steps.push_back(LadderStep{s, chromatic, name});
     }
     if (chromatic) {
-        std::snprintf(name, sizeof name, "resolution %.1f, no CA correction",
-                      steps.back().scale);
+        std::snprintf(name, sizeof name, "resolution %.1f, no CA correction", steps.back().scale);
         steps.push_back(LadderStep{steps.back().scale, false, name});
     }
     return steps;
@@ -190,8 +189,8 @@ int64_t PixelLadder::warp_cost(bool chromatic, int64_t fallback_ns) const {
 
 int64_t PixelLadder::frame_cost(int step, const Budget& b, int64_t render_p_ns) const {
     const LadderStep& st = steps_[size_t(step)];
-    const int64_t warp = st.chromatic == b.warp_chromatic ? b.warp_ns
-                                                          : warp_cost(st.chromatic, b.warp_ns);
+    const int64_t warp =
+        st.chromatic == b.warp_chromatic ? b.warp_ns : warp_cost(st.chromatic, b.warp_ns);
     int64_t render = render_cost(step, render_p_ns);
     if (step == step_) render = std::max(render, render_p_ns);
     return render + int64_t(b.divisor) * (warp + b.margin_ns);

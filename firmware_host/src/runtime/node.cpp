@@ -111,16 +111,19 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
     for (const DistortionMesh& m : mesh_)
         for (const DistortionVertex& v : m.vertices)
             chromatic = chromatic || v.tangent[0] != v.tangent[1] || v.tangent[2] != v.tangent[1];
-    ladder_ = PixelLadder(make_ladder(chromatic && config.distortion,
-                                      std::clamp(config.min_render_scale, 0.1, 1.0)),
-                          config.pixel_ladder, config.pacing);
+    ladder_ = PixelLadder(
+        make_ladder(chromatic && config.distortion, std::clamp(config.min_render_scale, 0.1, 1.0)),
+        config.pixel_ladder, config.pacing);
 }
 
 const char* lens_pass_choice_name(LensPassChoice c) {
     switch (c) {
-        case LensPassChoice::fused: return "fused";
-        case LensPassChoice::mesh: return "mesh";
-        case LensPassChoice::automatic: break;
+        case LensPassChoice::fused:
+            return "fused";
+        case LensPassChoice::mesh:
+            return "mesh";
+        case LensPassChoice::automatic:
+            break;
     }
     return "auto";
 }
@@ -212,8 +215,7 @@ Status NodeRuntime::set_warp(bool on) {
     if (on && !pass_enabled()) {
         // The pass was never set up (warp and distortion off at start): set it up now. The eye
         // buffers have no margin for the warp (it was off when they were sized).
-        if (Status st = set_up_pass(config_.lens_pass != LensPassChoice::mesh); !st.ok())
-            return st;
+        if (Status st = set_up_pass(config_.lens_pass != LensPassChoice::mesh); !st.ok()) return st;
     }
     config_.warp = on;
     return {};
@@ -255,8 +257,7 @@ Status NodeRuntime::recentre() {
 Status NodeRuntime::start() {
     if (Status st = renderer_.upload(*scene_); !st.ok()) return st;
     if (pass_enabled())
-        if (Status st = set_up_pass(config_.lens_pass != LensPassChoice::mesh); !st.ok())
-            return st;
+        if (Status st = set_up_pass(config_.lens_pass != LensPassChoice::mesh); !st.ok()) return st;
     return tracker_->start();
 }
 
@@ -526,7 +527,7 @@ Result<FrameCostModel> NodeRuntime::calibrate_frame_cost(const std::function<boo
         if (Status st = set_up_pass(fused); !st.ok()) return st.error();
         model.warp_ns = fused ? fused_ns : mesh_ns;
         model.warp_mono_ns = model.warp_ns;
-        if (renderer_.chromatic_aberration() && fused) {
+        if (renderer_.chromatic_aberration()) {
             renderer_.set_chromatic_aberration(false);
             auto t = time_warps(15, go_on);
             renderer_.set_chromatic_aberration(true);
@@ -727,13 +728,13 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
         // At a render rate of 1/d the frame's time holds d - 1 re-warps of the finished frame
         // besides its own render and warp, and it aims at least d vsyncs after the previous new
         // frame's, so new frames come at a steady 1/d of the refresh.
-        const int64_t need = frame_est + margin +
-                             int64_t(divisor - 1) * (warp_est + margin + pacer_.gap_estimate());
+        const int64_t need =
+            frame_est + margin + int64_t(divisor - 1) * (warp_est + margin + pacer_.gap_estimate());
         int64_t target = display_.free_vsync_ns(now + need);
         if (divisor > 1 && has_frame_)
-            target = std::max(target, display_.free_vsync_ns(last_new_vsync_ns_ +
-                                                              divisor * info.period_ns - latch -
-                                                              info.period_ns / 2));
+            target = std::max(target,
+                              display_.free_vsync_ns(last_new_vsync_ns_ + divisor * info.period_ns -
+                                                     latch - info.period_ns / 2));
         open_wake_ns_ = target - latch - need;
         // (Never when a warp alone takes a period: nothing else would run.)
         if (config_.warp && has_frame_ && warp_est < info.period_ns) {

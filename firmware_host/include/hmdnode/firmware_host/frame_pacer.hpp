@@ -25,14 +25,14 @@ namespace hmdnode {
 
 // How the frame loop plans its wake-ups (docs/latency.md).
 struct PacingConfig {
-    int window = 90;          // recent costs the estimates look at (<= 256)
+    int window = 90;           // recent costs the estimates look at (<= 256)
     double percentile = 0.95;  // an estimate is this percentile of its window
     // The margin (slack between the planned end of the warp and the latch) is this percentile of
     // the recent overruns: wake-up lateness plus the cost above its estimate, never below
     // min_margin_ns nor above max_margin_ns; a missed latch adds miss_step_ns that decays by
     // half every miss_half_life vsyncs made.
     double margin_percentile = 0.98;
-    int64_t margin_ns = 1'000'000;      // before any overrun was seen
+    int64_t margin_ns = 1'000'000;  // before any overrun was seen
     int64_t min_margin_ns = 300'000;
     int64_t max_margin_ns = 4'000'000;
     int64_t miss_step_ns = 500'000;
@@ -98,7 +98,7 @@ class FramePacer {
     // next piece would not have ended before the re-warp was due).
     void record_gap(int64_t ns) { gap_.push(ns); }
     int64_t gap_estimate() const { return gap_.percentile(0.9, 0); }
-    void record_warp(int64_t warp_ns);                       // every warp
+    void record_warp(int64_t warp_ns);  // every warp
     // A present: on time at its target or not, and how far past its planned end (target - latch
     // - margin) its warp finished (`overrun_ns`, negative when early: wake-up lateness plus cost
     // beyond the estimates). Adapts the margin.

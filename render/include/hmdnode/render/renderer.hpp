@@ -131,10 +131,10 @@ class Renderer {
                                  const HeadsetProfile& profile) = 0;
     // "mesh" (set_warp), "fused" (set_lens_warp), or "" before either.
     virtual const char* lens_pass_name() const = 0;
-    // Chromatic-aberration correction of the fused pass (on after set_lens_warp): off, one sample
-    // per pixel through the green channel's lens serves all three colours (the pixel-cost
-    // ladder's last step). No effect on the mesh pass or a profile without aberration. Between
-    // frames only; allocates nothing.
+    // Chromatic-aberration correction (on after set_warp and set_lens_warp): off, one sample per
+    // pixel through the green channel's lens (or mesh tangents) serves all three colours (the
+    // pixel-cost ladder's last step). No effect where the lens has no aberration. Between frames
+    // only; allocates nothing.
     virtual void set_chromatic_aberration(bool on) = 0;
     virtual bool chromatic_aberration() const = 0;  // true only where the pass corrects it now
 
