@@ -128,7 +128,7 @@ class GlesRenderer final : public Renderer {
     bool fused_ = false, lens_chromatic_ = false, chromatic_ = true;
     struct FusedProgram {
         gles::Program program;
-        GLint reproject = -1, sample_rect = -1;
+        GLint reproject = -1, sample_rect = -1, origin = -1;
     };
     FusedProgram fused_program_[2][2];
     gpu::LensPassEye lens_[2];
@@ -511,6 +511,7 @@ Status GlesRenderer::set_lens_warp(int panel_width, int panel_height,
             glUniform3fv(glGetUniformLocation(p, "u_ahead"), 1, &ahead[0]);
             fp.reproject = glGetUniformLocation(p, "u_reproject");
             fp.sample_rect = glGetUniformLocation(p, "u_sample_rect");
+            fp.origin = glGetUniformLocation(p, "u_origin");
         }
     }
     glUseProgram(0);
@@ -626,6 +627,7 @@ Result<WarpStats> GlesRenderer::warp(const glm::dquat& delta, StereoImage* out_p
             const glm::mat3 m = glm::mat3(gpu::lens_pass_reprojection(reproject, lens_[e]));
             glUniformMatrix3fv(fp.reproject, 1, GL_FALSE, &m[0][0]);
             glUniform4fv(fp.sample_rect, 1, &rect[0]);
+            glUniform2f(fp.origin, float(x0[e]), 0.0f);
             glBindVertexArray(0);
             glDrawArrays(GL_TRIANGLES, 0, 3);
             continue;

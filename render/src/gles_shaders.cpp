@@ -163,6 +163,7 @@ uniform vec3 u_pre_row2;   // vive: row 2 of K^-1 diag(1, -a, 1)
 uniform vec3 u_ahead;      // vive: the (g, 1) whose ray is straight ahead
 uniform mat3 u_reproject;  // vive: with K^-1 diag(1, -a, 1) folded in
 uniform vec4 u_sample_rect;
+uniform vec2 u_origin;  // the eye's viewport origin in the target (side by side on scan-out)
 layout(location = 0) out vec4 out_color;
 float factor(float r2, int c) {
     vec4 k = u_coeffs[c];
@@ -209,7 +210,7 @@ vec3 channel_position(vec2 uv, int c) {
 #endif
 }
 void main() {
-    vec2 uv = gl_FragCoord.xy * u_panel.xy;
+    vec2 uv = (gl_FragCoord.xy - u_origin) * u_panel.xy;
 #if MONO || MODEL == 0
     out_color = vec4(fetch(channel_position(uv, 1)).rgb, 1.0);
 #elif SHARED && MODEL == 1

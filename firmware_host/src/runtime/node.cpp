@@ -161,6 +161,9 @@ void NodeRuntime::adopt_objects(const Scene& scene) {
     objects_ = flatten_objects(scene);
     level_errors_.assign(objects_.size(), {});
     level_triangles_.assign(objects_.size(), {});
+    coarsest_triangles_ = 0;
+    for (const SceneObject& o : objects_)
+        if (!o.levels.empty()) coarsest_triangles_ += o.levels.back().triangles;
     for (size_t i = 0; i < objects_.size(); ++i)
         for (const LodLevel& l : objects_[i].levels) {
             level_errors_[i].push_back(l.geometric_error_m);
@@ -632,7 +635,12 @@ void NodeRuntime::plan_levers() {
     const DisplayInfo info = display_.info();
     const int64_t warp_est = pacer_.warp_estimate();
     const bool chromatic_now = renderer_.chromatic_aberration();
-    const int64_t render_p = pacer_.render_estimate();
+    int64_t render_p = pacer_.render_estimate();
+    // With a budgeted LOD allocator the geometry is the first lever: the allocator fits the
+    // frame's triangles into what the frame leaves, so the ladder and the rate see the render at
+    // the coarsest levels (what the allocator can reach), once its cost model has data.
+    if (config_.lod_allocator != LodAllocator::threshold && !cost_fit_.empty())
+        render_p = std::min(render_p, ms_to_ns(cost_fit_.predict_ms(coarsest_triangles_)));
     // The rate: from the ladder's cheapest step (with the ladder off, the frame as it is).
     const int bottom = int(ladder_.steps().size()) - 1;
     PixelLadder::Budget b;
@@ -648,17 +656,18 @@ void NodeRuntime::plan_levers() {
     b.divisor = pacer_.choose_divisor(bottom_render, bottom_warp);
     b.available_ns = int64_t(b.divisor) * info.period_ns - info.latch_margin_ns;
     const int before = ladder_.step();
-    if (!ladder_.choose(b, render_p)) return;
-    const LadderStep& now = ladder_.current();
-    const LadderStep& was = ladder_.steps()[size_t(before)];
-    // The estimates of what changed start again from the step's learned cost.
-    if (now.scale != was.scale) {
-        (void)renderer_.set_render_scale(now.scale);
+    ladder_.choose(b, render_p);
+    // The estimates of what changed start again from the step's learned cost. (The scale can
+    // change without a step: a frame found not bound by its pixels renders at full resolution.)
+    const double scale = ladder_.effective_scale();
+    if (scale != renderer_.render_scale()) {
+        (void)renderer_.set_render_scale(scale);
         pacer_.restart_render(ladder_.render_cost(ladder_.step(), render_p, before));
     }
-    if (now.chromatic != was.chromatic) {
-        renderer_.set_chromatic_aberration(now.chromatic);
-        pacer_.restart_warp(ladder_.warp_cost(now.chromatic, warp_est));
+    const bool chromatic = ladder_.current().chromatic;
+    if (ladder_.current().chromatic != ladder_.steps()[size_t(before)].chromatic) {
+        renderer_.set_chromatic_aberration(chromatic);
+        pacer_.restart_warp(ladder_.warp_cost(chromatic, warp_est));
     }
 }
 
@@ -704,7 +713,7 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
         if (Status st = warp_and_present(vsync, warp_est, &r, nullptr, early); !st.ok())
             return st.error();
         r.ladder_step = frame_step_;
-        r.render_scale = ladder_.steps()[size_t(frame_step_)].scale;
+        r.render_scale = frame_scale_;
         r.kind = FrameKind::rewarp;
         r.wake_ns = wake;
         r.late = false;
@@ -764,6 +773,7 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
         std::copy(r.eccentricity_deg.begin(), r.eccentricity_deg.end(), open_eccentricity_.begin());
         if (Status st = renderer_.begin_frame(views, draws_); !st.ok()) return st.error();
         open_step_ = ladder_.step();
+        open_scale_ = renderer_.render_scale();
         open_ = true;
         open_cursor_ = 0;
         open_rewarps_ = 0;
@@ -833,8 +843,8 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
             for (size_t i = open_cursor_; i < open_cursor_ + items; ++i)
                 piece_triangles += draw_triangles_[i];
             // The model's base (mostly fill) spread over the draw items, as pieces are sized.
-            const double scale = ladder_.steps()[size_t(open_step_)].scale;
-            const int64_t base = int64_t(double(config_.sim_cost.base_ns) * scale * scale);
+            const int64_t base =
+                int64_t(double(config_.sim_cost.base_ns) * open_scale_ * open_scale_);
             const int64_t cost =
                 int64_t(config_.sim_cost.per_triangle_ns * double(piece_triangles)) +
                 (draws_.empty() ? base : base * int64_t(items) / int64_t(draws_.size()));
@@ -846,10 +856,11 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
         open_ = !*done;
     }
     ladder_.record_render(open_step_, open_render_ns_);
-    // The cost model learns from every frame (node clock: on the simulated clock, the model's);
-    // the budget's feedback from the allocator's frames.
+    // The cost model learns from every frame at full resolution (node clock: on the simulated
+    // clock, the model's; a frame at a lower resolution costs less for its pixels, not its
+    // triangles); the budget's feedback from the allocator's frames.
     const double measured_ms = ns_to_ms(open_render_ns_);
-    cost_fit_.add(open_triangles_, measured_ms);
+    if (open_scale_ == 1.0) cost_fit_.add(open_triangles_, measured_ms);
     if (config_.lod_allocator != LodAllocator::threshold && !open_budget_.learning)
         feedback_.update(measured_ms, open_budget_.target_ms, open_budget_.limited);
     frame_budget_ = open_budget_;
@@ -861,6 +872,7 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
     frame_pose_sample_ns_ = open_pose_sample_ns_;
     frame_triangles_ = open_triangles_;
     frame_step_ = open_step_;
+    frame_scale_ = open_scale_;
     std::copy(open_levels_.begin(), open_levels_.end(), frame_levels_.begin());
     std::copy(open_eccentricity_.begin(), open_eccentricity_.end(), frame_eccentricity_.begin());
 
@@ -882,7 +894,7 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
     last_new_vsync_ns_ = r.vsync_ns;
     pacer_.record_frame(open_render_ns_, warp_cost);
     r.ladder_step = frame_step_;
-    r.render_scale = ladder_.steps()[size_t(frame_step_)].scale;
+    r.render_scale = frame_scale_;
     r.kind = FrameKind::new_frame;
     r.wake_ns = open_wake_ns_;
     r.late = r.vsync_ns > frame_target_vsync_ns_;

@@ -86,6 +86,7 @@ class FramePacer {
     void seed_warp(int64_t ns) { warp_.push(ns); }
     void restart_warp(int64_t predicted_ns) {
         warp_.clear();
+        total_.clear();
         warp_predicted_ = predicted_ns;
     }
     void restart_render(int64_t predicted_ns) {
@@ -145,6 +146,9 @@ class PixelLadder {
     const std::vector<LadderStep>& steps() const { return steps_; }
     int step() const { return step_; }
     const LadderStep& current() const { return steps_[size_t(step_)]; }
+    // The eye-buffer scale to render at: the current step's, or 1 while the frame is found not
+    // bound by its pixels (see below).
+    double effective_scale() const { return not_pixel_bound_ > 0 ? 1.0 : current().scale; }
     bool enabled() const { return enabled_; }
 
     // A new frame's measured render at the step it was rendered at, and a warp's at its

@@ -58,8 +58,8 @@ struct FrameCostModel {
 // How the frame loop turns the selector's levels into the levels it draws (docs/lod-selection.md):
 // `threshold` draws the selector's level (the finest the eye needs); `greedy` coarsens them, least
 // benefit per millisecond first, until the render predicted by the learned cost model fits the
-// frame budget left by pacing; `iga` makes the same trade with the immune genetic algorithm of He et al.
-// (docs/references.md), warm-started from the previous frame's levels.
+// frame budget left by pacing; `iga` makes the same trade with the immune genetic algorithm of He
+// et al. (docs/references.md), warm-started from the previous frame's levels.
 enum class LodAllocator { threshold, greedy, iga };
 
 // Where a frame's LOD eccentricity was measured from (docs/lod-selection.md, "Gaze"): the eye
@@ -366,9 +366,11 @@ class NodeRuntime {
     PixelLadder ladder_;
     PassTimes pass_times_;
     bool read_back_once_ = false;
-    int open_step_ = 0;  // the ladder step the open frame is rendered at
-    int64_t last_new_vsync_ns_ = 0;  // the vsync the newest new frame was shown at
+    int open_step_ = 0;                // the ladder step the open frame is rendered at
+    int64_t last_new_vsync_ns_ = 0;    // the vsync the newest new frame was shown at
+    uint64_t coarsest_triangles_ = 0;  // every object at its coarsest level
     int frame_step_ = 0;
+    double open_scale_ = 1.0, frame_scale_ = 1.0;  // the eye-buffer scale they were rendered at
     uint64_t present_index_ = 0, render_index_ = 0;
     int64_t last_shown_vsync_ns_ = INT64_MIN;
     // The frame being rendered in pieces, between which the finished one may be re-warped.
