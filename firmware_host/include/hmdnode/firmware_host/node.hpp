@@ -220,11 +220,12 @@ class NodeRuntime {
 
     // Measures the renderer on this scene at start-up (after start(), before the first frame):
     // renders at the finest and at the coarsest levels from a few head poses and times the warp,
-    // and returns the model the simulated clock can use (medians; triangles of both eyes). On the
-    // system clock the measured costs also seed the pacing estimates and the LOD cost model, so
-    // the first frames are not paced or budgeted on a guess. Blocks for about 40 frames.
-    // `go_on`, where given, is asked before each render and warp: false ends the calibration
-    // there with an error (the daemon's SIGTERM during start-up; it also reports progress).
+    // and returns the model the simulated clock can use (lower quartiles, robust to a busy machine;
+    // triangles of both eyes). On the system clock the measured costs also seed the pacing
+    // estimates and the LOD cost model, so the first frames are not paced or budgeted on a guess.
+    // Blocks for about 40 frames. `go_on`, where given, is asked before each render and warp: false
+    // ends the calibration there with an error (the daemon's SIGTERM during start-up; it also
+    // reports progress).
     Result<FrameCostModel> calibrate_frame_cost(const std::function<bool()>& go_on = {});
     void set_sim_cost(const FrameCostModel& model) { config_.sim_cost = model; }
     // Run-time settings (the daemon's control socket), between frames: prediction on or off; the
@@ -300,9 +301,9 @@ class NodeRuntime {
     const PixelLadder& ladder() const { return ladder_; }
     // "fused" or "mesh" (the pass in use), "" without one.
     const char* lens_pass() const { return renderer_.lens_pass_name(); }
-    // What the start-up calibration measured of the passes (medians, ms; NaN where not measured):
-    // the fused pass, the mesh pass, and the pass's floor (three bilinear samples per pixel, no
-    // lens model, same panel).
+    // What the start-up calibration measured of the passes (lower quartiles, ms; NaN where not
+    // measured): the fused pass, the mesh pass, and the pass's floor (three bilinear samples per
+    // pixel, no lens model, same panel).
     struct PassTimes {
         double fused_ms = std::numeric_limits<double>::quiet_NaN();
         double mesh_ms = std::numeric_limits<double>::quiet_NaN();
@@ -333,7 +334,7 @@ class NodeRuntime {
     Status set_up_pass(bool fused);
     // Chooses the render rate and the ladder's step for the next new frame and applies the step.
     void plan_levers();
-    // Times `n` warps of the current pass (median, ns).
+    // Times `n` warps of the current pass (lower quartile, ns).
     Result<int64_t> time_warps(int n, const std::function<bool()>& go_on);
 
     Clock& clock_;
