@@ -147,3 +147,26 @@ TEST(DaemonConfig, EyeTrackerBackendAndItsTrace) {
     EXPECT_GT(status["gaze_frames"].get<int>(), 0);
     EXPECT_NE(status["gaze_source"], "lens_centre");
 }
+
+// The frame budget's levers (docs/daemon.md, docs/latency.md): values out of range are refused
+// with the key named; good ones run, and the daemon logs the lens pass it chose.
+TEST(DaemonConfig, FrameBudgetLeversAreCheckedAndTaken) {
+    for (const auto& [name, patch, key] :
+         {std::tuple{"lens_pass", nlohmann::json{{"node", {{"lens_pass", "lut"}}}},
+                     "node.lens_pass"},
+          std::tuple{"min_scale", nlohmann::json{{"node", {{"min_render_scale", 0.05}}}},
+                     "node.min_render_scale"},
+          std::tuple{"divisor", nlohmann::json{{"node", {{"max_render_divisor", 9}}}},
+                     "node.max_render_divisor"}}) {
+        const hmdnode::test::CommandRun r = run_with(name, patch);
+        EXPECT_EQ(r.code, 2) << name << ": " << r.output;
+        EXPECT_NE(r.output.find(key), std::string::npos) << name << ": " << r.output;
+    }
+    const hmdnode::test::CommandRun ok = run_with("levers_ok", {{"node",
+                                                                 {{"lens_pass", "fused"},
+                                                                  {"pixel_ladder", false},
+                                                                  {"min_render_scale", 0.6},
+                                                                  {"max_render_divisor", 2}}}});
+    EXPECT_EQ(ok.code, 0) << ok.output;
+    EXPECT_NE(ok.output.find("lens pass fused"), std::string::npos) << ok.output;
+}

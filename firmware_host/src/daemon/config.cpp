@@ -220,9 +220,11 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
     if (r.check_keys(
             n, "node",
             {"ipd_m", "predict", "prediction_ms", "lod_tolerance_px", "lod_bias", "head_height_m",
-             "warp", "distortion", "headset", "mesh", "lod_allocator", "lod_fade_frames"})) {
+             "warp", "distortion", "headset", "mesh", "lod_allocator", "lod_fade_frames",
+             "lens_pass", "pixel_ladder", "min_render_scale", "max_render_divisor"})) {
         std::string headset;
         std::string allocator = lod_allocator_name(c.node.lod_allocator);
+        std::string lens_pass = lens_pass_choice_name(c.node.lens_pass);
         int mesh = c.node.mesh_cols;
         r.get(n, "ipd_m", &c.node.rig.ipd_m);
         r.get(n, "predict", &c.node.predict);
@@ -236,6 +238,18 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         r.get(n, "mesh", &mesh);
         r.get(n, "lod_allocator", &allocator);
         r.get(n, "lod_fade_frames", &c.node.lod_fade_frames);
+        r.get(n, "lens_pass", &lens_pass);
+        r.get(n, "pixel_ladder", &c.node.pixel_ladder);
+        r.get(n, "min_render_scale", &c.node.min_render_scale);
+        r.get(n, "max_render_divisor", &c.node.pacing.max_divisor);
+        if (std::optional<LensPassChoice> p = parse_lens_pass_choice(lens_pass))
+            c.node.lens_pass = *p;
+        else
+            r.fail("node.lens_pass \"" + lens_pass + "\" is not auto, fused or mesh");
+        if (!(c.node.min_render_scale >= 0.1 && c.node.min_render_scale <= 1.0))
+            r.fail("node.min_render_scale must be between 0.1 and 1");
+        if (c.node.pacing.max_divisor < 1 || c.node.pacing.max_divisor > 4)
+            r.fail("node.max_render_divisor must be between 1 (a new frame for every vsync) and 4");
         if (c.node.lod_fade_frames < 0 || c.node.lod_fade_frames > kMaxLodFadeFrames)
             r.fail("node.lod_fade_frames must be between 0 (off) and " +
                    std::to_string(kMaxLodFadeFrames));
