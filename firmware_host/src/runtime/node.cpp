@@ -120,25 +120,6 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
         config.pixel_ladder, config.pacing);
 }
 
-const char* lens_pass_choice_name(LensPassChoice c) {
-    switch (c) {
-        case LensPassChoice::fused:
-            return "fused";
-        case LensPassChoice::mesh:
-            return "mesh";
-        case LensPassChoice::automatic:
-            break;
-    }
-    return "auto";
-}
-
-std::optional<LensPassChoice> parse_lens_pass_choice(std::string_view name) {
-    if (name == "auto") return LensPassChoice::automatic;
-    if (name == "fused") return LensPassChoice::fused;
-    if (name == "mesh") return LensPassChoice::mesh;
-    return std::nullopt;
-}
-
 HeadsetProfile NodeRuntime::pass_profile() const {
     if (config_.distortion) return config_.headset;
     // The panel shows the rig's field of view undistorted.

@@ -1,6 +1,7 @@
-// The one wiring place (wiring.hpp), its first half: the backend names and the usage checks of
-// the specs. Apart from the construction (wiring.cpp) so that the daemon's config reader links
-// without the renderer (tests/fuzz/daemon_config_fuzz.cpp). Cost: string compares.
+// The one wiring place (wiring.hpp), its first half: the backend names, the node's choice names
+// (LOD allocator, lens pass) and the usage checks of the specs. Apart from the construction
+// (wiring.cpp) so that the daemon's config reader links without the renderer
+// (tests/fuzz/daemon_config_fuzz.cpp). Cost: string compares.
 #include <string>
 
 #include "hmdnode/firmware_host/wiring.hpp"
@@ -125,6 +126,25 @@ Status check_display_spec(const DisplaySpec& spec, const WiringKeys& keys) {
 
 // The LOD allocators' names (node.hpp): here, with the other names, so that the config's fuzz
 // harness links without the frame loop.
+const char* lens_pass_choice_name(LensPassChoice c) {
+    switch (c) {
+        case LensPassChoice::fused:
+            return "fused";
+        case LensPassChoice::mesh:
+            return "mesh";
+        case LensPassChoice::automatic:
+            break;
+    }
+    return "auto";
+}
+
+std::optional<LensPassChoice> parse_lens_pass_choice(std::string_view name) {
+    if (name == "auto") return LensPassChoice::automatic;
+    if (name == "fused") return LensPassChoice::fused;
+    if (name == "mesh") return LensPassChoice::mesh;
+    return std::nullopt;
+}
+
 const char* lod_allocator_name(LodAllocator a) {
     switch (a) {
         case LodAllocator::greedy:
