@@ -484,20 +484,20 @@ Result<FrameCostModel> NodeRuntime::calibrate_frame_cost(const std::function<boo
         // pass over a single cell, no lens model between its corners).
         const bool auto_choice = config_.lens_pass == LensPassChoice::automatic;
         int64_t fused_ns = 0, mesh_ns = 0;
-        if (config_.lens_pass != LensPassChoice::mesh) {
-            if (Status st = set_up_pass(true); !st.ok()) return st.error();
+        auto time_pass = [&](bool fused, int64_t* ns, double* ms) -> Status {
+            if (Status st = set_up_pass(fused); !st.ok()) return st;
             auto t = time_warps(15, go_on);
             if (!t.ok()) return t.error();
-            fused_ns = *t;
-            pass_times_.fused_ms = ns_to_ms(fused_ns);
-        }
-        if (config_.lens_pass != LensPassChoice::fused) {
-            if (Status st = set_up_pass(false); !st.ok()) return st.error();
-            auto t = time_warps(15, go_on);
-            if (!t.ok()) return t.error();
-            mesh_ns = *t;
-            pass_times_.mesh_ms = ns_to_ms(mesh_ns);
-        }
+            *ns = *t;
+            *ms = ns_to_ms(*t);
+            return Status::success();
+        };
+        if (config_.lens_pass != LensPassChoice::mesh)
+            if (Status st = time_pass(true, &fused_ns, &pass_times_.fused_ms); !st.ok())
+                return st.error();
+        if (config_.lens_pass != LensPassChoice::fused)
+            if (Status st = time_pass(false, &mesh_ns, &pass_times_.mesh_ms); !st.ok())
+                return st.error();
         {
             const DisplayInfo info = display_.info();
             const HeadsetProfile p = pass_profile();
