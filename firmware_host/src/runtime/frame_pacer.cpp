@@ -68,6 +68,12 @@ int64_t FramePacer::warp_estimate() const {
     return warp_.percentile(config_.percentile, period_ns_ / 10);
 }
 
+int64_t FramePacer::warp_typical() const {
+    if (warp_.size() < 3 && warp_predicted_ >= 0)
+        return std::max(warp_predicted_, warp_.percentile(0.5, 0));
+    return warp_.percentile(0.5, period_ns_ / 10);
+}
+
 int64_t FramePacer::frame_estimate() const {
     // (The sum of the two estimates only stands in while the window is short: computing it on
     // every call would cost two more selections per frame.)

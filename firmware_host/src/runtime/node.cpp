@@ -616,6 +616,10 @@ Status NodeRuntime::warp_and_present(int64_t target, int64_t warp_est, FrameReco
     return Status::success();
 }
 
+int64_t NodeRuntime::rescue_vsync(int64_t now) const {
+    return display_.free_vsync_ns(now + pacer_.warp_typical());
+}
+
 void NodeRuntime::plan_levers() {
     const DisplayInfo info = display_.info();
     const int64_t warp_est = pacer_.warp_estimate();
@@ -730,9 +734,14 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
                               display_.free_vsync_ns(last_new_vsync_ns_ + divisor * info.period_ns -
                                                      latch - info.period_ns / 2));
         open_wake_ns_ = target - latch - need;
-        // (Never when a warp alone takes a period: nothing else would run.)
-        if (config_.warp && has_frame_ && warp_est < info.period_ns) {
+        // (Never when a typical warp alone takes a period: nothing else would run.)
+        if (config_.warp && has_frame_ && pacer_.warp_typical() < info.period_ns - latch) {
             const int64_t v_any = display_.free_vsync_ns(now + warp_est + margin);
+            // A vsync the plan cannot reach (its warp should have started already) but a typical
+            // warp started now still makes is re-warped for at once: otherwise it certainly goes
+            // without a present (a jittery pass whose estimate and margin exceed a period).
+            if (const int64_t v_hope = rescue_vsync(now); v_hope < std::min(v_any, target))
+                return rewarp(v_hope, true);
             if (v_any < target) {
                 if (v_any - latch <= open_wake_ns_) return rewarp(v_any);
                 open_wake_ns_ = now;
@@ -784,14 +793,27 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
             // cost, would not make it.
             const int64_t remaining = std::max<int64_t>(0, render_budget - open_render_ns_);
             const int64_t v_any = display_.free_vsync_ns(now + warp_est + margin);
-            // (The margin was spent planning the wake-up: it is the slack for a late wake-up and
-            // the estimates' error, not a second time here, or any late wake-up gives the vsync
-            // away and the loop shows a new frame every other vsync.)
-            const int64_t v_done = display_.free_vsync_ns(now + remaining + warp_est);
+            // The frame's own warp is planned with the margin, less what a late wake-up (or a
+            // set-up dearer than planned) already used of it: counting the whole margin again
+            // would give the frame's vsync away after any late wake-up, and without it a frame at
+            // its estimate lands a vsync after v_any, which then goes without a present.
+            const int64_t used =
+                std::clamp<int64_t>(now - open_wake_ns_ - open_render_ns_, 0, margin);
+            const int64_t v_done =
+                display_.free_vsync_ns(now + remaining + warp_est + (margin - used));
             // Re-warps may not starve the frame: while a warp leaves half of each period to the
             // render they are unlimited; a dearer warp (llvmpipe at large panels) interrupts one
             // frame at most twice.
-            const bool affordable = 2 * warp_est <= info.period_ns || open_rewarps_ < 2;
+            const bool affordable =
+                2 * pacer_.warp_typical() <= info.period_ns || open_rewarps_ < 2;
+            // A vsync that only a warp started now can still make (see above), once the frame
+            // has made progress since the last re-warp.
+            if (const int64_t v_hope = rescue_vsync(now);
+                v_hope < v_any && pieces_since_rewarp_ > 0) {
+                pieces_since_rewarp_ = 0;
+                ++open_rewarps_;
+                return rewarp(v_hope, true);
+            }
             if (v_done > v_any && affordable) {
                 const int64_t rewarp_wake = v_any - latch - (warp_est + margin);
                 const size_t fit =
@@ -874,8 +896,17 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
         // warp predicts for the vsync it is shown at.
         target = std::min(target, display_.free_vsync_ns(after + warp_est + margin));
     }
+    // A free vsync before the target that only a warp started now can make gets this frame now
+    // rather than nothing (the frame is then shown a vsync sooner, or late at its target).
+    bool early = false;
+    if (config_.warp)
+        if (const int64_t v_hope = rescue_vsync(after); v_hope < target) {
+            target = v_hope;
+            early = true;
+        }
     int64_t warp_cost = 0;
-    if (Status st = warp_and_present(target, warp_est, &r, &warp_cost); !st.ok()) return st.error();
+    if (Status st = warp_and_present(target, warp_est, &r, &warp_cost, early); !st.ok())
+        return st.error();
     last_new_vsync_ns_ = r.vsync_ns;
     pacer_.record_frame(open_render_ns_, warp_cost);
     r.ladder_step = frame_step_;

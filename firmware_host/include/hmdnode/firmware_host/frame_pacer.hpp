@@ -75,6 +75,9 @@ class FramePacer {
     int64_t render_estimate() const;
     int64_t warp_estimate() const;
     int64_t frame_estimate() const;
+    // A typical warp (the median of the window): what re-warps cost on average, for deciding
+    // whether the queue has room for them (the estimates above plan deadlines).
+    int64_t warp_typical() const;
     int64_t margin() const { return margin_ns_; }
     // New frames every divisor() vsyncs.
     int divisor() const { return divisor_; }

@@ -334,6 +334,9 @@ class NodeRuntime {
     Status set_up_pass(bool fused);
     // Chooses the render rate and the ladder's step for the next new frame and applies the step.
     void plan_levers();
+    // The first free vsync a typical warp started at `now` makes (FramePacer::warp_typical): a
+    // vsync before the planned one that would otherwise go without a present.
+    int64_t rescue_vsync(int64_t now) const;
     // Times `n` warps of the current pass (lower quartile, ns).
     Result<int64_t> time_warps(int n, const std::function<bool()>& go_on);
 
