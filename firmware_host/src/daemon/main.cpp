@@ -28,6 +28,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "cli/cli_checks.hpp"
 #include "daemon/config.hpp"
 #include "daemon/metrics.hpp"
 #include "daemon/scene_loader.hpp"
@@ -42,7 +43,6 @@
 #include "hmdnode/firmware_host/wiring.hpp"
 #include "hmdnode/hal/sim/sim_reference_device.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
-#include "tool/cli_checks.hpp"
 
 namespace {
 volatile std::sig_atomic_t g_stop = 0;
@@ -63,9 +63,9 @@ int main(int argc, char** argv) {
     app.add_option("-c,--config", config_path, "Config file (JSON)");
     app.add_option("--max-frames", max_frames,
                    "Exit after this many frames (0: run until signalled)");
-    tool::refuse_non_finite_numbers(app);
+    cli::refuse_non_finite_numbers(app);
     // --help exits 0; a usage error exits 2 like a bad config, so the unit does not restart.
-    if (std::optional<int> code = tool::parse_command_line(app, argc, argv)) return *code;
+    if (std::optional<int> code = cli::parse_command_line(app, argc, argv)) return *code;
     // note: first, before any thread exists: it unsets NOTIFY_SOCKET and WATCHDOG_*.
     SystemdNotifier notifier;
 
