@@ -353,4 +353,21 @@ DisplaySpec display_spec(const DaemonConfig& c) {
     return s;
 }
 
+NodeSpec node_spec(const DaemonConfig& c, std::shared_ptr<const Trace> trace) {
+    NodeSpec s;
+    s.keys = WiringKeys::config();
+    s.clock = c.simulated_clock ? ClockKind::sim : ClockKind::real;
+    s.tracker = tracker_spec(c, trace);
+    s.eye_tracker.backend = c.eye_tracker;
+    s.eye_tracker.trace = std::move(trace);
+    s.eye_tracker.trace_path = c.trace;
+    s.eye_tracker.start_s = c.start_s;
+    s.eye_tracker.latency_ns = c.eye_tracker_latency_ns;
+    s.display = display_spec(c);
+    s.renderer.type = c.renderer_backend;
+    s.renderer.config.msaa_samples = c.msaa_samples;
+    s.node = c.node;
+    return s;
+}
+
 }  // namespace hmdnode

@@ -38,6 +38,7 @@
 #include "hmdnode/firmware_host/control_protocol.hpp"
 #include "hmdnode/firmware_host/control_socket.hpp"
 #include "hmdnode/firmware_host/node.hpp"
+#include "hmdnode/firmware_host/node_assembly.hpp"
 #include "hmdnode/firmware_host/replay.hpp"
 #include "hmdnode/firmware_host/status_writer.hpp"
 #include "hmdnode/firmware_host/wiring.hpp"
@@ -100,76 +101,39 @@ int main(int argc, char** argv) {
         trace = std::make_shared<const Trace>(std::move(trace_r).value());
     }
 
-    // The one wiring place (hmdnode/firmware_host/wiring.hpp): the config's backend names.
-    const WiringKeys keys = WiringKeys::config();
-    std::unique_ptr<Clock> clock =
-        make_clock(cfg->simulated_clock ? ClockKind::sim : ClockKind::real);
-    // A device tracker (every backend but trace) reconnects by itself; a file backend (trace,
-    // capture, rec) finishes and is made anew when `loop` is set.
-    const TrackerSpec tracker_spec_ = tracker_spec(*cfg, trace);
-    DeviceTracker* device_tracker = nullptr;
-    std::string tracker_label;
-    auto make_tracker_ = [&]() -> Result<std::unique_ptr<Tracker>> {
-        Result<WiredTracker> t = make_tracker(tracker_spec_, *clock, keys);
-        if (!t.ok()) return t.error();
-        device_tracker = t->device;
-        tracker_label = t->label;
-        return std::move(t->tracker);
-    };
-    Result<std::unique_ptr<Tracker>> tracker = make_tracker_();
-    if (!tracker.ok()) {
-        spdlog::error("tracker.backend {}: {}", tracker_backend_name(cfg->tracker_backend),
-                      tracker.error().message);
-        return 2;
+    // The one assembly place (hmdnode/firmware_host/node_assembly.hpp), named by the config's
+    // keys: a device tracker (every backend but trace) reconnects by itself; a file backend
+    // (trace, capture, rec) finishes and is made anew when `loop` is set, with the eye tracker
+    // (none: LOD eccentricity from the lens centre) so that the two replay the trace on one
+    // timeline. Pixels come back to the CPU by the one read-back rule.
+    NodePart failed_part = NodePart::start;
+    Result<std::unique_ptr<AssembledNode>> assembled =
+        make_node(node_spec(*cfg, trace), *scene, &failed_part);
+    if (!assembled.ok()) {
+        // From the runtime's start on a failure is the world's (the renderer or the device), not
+        // the config's: exit 1, which the unit restarts (2, a bad config, it does not).
+        switch (failed_part) {
+            case NodePart::tracker:
+                spdlog::error("tracker.backend {}: {}", tracker_backend_name(cfg->tracker_backend),
+                              assembled.error().message);
+                return 2;
+            case NodePart::start:
+                spdlog::error("{}", assembled.error().message);
+                return 1;
+            case NodePart::eye_tracker_start:
+                spdlog::error("eye tracker: {}", assembled.error().message);
+                return 2;
+            default:
+                spdlog::error("{}", assembled.error().message);
+                return 2;
+        }
     }
-    // The eye tracker (none: LOD eccentricity from the lens centre), made with each tracker so
-    // that the two replay the trace on one timeline.
-    EyeTrackerSpec eye_spec;
-    eye_spec.backend = cfg->eye_tracker;
-    eye_spec.trace = trace;
-    eye_spec.trace_path = cfg->trace;
-    eye_spec.start_s = cfg->start_s;
-    eye_spec.latency_ns = cfg->eye_tracker_latency_ns;
-    Result<std::unique_ptr<EyeTracker>> eye_tracker = make_eye_tracker(eye_spec, *clock, keys);
-    if (!eye_tracker.ok()) {
-        spdlog::error("{}", eye_tracker.error().message);
-        return 2;
-    }
-    Result<std::unique_ptr<Display>> display = make_display(display_spec(*cfg), *clock, keys);
-    if (!display.ok()) {
-        spdlog::error("{}", display.error().message);
-        return 2;
-    }
+    AssembledNode& parts = **assembled;
+    Clock* clock = &parts.clock();
+    NodeRuntime& node = parts.runtime();
     // The panel: the mock's figures, or the connector mode's (kms).
-    const DisplayInfo panel = (*display)->info();
-    const MockDisplayConfig& dc = cfg->display;
-    RendererSpec rs;
-    rs.type = cfg->renderer_backend;
-    rs.config.msaa_samples = cfg->msaa_samples;
-    bool zero_copy = false;  // kms + gles: the warp draws into the buffers the display flips
-    Result<std::unique_ptr<Renderer>> renderer = make_renderer(rs, **display, keys, &zero_copy);
-    if (!renderer.ok()) {
-        spdlog::error("{}", renderer.error().message);
-        return 2;
-    }
-    // Pixels come back to the CPU for a KMS display scanning out dumb buffers (not with zero-copy
-    // scan-out, where the warp's output is the scanned-out buffer; without a warp pass the frames
-    // are copied) and for the frames the mock display writes.
-    NodeConfig nc = cfg->node;
-    nc.read_back = nc.read_back && (cfg->display_type != "mock" || !dc.frames_dir.empty()) &&
-                   !(zero_copy && (nc.warp || nc.distortion));
-    NodeRuntime node(*clock, **tracker, **display, **renderer, *scene, nc);
+    const DisplayInfo panel = parts.display().info();
     std::string scene_error;  // why the last scene that was asked for is not running
-    // From here a failure is the world's (the renderer or the device), not the config's: exit 1,
-    // which the unit restarts (2, a bad config, it does not).
-    if (Status st = node.start(); !st.ok()) {
-        spdlog::error("{}", st.error().message);
-        return 1;
-    }
-    if (Status st = node.set_eye_tracker(eye_tracker->get()); !st.ok()) {
-        spdlog::error("eye tracker: {}", st.error().message);
-        return 2;
-    }
     // This renderer's costs seed the pacing estimates (and are the simulated clock's model). About
     // 50 renders and warps: seconds on a slow renderer, so SIGTERM is seen between two, and while
     // they progress systemd's start timeout is extended (a start that hangs still times out).
@@ -203,10 +167,10 @@ int main(int argc, char** argv) {
         "hmdnoded: scene {} ({} objects), tracker {}: {} ({} trace samples), display {} {}x{} per "
         "eye at {} Hz, renderer {} ({}, {}x MSAA)",
         cfg->scene.string(), node.objects().size(), tracker_backend_name(cfg->tracker_backend),
-        tracker_label, trace ? trace->samples.size() : 0, cfg->display_type, panel.eye_width,
-        panel.eye_height, panel.refresh_hz, (*renderer)->device_name(), (*renderer)->backend_name(),
-        (*renderer)->msaa_samples());
-    const std::string renderer_backend = (*renderer)->backend_name();
+        parts.tracker_label(), trace ? trace->samples.size() : 0, cfg->display_type,
+        panel.eye_width, panel.eye_height, panel.refresh_hz, parts.renderer().device_name(),
+        parts.renderer().backend_name(), parts.renderer().msaa_samples());
+    const std::string renderer_backend = parts.renderer().backend_name();
 
     // The frame loop's thread only (this one): the renderer's worker threads exist already and
     // keep the default policy; threads created from here on start with it (reset on fork).
@@ -284,7 +248,7 @@ int main(int argc, char** argv) {
                             {"window", last_window}};
                 case Kind::metrics: {
                     std::optional<DeviceTrackerStatus> ts;
-                    if (device_tracker) ts = device_tracker->status();
+                    if (DeviceTracker* dt = parts.device_tracker()) ts = dt->status();
                     return {{"ok", true}, {"metrics", metrics.prometheus(ts ? &*ts : nullptr)}};
                 }
                 case Kind::pause:
@@ -430,7 +394,7 @@ int main(int argc, char** argv) {
         }
         if (paused) {
             // Paused on purpose: the loop is alive, so the watchdog is petted; no frame is made.
-            clock->sleep_until_ns(clock->now_ns() + (*display)->info().period_ns);
+            clock->sleep_until_ns(clock->now_ns() + parts.display().info().period_ns);
             if (ready && pet_every.count() > 0 && WallClock::now() >= next_pet) {
                 notifier.notify("WATCHDOG=1");
                 next_pet = WallClock::now() + pet_every;
@@ -439,32 +403,26 @@ int main(int argc, char** argv) {
         }
         if (node.tracker_finished()) {
             if (!cfg->loop) {
-                spdlog::info("{} finished", tracker_label);
+                spdlog::info("{} finished", parts.tracker_label());
                 break;
             }
-            Result<std::unique_ptr<Tracker>> next = make_tracker_();
-            if (!next.ok() || !node.replace_tracker(**next).ok()) {
-                spdlog::error("cannot restart {}; stopping", tracker_label);
-                break;
-            }
-            tracker = std::move(next);
-            if (cfg->eye_tracker != EyeTrackerBackend::none) {
-                Result<std::unique_ptr<EyeTracker>> eyes = make_eye_tracker(eye_spec, *clock, keys);
-                if (!eyes.ok() || !node.set_eye_tracker(eyes->get()).ok()) {
+            NodePart failed = NodePart::tracker;
+            if (Status st = parts.restart_trackers(&failed); !st.ok()) {
+                if (failed == NodePart::tracker || failed == NodePart::start)
+                    spdlog::error("cannot restart {}; stopping", parts.tracker_label());
+                else
                     spdlog::error("cannot restart the eye tracker; stopping");
-                    break;
-                }
-                eye_tracker = std::move(eyes);
+                break;
             }
-            spdlog::info("{} restarted", tracker_label);
+            spdlog::info("{} restarted", parts.tracker_label());
         }
-        Result<FrameOutcome> fr = node.run_frame(&rec, nullptr);
+        Result<FrameOutcome> fr = parts.run_frame(&rec);
         if (!fr.ok()) {
             // A failure of the world: log it, count it, keep running.
             ++errors;
             ++metrics.errors;
             spdlog::warn("frame {} failed: {}", frames, fr.error().message);
-            clock->sleep_until_ns(clock->now_ns() + (*display)->info().period_ns);
+            clock->sleep_until_ns(clock->now_ns() + parts.display().info().period_ns);
             continue;
         }
         if (*fr == FrameOutcome::no_pose_yet) {
@@ -472,15 +430,16 @@ int main(int argc, char** argv) {
             ++metrics.no_pose_frames;
             if (clock->now_ns() >= next_wait_log) {
                 std::string last_error;
-                if (device_tracker) last_error = device_tracker->status().last_error;
-                spdlog::info("waiting for tracker {}{}{}", tracker_label,
+                if (DeviceTracker* dt = parts.device_tracker())
+                    last_error = dt->status().last_error;
+                spdlog::info("waiting for tracker {}{}{}", parts.tracker_label(),
                              last_error.empty() ? "" : ": ", last_error);
                 next_wait_log = clock->now_ns() + 5 * kNsPerSecond;
                 // The loop keeps its pace without a pose: not a hung start.
                 if (!ready)
                     notifier.notify("EXTEND_TIMEOUT_USEC=15000000\nSTATUS=waiting for tracker " +
                                     std::string(tracker_backend_name(cfg->tracker_backend)) + " (" +
-                                    tracker_label + ")" +
+                                    parts.tracker_label() + ")" +
                                     (last_error.empty() ? "" : ": " + last_error));
             }
         } else {
@@ -546,9 +505,9 @@ int main(int argc, char** argv) {
                 {"ladder_step", node.ladder().steps()[size_t(metrics.ladder_step)].name},
                 {"render_scale", metrics.render_scale},
                 {"render_rate_divisor", metrics.render_divisor}};
-            if (device_tracker) {
+            if (DeviceTracker* dt = parts.device_tracker()) {
                 // Recovery figures: a replug shows as a disconnect and the gap it left.
-                const DeviceTrackerStatus ts = device_tracker->status();
+                const DeviceTrackerStatus ts = dt->status();
                 s["tracker"] = {{"connected", ts.connected},
                                 {"opens", ts.opens},
                                 {"disconnects", ts.disconnects},
