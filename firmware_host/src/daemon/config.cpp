@@ -21,6 +21,11 @@ using nlohmann::json;
 struct Reader {
     std::string file;
     std::string error;
+    std::filesystem::path base;  // the file's directory: relative paths are relative to it
+
+    std::filesystem::path resolve(const std::string& p) const {
+        return p.empty() || p[0] == '/' ? std::filesystem::path(p) : base / p;
+    }
 
     bool check_keys(const json& obj, const std::string& where,
                     const std::set<std::string>& allowed) {
@@ -67,31 +72,8 @@ struct Reader {
     }
 };
 
-}  // namespace
-
-Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
-    Result<std::string> text = read_file(path);
-    if (!text.ok()) return text.error();
-    json j;
-    try {
-        j = json::parse(*text);
-    } catch (const json::parse_error& e) {
-        return make_error(path.string() + ": not valid JSON at byte " + std::to_string(e.byte) +
-                          ": " + e.what());
-    } catch (const json::exception& e) {  // note: a number too large for a double (1e999)
-        return make_error(path.string() + ": not valid JSON: " + e.what());
-    }
-    Reader r{path.string(), ""};
-    DaemonConfig c;
-    const std::filesystem::path base = path.parent_path();
-    auto resolve = [&](const std::string& p) {
-        return p.empty() || p[0] == '/' ? std::filesystem::path(p) : base / p;
-    };
-
-    if (!r.check_keys(j, "",
-                      {"scene", "clock", "max_frames", "tracker", "display", "node", "status",
-                       "realtime_priority", "control", "renderer", "eye_tracker"}))
-        return make_error(r.error);
+// The top level's own keys: the scene, the clock, max_frames, realtime_priority.
+void read_top_level(Reader& r, const json& j, DaemonConfig& c) {
     std::string scene, clock = "real";
     r.get(j, "scene", &scene);
     r.get(j, "clock", &clock);
@@ -100,12 +82,15 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
     if (c.realtime_priority < 0 || c.realtime_priority > 99)
         r.fail("\"realtime_priority\" must be between 0 (none) and 99");
     if (scene.empty()) r.fail("\"scene\" is required");
-    c.scene = resolve(scene);
+    c.scene = r.resolve(scene);
     if (Result<ClockKind> k = parse_clock(clock, WiringKeys::config()); !k.ok())
         r.fail(k.error().message);
     else
         c.simulated_clock = *k == ClockKind::sim;
+}
 
+// "tracker": the backend of the one vocabulary and what it reads.
+void read_tracker(Reader& r, const json& j, DaemonConfig& c) {
     json t = j.value("tracker", json::object());
     if (r.check_keys(t, "tracker",
                      {"type", "backend", "from", "device", "serial", "trace", "loop", "start_s",
@@ -145,7 +130,7 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         else
             c.tracker_backend = *b;
         if (!deprecation.empty()) c.warnings.push_back(deprecation);
-        if (!from.empty()) c.from = resolve(from);
+        if (!from.empty()) c.from = r.resolve(from);
         // sim: the reference tracker's default ids; serial: the older key for the selector's
         c.device =
             device.empty() && c.tracker_backend == TrackerBackend::sim ? "1209:0001" : device;
@@ -156,7 +141,7 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         }
         if (!(c.start_s >= 0.0 && c.start_s <= 1e6))
             r.fail("tracker.start_s must be between 0 and 1e6 s");
-        if (!trace.empty()) c.trace = resolve(trace);
+        if (!trace.empty()) c.trace = r.resolve(trace);
         // note: checked before the conversion, which overflows (undefined) for absurd values.
         if (!(latency_us >= 0.0 && latency_us <= kMaxTrackerDelayUs && jitter_us >= 0.0 &&
               jitter_us <= kMaxTrackerDelayUs))
@@ -172,6 +157,10 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         if (!(c.tracker.noise_deg >= 0.0 && c.tracker.noise_deg <= 180.0))
             r.fail("tracker.noise_deg must be between 0 and 180");
     }
+}
+
+// "display": the type; the mock's figures or the connector's mode; persistence, MSAA.
+void read_display(Reader& r, const json& j, DaemonConfig& c) {
     json d = j.value("display", json::object());
     if (r.check_keys(d, "display",
                      {"type", "eye_width", "eye_height", "refresh_hz", "persistence_ms",
@@ -214,8 +203,12 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         if (c.display.refresh_hz > 0.0)
             if (Status st = check_persistence(c.display); !st.ok())
                 r.fail("display.persistence_ms " + st.error().message);
-        if (!frames_dir.empty()) c.display.frames_dir = resolve(frames_dir);
+        if (!frames_dir.empty()) c.display.frames_dir = r.resolve(frames_dir);
     }
+}
+
+// "node": prediction, LOD, the warp and the lens, the pixel-cost ladder.
+void read_node(Reader& r, const json& j, DaemonConfig& c) {
     json n = j.value("node", json::object());
     if (r.check_keys(
             n, "node",
@@ -270,13 +263,17 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         if (mesh < 0 || mesh > 512) r.fail("node.mesh must be between 0 (automatic) and 512");
         c.node.mesh_cols = c.node.mesh_rows = mesh;
         if (!headset.empty()) {
-            Result<HeadsetProfile> p = load_headset_profile(resolve(headset));
+            Result<HeadsetProfile> p = load_headset_profile(r.resolve(headset));
             if (!p.ok())
                 r.fail("node.headset: " + p.error().message);
             else
                 c.node.headset = *p;
         }
     }
+}
+
+// "renderer": the backend.
+void read_renderer(Reader& r, const json& j, DaemonConfig& c) {
     json rend = j.value("renderer", json::object());
     if (r.check_keys(rend, "renderer", {"backend"})) {
         r.get(rend, "backend", &c.renderer_backend);
@@ -284,6 +281,10 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
             !c.renderer_backend.empty())
             r.fail("renderer.backend \"" + c.renderer_backend + "\" is not one of vulkan, gles");
     }
+}
+
+// "eye_tracker" (after "tracker": its trace backend needs tracker.trace).
+void read_eye_tracker(Reader& r, const json& j, DaemonConfig& c) {
     json et = j.value("eye_tracker", json::object());
     if (r.check_keys(et, "eye_tracker", {"backend", "latency_us"})) {
         std::string backend = "none";
@@ -302,33 +303,75 @@ Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
         if (c.eye_tracker == EyeTrackerBackend::trace && c.trace.empty())
             r.fail("eye_tracker.backend \"trace\" needs tracker.trace (a trace with gaze columns)");
     }
+}
+
+// "status": the status file and its window.
+void read_status(Reader& r, const json& j, DaemonConfig& c) {
     json s = j.value("status", json::object());
     if (r.check_keys(s, "status", {"path", "every_s"})) {
         std::string sp;
         r.get(s, "path", &sp);
         r.get(s, "every_s", &c.status_every_s);
-        if (!sp.empty()) c.status_path = resolve(sp);
+        if (!sp.empty()) c.status_path = r.resolve(sp);
         if (!(c.status_every_s > 0.0 && c.status_every_s <= 86400.0))
             r.fail("status.every_s must be > 0 and at most 86400 (a day)");
     }
+}
+
+// "control": the control socket (default: systemd's runtime directory).
+void read_control(Reader& r, const json& j, DaemonConfig& c) {
     if (const char* rd = std::getenv("RUNTIME_DIRECTORY"); rd && *rd && !std::strchr(rd, ':'))
         c.control_path = std::filesystem::path(rd) / "control";
     json ctl = j.value("control", json::object());
     if (r.check_keys(ctl, "control", {"path"}) && ctl.contains("path")) {
         std::string cp;
         r.get(ctl, "path", &cp);
-        c.control_path = cp.empty() ? std::filesystem::path() : resolve(cp);
+        c.control_path = cp.empty() ? std::filesystem::path() : r.resolve(cp);
     }
-    if (r.error.empty()) {
-        // What the backends need (the trace or file, the device, the clock), named by key.
-        TrackerSpec ts = tracker_spec(c, nullptr);
-        if (Status st = check_tracker_spec(ts, c.simulated_clock ? ClockKind::sim : ClockKind::real,
-                                           WiringKeys::config());
-            !st.ok())
-            r.fail(st.error().message);
-        else if (Status ds = check_display_spec(display_spec(c), WiringKeys::config()); !ds.ok())
-            r.fail(ds.error().message);
+}
+
+// What the backends need (the trace or file, the device, the clock), named by key; once the
+// sections read cleanly.
+void check_backends(Reader& r, const DaemonConfig& c) {
+    TrackerSpec ts = tracker_spec(c, nullptr);
+    if (Status st = check_tracker_spec(ts, c.simulated_clock ? ClockKind::sim : ClockKind::real,
+                                       WiringKeys::config());
+        !st.ok())
+        r.fail(st.error().message);
+    else if (Status ds = check_display_spec(display_spec(c), WiringKeys::config()); !ds.ok())
+        r.fail(ds.error().message);
+}
+
+}  // namespace
+
+Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path) {
+    Result<std::string> text = read_file(path);
+    if (!text.ok()) return text.error();
+    json j;
+    try {
+        j = json::parse(*text);
+    } catch (const json::parse_error& e) {
+        return make_error(path.string() + ": not valid JSON at byte " + std::to_string(e.byte) +
+                          ": " + e.what());
+    } catch (const json::exception& e) {  // note: a number too large for a double (1e999)
+        return make_error(path.string() + ": not valid JSON: " + e.what());
     }
+    Reader r{path.string(), "", path.parent_path()};
+    DaemonConfig c;
+    if (!r.check_keys(j, "",
+                      {"scene", "clock", "max_frames", "tracker", "display", "node", "status",
+                       "realtime_priority", "control", "renderer", "eye_tracker"}))
+        return make_error(r.error);
+    // One section after the other; the first error is kept (Reader::fail).
+    read_top_level(r, j, c);
+    read_tracker(r, j, c);
+    read_display(r, j, c);
+    read_node(r, j, c);
+    read_renderer(r, j, c);
+    read_eye_tracker(r, j, c);
+    read_status(r, j, c);
+    read_control(r, j, c);
+    if (r.error.empty()) check_backends(r, c);
     if (!r.error.empty()) return make_error(r.error);
     return c;
 }
@@ -350,6 +393,23 @@ DisplaySpec display_spec(const DaemonConfig& c) {
     s.type = c.display_type;
     s.mock = c.display;
     s.kms = c.kms;
+    return s;
+}
+
+NodeSpec node_spec(const DaemonConfig& c, std::shared_ptr<const Trace> trace) {
+    NodeSpec s;
+    s.keys = WiringKeys::config();
+    s.clock = c.simulated_clock ? ClockKind::sim : ClockKind::real;
+    s.tracker = tracker_spec(c, trace);
+    s.eye_tracker.backend = c.eye_tracker;
+    s.eye_tracker.trace = std::move(trace);
+    s.eye_tracker.trace_path = c.trace;
+    s.eye_tracker.start_s = c.start_s;
+    s.eye_tracker.latency_ns = c.eye_tracker_latency_ns;
+    s.display = display_spec(c);
+    s.renderer.type = c.renderer_backend;
+    s.renderer.config.msaa_samples = c.msaa_samples;
+    s.node = c.node;
     return s;
 }
 

@@ -9,6 +9,7 @@
 
 #include "hmdnode/core/result.hpp"
 #include "hmdnode/firmware_host/node.hpp"
+#include "hmdnode/firmware_host/node_assembly.hpp"
 #include "hmdnode/firmware_host/wiring.hpp"
 #include "hmdnode/hal/display/kms_display.hpp"
 #include "hmdnode/hal/display/mock_display.hpp"
@@ -61,6 +62,8 @@ struct DaemonConfig {
 // The wiring specs of a config (hmdnode/firmware_host/wiring.hpp); `trace` is the loaded trace.
 TrackerSpec tracker_spec(const DaemonConfig& config, std::shared_ptr<const Trace> trace);
 DisplaySpec display_spec(const DaemonConfig& config);
+// The whole node's spec (hmdnode/firmware_host/node_assembly.hpp), named by the config's keys.
+NodeSpec node_spec(const DaemonConfig& config, std::shared_ptr<const Trace> trace);
 
 // Relative paths in the file are relative to the file's directory.
 Result<DaemonConfig> load_daemon_config(const std::filesystem::path& path);

@@ -26,7 +26,8 @@ void DaemonMetrics::add_frame(const FrameRecord& rec, bool first) {
     ladder_step = rec.ladder_step;
     render_scale = rec.render_scale;
     render_divisor = rec.render_divisor;
-    if (size_t(rec.ladder_step) < presents_by_step.size()) ++presents_by_step[size_t(rec.ladder_step)];
+    if (size_t(rec.ladder_step) < presents_by_step.size())
+        ++presents_by_step[size_t(rec.ladder_step)];
     if (rec.render_divisor >= 1 && size_t(rec.render_divisor) <= presents_by_divisor.size())
         ++presents_by_divisor[size_t(rec.render_divisor) - 1];
     if (rec.kind == FrameKind::new_frame) {
@@ -93,14 +94,16 @@ std::string DaemonMetrics::prometheus(const DeviceTrackerStatus* t) const {
     gauge(out, "hmdnode_render_rate_divisor",
           "New frames every this many vsyncs (re-warps between), last present.",
           double(render_divisor));
-    out += "# HELP hmdnode_ladder_presents_total Presents per pixel-cost ladder step.\n"
-           "# TYPE hmdnode_ladder_presents_total counter\n";
+    out +=
+        "# HELP hmdnode_ladder_presents_total Presents per pixel-cost ladder step.\n"
+        "# TYPE hmdnode_ladder_presents_total counter\n";
     for (size_t i = 0; i < presents_by_step.size(); ++i)
         if (presents_by_step[i] > 0)
             out += fmt::format("hmdnode_ladder_presents_total{{step=\"{}\"}} {}\n", i,
                                presents_by_step[i]);
-    out += "# HELP hmdnode_render_rate_presents_total Presents per render-rate divisor.\n"
-           "# TYPE hmdnode_render_rate_presents_total counter\n";
+    out +=
+        "# HELP hmdnode_render_rate_presents_total Presents per render-rate divisor.\n"
+        "# TYPE hmdnode_render_rate_presents_total counter\n";
     for (size_t i = 0; i < presents_by_divisor.size(); ++i)
         if (presents_by_divisor[i] > 0)
             out += fmt::format("hmdnode_render_rate_presents_total{{divisor=\"{}\"}} {}\n", i + 1,

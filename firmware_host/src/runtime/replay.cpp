@@ -1,5 +1,6 @@
-// Replay wiring: scene + trace (or capture) -> simulated (or capture) tracker -> node runtime ->
-// Vulkan renderer -> mock display, then the per-vsync summary and the report.
+// Replay: scene + trace (or capture) -> the node assembled in the one assembly place
+// (node_assembly.hpp: tracker -> node runtime -> renderer -> mock display), then the per-vsync
+// summary and the report.
 #include "hmdnode/firmware_host/replay.hpp"
 
 #include <algorithm>
@@ -15,7 +16,7 @@
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/gltf.hpp"
 #include "hmdnode/core/trace.hpp"
-#include "hmdnode/hal/tracking/device_tracker.hpp"
+#include "hmdnode/firmware_host/node_assembly.hpp"
 
 namespace hmdnode {
 
@@ -227,36 +228,23 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     const std::shared_ptr<const Trace> truth_trace =
         opt.tracker_backend == TrackerBackend::trace ? trace : nullptr;
 
-    std::unique_ptr<Clock> clock = make_clock(clock_kind);
-    const int64_t host_start = clock->now_ns();
-    Result<WiredTracker> wired = make_tracker(spec, *clock, keys);
-    if (!wired.ok()) return wired.error();
-    std::unique_ptr<Tracker> tracker = std::move(wired->tracker);
-    // Made at the same clock time as the tracker: the gaze and the head replay one timeline.
-    Result<std::unique_ptr<EyeTracker>> eye_tracker = make_eye_tracker(eye_spec, *clock, keys);
-    if (!eye_tracker.ok()) return eye_tracker.error();
-
-    DisplaySpec ds;
-    ds.mock = opt.display;
-    Result<std::unique_ptr<Display>> display = make_display(ds, *clock, keys);
-    if (!display.ok()) return display.error();
-    const MockDisplayConfig& dc = opt.display;
-
-    RendererSpec rs;
-    rs.config = opt.renderer;
-    Result<std::unique_ptr<Renderer>> renderer = make_renderer(rs, (*display)->info(), keys);
-    if (!renderer.ok()) return renderer.error();
-
-    // Pixels come back to the CPU only for the frames the mock display writes; a real display
-    // scans the panel image out itself.
-    NodeConfig nc = opt.node;
-    // (Only the frames the mock display writes: every frames_every-th present.)
-    const bool writes_frames = nc.read_back && !dc.frames_dir.empty();
-    nc.read_back = false;
-    std::unique_ptr<Tracker> restarted;  // see below; outlives the node that reads it
-    NodeRuntime node(*clock, *tracker, **display, **renderer, *scene, nc);
-    if (Status st = node.start(); !st.ok()) return st.error();
-    if (Status st = node.set_eye_tracker(eye_tracker->get()); !st.ok()) return st.error();
+    // The one assembly place (node_assembly.hpp): the clock, the trackers, the mock display, the
+    // renderer and the runtime, started, with the one read-back rule (only the frames the mock
+    // display writes come back to the CPU).
+    NodeSpec ns;
+    ns.keys = keys;
+    ns.clock = clock_kind;
+    ns.tracker = spec;
+    ns.eye_tracker = eye_spec;
+    ns.display.mock = opt.display;
+    ns.renderer.config = opt.renderer;
+    ns.node = opt.node;
+    Result<std::unique_ptr<AssembledNode>> assembled = make_node(ns, *scene);
+    if (!assembled.ok()) return assembled.error();
+    AssembledNode& parts = **assembled;
+    Clock* clock = &parts.clock();
+    NodeRuntime& node = parts.runtime();
+    const int64_t host_start = parts.host_start_ns();
     // The simulated clock's frame cost: given, or measured on this renderer now (the simulated
     // clock does not move while it is measured).
     std::optional<FrameCostModel> cost_model;
@@ -280,16 +268,7 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     int64_t trace_host_start = host_start;
     if (!opt.simulated_clock && opt.tracker_backend == TrackerBackend::trace) {
         trace_host_start = clock->now_ns();
-        Result<WiredTracker> t = make_tracker(spec, *clock, keys);
-        if (!t.ok()) return t.error();
-        restarted = std::move(t->tracker);
-        if (Status st = node.replace_tracker(*restarted); !st.ok()) return st.error();
-        if (*eye_tracker) {
-            Result<std::unique_ptr<EyeTracker>> e = make_eye_tracker(eye_spec, *clock, keys);
-            if (!e.ok()) return e.error();
-            if (Status st = node.set_eye_tracker(e->get()); !st.ok()) return st.error();
-            eye_tracker = std::move(e);
-        }
+        if (Status st = parts.restart_trackers(); !st.ok()) return st.error();
     }
 
     // Truth for registration error: the trace itself, slerped, at the photon time.
@@ -311,12 +290,12 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     };
 
     ReplayResult result;
-    result.device_name = (*renderer)->device_name();
-    result.renderer_backend = (*renderer)->backend_name();
+    result.device_name = parts.renderer().device_name();
+    result.renderer_backend = parts.renderer().backend_name();
     result.mesh_cols = node.mesh_cols();
     result.mesh_rows = node.mesh_rows();
     result.lod_allocator = opt.node.lod_allocator;
-    result.msaa_samples = (*renderer)->msaa_samples();
+    result.msaa_samples = parts.renderer().msaa_samples();
     for (const SceneObject& o : node.objects()) result.object_names.push_back(o.name);
     FrameRecord rec;
     // Any backend but trace: --duration is the frames whose wake-up falls within it (a trace's
@@ -326,9 +305,7 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
                                     : std::numeric_limits<int64_t>::max();
     while (!node.tracker_finished() && clock->now_ns() < capture_end &&
            (opt.max_frames <= 0 || int64_t(result.frames.size()) < opt.max_frames)) {
-        if (writes_frames && result.frames.size() % uint64_t(dc.frames_every) == 0)
-            node.read_back_next();
-        Result<FrameOutcome> fr = node.run_frame(&rec, truth);
+        Result<FrameOutcome> fr = parts.run_frame(&rec, truth);
         if (!fr.ok()) {
             node.stop();
             return make_error("frame " + std::to_string(result.frames.size()) + ": " +
@@ -348,9 +325,9 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
         return make_error(opt.from.string() + ": --start " + start +
                           " s is past the capture's last sample");
     }
-    result.trace_samples = (restarted ? *restarted : *tracker).counters().samples_delivered;
+    result.trace_samples = parts.tracker().counters().samples_delivered;
 
-    result.period_ns = (*display)->info().period_ns;
+    result.period_ns = parts.display().info().period_ns;
     result.vsyncs =
         vsync_series(result.frames, result.period_ns, truth, opt.node.registration_distance_m);
     result.summary = summarize_vsyncs(result.frames, result.vsyncs);
@@ -380,8 +357,8 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     // (On the simulated clock the pass costs what the model charges, not what it measured.)
     const double pass_p99_ms = cost_model ? ns_to_ms(cost_model->warp_ns) : s.warp_ms.p99;
     if (std::isfinite(pass_p99_ms))
-        s.mtp_floor_ms = ns_to_ms((*display)->photon_offset_ns() +
-                                  (*display)->info().latch_margin_ns + opt.tracker.latency_ns) +
+        s.mtp_floor_ms = ns_to_ms(parts.display().photon_offset_ns() +
+                                  parts.display().info().latch_margin_ns + opt.tracker.latency_ns) +
                          pass_p99_ms;
 
     if (!opt.report.empty()) {

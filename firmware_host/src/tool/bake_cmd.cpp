@@ -18,11 +18,11 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "cli/cli_checks.hpp"
 #include "hmdnode/bake/bake.hpp"
 #include "hmdnode/bake/progress_eta.hpp"
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/gltf.hpp"
-#include "tool/cli_checks.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
@@ -64,7 +64,7 @@ CLI::Validator number_in(double lo, bool open_lo, double hi, const std::string& 
 void run_bake(const BakeArgs& args) {
     const auto t0 = std::chrono::steady_clock::now();
     // note: the options' own checks (below) refuse every value out of range, nan and inf.
-    if (!check_outputs("hmdnode bake", {{"--out", args.out}, {"--report", args.report}}))
+    if (!cli::check_outputs("hmdnode bake", {{"--out", args.out}, {"--report", args.report}}))
         return set_exit_code(1);
 
     Result<Scene> loaded = load_gltf(args.in);

@@ -15,9 +15,7 @@
 #include "hmdnode/hal/codec/reference_protocol.hpp"
 #include "hmdnode/hal/codec/rift_imu.hpp"
 #include "hmdnode/hal/codec/vive_imu.hpp"
-#include "hmdnode/hal/tracking/clock_sync.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
-#include "hmdnode/hal/tracking/imu_fusion.hpp"
 #include "hmdnode/hal/transport/usbmon_capture.hpp"
 #include "tool/commands.hpp"
 
@@ -46,52 +44,52 @@ bool has_codec(uint16_t vid, uint16_t pid) {
            (vid == refproto::kDevVendorId && pid == refproto::kDevProductId);
 }
 
-// Decodes one device's interrupt-IN reports through the tracker's codec, clock sync and fusion.
+// Decodes one device's interrupt-IN reports through the device tracker's own chain (codec ->
+// clock sync -> fusion, hal's ReportChain, configured as a capture replay's tracker is).
 void print_decoded(const UsbCapture& cap, const CaptureDeviceSummary& d) {
-    auto codec = make_codec_for(d.vendor_id, d.product_id);
-    ClockSync sync;
-    ImuFusion fusion;
-    std::array<DeviceSample, ReportCodec::kMaxSamplesPerReport> buf;
+    const DeviceTrackerConfig tc;
+    ReportChain chain(make_codec_for(d.vendor_id, d.product_id), tc.clock, tc.fusion);
     uint64_t n = 0, still = 0;
     int64_t first_dev = 0, last_dev = 0;
     double a_sum = 0.0, still_drift_deg = 0.0;
     bool have_ref = false;
     glm::dquat ref{1, 0, 0, 0};
     int64_t ref_dev = 0;
+    auto sample = [&](const DeviceSample& s, const TrackerSample&) {
+        if (n == 0) first_dev = s.device_time_ns;
+        last_dev = s.device_time_ns;
+        ++n;
+        if (!s.gyro || !s.accel) return;
+        // Still: |gyro| under 0.05 rad/s (3 deg/s). Drift: the largest rotation of the fused
+        // orientation within 1 s of a still stretch's start (after the first second).
+        const bool is_still = glm::length(*s.gyro) < 0.05;
+        if (!is_still) {
+            have_ref = false;
+            return;
+        }
+        ++still;
+        a_sum += glm::length(*s.accel);
+        if (s.device_time_ns - first_dev < kNsPerSecond) return;
+        const glm::dquat fused = chain.fusion().orientation();
+        if (!have_ref || s.device_time_ns - ref_dev >= kNsPerSecond) {
+            have_ref = true;
+            ref = fused;
+            ref_dev = s.device_time_ns;
+        } else {
+            const glm::dquat q = glm::conjugate(ref) * fused;
+            still_drift_deg = std::max(
+                still_drift_deg, 2.0 * std::acos(std::min(1.0, std::abs(q.w))) * 180.0 / M_PI);
+        }
+    };
     for (const UsbPacket& u : cap.packets) {
         if (u.bus != d.bus || u.device_address != d.address || u.event != 'C' ||
             u.transfer_type != 1 || !(u.endpoint & 0x80) || u.status != 0 || u.data.empty())
             continue;
-        const size_t k = codec->decode(u.data, buf);
-        for (size_t i = 0; i < k; ++i) {
-            const DeviceSample& s = buf[i];
-            if (n == 0) first_dev = s.device_time_ns;
-            last_dev = s.device_time_ns;
-            ++n;
-            sync.update(s.device_time_ns, u.time_ns);
-            if (!s.gyro || !s.accel) continue;
-            fusion.update(s.device_time_ns, *s.gyro, *s.accel, s.imu_flags);
-            // Still: |gyro| under 0.05 rad/s (3 deg/s). Drift: the largest rotation of the fused
-            // orientation within 1 s of a still stretch's start (after the first second).
-            const bool is_still = glm::length(*s.gyro) < 0.05;
-            if (!is_still) {
-                have_ref = false;
-                continue;
-            }
-            ++still;
-            a_sum += glm::length(*s.accel);
-            if (s.device_time_ns - first_dev < kNsPerSecond) continue;
-            if (!have_ref || s.device_time_ns - ref_dev >= kNsPerSecond) {
-                have_ref = true;
-                ref = fusion.orientation();
-                ref_dev = s.device_time_ns;
-            } else {
-                const glm::dquat q = glm::conjugate(ref) * fusion.orientation();
-                still_drift_deg = std::max(
-                    still_drift_deg, 2.0 * std::acos(std::min(1.0, std::abs(q.w))) * 180.0 / M_PI);
-            }
-        }
+        chain.feed(u.data, u.time_ns, sample);
     }
+    const ReportCodec* codec = &chain.codec();
+    const ClockSync& sync = chain.clock_sync();
+    const ImuFusion& fusion = chain.fusion();
     const CodecCounters c = codec->counters();
     const double span_s = ns_to_s(last_dev - first_dev);
     std::printf("    decoded (%s):\n", codec->name().c_str());

@@ -16,13 +16,13 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "cli/cli_checks.hpp"
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/time.hpp"
 #include "hmdnode/core/trace.hpp"
 #include "hmdnode/firmware_host/latency_report.hpp"
 #include "hmdnode/firmware_host/motion_profiles.hpp"
 #include "hmdnode/firmware_host/replay.hpp"
-#include "tool/cli_checks.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
@@ -92,7 +92,7 @@ void run_latency(const LatencyArgs& a, const std::vector<std::string>& extras) {
         return usage_error("--clock \"" + a.clock + "\": give real or sim");
     if (!a.warp_cost_ms.empty() && a.frame_cost_ms.empty())
         return usage_error("--warp-cost-ms needs --frame-cost-ms");
-    if (!check_outputs("hmdnode latency", {{"--report", a.report}, {"--plot", a.plot}}))
+    if (!cli::check_outputs("hmdnode latency", {{"--report", a.report}, {"--plot", a.plot}}))
         return set_exit_code(1);
     std::string err;
     double duration = 0, start = 0, eye_w = 0, eye_h = 0, refresh = 0, tracker_hz = 0;

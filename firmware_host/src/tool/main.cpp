@@ -3,8 +3,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include "cli/cli_checks.hpp"
 #include "hmdnode/core/atomic_file.hpp"
-#include "tool/cli_checks.hpp"
 #include "tool/commands.hpp"
 
 int main(int argc, char** argv) {
@@ -14,8 +14,8 @@ int main(int argc, char** argv) {
     CLI::App app{"hmdnode: the tools of the hmdnode head-mounted display rendering node"};
     app.require_subcommand(1);
     hmdnode::tool::register_commands(app);
-    hmdnode::tool::refuse_non_finite_numbers(app);
+    hmdnode::cli::refuse_non_finite_numbers(app);
     // --help and --version exit 0; every usage error (unknown option, bad value) exits 2.
-    if (std::optional<int> code = hmdnode::tool::parse_command_line(app, argc, argv)) return *code;
+    if (std::optional<int> code = hmdnode::cli::parse_command_line(app, argc, argv)) return *code;
     return hmdnode::tool::exit_code();
 }

@@ -14,11 +14,11 @@
 
 #include <CLI/CLI.hpp>
 
+#include "cli/cli_checks.hpp"
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/gltf.hpp"
 #include "hmdnode/lod/mesh_file.hpp"
 #include "hmdnode/lod/progressive_mesh.hpp"
-#include "tool/cli_checks.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
@@ -96,7 +96,7 @@ void run_refine(const PmArgs& args) {
                    [](unsigned char c) { return char(std::tolower(c)); });
     if (ext != ".glb" && ext != ".obj")
         return usage_error("refine: --out \"" + args.out + "\" must end in .glb or .obj");
-    if (!check_outputs("hmdnode pm refine", {{"--out", args.out}})) return set_exit_code(1);
+    if (!cli::check_outputs("hmdnode pm refine", {{"--out", args.out}})) return set_exit_code(1);
     Result<ProgressiveMesh> pm = read_progressive_mesh(args.in);
     if (!pm.ok()) return fail(pm.error().message + "; nothing written");
     Primitive prim = refine(*pm, args.triangles);

@@ -29,6 +29,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "cli/cli_checks.hpp"
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/pose.hpp"
 #include "hmdnode/core/time.hpp"
@@ -41,7 +42,6 @@
 #include "hmdnode/hal/tracking/survive_recording.hpp"
 #include "hmdnode/hal/transport.hpp"
 #include "hmdnode/hal/transport/usbmon_pcap_writer.hpp"
-#include "tool/cli_checks.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
@@ -451,9 +451,9 @@ void run_record(const RecordArgs& args) {
         return usage_error("--reference-out needs --backend rec (a recording's lighthouse poses)");
     if (args.fusion != "mahony" && args.backend != "rec")
         return usage_error("--fusion gyro needs --backend rec");
-    if (!check_outputs("hmdnode record", {{"--out", args.out},
-                                          {"--capture", args.capture},
-                                          {"--reference-out", args.reference_out}}))
+    if (!cli::check_outputs("hmdnode record", {{"--out", args.out},
+                                               {"--capture", args.capture},
+                                               {"--reference-out", args.reference_out}}))
         return set_exit_code(1);
     // A libsurvive recording names its devices (T20, WM0, ...), not by VID:PID.
     if (args.backend == "rec") return run_record_survive(args);

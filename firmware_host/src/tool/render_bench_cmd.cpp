@@ -4,8 +4,8 @@
 #include <memory>
 #include <string>
 
+#include "cli/cli_checks.hpp"
 #include "hmdnode/firmware_host/render_bench.hpp"
-#include "tool/cli_checks.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
@@ -49,7 +49,7 @@ void add_render_bench_command(CLI::App& app) {
                   "Directory for PNGs of the frames (lod_NNNNN.png, full_NNNNN.png)");
     c->add_option("--images-every", opt->images_every, "Write every Nth frame's images")
         ->check(CLI::PositiveNumber);
-    add_eye_tracker_option(c, eye_tracker);
+    cli::add_eye_tracker_option(c, eye_tracker);
     c->add_option("--report", opt->report, "JSON report to write")->required();
     c->add_option("--plot", opt->plot, "SVG plot to write");
 
@@ -78,8 +78,8 @@ void add_render_bench_command(CLI::App& app) {
         o.allocator = *parse_lod_allocator(*allocator);  // checked by IsMember
         o.eye_tracker = *parse_eye_tracker_backend(*eye_tracker, WiringKeys::command_line());
         o.compare_full = *compare == "full";
-        if (!check_outputs("hmdnode render-bench",
-                           {{"--report", o.report.string()}, {"--plot", o.plot.string()}})) {
+        if (!cli::check_outputs("hmdnode render-bench",
+                                {{"--report", o.report.string()}, {"--plot", o.plot.string()}})) {
             set_exit_code(1);
             return;
         }

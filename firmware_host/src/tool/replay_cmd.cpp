@@ -3,9 +3,9 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "cli/cli_checks.hpp"
 #include "hmdnode/firmware_host/replay.hpp"
 #include "hmdnode/firmware_host/wiring.hpp"
-#include "tool/cli_checks.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
@@ -52,7 +52,7 @@ void add_replay_command(CLI::App& app) {
     c->add_option("--device", opt->device,
                   "VID:PID[:SERIAL] (hex) of the captured, simulated or live device; --tracker "
                   "rec: the recording's device name (T20, ...)");
-    add_eye_tracker_option(c, eye_tracker);
+    cli::add_eye_tracker_option(c, eye_tracker);
     c->add_option("--report", opt->report, "JSON report to write");
     c->add_option("--frames", *frames_dir, "Directory for PNG frames (both eyes side by side)");
     c->add_option("--frames-every", opt->display.frames_every, "Write every Nth frame")

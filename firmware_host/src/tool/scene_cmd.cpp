@@ -4,8 +4,8 @@
 #include <memory>
 #include <string>
 
+#include "cli/cli_checks.hpp"
 #include "hmdnode/core/gltf.hpp"
-#include "tool/cli_checks.hpp"
 #include "tool/commands.hpp"
 #include "tool/demo_scene.hpp"
 #include "tool/stress_scene.hpp"
@@ -91,7 +91,7 @@ void add_scene_command(CLI::App& app) {
         ->required();
     demo->add_option("--out", *out, "Scene to write (.glb)")->required();
     demo->callback([=] {
-        if (!check_outputs("hmdnode scene demo", {{"--out", *out}})) return set_exit_code(1);
+        if (!cli::check_outputs("hmdnode scene demo", {{"--out", *out}})) return set_exit_code(1);
         std::string summary;
         Status st = build_demo_scene(*data_dir, *out, &summary);
         if (!st) {
@@ -121,7 +121,7 @@ void add_scene_command(CLI::App& app) {
         ->check(CLI::Range(1, 1 << 16));
     stress->add_option("--seed", stress_opt->seed, "Seed of the placement");
     stress->callback([=] {
-        if (!check_outputs("hmdnode scene stress", {{"--out", *stress_out}}))
+        if (!cli::check_outputs("hmdnode scene stress", {{"--out", *stress_out}}))
             return set_exit_code(1);
         std::string summary;
         Result<Scene> s = make_stress_scene(*stress_data, *stress_opt, &summary);

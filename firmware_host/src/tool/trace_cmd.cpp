@@ -9,10 +9,10 @@
 
 #include <CLI/CLI.hpp>
 
+#include "cli/cli_checks.hpp"
 #include "hmdnode/core/synthetic_gaze.hpp"
 #include "hmdnode/core/time.hpp"
 #include "hmdnode/core/trace.hpp"
-#include "tool/cli_checks.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
@@ -47,7 +47,7 @@ void print_gaze_rows(const TraceStats& st) {
 }
 
 void run_import(const ImportArgs& args) {
-    if (!check_outputs("hmdnode trace import", {{"--to", args.to}})) return set_exit_code(1);
+    if (!cli::check_outputs("hmdnode trace import", {{"--to", args.to}})) return set_exit_code(1);
     TraceImportOptions options = args.options;
     options.rebase_time = !args.keep_time;
     options.euler_degrees = !args.euler_radians;
@@ -124,7 +124,7 @@ struct AddGazeArgs {
 
 void run_add_gaze(const AddGazeArgs& args) {
     const char* cmd = "hmdnode trace add-gaze";
-    if (!check_outputs(cmd, {{"--out", args.out}})) return set_exit_code(1);
+    if (!cli::check_outputs(cmd, {{"--out", args.out}})) return set_exit_code(1);
     Result<Trace> head = read_trace_csv(args.in);
     if (!head.ok()) {
         std::fprintf(stderr, "%s: %s\n", cmd, head.error().message.c_str());

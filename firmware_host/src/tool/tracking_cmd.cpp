@@ -11,11 +11,11 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "cli/cli_checks.hpp"
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/orientation_eval.hpp"
 #include "hmdnode/core/time.hpp"
 #include "hmdnode/core/trace.hpp"
-#include "tool/cli_checks.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
@@ -129,7 +129,7 @@ void run_eval(EvalArgs args) {
         }
         args.options.time_offset_s = ms * 1e-3;
     }
-    if (!check_outputs(cmd, {{"--report", args.report}, {"--plot", args.plot}}))
+    if (!cli::check_outputs(cmd, {{"--report", args.report}, {"--plot", args.plot}}))
         return set_exit_code(1);
     auto ref = read_trace_csv(args.reference);
     if (!ref) {

@@ -1,5 +1,6 @@
 // Device tracker: transport -> codec -> clock sync -> (fusion) -> ring, with reconnection.
-// The pipeline composes clock_sync.cpp (lower-envelope clock tracking) and imu_fusion.cpp
+// The chain from codec to fusion is ReportChain (device_tracker.hpp, shared with `hmdnode capture
+// info`); it composes clock_sync.cpp (lower-envelope clock tracking) and imu_fusion.cpp
 // (Mahony); the ring is the Lamport SPSC queue of spsc_ring.hpp. Reconnection follows the
 // practice of public runtimes (Monado's and OpenHMD's HID drivers: on a read error close the
 // device, poll enumeration at a fixed interval, reopen).
@@ -25,13 +26,11 @@ class DeviceTrackerImpl final : public DeviceTracker {
     DeviceTrackerImpl(std::unique_ptr<TransportBackend> backend, std::unique_ptr<ReportCodec> codec,
                       Clock& clock, const DeviceTrackerConfig& config)
         : backend_(std::move(backend)),
-          codec_(std::move(codec)),
+          chain_(std::move(codec), config.clock, config.fusion),
           clock_(clock),
           config_(config),
-          ring_(std::max<size_t>(config.ring_capacity, 2)),
-          sync_(config.clock),
-          fusion_(config.fusion) {
-        info_.name = config.name.empty() ? codec_->name() : config.name;
+          ring_(std::max<size_t>(config.ring_capacity, 2)) {
+        info_.name = config.name.empty() ? chain_.codec().name() : config.name;
         info_.nominal_rate_hz = config.nominal_rate_hz;
         info_.provides_orientation = true;
         info_.provides_imu = true;
@@ -112,11 +111,11 @@ class DeviceTrackerImpl final : public DeviceTracker {
             auto t = backend_->open(ids->front());
             if (t) {
                 transport_ = std::move(*t);
-                codec_->reset();
-                codec_->configure(*transport_);
+                chain_.codec().reset();
+                chain_.codec().configure(*transport_);
                 std::lock_guard lock(mutex_);
-                status_.codec_warning = codec_->warning();
-                status_.codec_info = codec_->info();
+                status_.codec_warning = chain_.codec().warning();
+                status_.codec_info = chain_.codec().info();
                 ++status_.opens;
                 status_.connected = true;
                 info_.serial = transport_->id().serial;
@@ -138,55 +137,38 @@ class DeviceTrackerImpl final : public DeviceTracker {
         gap_open_ = true;
         gap_start_ns_ = last_arrival_ns_ ? last_arrival_ns_ : now;
         next_open_ns_ = now + config_.reopen_interval_ns;
-        sync_ = ClockSync(config_.clock);  // the device may come back with a new clock
+        chain_.reset_clock();  // the device may come back with a new clock
         std::lock_guard lock(mutex_);
         ++status_.disconnects;
         status_.connected = false;
         status_.last_error = message;
     }
 
-    // Decodes one report and emits its samples through emit(sample).
+    // Decodes one report through the chain (codec -> clock sync -> fusion) and emits its samples
+    // through emit(sample); counts the reconnect gap and the status.
     template <class Emit>
     void process(const InputReport& report, Emit&& emit) {
-        std::array<DeviceSample, ReportCodec::kMaxSamplesPerReport> buf;
-        const size_t n = codec_->decode(report.bytes, buf);
-        for (size_t i = 0; i < n; ++i) {
-            const DeviceSample& d = buf[i];
-            if (d.clock_reset) sync_ = ClockSync(config_.clock);
-            TrackerSample t;
-            t.arrival_ns = report.host_time_ns;
-            t.time_ns = sync_.update(d.device_time_ns, report.host_time_ns);
-            t.sequence = d.sequence;
-            t.position = d.position;
-            t.accel = d.accel;
-            if (d.has_orientation) {
-                t.has_orientation = true;
-                t.orientation = d.orientation;
-                t.gyro = d.gyro;
-            } else if (d.gyro && d.accel) {
-                fusion_.update(d.device_time_ns, *d.gyro, *d.accel, d.imu_flags);
-                t.has_orientation = fusion_.initialized();
-                t.orientation = fusion_.orientation();
-                t.gyro = fusion_.angular_velocity();
-            }
-            if (gap_open_) {
-                gap_open_ = false;
-                const int64_t gap = t.arrival_ns - gap_start_ns_;
-                std::lock_guard lock(mutex_);
-                status_.last_gap_ns = gap;
-                status_.total_gap_ns += gap;
-            }
-            last_arrival_ns_ = t.arrival_ns;
-            emit(t);
-        }
+        const size_t n = chain_.feed(report.bytes, report.host_time_ns,
+                                     [&](const DeviceSample&, const TrackerSample& t) {
+                                         if (gap_open_) {
+                                             gap_open_ = false;
+                                             const int64_t gap = t.arrival_ns - gap_start_ns_;
+                                             std::lock_guard lock(mutex_);
+                                             status_.last_gap_ns = gap;
+                                             status_.total_gap_ns += gap;
+                                         }
+                                         last_arrival_ns_ = t.arrival_ns;
+                                         emit(t);
+                                     });
+        const ClockSync& sync = chain_.clock_sync();
         std::lock_guard lock(mutex_);
         status_.samples += n;
-        status_.clock_offset_ns = sync_.valid() ? sync_.offset_ns() : 0;
-        status_.clock_drift_ppm = sync_.drift_ppm();
-        status_.clock_jitter_ns = sync_.jitter_ns();
-        status_.clock_resets += sync_.resets() - seen_resets_;
-        seen_resets_ = sync_.resets();
-        codec_counters_ = codec_->counters();
+        status_.clock_offset_ns = sync.valid() ? sync.offset_ns() : 0;
+        status_.clock_drift_ppm = sync.drift_ppm();
+        status_.clock_jitter_ns = sync.jitter_ns();
+        status_.clock_resets += sync.resets() - seen_resets_;
+        seen_resets_ = sync.resets();
+        codec_counters_ = chain_.codec().counters();
     }
 
     // A report's host time, rebased for a replayed recording.
@@ -260,15 +242,13 @@ class DeviceTrackerImpl final : public DeviceTracker {
     }
 
     std::unique_ptr<TransportBackend> backend_;
-    std::unique_ptr<ReportCodec> codec_;
+    ReportChain chain_;  // the producer side's
     Clock& clock_;
     DeviceTrackerConfig config_;
     SpscRing<TrackerSample> ring_;
 
     // Owned by the producer side (reader thread, or the frame thread on a simulated clock).
     std::unique_ptr<Transport> transport_;
-    ClockSync sync_;
-    ImuFusion fusion_;
     int64_t next_open_ns_ = 0;
     bool gap_open_ = false;
     int64_t gap_start_ns_ = 0;

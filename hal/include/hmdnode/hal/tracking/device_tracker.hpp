@@ -14,12 +14,14 @@
 // the frame thread).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <optional>
 #include <span>
 #include <string>
+#include <utility>
 
 #include "hmdnode/core/result.hpp"
 #include "hmdnode/core/time.hpp"
@@ -100,6 +102,62 @@ std::unique_ptr<ReportCodec> make_reference_codec();
 // (no keep-alive yet: a live Rift stops after its keep-alive interval), anything else ->
 // reference protocol.
 std::unique_ptr<ReportCodec> make_codec_for(uint16_t vendor_id, uint16_t product_id);
+
+// The device tracker's processing chain, one input report at a time: codec -> clock sync ->
+// fusion (IMU-only samples). The tracker's reader thread (or, on a simulated clock, its read())
+// feeds it the reports it reads; `hmdnode capture info` feeds it a capture's reports offline, so
+// both take one code path. Not thread-safe: one producer.
+class ReportChain {
+  public:
+    explicit ReportChain(std::unique_ptr<ReportCodec> codec, const ClockSyncConfig& clock = {},
+                         const ImuFusionConfig& fusion = {})
+        : codec_(std::move(codec)), clock_config_(clock), sync_(clock), fusion_(fusion) {}
+
+    // Decodes one report received at host_time_ns and calls emit(device_sample, tracker_sample)
+    // for each sample, oldest first: the codec's sample on the device clock, and the tracker's on
+    // the host clock (arrival = host_time_ns; fused orientation where the device sends none).
+    // A sample whose device clock restarted starts the clock sync anew. Returns the count.
+    template <class Emit>
+    size_t feed(std::span<const uint8_t> report, int64_t host_time_ns, Emit&& emit) {
+        std::array<DeviceSample, ReportCodec::kMaxSamplesPerReport> buf;
+        const size_t n = codec_->decode(report, buf);
+        for (size_t i = 0; i < n; ++i) {
+            const DeviceSample& d = buf[i];
+            if (d.clock_reset) reset_clock();
+            TrackerSample t;
+            t.arrival_ns = host_time_ns;
+            t.time_ns = sync_.update(d.device_time_ns, host_time_ns);
+            t.sequence = d.sequence;
+            t.position = d.position;
+            t.accel = d.accel;
+            if (d.has_orientation) {
+                t.has_orientation = true;
+                t.orientation = d.orientation;
+                t.gyro = d.gyro;
+            } else if (d.gyro && d.accel) {
+                fusion_.update(d.device_time_ns, *d.gyro, *d.accel, d.imu_flags);
+                t.has_orientation = fusion_.initialized();
+                t.orientation = fusion_.orientation();
+                t.gyro = fusion_.angular_velocity();
+            }
+            emit(d, t);
+        }
+        return n;
+    }
+    // A reconnect (the device may come back with a new clock), or a device clock restart.
+    void reset_clock() { sync_ = ClockSync(clock_config_); }
+
+    ReportCodec& codec() { return *codec_; }
+    const ReportCodec& codec() const { return *codec_; }
+    const ClockSync& clock_sync() const { return sync_; }
+    const ImuFusion& fusion() const { return fusion_; }
+
+  private:
+    std::unique_ptr<ReportCodec> codec_;
+    ClockSyncConfig clock_config_;
+    ClockSync sync_;
+    ImuFusion fusion_;
+};
 
 struct DeviceTrackerConfig {
     DeviceFilter filter;

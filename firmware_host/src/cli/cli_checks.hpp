@@ -1,7 +1,8 @@
-// Command-line checks shared by the hmdnode tool and hmdnoded (CLI11): every floating-point option
-// refuses nan and inf, output paths are checked before any work, and a parse error of any kind
-// exits 2 (the project's usage-error status; CLI11's own codes,
-// 105-109, are not documented exit statuses).
+// Command-line checks shared by the hmdnode tool (src/tool) and hmdnoded (src/daemon), CLI11: every
+// floating-point option refuses nan and inf, output paths are checked before any work, and a parse
+// error of any kind exits 2 (the project's usage-error status; CLI11's own codes, 105-109, are not
+// documented exit statuses). Header-only, in neither executable's folder, so neither includes
+// the other's sources.
 #pragma once
 
 #include <cmath>
@@ -18,7 +19,7 @@
 
 #include "hmdnode/core/atomic_file.hpp"
 
-namespace hmdnode::tool {
+namespace hmdnode::cli {
 
 // Refuses a value that parses as a number but is not finite ("nan", "inf", "1e999"); other text is
 // left to the option's own conversion, which names it.
@@ -34,9 +35,6 @@ inline CLI::Validator finite_number() {
         "", "FINITE");
 }
 
-// Adds finite_number() to every option of `app` and of its subcommands, at any depth, whose value
-// is floating point (CLI11's type name FLOAT, also for vectors of them): one place, so an option
-// added later is covered too.
 // `--eye-tracker none|trace` (replay, render-bench): the one vocabulary's eye-tracker names.
 inline void add_eye_tracker_option(CLI::App* c, const std::shared_ptr<std::string>& value) {
     c->add_option("--eye-tracker", *value,
@@ -45,6 +43,9 @@ inline void add_eye_tracker_option(CLI::App* c, const std::shared_ptr<std::strin
         ->check(CLI::IsMember({"none", "trace"}));
 }
 
+// Adds finite_number() to every option of `app` and of its subcommands, at any depth, whose value
+// is floating point (CLI11's type name FLOAT, also for vectors of them): one place, so an option
+// added later is covered too.
 inline void refuse_non_finite_numbers(CLI::App& app) {
     for (CLI::Option* o : app.get_options())
         if (o->get_type_name().rfind("FLOAT", 0) == 0) o->check(finite_number());
@@ -81,4 +82,4 @@ inline std::optional<int> parse_command_line(CLI::App& app, int argc, char** arg
     return std::nullopt;
 }
 
-}  // namespace hmdnode::tool
+}  // namespace hmdnode::cli
