@@ -49,9 +49,7 @@ void appendf(const char* fmt, Args... args) {
 }
 
 double pct(std::vector<double> v, double f) {
-    if (v.empty()) return 0.0;
-    std::sort(v.begin(), v.end());
-    return v[size_t(f * double(v.size() - 1))];
+    return bench::quantile(std::move(v), f);
 }
 
 // The Vive IMU reports of `capture` (default: the repository's vive_cal.pcap.gz; synthetic
