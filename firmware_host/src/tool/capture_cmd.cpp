@@ -59,8 +59,7 @@ void print_decoded(const UsbCapture& cap, const CaptureDeviceSummary& d) {
     glm::dquat ref{1, 0, 0, 0};
     int64_t ref_dev = 0;
     for (const UsbPacket& u : cap.packets) {
-        if (u.bus != d.bus || u.device_address != d.address || u.event != 'C' ||
-            u.transfer_type != 1 || !(u.endpoint & 0x80) || u.status != 0 || u.data.empty())
+        if (u.bus != d.bus || u.device_address != d.address || !is_interrupt_in_completion(u))
             continue;
         const size_t k = codec->decode(u.data, buf);
         for (size_t i = 0; i < k; ++i) {
