@@ -21,13 +21,13 @@
 #include <vector>
 
 #include "hmdnode/core/atomic_file.hpp"
+#include "hmdnode/core/percentile.hpp"
 
 namespace hmdnode::bench {
 
-// The q-quantile (0..1) of `v`, nearest rank; 0 for none.
+// The q-quantile (0..1) of `v` as core/percentile.hpp defines it (nearest rank); 0 for none.
 inline double quantile(std::vector<double> v, double q) {
-    std::sort(v.begin(), v.end());
-    return v.empty() ? 0.0 : v[size_t(q * double(v.size() - 1) + 0.5)];
+    return v.empty() ? 0.0 : percentile(std::move(v), q);
 }
 
 // The steady clock, nanoseconds.

@@ -160,8 +160,7 @@ double uv_drift_pct(const Primitive& in, const Primitive& out) {
 }
 
 double median(std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v.empty() ? 0.0 : v[v.size() / 2];
+    return bench::quantile(std::move(v), 0.5);
 }
 
 // Runs `fn` (returns the output) with the repeat policy; the output of the last run is kept.

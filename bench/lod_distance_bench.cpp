@@ -42,8 +42,7 @@ using bench::appendf;
 namespace {
 
 double median(std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v.empty() ? 0.0 : v[v.size() / 2];
+    return bench::quantile(std::move(v), 0.5);
 }
 
 Result<Primitive> load(const fs::path& file) {

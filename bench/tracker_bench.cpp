@@ -49,9 +49,7 @@ void appendf(const char* fmt, Args... args) {
 }
 
 double pct(std::vector<double> v, double f) {
-    if (v.empty()) return 0.0;
-    std::sort(v.begin(), v.end());
-    return v[size_t(f * double(v.size() - 1))];
+    return bench::quantile(std::move(v), f);
 }
 
 // The Vive IMU reports of `capture` (default: the repository's vive_cal.pcap.gz; synthetic
@@ -68,8 +66,7 @@ std::optional<std::vector<std::vector<uint8_t>>> vive_reports(const std::string&
     }
     if (cap.ok()) {
         for (const UsbPacket& u : cap->packets)
-            if (u.event == 'C' && u.transfer_type == 1 && !u.data.empty() &&
-                u.data[0] == vive::kImuReportId)
+            if (is_interrupt_in_completion(u) && u.data[0] == vive::kImuReportId)
                 reports.push_back(u.data);
         appendf("decode input: %zu Vive IMU reports from %s\n", reports.size(),
                 bench::in_tree(file.string()).c_str());

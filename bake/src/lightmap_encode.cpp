@@ -16,6 +16,7 @@
 
 #include "hmdnode/bake/lightmap_encode.hpp"
 #include "hmdnode/core/atomic_file.hpp"
+#include "hmdnode/core/percentile.hpp"
 
 namespace hmdnode {
 
@@ -174,11 +175,7 @@ ScaledRgba8 encode_scaled_rgba8(const HdrImage& image, double percentile,
     }
     float intensity = 0.0f;
     if (!peaks.empty()) {
-        const double p = std::clamp(percentile, 0.0, 1.0);
-        const size_t k = std::min(peaks.size() - 1,
-                                  size_t(std::ceil(p * double(peaks.size()))) - (p > 0.0 ? 1 : 0));
-        std::nth_element(peaks.begin(), peaks.begin() + std::ptrdiff_t(k), peaks.end());
-        intensity = peaks[k];
+        intensity = percentile_in_place(peaks.begin(), peaks.end(), percentile);
     }
     if (!(intensity > 0.0f)) intensity = 1.0f;
     out.intensity = intensity;

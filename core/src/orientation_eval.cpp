@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <string>
 
+#include "hmdnode/core/percentile.hpp"
 #include "hmdnode/core/pose.hpp"
 #include "hmdnode/core/time.hpp"
 
@@ -67,12 +68,8 @@ ErrorPercentiles error_percentiles(std::vector<double> v) {
     ErrorPercentiles p;
     if (v.empty()) return p;
     std::sort(v.begin(), v.end());
-    auto rank = [&](double q) {
-        const size_t k = size_t(std::ceil(q * double(v.size())));
-        return v[std::clamp<size_t>(k, 1, v.size()) - 1];
-    };
-    p.p50 = rank(0.50);
-    p.p95 = rank(0.95);
+    p.p50 = percentile_sorted(v, 0.50);
+    p.p95 = percentile_sorted(v, 0.95);
     p.max = v.back();
     return p;
 }

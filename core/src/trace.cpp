@@ -9,6 +9,7 @@
 #include <cstdio>
 
 #include "hmdnode/core/atomic_file.hpp"
+#include "hmdnode/core/percentile.hpp"
 #include "hmdnode/core/time.hpp"
 #include "trace_text.hpp"
 
@@ -424,9 +425,8 @@ TraceStats compute_trace_stats(const Trace& trace) {
         st.gaze_valid_fraction = double(ecc.size()) / double(trace.samples.size());
         if (!ecc.empty()) {
             std::sort(ecc.begin(), ecc.end());
-            auto at = [&](double p) { return ecc[size_t(p * double(ecc.size() - 1))]; };
-            st.gaze_eccentricity_p50_deg = at(0.5);
-            st.gaze_eccentricity_p90_deg = at(0.9);
+            st.gaze_eccentricity_p50_deg = percentile_sorted(ecc, 0.5);
+            st.gaze_eccentricity_p90_deg = percentile_sorted(ecc, 0.9);
             st.gaze_within_20deg_fraction =
                 double(std::upper_bound(ecc.begin(), ecc.end(), 20.0) - ecc.begin()) /
                 double(ecc.size());
@@ -453,9 +453,7 @@ TraceStats compute_trace_stats(const Trace& trace) {
             }
         }
     }
-    auto mid = intervals.begin() + std::ptrdiff_t(intervals.size() / 2);
-    std::nth_element(intervals.begin(), mid, intervals.end());
-    st.median_interval_ns = *mid;
+    st.median_interval_ns = percentile_in_place(intervals.begin(), intervals.end(), 0.5);
     if (st.median_interval_ns > 0) st.median_rate_hz = 1.0 / ns_to_s(st.median_interval_ns);
     return st;
 }

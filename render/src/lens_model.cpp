@@ -30,6 +30,7 @@
 #include <cmath>
 #include <limits>
 
+#include "hmdnode/core/percentile.hpp"
 #include "hmdnode/render/lens.hpp"
 #include "lens_math.hpp"
 
@@ -234,7 +235,7 @@ MeshError mesh_interpolation_error(const HeadsetProfile& profile, int eye,
     if (errors.empty()) return e;
     std::sort(errors.begin(), errors.end());
     e.max_px = errors.back();
-    e.p99_px = errors[size_t(0.99 * double(errors.size() - 1))];
+    e.p99_px = percentile_sorted(errors, 0.99);
     return e;
 }
 

@@ -10,6 +10,7 @@
 
 #include <glm/gtc/quaternion.hpp>
 
+#include "hmdnode/core/percentile.hpp"
 #include "hmdnode/core/time.hpp"
 #include "hmdnode/core/trace.hpp"
 #include "hmdnode/firmware_host/pose_history.hpp"
@@ -270,11 +271,6 @@ std::vector<double> prediction_errors_deg(const Trace& trace, bool resample_1khz
                 std::max(*out_overshoot, rad_to_deg(glm::dot(r - r_true, glm::normalize(r))));
     }
     return err;
-}
-double percentile(std::vector<double> v, double p) {
-    const size_t k = size_t(p * double(v.size() - 1) + 0.5);
-    std::nth_element(v.begin(), v.begin() + k, v.end());
-    return v[k];
 }
 }  // namespace
 

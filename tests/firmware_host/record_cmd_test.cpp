@@ -77,7 +77,7 @@ TEST(RecordCmd, SimDeviceTraceAndPcapReadBack) {
     size_t interrupt_in = 0;
     uint32_t next_seq = 0;
     for (const UsbPacket& u : cap->packets) {
-        if (u.transfer_type != 1 || u.endpoint != 0x81 || u.event != 'C') continue;
+        if (!is_interrupt_in_completion(u) || u.endpoint != 0x81) continue;
         ++interrupt_in;
         ASSERT_EQ(u.data.size(), refproto::kPoseReportSize);
         auto p = refproto::decode_pose(u.data);

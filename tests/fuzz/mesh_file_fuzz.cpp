@@ -1,6 +1,6 @@
 // libFuzzer harness: the mesh-file readers of `hmdnode lod` (load_mesh_file: the PLY and OFF
-// readers of lod/src/mesh_file.cpp and core's OBJ reader) on untrusted bytes. The bytes go to a
-// temporary file (the readers take a path), named .obj when the first byte is odd (OBJ is
+// readers of lod/src/simplify/mesh_file.cpp and core's OBJ reader) on untrusted bytes. The bytes go
+// to a temporary file (the readers take a path), named .obj when the first byte is odd (OBJ is
 // recognised by extension; PLY and OFF by content either way). Invariants for an accepted file:
 // one mesh of one primitive with triangles, indices in range, attribute arrays empty or one per
 // position.

@@ -8,6 +8,7 @@
 #include <random>
 #include <vector>
 
+#include "hmdnode/core/percentile.hpp"
 #include "hmdnode/core/trace.hpp"
 #include "hmdnode/hal/tracking/imu_fusion.hpp"
 
@@ -157,11 +158,6 @@ double heading_deg(const glm::dquat& truth, const glm::dquat& est) {
     double a = 2.0 * std::atan2(d.y, d.w);
     a = std::remainder(a, 2.0 * kPi);
     return std::abs(a) * 180.0 / kPi;
-}
-
-double percentile(std::vector<double> v, double p) {
-    std::sort(v.begin(), v.end());
-    return v[size_t(std::min<double>(double(v.size() - 1), p * double(v.size())))];
 }
 
 struct TraceRun {

@@ -45,6 +45,7 @@
 #include <vector>
 
 #include "hmdnode/core/gltf.hpp"
+#include "hmdnode/core/percentile.hpp"
 #include "hmdnode/core/stereo.hpp"
 #include "hmdnode/hal/camera.hpp"
 #include "hmdnode/hal/codec/reference_protocol.hpp"
@@ -270,9 +271,7 @@ std::unique_ptr<Transport> find_and_open(TransportBackend& backend, int64_t dead
 }
 
 double percentile(std::vector<double> v, double q) {
-    if (v.empty()) return 0.0;
-    std::sort(v.begin(), v.end());
-    return v[std::min(v.size() - 1, size_t(q * double(v.size())))];
+    return v.empty() ? 0.0 : hmdnode::percentile(std::move(v), q);
 }
 
 int open_fds() {

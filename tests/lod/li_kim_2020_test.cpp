@@ -1,7 +1,7 @@
 // The algorithms of H. Li, S. Kim, "Mesh Simplification Algorithms for Rendering Performance",
 // International Journal of Engineering Research and Technology 13(6), 2020 (SS, FAD, VT, IVDD, VTD,
 // FASS), uniform-grid clustering and OpenMesh's ModQuadric baseline, called through the private
-// table (lod/src/algorithms.hpp) so that this suite does not depend on the name table in
+// table (lod/src/simplify/algorithms.hpp) so that this suite does not depend on the name table in
 // simplify.cpp.
 #include <algorithm>
 #include <array>
@@ -13,8 +13,8 @@
 
 #include <gtest/gtest.h>
 
-#include "../../lod/src/algorithms.hpp"
-#include "../../lod/src/openmesh_mesh.hpp"
+#include "../../lod/src/simplify/algorithms.hpp"
+#include "../../lod/src/simplify/openmesh_mesh.hpp"
 #include "lod/test_meshes.hpp"
 
 namespace hmdnode::lod_detail {

@@ -1,4 +1,4 @@
-// optimal_placement() (lod/src/qem.cpp), the placement of Garland-Heckbert's QEM, against
+// optimal_placement() (lod/src/simplify/qem.cpp), the placement of Garland-Heckbert's QEM, against
 // closed-form answers: the minimiser of a full-rank quadric; the segment minimiser when the
 // quadric is singular; an endpoint, never a point chosen by rounding noise, when the quadric is
 // flat along the edge (an edge along a crease or in a plane).
@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "../../lod/src/quadric.hpp"
+#include "../../lod/src/simplify/quadric.hpp"
 
 namespace hmdnode::lod_detail {
 namespace {

@@ -1,7 +1,7 @@
-// The simplifiers' scratch memory (lod/src/scratch.hpp): within a ScratchScope large blocks come
-// back from the caller's SimplifyScratch for the next request of the same size class, small ones
-// and what passes the cap are freed; without one (no scratch, another thread) nothing is kept; and
-// a simplification gives the same output with a reused scratch, a fresh one or none.
+// The simplifiers' scratch memory (lod/src/simplify/scratch.hpp): within a ScratchScope large
+// blocks come back from the caller's SimplifyScratch for the next request of the same size class,
+// small ones and what passes the cap are freed; without one (no scratch, another thread) nothing is
+// kept; and a simplification gives the same output with a reused scratch, a fresh one or none.
 #include <cstdint>
 #include <cstring>
 #include <thread>
@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-#include "../../lod/src/scratch.hpp"
+#include "../../lod/src/simplify/scratch.hpp"
 #include "hmdnode/lod/simplify.hpp"
 #include "lod/test_meshes.hpp"
 

@@ -1,10 +1,10 @@
-// The simplifiers' two-way split (lod/src/two_way.hpp): run(f) calls f(0) on the caller and f(1)
-// on the helper thread, or on the caller when it is done with f(0) before the helper started f(1),
-// and returns only when both are done; without a helper both run on the caller, 0 then 1. Many
-// rounds in a row each see their own captures (the job is copied per round), runs after the helper
-// fell asleep still hand over, and the helper's affinity leaves out its caller's core. Nothing
-// here depends on when a thread gets a core (a loaded 2-core CI box): the tests assert results,
-// and which thread ran a half only where the test itself forces it.
+// The simplifiers' two-way split (lod/src/simplify/two_way.hpp): run(f) calls f(0) on the caller
+// and f(1) on the helper thread, or on the caller when it is done with f(0) before the helper
+// started f(1), and returns only when both are done; without a helper both run on the caller, 0
+// then 1. Many rounds in a row each see their own captures (the job is copied per round), runs
+// after the helper fell asleep still hand over, and the helper's affinity leaves out its caller's
+// core. Nothing here depends on when a thread gets a core (a loaded 2-core CI box): the tests
+// assert results, and which thread ran a half only where the test itself forces it.
 #include <array>
 #include <atomic>
 #include <chrono>
@@ -17,7 +17,7 @@
 #include <sched.h>
 #endif
 
-#include "../../lod/src/two_way.hpp"
+#include "../../lod/src/simplify/two_way.hpp"
 
 namespace hmdnode::lod_detail {
 namespace {

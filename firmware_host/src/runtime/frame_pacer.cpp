@@ -21,6 +21,8 @@
 #include <cstddef>
 #include <cstdio>
 
+#include "hmdnode/core/percentile.hpp"
+
 namespace hmdnode {
 
 CostWindow::CostWindow(int capacity)
@@ -35,10 +37,7 @@ void CostWindow::push(int64_t ns) {
 int64_t CostWindow::percentile(double p, int64_t fallback) const {
     if (count_ == 0) return fallback;
     std::copy(ring_.begin(), ring_.begin() + std::ptrdiff_t(count_), scratch_.begin());
-    const size_t k = std::min(count_ - 1, size_t(std::ceil(p * double(count_ - 1))));
-    std::nth_element(scratch_.begin(), scratch_.begin() + std::ptrdiff_t(k),
-                     scratch_.begin() + std::ptrdiff_t(count_));
-    return scratch_[k];
+    return percentile_in_place(scratch_.begin(), scratch_.begin() + std::ptrdiff_t(count_), p);
 }
 
 FramePacer::FramePacer(const PacingConfig& config, int64_t period_ns, int64_t latch_ns)

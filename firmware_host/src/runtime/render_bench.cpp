@@ -27,6 +27,7 @@
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/gltf.hpp"
 #include "hmdnode/core/image_quality.hpp"
+#include "hmdnode/core/percentile.hpp"
 #include "hmdnode/core/stereo.hpp"
 #include "hmdnode/core/time.hpp"
 #include "hmdnode/core/trace.hpp"
@@ -42,10 +43,7 @@ double load_average_1min() {
 }
 
 double median(std::vector<double> v) {
-    if (v.empty()) return std::nan("");
-    std::sort(v.begin(), v.end());
-    const size_t n = v.size();
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+    return percentile(std::move(v), 0.5);
 }
 
 double min_of(const std::vector<double>& v) {

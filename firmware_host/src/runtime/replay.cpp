@@ -15,6 +15,7 @@
 
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/gltf.hpp"
+#include "hmdnode/core/percentile.hpp"
 #include "hmdnode/core/trace.hpp"
 #include "hmdnode/firmware_host/node_assembly.hpp"
 
@@ -28,16 +29,9 @@ Percentiles percentiles(std::vector<double> v) {
         return p;
     }
     std::sort(v.begin(), v.end());
-    // Linear interpolation between closest ranks.
-    auto q = [&](double f) {
-        const double pos = f * double(v.size() - 1);
-        const size_t i = size_t(pos);
-        const double frac = pos - double(i);
-        return i + 1 < v.size() ? v[i] * (1.0 - frac) + v[i + 1] * frac : v[i];
-    };
-    p.p50 = q(0.50);
-    p.p95 = q(0.95);
-    p.p99 = q(0.99);
+    p.p50 = percentile_sorted(v, 0.50);
+    p.p95 = percentile_sorted(v, 0.95);
+    p.p99 = percentile_sorted(v, 0.99);
     p.max = v.back();
     return p;
 }

@@ -23,6 +23,7 @@
 #include "hmdnode/bake/progress_eta.hpp"
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/gltf.hpp"
+#include "tool/cli_errors.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
@@ -40,10 +41,7 @@ struct BakeArgs {
     std::vector<float> sky;
 };
 
-void fail(const std::string& message) {
-    std::fprintf(stderr, "hmdnode bake: error: %s\n", message.c_str());
-    set_exit_code(1);
-}
+const CliErrors errors{"bake"};
 
 // A number option's check: a finite number in [lo, hi] (lo excluded when `open_lo`). CLI11 parses
 // "nan" and "inf" as doubles; these checks turn them, and negatives, into usage errors (exit 2).
@@ -68,7 +66,7 @@ void run_bake(const BakeArgs& args) {
         return set_exit_code(1);
 
     Result<Scene> loaded = load_gltf(args.in);
-    if (!loaded) return fail(loaded.error().message);
+    if (!loaded) return errors.fail(loaded.error().message);
     Scene scene = std::move(*loaded);
 
     BakeOptions o;
@@ -126,14 +124,14 @@ void run_bake(const BakeArgs& args) {
     Result<BakeReport> baked = bake_scene(scene, o, progress);
     if (!baked) {
         remove_exrs(exr_tmp_prefix, 64);
-        fail(baked.error().message);
+        errors.fail(baked.error().message);
         std::fprintf(stderr, "hmdnode bake: nothing written to %s\n", args.out.c_str());
         return;
     }
     const BakeReport& r = *baked;
     if (Status st = save_glb(scene, out); !st) {
         remove_exrs(exr_tmp_prefix, r.maps.size());
-        return fail(st.error().message);
+        return errors.fail(st.error().message);
     }
     std::vector<std::string> exrs;
     for (size_t k = 0; k < r.maps.size(); ++k) {
@@ -141,7 +139,7 @@ void run_bake(const BakeArgs& args) {
         const std::string final_name = exr_final_prefix + std::to_string(k) + ".exr";
         std::error_code ec;
         fs::rename(r.maps[k].exr, final_name, ec);
-        if (ec) return fail("cannot rename " + r.maps[k].exr.string() + " to " + final_name);
+        if (ec) return errors.fail("cannot rename " + r.maps[k].exr.string() + " to " + final_name);
         exrs.push_back(final_name);
     }
     const double seconds =
@@ -202,7 +200,7 @@ void run_bake(const BakeArgs& args) {
         }
         j["maps"] = maps;
         if (Status st = write_file_atomically(args.report, j.dump(2) + "\n"); !st)
-            return fail(st.error().message);
+            return errors.fail(st.error().message);
     }
 }
 

@@ -82,8 +82,7 @@ void print_decoded(const UsbCapture& cap, const CaptureDeviceSummary& d) {
         }
     };
     for (const UsbPacket& u : cap.packets) {
-        if (u.bus != d.bus || u.device_address != d.address || u.event != 'C' ||
-            u.transfer_type != 1 || !(u.endpoint & 0x80) || u.status != 0 || u.data.empty())
+        if (u.bus != d.bus || u.device_address != d.address || !is_interrupt_in_completion(u))
             continue;
         chain.feed(u.data, u.time_ns, sample);
     }

@@ -23,6 +23,7 @@
 #include "hmdnode/firmware_host/latency_report.hpp"
 #include "hmdnode/firmware_host/motion_profiles.hpp"
 #include "hmdnode/firmware_host/replay.hpp"
+#include "tool/cli_errors.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
@@ -43,16 +44,7 @@ struct LatencyArgs {
     bool quiet = false;
 };
 
-void usage_error(const std::string& message) {
-    std::fprintf(stderr, "hmdnode latency: usage: %s (see hmdnode latency --help)\n",
-                 message.c_str());
-    set_exit_code(2);
-}
-
-void fail(const std::string& message) {
-    std::fprintf(stderr, "hmdnode latency: error: %s; nothing written\n", message.c_str());
-    set_exit_code(1);
-}
+const CliErrors errors{"latency"};
 
 // A finite number in [lo, hi] from option `name`'s text, or an error message.
 bool parse_number(const std::string& name, const std::string& text, double lo, double hi,
@@ -82,16 +74,16 @@ fs::path find_bundled_trace() {
 }
 
 void run_latency(const LatencyArgs& a, const std::vector<std::string>& extras) {
-    if (!extras.empty()) return usage_error("unexpected argument \"" + extras.front() + "\"");
-    if (a.scene.empty()) return usage_error("--scene is required");
+    if (!extras.empty()) return errors.usage("unexpected argument \"" + extras.front() + "\"");
+    if (a.scene.empty()) return errors.usage("--scene is required");
     if (a.profile != "step" && a.profile != "sine-sweep" && a.profile != "trace")
-        return usage_error("--profile \"" + a.profile + "\": give step, sine-sweep or trace");
+        return errors.usage("--profile \"" + a.profile + "\": give step, sine-sweep or trace");
     if (a.profile != "trace" && (!a.trace.empty() || !a.start.empty()))
-        return usage_error("--trace and --start go with --profile trace");
+        return errors.usage("--trace and --start go with --profile trace");
     if (a.clock != "real" && a.clock != "sim")
-        return usage_error("--clock \"" + a.clock + "\": give real or sim");
+        return errors.usage("--clock \"" + a.clock + "\": give real or sim");
     if (!a.warp_cost_ms.empty() && a.frame_cost_ms.empty())
-        return usage_error("--warp-cost-ms needs --frame-cost-ms");
+        return errors.usage("--warp-cost-ms needs --frame-cost-ms");
     if (!cli::check_outputs("hmdnode latency", {{"--report", a.report}, {"--plot", a.plot}}))
         return set_exit_code(1);
     std::string err;
@@ -108,15 +100,15 @@ void run_latency(const LatencyArgs& a, const std::vector<std::string>& extras) {
          !parse_number("--frame-cost-ms", a.frame_cost_ms, 0, 10000, &frame_cost, &err)) ||
         (!a.warp_cost_ms.empty() &&
          !parse_number("--warp-cost-ms", a.warp_cost_ms, 0, 10000, &warp_cost, &err)))
-        return usage_error(err);
+        return errors.usage(err);
     if (eye_w != std::floor(eye_w) || eye_h != std::floor(eye_h) || mesh != std::floor(mesh))
-        return usage_error("--eye-width, --eye-height and --mesh are whole numbers");
+        return errors.usage("--eye-width, --eye-height and --mesh are whole numbers");
     if (frame_cost >= 0 && a.clock != "sim")
-        return usage_error("--frame-cost-ms is the simulated clock's: give --clock sim");
+        return errors.usage("--frame-cost-ms is the simulated clock's: give --clock sim");
     Result<std::vector<LatencyMode>> modes = parse_latency_modes(a.modes);
-    if (!modes.ok()) return usage_error(modes.error().message);
+    if (!modes.ok()) return errors.usage(modes.error().message);
     if (!a.report.empty() && !a.plot.empty() && fs::absolute(a.report) == fs::absolute(a.plot))
-        return usage_error("--report and --plot name the same file");
+        return errors.usage("--report and --plot name the same file");
 
     // The head motion, as a trace in memory.
     std::shared_ptr<const Trace> trace;
@@ -125,19 +117,20 @@ void run_latency(const LatencyArgs& a, const std::vector<std::string>& extras) {
         const fs::path path = a.trace.empty() ? find_bundled_trace() : fs::path(a.trace);
         if (a.start.empty()) start = a.trace.empty() ? kBundledTraceStart : 0.0;
         Result<Trace> t = read_trace_csv(path);
-        if (!t.ok()) return fail(t.error().message);
+        if (!t.ok()) return errors.fail(t.error().message + "; nothing written");
         const double length_s = ns_to_s(t->end_ns() - t->start_ns());
         if (t->samples.size() < 2 || start + 0.1 > length_s) {
             char b[64];
             std::snprintf(b, sizeof b, "%.1f", length_s);
-            return fail(path.string() + ": --start " + a.start + " leaves less than 0.1 s of a " +
-                        b + " s trace");
+            return errors.fail(path.string() + ": --start " + a.start +
+                               " leaves less than 0.1 s of a " + b + " s trace" +
+                               "; nothing written");
         }
         trace = std::make_shared<const Trace>(std::move(t).value());
         trace_name = path.string();
     } else {
         Result<Trace> t = make_motion_profile(a.profile, duration);
-        if (!t.ok()) return fail(t.error().message);
+        if (!t.ok()) return errors.fail(t.error().message + "; nothing written");
         trace = std::make_shared<const Trace>(std::move(t).value());
         trace_name = a.profile;
     }
@@ -175,7 +168,9 @@ void run_latency(const LatencyArgs& a, const std::vector<std::string>& extras) {
                          mode.name.c_str(), mode.predict ? "on" : "off", mode.warp ? "on" : "off",
                          duration, a.clock.c_str());
         Result<ReplayResult> r = run_replay(o);
-        if (!r.ok()) return fail("mode " + mode.name + ": " + r.error().message);
+        if (!r.ok())
+            return errors.fail("mode " + mode.name + ": " + r.error().message +
+                               "; nothing written");
         renderer = r->device_name;
         used_mesh = r->mesh_cols;
         // The simulated clock's cost model is calibrated once, by the first mode, and given to
@@ -223,14 +218,14 @@ void run_latency(const LatencyArgs& a, const std::vector<std::string>& extras) {
             {"modes", mode_names}};
         const std::string text = latency_report_json(options, renderer, results).dump(1) + "\n";
         if (Status s = write_file_atomically(a.report, text); !s.ok())
-            return fail(s.error().message);
+            return errors.fail(s.error().message + "; nothing written");
     }
     if (!a.plot.empty()) {
         if (Status s = write_file_atomically(a.plot, latency_svg(results, title, subtitle));
             !s.ok()) {
             std::error_code ec;
             if (!a.report.empty()) fs::remove(a.report, ec);
-            return fail(s.error().message);
+            return errors.fail(s.error().message + "; nothing written");
         }
     }
     if (!a.report.empty()) std::printf("report: %s\n", a.report.c_str());

@@ -35,6 +35,7 @@
 #include "hmdnode/lod/mesh_file.hpp"
 #include "hmdnode/lod/mesh_repair.hpp"
 #include "hmdnode/lod/progressive_mesh.hpp"
+#include "tool/cli_errors.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
@@ -55,16 +56,7 @@ struct LodArgs {
     bool no_progress = false;
 };
 
-void fail(const std::string& message) {
-    std::fprintf(stderr, "hmdnode lod: %s\n", message.c_str());
-    set_exit_code(1);
-}
-
-// A bad or missing option, or options that do not go together: the usage-error status.
-void usage_error(const std::string& message) {
-    std::fprintf(stderr, "hmdnode lod: %s\n", message.c_str());
-    set_exit_code(2);
-}
+const CliErrors errors{"lod"};
 
 // A bar redrawn in place on a terminal; nothing when stderr is not one (logs, pipes, tests).
 class ProgressBar {
@@ -237,7 +229,7 @@ void run_lod(const LodArgs& args) {
         list_algorithms();
         return;
     }
-    if (args.in.empty() || args.out.empty()) return usage_error("--in and --out are required");
+    if (args.in.empty() || args.out.empty()) return errors.usage("--in and --out are required");
 
     LodChainOptions options;
     options.algorithm = args.algorithm;
@@ -251,25 +243,25 @@ void run_lod(const LodArgs& args) {
         char* end = nullptr;
         const double v = std::strtod(e.c_str(), &end);
         if (e.empty() || *end || !(v > 0.0) || !std::isfinite(v))
-            return usage_error("--error \"" + args.error +
-                               "\": give a positive number of metres, or a percentage of the "
-                               "bounding-box diagonal like 0.5%");
+            return errors.usage("--error \"" + args.error +
+                                "\": give a positive number of metres, or a percentage of the "
+                                "bounding-box diagonal like 0.5%");
         (pct ? options.targets.max_error_pct : options.targets.max_error_m) = v;
     }
     if (options.targets.ratios.empty() && options.targets.triangles.empty() &&
         options.targets.max_error_m < 0 && options.targets.max_error_pct < 0 &&
         options.targets.step == 0)
         options.targets.ratios = {0.5, 0.1, 0.01};
-    if (std::string e = check_lod_targets(options.targets); !e.empty()) return usage_error(e);
+    if (std::string e = check_lod_targets(options.targets); !e.empty()) return errors.usage(e);
     const AlgorithmInfo* algo = find_simplification_algorithm(args.algorithm);
     if (!algo)
-        return usage_error("unknown algorithm \"" + args.algorithm + "\" (see --list-algorithms)");
+        return errors.usage("unknown algorithm \"" + args.algorithm + "\" (see --list-algorithms)");
     if (args.step > 0 && !algo->edge_collapse)
-        return usage_error("--step needs an edge-collapse algorithm; \"" + args.algorithm +
-                           "\" is not one (see --list-algorithms)");
+        return errors.usage("--step needs an edge-collapse algorithm; \"" + args.algorithm +
+                            "\" is not one (see --list-algorithms)");
     if (!args.progressive.empty() && !algo->edge_collapse)
-        return usage_error("--progressive needs an edge-collapse algorithm; \"" + args.algorithm +
-                           "\" is not one (see --list-algorithms)");
+        return errors.usage("--progressive needs an edge-collapse algorithm; \"" + args.algorithm +
+                            "\" is not one (see --list-algorithms)");
     options.simplify.lock_borders = args.lock_borders;
     options.simplify.seed = args.seed;
     options.simplify.threads = args.threads;
@@ -286,13 +278,13 @@ void run_lod(const LodArgs& args) {
         paths.push_back(args.progressive), flags.push_back("--progressive");
     for (size_t i = 0; i < paths.size(); ++i) {
         if (std::string e = check_output(paths[i], flags[i].c_str()); !e.empty())
-            return fail(e + "; nothing written");
+            return errors.fail(e + "; nothing written");
         for (size_t k = 0; k < i; ++k) {
             std::error_code ec;
             if (std::filesystem::weakly_canonical(paths[i], ec) ==
                 std::filesystem::weakly_canonical(paths[k], ec))
-                return fail("--out, --report and --progressive name the same file " + paths[i] +
-                            "; nothing written");
+                return errors.fail("--out, --report and --progressive name the same file " +
+                                   paths[i] + "; nothing written");
         }
     }
 
@@ -308,10 +300,10 @@ void run_lod(const LodArgs& args) {
     };
     Result<Scene> scene = load_mesh_file(args.in);
     lap("load");
-    if (!scene.ok()) return fail(scene.error().message + "; nothing written");
+    if (!scene.ok()) return errors.fail(scene.error().message + "; nothing written");
     RepairReport repair;
     if (Status s = repair_scene(*scene, repair); !s.ok())
-        return fail(s.error().message + "; nothing written");
+        return errors.fail(s.error().message + "; nothing written");
     lap("repair");
     for (const std::string& m : repair.messages)
         std::fprintf(stderr, "hmdnode lod: warning: %s\n", m.c_str());
@@ -323,14 +315,14 @@ void run_lod(const LodArgs& args) {
     Result<LodChainReport> report = generate_lod_chains(*scene, options);
     lap("chains");
     bar.finish();
-    if (!report.ok()) return fail(report.error().message + "; nothing written");
+    if (!report.ok()) return errors.fail(report.error().message + "; nothing written");
     std::vector<ProgressiveOut> progressive =
         progressive_outputs(std::move(report->progressive), args.progressive);
     for (const std::string& n : report->notes)
         std::fprintf(stderr, "hmdnode lod: note: %s\n", n.c_str());
     for (const ProgressiveOut& p : progressive)
         if (std::error_code ec; std::filesystem::is_directory(p.path, ec))
-            return fail("--progressive " + p.path + ": is a directory; nothing written");
+            return errors.fail("--progressive " + p.path + ": is a directory; nothing written");
 
     // The report's text is made before anything is written (its serialisation can fail too).
     std::string report_text;
@@ -340,7 +332,7 @@ void run_lod(const LodArgs& args) {
             report_text =
                 report_json(args, options, repair, *report, progressive, total_ms, timing);
         } catch (const std::exception& e) {
-            return fail("--report " + args.report + ": " + e.what() + "; nothing written");
+            return errors.fail("--report " + args.report + ": " + e.what() + "; nothing written");
         }
     }
     // Each file is written atomically; when one fails, those written before it are removed.
@@ -353,7 +345,7 @@ void run_lod(const LodArgs& args) {
     if (written.ok() && !args.report.empty())
         written = outputs.write(args.report,
                                 [&] { return write_file_atomically(args.report, report_text); });
-    if (!written.ok()) return fail(written.error().message + "; nothing written");
+    if (!written.ok()) return errors.fail(written.error().message + "; nothing written");
 
     std::printf("%-24s %5s %10s %12s %9s %9s %9s %10s %10s\n", "mesh", "level", "triangles",
                 "error m", "error %", "<= %", "mean %", "simplify ms", "measure ms");

@@ -19,6 +19,7 @@
 #include "hmdnode/core/gltf.hpp"
 #include "hmdnode/lod/mesh_file.hpp"
 #include "hmdnode/lod/progressive_mesh.hpp"
+#include "tool/cli_errors.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
@@ -30,16 +31,7 @@ struct PmArgs {
     size_t triangles = 0;
 };
 
-void fail(const std::string& message) {
-    std::fprintf(stderr, "hmdnode pm: %s\n", message.c_str());
-    set_exit_code(1);
-}
-
-// A bad or missing option: the usage-error status.
-void usage_error(const std::string& message) {
-    std::fprintf(stderr, "hmdnode pm: %s\n", message.c_str());
-    set_exit_code(2);
-}
+const CliErrors errors{"pm"};
 
 std::string attribute_list(const ProgressiveMesh& pm) {
     std::string s = "position";
@@ -52,7 +44,7 @@ std::string attribute_list(const ProgressiveMesh& pm) {
 
 void run_info(const PmArgs& args) {
     Result<ProgressiveMesh> pm = read_progressive_mesh(args.info_file);
-    if (!pm.ok()) return fail(pm.error().message);
+    if (!pm.ok()) return errors.fail(pm.error().message);
     std::printf("%s\n", args.info_file.c_str());
     std::printf("  base triangles   %zu\n", pm->base_triangles());
     std::printf("  full triangles   %zu\n", pm->full_triangles());
@@ -90,15 +82,15 @@ std::string obj_text(const Primitive& p, const std::string& source) {
 
 void run_refine(const PmArgs& args) {
     if (args.in.empty() || args.out.empty())
-        return usage_error("refine: --in and --out are required");
+        return errors.usage("refine: --in and --out are required");
     std::string ext = std::filesystem::path(args.out).extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(),
                    [](unsigned char c) { return char(std::tolower(c)); });
     if (ext != ".glb" && ext != ".obj")
-        return usage_error("refine: --out \"" + args.out + "\" must end in .glb or .obj");
+        return errors.usage("refine: --out \"" + args.out + "\" must end in .glb or .obj");
     if (!cli::check_outputs("hmdnode pm refine", {{"--out", args.out}})) return set_exit_code(1);
     Result<ProgressiveMesh> pm = read_progressive_mesh(args.in);
-    if (!pm.ok()) return fail(pm.error().message + "; nothing written");
+    if (!pm.ok()) return errors.fail(pm.error().message + "; nothing written");
     Primitive prim = refine(*pm, args.triangles);
     prim.material = -1;  // the .hmpm holds no materials
     const std::string name = std::filesystem::path(args.out).stem().string();
@@ -111,7 +103,7 @@ void run_refine(const PmArgs& args) {
         mesh.primitives.push_back(prim);
         written = save_glb(single_mesh_scene(std::move(mesh)), args.out);
     }
-    if (!written.ok()) return fail(written.error().message + "; nothing written");
+    if (!written.ok()) return errors.fail(written.error().message + "; nothing written");
     if (args.triangles < pm->base_triangles())
         std::fprintf(stderr, "hmdnode pm: note: %zu is below the base mesh; wrote the base\n",
                      args.triangles);

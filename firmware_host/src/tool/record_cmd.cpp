@@ -42,6 +42,7 @@
 #include "hmdnode/hal/tracking/survive_recording.hpp"
 #include "hmdnode/hal/transport.hpp"
 #include "hmdnode/hal/transport/usbmon_pcap_writer.hpp"
+#include "tool/cli_errors.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
@@ -67,16 +68,7 @@ struct RecordArgs {
     bool duration_given = false;
 };
 
-void fail(const std::string& message) {
-    std::fprintf(stderr, "hmdnode record: %s\n", message.c_str());
-    set_exit_code(1);
-}
-
-// A bad or missing option, or options that do not go together: the usage-error status.
-void usage_error(const std::string& message) {
-    std::fprintf(stderr, "hmdnode record: %s\n", message.c_str());
-    set_exit_code(2);
-}
+const CliErrors errors{"record"};
 
 // What the tracker path recorded.
 struct TrackerRecording {
@@ -267,12 +259,12 @@ void finish_tracker_recording(const RecordArgs& args, const std::string& label,
 
 // --backend capture --from FILE: the capture's device through the device tracker, simulated clock.
 void run_record_capture(const RecordArgs& args, const DeviceFilter& filter) {
-    if (args.from.empty()) return usage_error("--backend capture needs --from FILE.pcap[.gz]");
+    if (args.from.empty()) return errors.usage("--backend capture needs --from FILE.pcap[.gz]");
     if (!args.capture.empty())
-        return usage_error("--capture with --backend capture: the input is a capture already");
+        return errors.usage("--capture with --backend capture: the input is a capture already");
     std::error_code ec;
     if (!std::filesystem::is_regular_file(args.from, ec))
-        return fail("--from " + args.from + ": no such file");
+        return errors.fail("--from " + args.from + ": no such file");
     SimulatedClock clock(kNsPerSecond);
     const int64_t start = clock.now_ns();
     TrackerSpec spec;
@@ -280,9 +272,9 @@ void run_record_capture(const RecordArgs& args, const DeviceFilter& filter) {
     spec.from = args.from;
     spec.device = args.device;
     Result<WiredTracker> wired = make_tracker(spec, clock, WiringKeys::command_line());
-    if (!wired.ok()) return fail(wired.error().message);
+    if (!wired.ok()) return errors.fail(wired.error().message);
     DeviceTracker* tracker = wired->device;
-    if (Status st = tracker->start(); !st.ok()) return fail(st.error().message);
+    if (Status st = tracker->start(); !st.ok()) return errors.fail(st.error().message);
     // The whole capture unless --duration is given.
     const int64_t end = args.duration_given && args.duration_s > 0
                             ? start + s_to_ns(args.duration_s)
@@ -377,15 +369,15 @@ void add_saturation_comments(const SurviveRecording& rec,
 // calibration, clock sync, fusion) on a simulated clock; rows on the recording's timeline (its
 // TIME column), as --reference-out's lighthouse poses.
 void run_record_survive(const RecordArgs& args) {
-    if (args.from.empty()) return usage_error("--backend rec needs --from FILE.rec[.gz]");
+    if (args.from.empty()) return errors.usage("--backend rec needs --from FILE.rec[.gz]");
     if (!args.capture.empty())
-        return usage_error("--capture with --backend rec: a recording has no USB reports to keep");
-    if (args.out.empty()) return usage_error("--backend rec needs --out FILE.csv");
+        return errors.usage("--capture with --backend rec: a recording has no USB reports to keep");
+    if (args.out.empty()) return errors.usage("--backend rec needs --out FILE.csv");
     std::error_code ec;
     if (!std::filesystem::is_regular_file(args.from, ec))
-        return fail("--from " + args.from + ": no such file");
+        return errors.fail("--from " + args.from + ": no such file");
     auto loaded = read_survive_recording(args.from, args.device);
-    if (!loaded.ok()) return fail(loaded.error().message);
+    if (!loaded.ok()) return errors.fail(loaded.error().message);
     for (const std::string& w : loaded->warnings)
         std::fprintf(stderr, "hmdnode record: warning: %s\n", w.c_str());
     if (!loaded->has_config)
@@ -401,8 +393,8 @@ void run_record_survive(const RecordArgs& args) {
         fusion.kp = fusion.ki = fusion.init_kp = fusion.init_ki = 0.0;
     }
     auto tracker = create_survive_tracker(rec, clock, start, fusion);
-    if (!tracker.ok()) return fail(tracker.error().message);
-    if (Status st = (*tracker)->start(); !st.ok()) return fail(st.error().message);
+    if (!tracker.ok()) return errors.fail(tracker.error().message);
+    if (Status st = (*tracker)->start(); !st.ok()) return errors.fail(st.error().message);
     const int64_t end = args.duration_given && args.duration_s > 0
                             ? start + s_to_ns(args.duration_s)
                             : std::numeric_limits<int64_t>::max();
@@ -444,13 +436,13 @@ void run_record_survive(const RecordArgs& args) {
 
 void run_record(const RecordArgs& args) {
     if (args.out.empty() && args.capture.empty())
-        return usage_error("nothing to write: give --out FILE.csv and/or --capture FILE.pcap");
+        return errors.usage("nothing to write: give --out FILE.csv and/or --capture FILE.pcap");
     if (!args.from.empty() && args.backend != "capture" && args.backend != "rec")
-        return usage_error("--from needs --backend capture or rec");
+        return errors.usage("--from needs --backend capture or rec");
     if (!args.reference_out.empty() && args.backend != "rec")
-        return usage_error("--reference-out needs --backend rec (a recording's lighthouse poses)");
+        return errors.usage("--reference-out needs --backend rec (a recording's lighthouse poses)");
     if (args.fusion != "mahony" && args.backend != "rec")
-        return usage_error("--fusion gyro needs --backend rec");
+        return errors.usage("--fusion gyro needs --backend rec");
     if (!cli::check_outputs("hmdnode record", {{"--out", args.out},
                                                {"--capture", args.capture},
                                                {"--reference-out", args.reference_out}}))
@@ -458,10 +450,10 @@ void run_record(const RecordArgs& args) {
     // A libsurvive recording names its devices (T20, WM0, ...), not by VID:PID.
     if (args.backend == "rec") return run_record_survive(args);
     Result<DeviceFilter> filter = parse_vid_pid(std::string_view(args.device));
-    if (!filter.ok()) return usage_error("--device: " + filter.error().message);
+    if (!filter.ok()) return errors.usage("--device: " + filter.error().message);
     if (args.backend == "capture") return run_record_capture(args, *filter);
     if (args.sim_clock && args.backend != "sim")
-        return usage_error(
+        return errors.usage(
             "--sim-clock needs --backend sim (a real device runs on the real clock)");
 
     SystemClock system_clock;
@@ -476,7 +468,7 @@ void run_record(const RecordArgs& args) {
     WiringKeys keys = WiringKeys::command_line();
     keys.backend = "--backend";
     Result<TrackerBackend> backend = parse_tracker_backend(args.backend, keys);
-    if (!backend.ok()) return usage_error(backend.error().message);
+    if (!backend.ok()) return errors.usage(backend.error().message);
     std::vector<DeviceId> found;
     std::string backend_name, enumerate_error;
     TrackerSpec spec;
@@ -492,11 +484,11 @@ void run_record(const RecordArgs& args) {
         return create_pcap_tee_backend(std::move(b), pcap, clock, rt_offset);
     };
     Result<WiredTracker> wired = make_tracker(spec, clock, keys);
-    if (!wired.ok()) return fail(wired.error().message);
-    if (!enumerate_error.empty()) return fail(enumerate_error);
+    if (!wired.ok()) return errors.fail(wired.error().message);
+    if (!enumerate_error.empty()) return errors.fail(enumerate_error);
     if (found.empty())
-        return fail("no device " + args.device + " found by the " + backend_name +
-                    " backend (plugged in? udev rules: docs/udev.md)");
+        return errors.fail("no device " + args.device + " found by the " + backend_name +
+                           " backend (plugged in? udev rules: docs/udev.md)");
     const DeviceId& id = found.front();
     auto codec = make_codec_for(id.vendor_id, id.product_id);
     const std::string label = format_vid_pid(id.vendor_id, id.product_id) + " (" + codec->name() +
@@ -504,7 +496,7 @@ void run_record(const RecordArgs& args) {
     const std::string via = backend_name + " (" + id.path + ")";
     DeviceTracker& tracker = *wired->device;
     const int64_t start = clock.now_ns();
-    if (Status st = tracker.start(); !st.ok()) return fail(st.error().message);
+    if (Status st = tracker.start(); !st.ok()) return errors.fail(st.error().message);
     const int64_t end = args.duration_s > 0 ? start + s_to_ns(args.duration_s)
                                             : std::numeric_limits<int64_t>::max();
     // --capture alone records a device hmdnode cannot decode: no pose is waited for.

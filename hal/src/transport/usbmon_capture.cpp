@@ -259,8 +259,7 @@ class CaptureTransport final : public Transport {
     void advance() {
         while (cursor_ < cap_->packets.size()) {
             const UsbPacket& u = cap_->packets[cursor_];
-            if (u.bus == bus_ && u.device_address == address_ && u.event == 'C' &&
-                u.transfer_type == 1 && (u.endpoint & 0x80) && u.status == 0 && !u.data.empty())
+            if (u.bus == bus_ && u.device_address == address_ && is_interrupt_in_completion(u))
                 return;
             ++cursor_;
         }

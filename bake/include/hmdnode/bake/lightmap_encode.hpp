@@ -4,8 +4,8 @@
 //  * for the glTF: RGBA8 with the scale in MOZ_lightmap.intensity, either RGBM (what the bake
 //    writes: E = rgb/255 * a/255 * intensity, MOZ_lightmap.extras.encoding "RGBM") or linear
 //    (E = rgb/255 * intensity). The renderer samples the lightmap through a UNORM view
-//    (render/shaders/scene.frag, render/src/gpu_scene.cpp): texels are linear, no sRGB curve, and
-//    decodes RGBM per texel before its bilinear filter.
+//    (render/shaders/scene.frag, render/src/vulkan/gpu_scene.cpp): texels are linear, no sRGB
+//    curve, and decodes RGBM per texel before its bilinear filter.
 // Pixel order everywhere: rows top to bottom (glTF uv (0,0) = top-left), x left to right.
 #pragma once
 

@@ -41,7 +41,7 @@ struct OrientationEvalOptions {
 };
 
 struct ErrorPercentiles {
-    double p50 = 0.0, p95 = 0.0, max = 0.0;  // degrees, nearest rank
+    double p50 = 0.0, p95 = 0.0, max = 0.0;  // degrees, core/percentile.hpp
 };
 
 struct OrientationEval {
@@ -62,7 +62,7 @@ struct OrientationEval {
 Result<OrientationEval> evaluate_orientation(const Trace& reference, const Trace& estimate,
                                              const OrientationEvalOptions& options = {});
 
-// Nearest-rank percentiles of values (any order).
+// Percentiles of values (any order), as core/percentile.hpp defines them (nearest rank).
 ErrorPercentiles error_percentiles(std::vector<double> values);
 
 }  // namespace hmdnode

@@ -56,7 +56,7 @@ class CostWindow {
     bool empty() const { return count_ == 0; }
     size_t size() const { return count_; }
     void clear() { head_ = count_ = 0; }
-    // The p-quantile (0..1, nearest rank rounded up, as core's percentile) of the window;
+    // The p-quantile (0..1) of the window, nearest rank as hmdnode/core/percentile.hpp defines it;
     // `fallback` while it is empty.
     int64_t percentile(double p, int64_t fallback) const;
 

@@ -149,6 +149,7 @@ struct ReplayResult {
     int msaa_samples = 1;  // of the renderer's eye buffers
 };
 
+// Nearest rank (core/percentile.hpp); NaN values are left out.
 Percentiles percentiles(std::vector<double> values);
 // {"p50", "p95", "p99", "max"}, as the report and the daemon's status file write them (null for
 // NaN).

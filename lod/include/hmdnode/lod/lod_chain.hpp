@@ -1,7 +1,7 @@
 // LOD chains for a whole scene: every mesh simplified with one of simplify()'s algorithms, each
 // level's error measured (symmetric Hausdorff distance to level 0, mesh_distance.hpp) and the
 // levels stored as MSFT_lod alternates of the mesh's nodes, ready for save_glb and the runtime
-// selector. Implementation: lod/src/lod_chain.cpp; the tool is `hmdnode lod`
+// selector. Implementation: lod/src/simplify/lod_chain.cpp; the tool is `hmdnode lod`
 // (docs/lod-generation.md).
 //
 // Thread: any; runs on the calling thread except the distance measurement (workers only when

@@ -2,7 +2,8 @@
 // RMS surface distance (with the mean's standard error) from area-weighted surface samples, exact
 // nearest-point queries on a BVH (the Metro method, Cignoni, Rocchini & Scopigno 1998) and a
 // best-first refinement that bounds the Hausdorff distance from above (distance to a surface is
-// 1-Lipschitz). Implementation: lod/src/mesh_distance.cpp; the bounds: docs/lod-generation.md.
+// 1-Lipschitz). Implementation: lod/src/simplify/mesh_distance.cpp; the bounds:
+// docs/lod-generation.md.
 //
 // Thread: any; the measurement uses `threads` threads (default one: the caller's) and returns when
 // they are done.

@@ -1,5 +1,5 @@
 // Input of `hmdnode lod`: a scene from a glTF (.gltf/.glb), OBJ, PLY or OFF file. Implementation:
-// lod/src/mesh_file.cpp.
+// lod/src/simplify/mesh_file.cpp.
 //
 // Thread: any; reads only the given file (and, for glTF, the buffers and images it names).
 #pragma once

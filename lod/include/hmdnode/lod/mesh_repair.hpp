@@ -1,6 +1,6 @@
 // Checks and repairs of input meshes before simplification (`hmdnode lod`): what cannot be
 // repaired safely is rejected with an error naming the primitive and the vertex or index; what
-// can is repaired and counted. Implementation: lod/src/mesh_repair.cpp.
+// can is repaired and counted. Implementation: lod/src/simplify/mesh_repair.cpp.
 //
 // Pure functions over caller-owned data: no I/O, no threads, no globals.
 #pragma once

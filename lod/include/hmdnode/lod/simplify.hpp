@@ -1,18 +1,20 @@
 // Mesh simplification: every algorithm `hmdnode lod` offers (those of Lazányi 2003, Li and Kim 2020
 // and He et al., and the classics they build on: Garland and Heckbert 1997, Melax 1998, Rossignac
 // and Borrel 1993; full citations in docs/references.md) behind one entry point, selectable by name
-// (`hmdnode lod --algorithm NAME`). Each algorithm lives in its own file under lod/src/ that opens
-// with the paper it implements and its cost; lod/src/algorithms.hpp is the private table.
+// (`hmdnode lod --algorithm NAME`). Each algorithm lives in its own file under lod/src/simplify/
+// that opens with the paper it implements and its cost; lod/src/simplify/algorithms.hpp is the
+// private table.
 //
 // Functions over caller-owned data, no I/O; `progress` is called on the calling thread. What a
 // call uses besides the calling thread and its own heap memory is what the caller asks for:
 // - threads: none by default. With SimplifyOptions::threads >= 2, qem and curvature-qem start one
 //   helper thread per call on inputs of 8 192 faces or more (below that their work is not split),
 //   with a CPU affinity that leaves out the caller's core of the moment, and join it
-//   before returning; it sleeps whenever it has no work (lod/src/two_way.hpp). The result is the
-//   same bit for bit with or without it. The other algorithms run on the calling thread only.
+//   before returning; it sleeps whenever it has no work (lod/src/simplify/two_way.hpp). The result
+//   is the same bit for bit with or without it. The other algorithms run on the calling thread
+//   only.
 // - memory: each call allocates its working arrays, O(V + F), and frees them before it returns
-//   (the edge-collapse engine's bytes per face: lod/src/collapse_mesh.hpp). A caller that
+//   (the edge-collapse engine's bytes per face: lod/src/simplify/collapse_mesh.hpp). A caller that
 //   simplifies mesh after mesh may pass a SimplifyScratch (SimplifyOptions::scratch): the large
 //   arrays then come from it and go back to it, up to 64 MiB kept between calls, freed with the
 //   object.

@@ -195,19 +195,19 @@ Result<std::unique_ptr<Renderer>> create_renderer(const RendererConfig& config);
 // window-system extension is used. Errors: no Vulkan driver, no usable device (with the reason
 // per device), an eye buffer beyond the device's limits, out of memory. Creation renders one probe
 // frame to check the driver's multiview; HMDNODE_VK_MULTIVIEW=1 forces the multiview pass, =0 one
-// pass per eye (see render/src/vulkan_renderer.cpp).
+// pass per eye (see render/src/vulkan/vulkan_renderer.cpp).
 Result<std::unique_ptr<Renderer>> create_vulkan_renderer(const RendererConfig& config);
 
 // The OpenGL ES 3 backend on EGL, off-screen: Mesa's surfaceless platform
 // (EGL_MESA_platform_surfaceless) when offered, else the default display with
 // EGL_KHR_surfaceless_context; rendering into framebuffer objects, one pass per eye. Same
-// shading, stereo, late warp and read-back as the Vulkan backend (render/src/gles_renderer.cpp;
-// where the pixels may differ: docs/rendering.md). Needs GL_EXT_texture_sRGB_decode; uses
-// GL_EXT_clip_control (Vulkan's depth range) where offered. With RendererConfig::scanout it runs
-// on EGL's GBM platform (EGL_KHR_platform_gbm) on that DRM device instead and allocates the
-// scan-out ring (render/scanout.hpp). Errors: no EGL display, no OpenGL ES 3 context, a shader the
-// driver rejects, an eye buffer beyond the driver's limits; with scan-out, GBM or EGL failing on
-// the device (the error names it), no format the plane accepts.
+// shading, stereo, late warp and read-back as the Vulkan backend
+// (render/src/gles/gles_renderer.cpp; where the pixels may differ: docs/rendering.md). Needs
+// GL_EXT_texture_sRGB_decode; uses GL_EXT_clip_control (Vulkan's depth range) where offered. With
+// RendererConfig::scanout it runs on EGL's GBM platform (EGL_KHR_platform_gbm) on that DRM device
+// instead and allocates the scan-out ring (render/scanout.hpp). Errors: no EGL display, no OpenGL
+// ES 3 context, a shader the driver rejects, an eye buffer beyond the driver's limits; with
+// scan-out, GBM or EGL failing on the device (the error names it), no format the plane accepts.
 Result<std::unique_ptr<Renderer>> create_gles_renderer(const RendererConfig& config);
 
 }  // namespace hmdnode

@@ -1,6 +1,6 @@
 // VK_KHR_display: the displays a Vulkan driver drives directly (no window system), for
 // display.type "vk-display": listing, choosing, and the present path (a display plane surface
-// and a FIFO swapchain, render/src/vk_display_output.cpp). No Vulkan type appears here.
+// and a FIFO swapchain, render/src/vulkan/vk_display_output.cpp). No Vulkan type appears here.
 #pragma once
 
 #include <memory>

@@ -37,6 +37,15 @@ struct UsbPacket {
     std::vector<uint8_t> data;
 };
 
+// A completed, successful interrupt-IN transfer with data ('C', interrupt, endpoint bit 7 set,
+// status 0, at least one byte): one report as a device's tracker reads it. The one test every
+// reader of a capture uses for that (the capture backend's replay, `hmdnode capture`, the tests
+// and benches); a device's own packets are those of its bus and address besides.
+inline bool is_interrupt_in_completion(const UsbPacket& u) {
+    return u.event == 'C' && u.transfer_type == 1 && (u.endpoint & 0x80) != 0 && u.status == 0 &&
+           !u.data.empty();
+}
+
 struct UsbCapture {
     int link_type = 0;
     std::vector<UsbPacket> packets;  // in file order

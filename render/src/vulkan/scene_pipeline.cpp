@@ -5,6 +5,7 @@
 
 #include <cstddef>
 
+#include "pipeline_state.hpp"
 #include "vk_check.hpp"
 #include "vk_shader.hpp"
 
@@ -76,70 +77,14 @@ Result<ScenePipeline> create_scene_pipeline(const DeviceContext& ctx, VkRenderPa
         {3, 0, VK_FORMAT_R32G32_SFLOAT, uint32_t(offsetof(Vertex, uv1))},
         {4, 0, VK_FORMAT_R32G32B32A32_SFLOAT, uint32_t(offsetof(Vertex, color))},
         {5, 0, VK_FORMAT_R32G32B32_SFLOAT, uint32_t(offsetof(Vertex, light))}};
-    VkPipelineVertexInputStateCreateInfo vertex_input{};
-    vertex_input.sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO;
-    vertex_input.vertexBindingDescriptionCount = 1;
-    vertex_input.pVertexBindingDescriptions = &binding;
-    vertex_input.vertexAttributeDescriptionCount = uint32_t(std::size(attributes));
-    vertex_input.pVertexAttributeDescriptions = attributes;
-
-    VkPipelineInputAssemblyStateCreateInfo assembly{};
-    assembly.sType = VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO;
-    assembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
-
-    VkPipelineViewportStateCreateInfo viewport{};
-    viewport.sType = VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO;
-    viewport.viewportCount = 1;
-    viewport.scissorCount = 1;
-
-    // note: eye_projection() flips y for Vulkan's y-down clip space, so a triangle that is
-    // counter-clockwise in the eye's view stays counter-clockwise in framebuffer coordinates.
-    VkPipelineRasterizationStateCreateInfo raster{};
-    raster.sType = VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO;
-    raster.polygonMode = VK_POLYGON_MODE_FILL;
-    raster.cullMode = VK_CULL_MODE_BACK_BIT;
-    raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
-    raster.lineWidth = 1.0f;
-
-    VkPipelineMultisampleStateCreateInfo multisample{};
-    multisample.sType = VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO;
-    multisample.rasterizationSamples = samples;
-
-    VkPipelineDepthStencilStateCreateInfo depth{};
-    depth.sType = VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO;
-    depth.depthTestEnable = VK_TRUE;
-    depth.depthWriteEnable = VK_TRUE;
-    depth.depthCompareOp = VK_COMPARE_OP_LESS;
-
-    VkPipelineColorBlendAttachmentState blend_attachment{};
-    blend_attachment.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
-                                      VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
-    VkPipelineColorBlendStateCreateInfo blend{};
-    blend.sType = VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO;
-    blend.attachmentCount = 1;
-    blend.pAttachments = &blend_attachment;
-
-    const VkDynamicState dynamic_states[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
-    VkPipelineDynamicStateCreateInfo dynamic{};
-    dynamic.sType = VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO;
-    dynamic.dynamicStateCount = 2;
-    dynamic.pDynamicStates = dynamic_states;
-
-    VkGraphicsPipelineCreateInfo info{};
-    info.sType = VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO;
-    info.stageCount = 2;
-    info.pStages = stages;
-    info.pVertexInputState = &vertex_input;
-    info.pInputAssemblyState = &assembly;
-    info.pViewportState = &viewport;
-    info.pRasterizationState = &raster;
-    info.pMultisampleState = &multisample;
-    info.pDepthStencilState = &depth;
-    info.pColorBlendState = &blend;
-    info.pDynamicState = &dynamic;
-    info.layout = p.layout;
-    info.renderPass = render_pass;
-    info.subpass = 0;
+    GraphicsPipelineState state;  // pipeline_state.hpp: the rest of the fixed function
+    state.vertex_input.vertexBindingDescriptionCount = 1;
+    state.vertex_input.pVertexBindingDescriptions = &binding;
+    state.vertex_input.vertexAttributeDescriptionCount = uint32_t(std::size(attributes));
+    state.vertex_input.pVertexAttributeDescriptions = attributes;
+    state.multisample.rasterizationSamples = samples;
+    state.depth_test = true;
+    const VkGraphicsPipelineCreateInfo info = state.create_info(stages, p.layout, render_pass);
 
     // The fragment shader's kDithered (constant_id 0, a 32-bit bool).
     const VkSpecializationMapEntry dithered_entry{0, 0, sizeof(VkBool32)};
@@ -150,12 +95,12 @@ Result<ScenePipeline> create_scene_pipeline(const DeviceContext& ctx, VkRenderPa
     VkPipeline pipeline = VK_NULL_HANDLE;
     for (VkBool32 d : {VK_FALSE, VK_TRUE}) {
         dithered = d;
-        raster.cullMode = VK_CULL_MODE_BACK_BIT;
+        state.raster.cullMode = VK_CULL_MODE_BACK_BIT;
         HMDNODE_VK_TRY(
             vkCreateGraphicsPipelines(ctx.device, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline),
             "vkCreateGraphicsPipelines (single-sided)");
         (d ? p.single_sided_dithered : p.single_sided) = Pipeline(ctx.device, pipeline);
-        raster.cullMode = VK_CULL_MODE_NONE;
+        state.raster.cullMode = VK_CULL_MODE_NONE;
         HMDNODE_VK_TRY(
             vkCreateGraphicsPipelines(ctx.device, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline),
             "vkCreateGraphicsPipelines (double-sided)");

@@ -1,5 +1,5 @@
 // simplify(): the table of algorithms (name -> entry point) and the checks of its arguments.
-// Each algorithm is in its own file; lod/src/algorithms.hpp declares the entry points. The
+// Each algorithm is in its own file; lod/src/simplify/algorithms.hpp declares the entry points. The
 // sources below are short author-year forms (`hmdnode lod --list-algorithms` prints them); each
 // algorithm file opens with its full citation, and docs/references.md lists them all.
 //
