@@ -214,10 +214,11 @@ void read_node(Reader& r, const json& j, DaemonConfig& c) {
             n, "node",
             {"ipd_m", "predict", "prediction_ms", "lod_tolerance_px", "lod_bias", "head_height_m",
              "warp", "distortion", "headset", "mesh", "lod_allocator", "lod_fade_frames",
-             "lens_pass", "pixel_ladder", "min_render_scale", "max_render_divisor"})) {
+             "lens_pass", "pixel_ladder", "min_render_scale", "max_render_divisor", "cpu_wake"})) {
         std::string headset;
         std::string allocator = lod_allocator_name(c.node.lod_allocator);
         std::string lens_pass = lens_pass_choice_name(c.node.lens_pass);
+        std::string cpu_wake = cpu_wake_name(c.node.cpu_wake);
         int mesh = c.node.mesh_cols;
         r.get(n, "ipd_m", &c.node.rig.ipd_m);
         r.get(n, "predict", &c.node.predict);
@@ -235,6 +236,11 @@ void read_node(Reader& r, const json& j, DaemonConfig& c) {
         r.get(n, "pixel_ladder", &c.node.pixel_ladder);
         r.get(n, "min_render_scale", &c.node.min_render_scale);
         r.get(n, "max_render_divisor", &c.node.pacing.max_divisor);
+        r.get(n, "cpu_wake", &cpu_wake);
+        if (std::optional<CpuWake> w = parse_cpu_wake(cpu_wake))
+            c.node.cpu_wake = *w;
+        else
+            r.fail("node.cpu_wake \"" + cpu_wake + "\" is not auto, qos, spin or off");
         if (std::optional<LensPassChoice> p = parse_lens_pass_choice(lens_pass))
             c.node.lens_pass = *p;
         else

@@ -27,6 +27,10 @@ Result<std::unique_ptr<AssembledNode>> make_node(const NodeSpec& spec, const Sce
     n->spec_ = spec;
     const WiringKeys& keys = n->spec_.keys;
     n->clock_ = make_clock(spec.clock);
+    // Before the renderer exists: its worker threads and the start-up calibration run with the
+    // cores awake, as the frame loop will.
+    if (!n->clock_->is_simulated() && spec.node.cpu_wake != CpuWake::off)
+        n->cpu_wake_ = CpuWakeGuard::start(spec.node.cpu_wake);
     n->host_start_ns_ = n->clock_->now_ns();
     Result<WiredTracker> wired = make_tracker(spec.tracker, *n->clock_, keys);
     if (!wired.ok()) return fail(NodePart::tracker, wired.error());

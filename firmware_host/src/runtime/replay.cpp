@@ -337,6 +337,7 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
             : 0.0;
     s.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
     s.lens_pass = node.lens_pass();
+    s.cpu_wake = parts.cpu_wake();
     s.pass_times = node.pass_times();
     for (const LadderStep& st : node.ladder().steps())
         s.ladder.push_back({st.name, st.scale, st.chromatic, 0, 0});
@@ -411,6 +412,7 @@ nlohmann::json replay_summary_json(const ReplaySummary& s) {
             {"gaze_source", gaze_source_summary(s)},
             {"gaze_frames", s.gaze_frames},
             {"lens_pass", s.lens_pass},
+            {"cpu_wake", s.cpu_wake},
             {"pass_ms",
              {{"fused", finite_or_null(s.pass_times.fused_ms)},
               {"mesh", finite_or_null(s.pass_times.mesh_ms)},
@@ -511,6 +513,7 @@ std::string lens_pass_summary(const ReplaySummary& s) {
                   s.lens_pass.c_str(), ms(s.pass_times.fused_ms).c_str(),
                   ms(s.pass_times.mesh_ms).c_str(), ms(s.pass_times.floor_ms).c_str());
     out << buf;
+    if (s.cpu_wake != "off") out << "; cores kept awake: " << s.cpu_wake;
     if (std::isfinite(s.mtp_floor_ms)) {
         std::snprintf(buf, sizeof buf,
                       "; motion-to-photon floor %.2f ms (photon offset + latch + pass p99 + "

@@ -164,4 +164,26 @@ std::optional<LodAllocator> parse_lod_allocator(std::string_view name) {
     return std::nullopt;
 }
 
+// The cores-awake choice (cpu_wake.hpp): here beside the other names, so that the config reader
+// links without the runtime.
+const char* cpu_wake_name(CpuWake w) {
+    switch (w) {
+        case CpuWake::off:
+            return "off";
+        case CpuWake::automatic:
+            return "auto";
+        case CpuWake::qos:
+            return "qos";
+        case CpuWake::spin:
+            return "spin";
+    }
+    return "off";
+}
+
+std::optional<CpuWake> parse_cpu_wake(std::string_view name) {
+    for (CpuWake w : {CpuWake::off, CpuWake::automatic, CpuWake::qos, CpuWake::spin})
+        if (name == cpu_wake_name(w)) return w;
+    return std::nullopt;
+}
+
 }  // namespace hmdnode

@@ -30,6 +30,7 @@ void add_replay_command(CLI::App& app) {
     auto capture = std::make_shared<std::string>();
     auto eye_tracker = std::make_shared<std::string>("none");
     auto lens_pass = std::make_shared<std::string>("auto");
+    auto cpu_wake = std::make_shared<std::string>("auto");
     auto no_ladder = std::make_shared<bool>(false);
 
     CLI::App* c = app.add_subcommand("replay",
@@ -125,6 +126,13 @@ void add_replay_command(CLI::App& app) {
                   "triangle per eye), mesh (the distortion mesh), or auto (fused unless the "
                   "start-up calibration measures the mesh at least 10 % faster)")
         ->check(CLI::IsMember({"auto", "fused", "mesh"}));
+    c->add_option("--cpu-wake", *cpu_wake,
+                  "System clock: keep the cores awake while the node runs, so the renderer's "
+                  "threads do not pay a core's wake-up inside a warp: qos (PM QoS, "
+                  "/dev/cpu_dma_latency at 0 us; root), spin (an idle-class spinning thread per "
+                  "core: takes no time from others, costs power), auto (qos where a cpuidle driver "
+                  "is present, else spin) or off")
+        ->check(CLI::IsMember({"auto", "qos", "spin", "off"}));
     c->add_flag("--no-ladder", *no_ladder,
                 "No pixel-cost ladder: full eye-buffer resolution and chromatic-aberration "
                 "correction always (docs/latency.md)");
@@ -200,6 +208,7 @@ void add_replay_command(CLI::App& app) {
         o.node.distortion = !*no_distortion;
         o.node.mesh_cols = o.node.mesh_rows = *mesh;
         o.node.lens_pass = *parse_lens_pass_choice(*lens_pass);  // checked by IsMember
+        o.node.cpu_wake = *parse_cpu_wake(*cpu_wake);            // checked by IsMember
         o.node.pixel_ladder = !*no_ladder;
         if (!headset->empty()) {
             Result<HeadsetProfile> p = load_headset_profile(*headset);

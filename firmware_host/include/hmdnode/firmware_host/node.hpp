@@ -22,6 +22,7 @@
 #include "hmdnode/core/scene.hpp"
 #include "hmdnode/core/stereo.hpp"
 #include "hmdnode/core/time.hpp"
+#include "hmdnode/firmware_host/cpu_wake.hpp"
 #include "hmdnode/firmware_host/frame_pacer.hpp"
 #include "hmdnode/firmware_host/pose_history.hpp"
 #include "hmdnode/hal/display.hpp"
@@ -117,6 +118,11 @@ struct NodeConfig {
     double warp_fov_margin = 0.1;  // the eye buffers cover this much more per side (fraction of
                                    // the panel's tangent span) so a late rotation finds pixels
     LensPassChoice lens_pass = LensPassChoice::automatic;
+    // Whether the cores are kept awake while the node runs on the system clock (cpu_wake.hpp):
+    // PM QoS or idle-class spinning threads, so a renderer's worker threads do not pay a core's
+    // wake-up in the middle of a warp. The assembly (make_node) holds it; the simulated clock
+    // never does.
+    CpuWake cpu_wake = CpuWake::automatic;
     // The pixel-cost ladder (frame_pacer.hpp): eye-buffer resolution down to min_render_scale per
     // axis, then chromatic-aberration correction off, when a frame does not fit its budget. Off:
     // always full resolution with the correction on.

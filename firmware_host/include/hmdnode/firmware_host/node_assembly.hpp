@@ -12,6 +12,7 @@
 
 #include "hmdnode/core/result.hpp"
 #include "hmdnode/core/scene.hpp"
+#include "hmdnode/firmware_host/cpu_wake.hpp"
 #include "hmdnode/firmware_host/node.hpp"
 #include "hmdnode/firmware_host/wiring.hpp"
 
@@ -72,6 +73,8 @@ class AssembledNode {
     const NodeSpec& spec() const { return spec_; }
     bool zero_copy() const { return zero_copy_; }  // kms + gles: GBM zero-copy scan-out
     ReadBack read_back() const { return read_back_; }
+    // What keeps the cores awake (spec.node.cpu_wake on the system clock), or "off".
+    std::string cpu_wake() const { return cpu_wake_ ? cpu_wake_->description() : "off"; }
     int64_t host_start_ns() const { return host_start_ns_; }  // the clock's now at the tracker's
 
     // One present (NodeRuntime::run_frame), with the read-back the rule asks for.
@@ -100,7 +103,8 @@ class AssembledNode {
     bool zero_copy_ = false;
     ReadBack read_back_ = ReadBack::none;
     uint64_t presents_ = 0;  // written_presents: presents so far (the mock display's index)
-    std::unique_ptr<NodeRuntime> runtime_;  // last: destroyed before what it refers to
+    std::unique_ptr<CpuWakeGuard> cpu_wake_;  // held from before the renderer's start-up
+    std::unique_ptr<NodeRuntime> runtime_;    // last: destroyed before what it refers to
 };
 
 }  // namespace hmdnode

@@ -102,6 +102,7 @@ struct ReplaySummary {
     // motion-to-photon floor: photon offset + latch + the pass's p99 + the tracker's latency.
     std::string lens_pass;
     NodeRuntime::PassTimes pass_times;
+    std::string cpu_wake = "off";  // what kept the cores awake (cpu_wake.hpp)
     struct LadderShare {
         std::string name;
         double scale = 1.0;
