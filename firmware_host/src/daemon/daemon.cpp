@@ -108,6 +108,7 @@ std::optional<int> Daemon::assemble() {
 // progress systemd's start timeout is extended (a start that hangs still times out).
 std::optional<int> Daemon::calibrate() {
     NodeRuntime& node = node_->runtime();
+    spdlog::info("cores kept awake: {}", node_->cpu_wake());
     int steps = 0;
     auto calibrating = [&, next_extend = WallClock::now()]() mutable {
         if (*signals_.stop) return false;
