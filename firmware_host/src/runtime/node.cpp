@@ -520,7 +520,9 @@ Result<FrameCostModel> NodeRuntime::calibrate_frame_cost(const std::function<boo
             auto t = time_warps(15, go_on);
             renderer_.set_chromatic_aberration(true);
             if (!t.ok()) return t.error();
-            model.warp_mono_ns = *t;
+            // One sample per pixel never costs more than three: a mono pass timed above the full
+            // one met a slower moment of the machine, not a dearer pass.
+            model.warp_mono_ns = std::min(*t, model.warp_ns);
         }
         if (!clock_.is_simulated()) {
             for (int i = 0; i < 8; ++i) {
@@ -735,7 +737,7 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
                                                      latch - info.period_ns / 2));
         open_wake_ns_ = target - latch - need;
         // (Never when a typical warp alone takes a period: nothing else would run.)
-        if (config_.warp && has_frame_ && pacer_.warp_typical() < info.period_ns - latch) {
+        if (config_.warp && has_frame_ && pacer_.warp_typical() < info.period_ns) {
             const int64_t v_any = display_.free_vsync_ns(now + warp_est + margin);
             // A vsync the plan cannot reach (its warp should have started already) but a typical
             // warp started now still makes is re-warped for at once: otherwise it certainly goes
