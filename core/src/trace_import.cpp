@@ -316,463 +316,548 @@ glm::dquat quat_from_yaw_pitch_roll(double yaw, double pitch, double roll) {
            glm::angleAxis(roll, glm::dvec3(0, 0, 1));
 }
 
-}  // namespace
+// The importer's state from one step to the next: the table's layout (step 1), the columns and
+// options (step 2), and what the rows so far leave for the next one and the account (step 3).
+class TableImporter {
+  public:
+    TableImporter(const std::vector<Line>& lines, const std::string& source,
+                  const TraceImportOptions& options, TraceImportReport& rep)
+        : lines_(lines), source_(source), options_(options), rep_(rep) {}
 
-Result<Trace> import_trace_text(const std::string& text, const std::string& source,
-                                const TraceImportOptions& options, TraceImportReport* out_report) {
-    TraceImportReport local;
-    TraceImportReport& rep = out_report ? *out_report : local;
-    rep = TraceImportReport{};
-    const std::vector<Line> lines = trace_text::split_lines(text);
+    Result<Trace> run() {
+        if (Status s = find_table(); !s.ok()) return s.error();
+        if (Status s = choose_columns(); !s.ok()) return s.error();
+        Trace trace;
+        if (Status s = read_rows(trace); !s.ok()) return s.error();
+        add_account_notes();
+        if (Status s = check_time_plausible(trace); !s.ok()) return s.error();
+        add_trace_comments(trace);
+        return trace;
+    }
+
+  private:
+    enum class Step { keep, drop };
 
     // 1. Lines to skip, separator, first data row, column names.
-    size_t from = 0;
-    if (options.header_lines >= 0)
-        while (from < lines.size() && lines[from].number <= size_t(options.header_lines)) ++from;
-    Result<Separator> sep_r = choose_separator(lines, from, options.separator, source);
-    if (!sep_r.ok()) return sep_r.error();
-    const Separator sep = *sep_r;
-    rep.separator = sep.name;
-    rep.notes.push_back("separator: " + sep.name);
+    Status find_table() {
+        size_t from = 0;
+        if (options_.header_lines >= 0)
+            while (from < lines_.size() && lines_[from].number <= size_t(options_.header_lines))
+                ++from;
+        Result<Separator> sep_r = choose_separator(lines_, from, options_.separator, source_);
+        if (!sep_r.ok()) return sep_r.error();
+        sep_ = *sep_r;
+        rep_.separator = sep_.name;
+        rep_.notes.push_back("separator: " + sep_.name);
 
-    std::vector<std::string_view> fields;
-    std::optional<size_t> names_at;  // index into lines
-    size_t data_at = lines.size();
-    if (options.header_lines >= 0) {
-        size_t i = from;
-        while (i < lines.size() && trace_text::is_blank(lines[i].text)) ++i;
-        if (i < lines.size()) {
-            split_fields(lines[i].text, sep, fields);
-            if (trace_text::is_comment(lines[i].text) || !all_numeric(fields)) names_at = i++;
-        }
-        while (i < lines.size() &&
-               (trace_text::is_blank(lines[i].text) || trace_text::is_comment(lines[i].text)))
-            ++i;
-        data_at = i;
-    } else {
-        std::optional<size_t> first = first_numeric_row(lines, 0, sep);
-        if (!first) return make_error(source + ": no row of numbers found");
-        data_at = *first;
-        // The names: the last line before the data with as many fields as the rows ('#' removed).
-        split_fields(lines[data_at].text, sep, fields);
-        const size_t n = fields.size();
-        std::optional<size_t> last_nonblank;
-        for (size_t i = data_at; i-- > 0;) {
-            if (trace_text::is_blank(lines[i].text)) continue;
-            if (!last_nonblank) last_nonblank = i;
-            split_fields(strip_hash(lines[i].text), sep, fields);
-            if (fields.size() == n) {
-                names_at = i;
-                break;
+        std::optional<size_t> names_at;  // index into lines
+        data_at_ = lines_.size();
+        if (options_.header_lines >= 0) {
+            size_t i = from;
+            while (i < lines_.size() && trace_text::is_blank(lines_[i].text)) ++i;
+            if (i < lines_.size()) {
+                split_fields(lines_[i].text, sep_, fields_);
+                if (trace_text::is_comment(lines_[i].text) || !all_numeric(fields_)) names_at = i++;
             }
-        }
-        if (!names_at) names_at = last_nonblank;  // named in the note below
-    }
-    if (data_at >= lines.size()) return make_error(source + ": no data rows");
-    for (size_t i = 0; i < data_at; ++i)
-        if (!trace_text::is_blank(lines[i].text)) ++rep.header_lines_skipped;
-
-    split_fields(lines[data_at].text, sep, fields);
-    const size_t n_fields = fields.size();
-    std::vector<ColumnName> names;
-    if (names_at) {
-        split_fields(strip_hash(lines[*names_at].text), sep, fields);
-        if (fields.size() == n_fields) {
-            for (std::string_view f : fields) names.push_back(make_name(f));
-            rep.notes.push_back("column names from line " +
-                                std::to_string(lines[*names_at].number) + "; data from line " +
-                                std::to_string(lines[data_at].number));
+            while (i < lines_.size() &&
+                   (trace_text::is_blank(lines_[i].text) || trace_text::is_comment(lines_[i].text)))
+                ++i;
+            data_at_ = i;
         } else {
-            rep.notes.push_back("line " + std::to_string(lines[*names_at].number) + " has " +
-                                std::to_string(fields.size()) + " fields but rows have " +
-                                std::to_string(n_fields) +
-                                ": no column names, columns are addressed by 0-based index");
+            std::optional<size_t> first = first_numeric_row(lines_, 0, sep_);
+            if (!first) return make_error(source_ + ": no row of numbers found");
+            data_at_ = *first;
+            // The names: the last line before the data with as many fields as the rows ('#'
+            // removed).
+            split_fields(lines_[data_at_].text, sep_, fields_);
+            const size_t n = fields_.size();
+            std::optional<size_t> last_nonblank;
+            for (size_t i = data_at_; i-- > 0;) {
+                if (trace_text::is_blank(lines_[i].text)) continue;
+                if (!last_nonblank) last_nonblank = i;
+                split_fields(strip_hash(lines_[i].text), sep_, fields_);
+                if (fields_.size() == n) {
+                    names_at = i;
+                    break;
+                }
+            }
+            if (!names_at) names_at = last_nonblank;  // named in the note below
         }
-    } else {
-        rep.notes.push_back("no header line: columns are addressed by 0-based index");
+        if (data_at_ >= lines_.size()) return make_error(source_ + ": no data rows");
+        for (size_t i = 0; i < data_at_; ++i)
+            if (!trace_text::is_blank(lines_[i].text)) ++rep_.header_lines_skipped;
+        read_column_names(names_at);
+        return {};
+    }
+
+    void read_column_names(std::optional<size_t> names_at) {
+        split_fields(lines_[data_at_].text, sep_, fields_);
+        n_fields_ = fields_.size();
+        if (names_at) {
+            split_fields(strip_hash(lines_[*names_at].text), sep_, fields_);
+            if (fields_.size() == n_fields_) {
+                for (std::string_view f : fields_) names_.push_back(make_name(f));
+                rep_.notes.push_back("column names from line " +
+                                     std::to_string(lines_[*names_at].number) +
+                                     "; data from line " + std::to_string(lines_[data_at_].number));
+            } else {
+                rep_.notes.push_back("line " + std::to_string(lines_[*names_at].number) + " has " +
+                                     std::to_string(fields_.size()) + " fields but rows have " +
+                                     std::to_string(n_fields_) +
+                                     ": no column names, columns are addressed by 0-based index");
+            }
+        } else {
+            rep_.notes.push_back("no header line: columns are addressed by 0-based index");
+        }
     }
 
     // 2. Columns.
-    std::optional<Column> time_col;
-    std::optional<long double> ns_per;
-    std::string unit_how;
-    if (lower(options.time_column) == "auto" || options.time_column.empty()) {
-        std::optional<TimeGuess> g = guess_time_column(names);
-        if (!g)
-            return make_error(source +
-                              ": no time column found (looked for time, timestamp, t, ts, with an "
-                              "optional _s/_ms/_us/_ns suffix); name it with --time-column" +
-                              (names.empty() ? "" : " (columns: " + list_names(names) + ")"));
-        time_col = g->column;
-        ns_per = g->ns_per_unit;
-        if (ns_per) unit_how = "from the column name";
-    } else {
-        Result<Column> c = resolve_column(options.time_column, names, n_fields, "time", source);
-        if (!c.ok()) return c.error();
-        time_col = *c;
-        if (c->index < names.size()) {
-            ns_per = unit_of_column(names[c->index]);
+    Status choose_columns() {
+        if (Status s = choose_time_column(); !s.ok()) return s;
+        if (Status s = choose_frame(); !s.ok()) return s;
+        if (Status s = check_row_options(); !s.ok()) return s;
+        if (Status s = choose_orientation_columns(); !s.ok()) return s;
+        if (Status s = choose_position_columns(); !s.ok()) return s;
+        return claim_columns();
+    }
+
+    Status choose_time_column() {
+        std::optional<long double> ns_per;
+        std::string unit_how;
+        if (lower(options_.time_column) == "auto" || options_.time_column.empty()) {
+            std::optional<TimeGuess> g = guess_time_column(names_);
+            if (!g)
+                return make_error(
+                    source_ +
+                    ": no time column found (looked for time, timestamp, t, ts, with an "
+                    "optional _s/_ms/_us/_ns suffix); name it with --time-column" +
+                    (names_.empty() ? "" : " (columns: " + list_names(names_) + ")"));
+            time_col_ = g->column;
+            ns_per = g->ns_per_unit;
             if (ns_per) unit_how = "from the column name";
+        } else {
+            Result<Column> c =
+                resolve_column(options_.time_column, names_, n_fields_, "time", source_);
+            if (!c.ok()) return c.error();
+            time_col_ = *c;
+            if (c->index < names_.size()) {
+                ns_per = unit_of_column(names_[c->index]);
+                if (ns_per) unit_how = "from the column name";
+            }
         }
+        if (!options_.time_unit.empty()) {
+            ns_per = ns_per_unit(lower(options_.time_unit));
+            if (!ns_per)
+                return make_error("time unit " + in_quotes(options_.time_unit) +
+                                  " is not one of s, ms, us, ns");
+            unit_how = "as given";
+        } else if (options_.time_scale_to_s != 0.0) {
+            if (!(options_.time_scale_to_s > 0.0) || !std::isfinite(options_.time_scale_to_s))
+                return make_error("time scale " + fmt("%g", options_.time_scale_to_s) +
+                                  " is not a positive number of seconds per unit");
+            long double s = (long double)options_.time_scale_to_s * 1e9L;
+            // note: 1e-7 as a double is not exactly 1e-7; snap near-integers so 100 ns ticks stay
+            // exact.
+            long double r = std::round(s);
+            if (r >= 1.0L && std::abs(s - r) <= r * 1e-12L) s = r;
+            ns_per = s;
+            unit_how = "as given";
+        } else if (!ns_per) {
+            ns_per = 1e9L;
+            unit_how = "assumed: the column name gives no unit";
+        }
+        ns_per_ = *ns_per;
+        rep_.notes.push_back("time: " + time_col_.label + ", " + unit_name(ns_per_) + " (" +
+                             unit_how + ")");
+        return {};
     }
-    if (!options.time_unit.empty()) {
-        ns_per = ns_per_unit(lower(options.time_unit));
-        if (!ns_per)
-            return make_error("time unit " + in_quotes(options.time_unit) +
-                              " is not one of s, ms, us, ns");
-        unit_how = "as given";
-    } else if (options.time_scale_to_s != 0.0) {
-        if (!(options.time_scale_to_s > 0.0) || !std::isfinite(options.time_scale_to_s))
-            return make_error("time scale " + fmt("%g", options.time_scale_to_s) +
-                              " is not a positive number of seconds per unit");
-        long double s = (long double)options.time_scale_to_s * 1e9L;
-        // note: 1e-7 as a double is not exactly 1e-7; snap near-integers so 100 ns ticks stay
-        // exact.
-        long double r = std::round(s);
-        if (r >= 1.0L && std::abs(s - r) <= r * 1e-12L) s = r;
-        ns_per = s;
-        unit_how = "as given";
-    } else if (!ns_per) {
-        ns_per = 1e9L;
-        unit_how = "assumed: the column name gives no unit";
-    }
-    rep.notes.push_back("time: " + time_col->label + ", " + unit_name(*ns_per) + " (" + unit_how +
-                        ")");
 
     // Source axes -> hmdnode axes (+Y up, -Z forward, +X right).
-    std::optional<glm::dquat> frame_change;
-    bool mirror_z = false;  // a left-handed source: the reflection z -> -z
-    const std::string frame = lower(options.source_frame);
-    if (frame == "unity" || frame == "left-handed-y-up-z-forward") {
-        // Unity, HoloLens, Quest (OpenXR via Unity): left-handed, +Y up, +Z forward, +X right.
-        // The reflection M = diag(1, 1, -1) takes its axes to ours: p' = M p and R' = M R M, which
-        // for a quaternion (w, x, y, z) is (w, -x, -y, z) (a reflection flips the axis' sign
-        // except along the mirror's normal).
-        mirror_z = true;
-        rep.notes.push_back(
-            "axes: source left-handed +Y up, +Z forward, +X right (Unity) mirrored to +Y up, "
-            "-Z forward, +X right");
-    } else if (frame == "z-up-x-forward") {
-        glm::dmat3 m(0.0);  // columns: where the source's x (forward), y (left), z (up) go
-        m[0] = glm::dvec3(0, 0, -1);
-        m[1] = glm::dvec3(-1, 0, 0);
-        m[2] = glm::dvec3(0, 1, 0);
-        frame_change = glm::quat_cast(m);
-        rep.notes.push_back(
-            "axes: source +Z up, +X forward, +Y left converted to +Y up, -Z forward, +X right");
-    } else if (frame != "hmdnode") {
-        return make_error("source frame " + in_quotes(options.source_frame) +
-                          " is not one of: hmdnode, z-up-x-forward, unity");
-    }
-    const std::string on_fast = lower(options.on_fast_rotation);
-    if (on_fast != "report" && on_fast != "drop" && on_fast != "refuse")
-        return make_error("on fast rotation " + in_quotes(options.on_fast_rotation) +
-                          " is not one of: report, drop, refuse");
-    if (!(options.max_angular_speed_deg_s > 0.0))
-        return make_error("the angular speed limit must be positive (deg/s)");
-    if (!(options.quat_norm_tolerance > 0.0 && options.quat_norm_tolerance < 1.0))
-        return make_error("the quaternion norm tolerance must be within (0, 1)");
-    {}
-    std::vector<Column> quat_cols, euler_cols, pos_cols;
-    std::string order = lower(options.quat_order);
-    if (order != "wxyz" && order != "xyzw")
-        return make_error("quaternion order " + in_quotes(options.quat_order) +
-                          " is not wxyz or xyzw");
-    bool euler_degrees = options.euler_degrees;
-    if (!options.quat_columns.empty() && !options.euler_columns.empty())
-        return make_error("give quaternion columns or Euler columns, not both");
-    if (!options.quat_columns.empty()) {
-        auto r = resolve_columns(options.quat_columns, 4, names, n_fields, "quaternion", source);
-        if (!r.ok()) return r.error();
-        quat_cols = *r;
-        // Stored as w, x, y, z.
-        if (order == "xyzw") std::rotate(quat_cols.begin(), quat_cols.begin() + 3, quat_cols.end());
-    } else if (!options.euler_columns.empty()) {
-        auto r = resolve_columns(options.euler_columns, 3, names, n_fields, "Euler angles", source);
-        if (!r.ok()) return r.error();
-        euler_cols = *r;
-    } else {
-        for (auto keys :
-             {std::initializer_list<std::string_view>{"qw", "qx", "qy", "qz"},
-              std::initializer_list<std::string_view>{"w", "x", "y", "z"},
-              std::initializer_list<std::string_view>{"quat_w", "quat_x", "quat_y", "quat_z"}}) {
-            quat_cols = find_named(names, keys);
-            if (!quat_cols.empty()) break;
+    Status choose_frame() {
+        const std::string frame = lower(options_.source_frame);
+        if (frame == "unity" || frame == "left-handed-y-up-z-forward") {
+            // Unity, HoloLens, Quest (OpenXR via Unity): left-handed, +Y up, +Z forward, +X
+            // right. The reflection M = diag(1, 1, -1) takes its axes to ours: p' = M p and
+            // R' = M R M, which for a quaternion (w, x, y, z) is (w, -x, -y, z) (a reflection
+            // flips the axis' sign except along the mirror's normal).
+            mirror_z_ = true;
+            rep_.notes.push_back(
+                "axes: source left-handed +Y up, +Z forward, +X right (Unity) mirrored to +Y up, "
+                "-Z forward, +X right");
+        } else if (frame == "z-up-x-forward") {
+            glm::dmat3 m(0.0);  // columns: where the source's x (forward), y (left), z (up) go
+            m[0] = glm::dvec3(0, 0, -1);
+            m[1] = glm::dvec3(-1, 0, 0);
+            m[2] = glm::dvec3(0, 1, 0);
+            frame_change_ = glm::quat_cast(m);
+            rep_.notes.push_back(
+                "axes: source +Z up, +X forward, +Y left converted to +Y up, -Z forward, +X right");
+        } else if (frame != "hmdnode") {
+            return make_error("source frame " + in_quotes(options_.source_frame) +
+                              " is not one of: hmdnode, z-up-x-forward, unity");
         }
-        if (quat_cols.empty()) euler_cols = find_named(names, {"yaw", "pitch", "roll"});
-        if (quat_cols.empty() && euler_cols.empty())
-            return make_error(source +
-                              ": no orientation columns found (looked for qw,qx,qy,qz / w,x,y,z / "
-                              "yaw,pitch,roll); name them with --quat-columns or --euler-columns" +
-                              (names.empty() ? "" : " (columns: " + list_names(names) + ")"));
-    }
-    if (!quat_cols.empty())
-        rep.notes.push_back("orientation: quaternion w,x,y,z from " + labels(quat_cols));
-    else
-        rep.notes.push_back("orientation: Euler yaw, pitch, roll in " +
-                            std::string(euler_degrees ? "degrees" : "radians") + " from " +
-                            labels(euler_cols) + " (q = Ry(yaw) * Rx(pitch) * Rz(roll))");
-
-    if (!options.position_columns.empty()) {
-        auto r = resolve_columns(options.position_columns, 3, names, n_fields, "position", source);
-        if (!r.ok()) return r.error();
-        pos_cols = *r;
-    } else {
-        for (auto keys :
-             {std::initializer_list<std::string_view>{"px", "py", "pz"},
-              std::initializer_list<std::string_view>{"pos_x", "pos_y", "pos_z"},
-              std::initializer_list<std::string_view>{"position_x", "position_y", "position_z"},
-              std::initializer_list<std::string_view>{"tx", "ty", "tz"},
-              std::initializer_list<std::string_view>{"x", "y", "z"}}) {
-            pos_cols = find_named(names, keys);
-            if (pos_cols.empty()) continue;
-            // note: x,y,z are a position only when the quaternion does not use them.
-            bool taken = std::any_of(pos_cols.begin(), pos_cols.end(), [&](const Column& p) {
-                return std::any_of(quat_cols.begin(), quat_cols.end(),
-                                   [&](const Column& q) { return q.index == p.index; });
-            });
-            if (!taken) break;
-            pos_cols.clear();
-        }
-    }
-    if (!pos_cols.empty()) rep.notes.push_back("position (metres): " + labels(pos_cols));
-
-    std::vector<bool> used(n_fields, false);
-    auto use = [&](const Column& c) -> Status {
-        if (used[c.index])
-            return make_error(source + ": " + c.label + " is given for two different quantities");
-        used[c.index] = true;
         return {};
-    };
-    for (const std::vector<Column>* group : {&quat_cols, &euler_cols, &pos_cols})
-        for (const Column& c : *group)
-            if (Status s = use(c); !s.ok()) return s.error();
-    if (Status s = use(*time_col); !s.ok()) return s.error();
-    {
+    }
+
+    Status check_row_options() {
+        on_fast_ = lower(options_.on_fast_rotation);
+        if (on_fast_ != "report" && on_fast_ != "drop" && on_fast_ != "refuse")
+            return make_error("on fast rotation " + in_quotes(options_.on_fast_rotation) +
+                              " is not one of: report, drop, refuse");
+        if (!(options_.max_angular_speed_deg_s > 0.0))
+            return make_error("the angular speed limit must be positive (deg/s)");
+        if (!(options_.quat_norm_tolerance > 0.0 && options_.quat_norm_tolerance < 1.0))
+            return make_error("the quaternion norm tolerance must be within (0, 1)");
+        return {};
+    }
+
+    Status choose_orientation_columns() {
+        std::string order = lower(options_.quat_order);
+        if (order != "wxyz" && order != "xyzw")
+            return make_error("quaternion order " + in_quotes(options_.quat_order) +
+                              " is not wxyz or xyzw");
+        if (!options_.quat_columns.empty() && !options_.euler_columns.empty())
+            return make_error("give quaternion columns or Euler columns, not both");
+        if (!options_.quat_columns.empty()) {
+            auto r =
+                resolve_columns(options_.quat_columns, 4, names_, n_fields_, "quaternion", source_);
+            if (!r.ok()) return r.error();
+            quat_cols_ = *r;
+            // Stored as w, x, y, z.
+            if (order == "xyzw")
+                std::rotate(quat_cols_.begin(), quat_cols_.begin() + 3, quat_cols_.end());
+        } else if (!options_.euler_columns.empty()) {
+            auto r = resolve_columns(options_.euler_columns, 3, names_, n_fields_, "Euler angles",
+                                     source_);
+            if (!r.ok()) return r.error();
+            euler_cols_ = *r;
+        } else {
+            for (auto keys : {std::initializer_list<std::string_view>{"qw", "qx", "qy", "qz"},
+                              std::initializer_list<std::string_view>{"w", "x", "y", "z"},
+                              std::initializer_list<std::string_view>{"quat_w", "quat_x", "quat_y",
+                                                                      "quat_z"}}) {
+                quat_cols_ = find_named(names_, keys);
+                if (!quat_cols_.empty()) break;
+            }
+            if (quat_cols_.empty()) euler_cols_ = find_named(names_, {"yaw", "pitch", "roll"});
+            if (quat_cols_.empty() && euler_cols_.empty())
+                return make_error(
+                    source_ +
+                    ": no orientation columns found (looked for qw,qx,qy,qz / w,x,y,z / "
+                    "yaw,pitch,roll); name them with --quat-columns or --euler-columns" +
+                    (names_.empty() ? "" : " (columns: " + list_names(names_) + ")"));
+        }
+        if (!quat_cols_.empty())
+            rep_.notes.push_back("orientation: quaternion w,x,y,z from " + labels(quat_cols_));
+        else
+            rep_.notes.push_back("orientation: Euler yaw, pitch, roll in " +
+                                 std::string(options_.euler_degrees ? "degrees" : "radians") +
+                                 " from " + labels(euler_cols_) +
+                                 " (q = Ry(yaw) * Rx(pitch) * Rz(roll))");
+        return {};
+    }
+
+    Status choose_position_columns() {
+        if (!options_.position_columns.empty()) {
+            auto r = resolve_columns(options_.position_columns, 3, names_, n_fields_, "position",
+                                     source_);
+            if (!r.ok()) return r.error();
+            pos_cols_ = *r;
+        } else {
+            for (auto keys :
+                 {std::initializer_list<std::string_view>{"px", "py", "pz"},
+                  std::initializer_list<std::string_view>{"pos_x", "pos_y", "pos_z"},
+                  std::initializer_list<std::string_view>{"position_x", "position_y", "position_z"},
+                  std::initializer_list<std::string_view>{"tx", "ty", "tz"},
+                  std::initializer_list<std::string_view>{"x", "y", "z"}}) {
+                pos_cols_ = find_named(names_, keys);
+                if (pos_cols_.empty()) continue;
+                // note: x,y,z are a position only when the quaternion does not use them.
+                bool taken = std::any_of(pos_cols_.begin(), pos_cols_.end(), [&](const Column& p) {
+                    return std::any_of(quat_cols_.begin(), quat_cols_.end(),
+                                       [&](const Column& q) { return q.index == p.index; });
+                });
+                if (!taken) break;
+                pos_cols_.clear();
+            }
+        }
+        if (!pos_cols_.empty()) rep_.notes.push_back("position (metres): " + labels(pos_cols_));
+        return {};
+    }
+
+    // Each column serves at most one quantity; the others are named as ignored.
+    Status claim_columns() {
+        std::vector<bool> used(n_fields_, false);
+        auto use = [&](const Column& c) -> Status {
+            if (used[c.index])
+                return make_error(source_ + ": " + c.label +
+                                  " is given for two different quantities");
+            used[c.index] = true;
+            return {};
+        };
+        for (const std::vector<Column>* group : {&quat_cols_, &euler_cols_, &pos_cols_})
+            for (const Column& c : *group)
+                if (Status s = use(c); !s.ok()) return s.error();
+        if (Status s = use(time_col_); !s.ok()) return s.error();
         std::string ignored;
-        for (size_t i = 0; i < n_fields; ++i)
-            if (!used[i]) trace_text::append_item(ignored, column_label(i, names), ", ");
-        if (!ignored.empty()) rep.notes.push_back("ignored: " + ignored);
+        for (size_t i = 0; i < n_fields_; ++i)
+            if (!used[i]) trace_text::append_item(ignored, column_label(i, names_), ", ");
+        if (!ignored.empty()) rep_.notes.push_back("ignored: " + ignored);
+        return {};
     }
 
     // 3. Rows.
-    size_t last_content = data_at;
-    for (size_t i = data_at; i < lines.size(); ++i)
-        if (!trace_text::is_blank(lines[i].text) && !trace_text::is_comment(lines[i].text))
-            last_content = i;
+    Status read_rows(Trace& trace) {
+        size_t last_content = data_at_;
+        for (size_t i = data_at_; i < lines_.size(); ++i)
+            if (!trace_text::is_blank(lines_[i].text) && !trace_text::is_comment(lines_[i].text))
+                last_content = i;
 
-    Trace trace;
-    long double t0 = 0.0L;
-    std::string t0_text;
-    size_t prev_line = 0;
-    std::string prev_time_text;
-    double worst_norm = 1.0;
-    for (size_t li = data_at; li < lines.size(); ++li) {
-        const Line& line = lines[li];
-        if (trace_text::is_blank(line.text)) continue;
-        if (trace_text::is_comment(line.text)) {
-            ++rep.comment_lines_skipped;
-            continue;
-        }
-        split_fields(line.text, sep, fields);
-        if (fields.size() != n_fields) {
-            if (li == last_content && fields.size() < n_fields && li != data_at) {
-                rep.truncated_last_row_dropped = true;
-                rep.notes.push_back("the last row (line " + std::to_string(line.number) + ") has " +
-                                    std::to_string(fields.size()) + " of " +
-                                    std::to_string(n_fields) +
-                                    " fields (a cut-off recording): dropped");
+        for (size_t li = data_at_; li < lines_.size(); ++li) {
+            const Line& line = lines_[li];
+            if (trace_text::is_blank(line.text)) continue;
+            if (trace_text::is_comment(line.text)) {
+                ++rep_.comment_lines_skipped;
                 continue;
             }
-            return make_error(where(source, line.number) + "found " +
-                              std::to_string(fields.size()) + " fields, expected " +
-                              std::to_string(n_fields) + " (as in line " +
-                              std::to_string(lines[data_at].number) + ", the first data row)");
+            split_fields(line.text, sep_, fields_);
+            if (fields_.size() != n_fields_) {
+                if (li == last_content && fields_.size() < n_fields_ && li != data_at_) {
+                    rep_.truncated_last_row_dropped = true;
+                    rep_.notes.push_back("the last row (line " + std::to_string(line.number) +
+                                         ") has " + std::to_string(fields_.size()) + " of " +
+                                         std::to_string(n_fields_) +
+                                         " fields (a cut-off recording): dropped");
+                    continue;
+                }
+                return make_error(
+                    where(source_, line.number) + "found " + std::to_string(fields_.size()) +
+                    " fields, expected " + std::to_string(n_fields_) + " (as in line " +
+                    std::to_string(lines_[data_at_].number) + ", the first data row)");
+            }
+            ++rep_.rows_read;
+            if (Status s = read_row(line, trace); !s.ok()) return s;
         }
-        ++rep.rows_read;
-        auto field_error = [&](const Column& c, const std::string& what) {
-            return make_error(where(source, line.number) + c.label + ": " + what + " " +
-                              in_quotes(fields[c.index]));
-        };
-        auto number = [&](const Column& c) -> Result<double> {
-            std::optional<double> v = trace_text::parse_double(fields[c.index]);
-            if (!v) return field_error(c, "not a number:");
-            if (!std::isfinite(*v)) return field_error(c, "not a finite number:");
-            return *v;
-        };
-
-        // Time.
-        std::optional<long double> t = trace_text::parse_long_double(fields[time_col->index]);
-        if (!t) return field_error(*time_col, "not a number:");
-        if (!std::isfinite(*t)) return field_error(*time_col, "not a finite number:");
-        if (trace.samples.empty() && rep.rows_read == 1) {
-            t0 = options.rebase_time ? *t : 0.0L;
-            t0_text = std::string(fields[time_col->index]);
+        if (trace.samples.empty()) return make_error(source_ + ": no data rows");
+        rep_.samples_written = trace.samples.size();
+        if (options_.rebase_time) {
+            long double off = std::round(t0_ * ns_per_);
+            rep_.time_offset_ns = std::abs(off) < 9.2e18L ? int64_t(off) : 0;
         }
-        long double ns_ld = std::round((*t - t0) * *ns_per);
-        if (!(std::abs(ns_ld) < 9.2e18L))
-            return field_error(*time_col, "time out of range for int64 nanoseconds:");
-        const int64_t t_ns = int64_t(ns_ld);
+        return {};
+    }
 
-        // Orientation.
+    // One row of n_fields_ fields (in fields_): its sample, repaired, appended unless dropped.
+    Status read_row(const Line& line, Trace& trace) {
+        Result<int64_t> t_ns = read_time(line, trace);
+        if (!t_ns.ok()) return t_ns.error();
         glm::dquat q;
         std::optional<double> source_norm;  // set when counted as normalised
-        if (!quat_cols.empty()) {
+        if (Status s = read_orientation(line, q, source_norm); !s.ok()) return s;
+        std::optional<glm::dvec3> pos;
+        if (Status s = read_position(line, pos); !s.ok()) return s;
+        if (frame_change_) {
+            // Same change of basis on the world and the head frame: q' = C q C^-1, p' = C p.
+            q = glm::normalize(*frame_change_ * q * glm::conjugate(*frame_change_));
+            if (pos) *pos = *frame_change_ * *pos;
+        }
+        if (mirror_z_) {
+            q = glm::dquat(q.w, -q.x, -q.y, q.z);
+            if (pos) pos->z = -pos->z;
+        }
+
+        if (!trace.samples.empty()) {
+            Result<Step> step = repair_against_previous(line, trace.samples.back(), *t_ns, q, pos);
+            if (!step.ok()) return step.error();
+            if (*step == Step::drop) return {};
+        }
+        if (source_norm) {
+            ++rep_.non_unit_normalized;
+            if (std::abs(*source_norm - 1.0) > std::abs(worst_norm_ - 1.0))
+                worst_norm_ = *source_norm;
+        }
+        TraceSample s;
+        s.time_ns = *t_ns;
+        s.orientation = q;
+        s.position = pos;
+        trace.samples.push_back(s);
+        prev_line_ = line.number;
+        prev_time_text_ = std::string(fields_[time_col_.index]);
+        return {};
+    }
+
+    Error field_error(const Line& line, const Column& c, const std::string& what) const {
+        return make_error(where(source_, line.number) + c.label + ": " + what + " " +
+                          in_quotes(fields_[c.index]));
+    }
+
+    Result<double> number(const Line& line, const Column& c) const {
+        std::optional<double> v = trace_text::parse_double(fields_[c.index]);
+        if (!v) return field_error(line, c, "not a number:");
+        if (!std::isfinite(*v)) return field_error(line, c, "not a finite number:");
+        return *v;
+    }
+
+    // Time.
+    Result<int64_t> read_time(const Line& line, const Trace& trace) {
+        std::optional<long double> t = trace_text::parse_long_double(fields_[time_col_.index]);
+        if (!t) return field_error(line, time_col_, "not a number:");
+        if (!std::isfinite(*t)) return field_error(line, time_col_, "not a finite number:");
+        if (trace.samples.empty() && rep_.rows_read == 1) {
+            t0_ = options_.rebase_time ? *t : 0.0L;
+            t0_text_ = std::string(fields_[time_col_.index]);
+        }
+        long double ns_ld = std::round((*t - t0_) * ns_per_);
+        if (!(std::abs(ns_ld) < 9.2e18L))
+            return field_error(line, time_col_, "time out of range for int64 nanoseconds:");
+        return int64_t(ns_ld);
+    }
+
+    // Orientation.
+    Status read_orientation(const Line& line, glm::dquat& q, std::optional<double>& source_norm) {
+        if (!quat_cols_.empty()) {
             double c[4];
             for (int k = 0; k < 4; ++k) {
-                Result<double> v = number(quat_cols[size_t(k)]);
+                Result<double> v = number(line, quat_cols_[size_t(k)]);
                 if (!v.ok()) return v.error();
                 c[k] = *v;
             }
             q = glm::dquat(c[0], c[1], c[2], c[3]);
             double norm = std::sqrt(glm::dot(q, q));
-            if (!(std::abs(norm - 1.0) <= options.quat_norm_tolerance))
-                return make_error(where(source, line.number) + labels(quat_cols) +
+            if (!(std::abs(norm - 1.0) <= options_.quat_norm_tolerance))
+                return make_error(where(source_, line.number) + labels(quat_cols_) +
                                   ": quaternion norm " + fmt("%.6g", norm) +
                                   (norm == 0.0 ? " (a zero quaternion is no rotation)"
                                                : " is far from 1 (off by more than " +
-                                                     fmt("%g", options.quat_norm_tolerance) +
+                                                     fmt("%g", options_.quat_norm_tolerance) +
                                                      "): are the quaternion columns and their "
                                                      "order right?"));
             if (std::abs(norm - 1.0) > kNormCountTolerance) source_norm = norm;
             // note: norms within 1e-12 of 1 keep the source's bits (as the trace reader does).
             if (std::abs(norm - 1.0) > 1e-12) q /= norm;
         } else {
+            const bool euler_degrees = options_.euler_degrees;
             double a[3];
             for (int k = 0; k < 3; ++k) {
-                Result<double> v = number(euler_cols[size_t(k)]);
+                Result<double> v = number(line, euler_cols_[size_t(k)]);
                 if (!v.ok()) return v.error();
                 if (!euler_degrees && std::abs(*v) > 2.0 * kPi + 1e-9)
-                    return field_error(euler_cols[size_t(k)],
+                    return field_error(line, euler_cols_[size_t(k)],
                                        "an angle beyond 2 pi with --euler-radians (degrees? drop "
                                        "--euler-radians):");
                 a[k] = euler_degrees ? deg_to_rad(*v) : *v;
             }
             q = quat_from_yaw_pitch_roll(a[0], a[1], a[2]);
         }
-        std::optional<glm::dvec3> pos;
-        if (!pos_cols.empty()) {
-            double p[3];
-            for (int k = 0; k < 3; ++k) {
-                Result<double> v = number(pos_cols[size_t(k)]);
-                if (!v.ok()) return v.error();
-                p[k] = *v;
-            }
-            pos = glm::dvec3(p[0], p[1], p[2]);
-        }
-        if (frame_change) {
-            // Same change of basis on the world and the head frame: q' = C q C^-1, p' = C p.
-            q = glm::normalize(*frame_change * q * glm::conjugate(*frame_change));
-            if (pos) *pos = *frame_change * *pos;
-        }
-        if (mirror_z) {
-            q = glm::dquat(q.w, -q.x, -q.y, q.z);
-            if (pos) pos->z = -pos->z;
-        }
-
-        // Repairs against the previous kept sample.
-        if (!trace.samples.empty()) {
-            const TraceSample& prev = trace.samples.back();
-            const std::string time_text(fields[time_col->index]);
-            if (t_ns < prev.time_ns)
-                return make_error(where(source, line.number) + time_col->label +
-                                  ": time goes backwards: " + time_text + " after " +
-                                  prev_time_text + " (line " + std::to_string(prev_line) +
-                                  "); the importer does not reorder rows");
-            if (t_ns == prev.time_ns) {
-                ++rep.duplicate_times_dropped;
-                bool differs = angle_between_rad(q, prev.orientation) > kConflictAngleRad ||
-                               (pos && prev.position && *pos != *prev.position);
-                if (differs) ++rep.duplicate_times_conflicting;
-                continue;
-            }
-            if (glm::dot(q, prev.orientation) < 0.0) {
-                q = -q;
-                ++rep.sign_flips_fixed;
-            }
-            // Angular speed of this step: a jump no head makes (a wrong order, a glitch).
-            const double speed =
-                rad_to_deg(angle_between_rad(q, prev.orientation)) / ns_to_s(t_ns - prev.time_ns);
-            if (speed > options.max_angular_speed_deg_s) {
-                ++rep.fast_rotations;
-                if (on_fast == "refuse")
-                    return make_error(where(source, line.number) + "the orientation turns " +
-                                      fmt("%.0f", speed) + " deg/s since line " +
-                                      std::to_string(prev_line) + ", above the limit of " +
-                                      fmt("%g", options.max_angular_speed_deg_s) +
-                                      " deg/s (a wrong quaternion order, or a tracking glitch)");
-                if (on_fast == "drop") {
-                    ++rep.fast_rotations_dropped;
-                    continue;
-                }
-            }
-            rep.max_angular_speed_deg_s = std::max(rep.max_angular_speed_deg_s, speed);
-            if (q == prev.orientation) ++rep.repeated_orientations;
-            int64_t gap = t_ns - prev.time_ns;
-            if (gap > kGapReportNs) ++rep.gaps_over_100ms;
-            rep.longest_gap_ns = std::max(rep.longest_gap_ns, gap);
-        }
-        if (source_norm) {
-            ++rep.non_unit_normalized;
-            if (std::abs(*source_norm - 1.0) > std::abs(worst_norm - 1.0))
-                worst_norm = *source_norm;
-        }
-        TraceSample s;
-        s.time_ns = t_ns;
-        s.orientation = q;
-        s.position = pos;
-        trace.samples.push_back(s);
-        prev_line = line.number;
-        prev_time_text = std::string(fields[time_col->index]);
+        return {};
     }
-    if (trace.samples.empty()) return make_error(source + ": no data rows");
-    rep.samples_written = trace.samples.size();
-    if (options.rebase_time) {
-        long double off = std::round(t0 * *ns_per);
-        rep.time_offset_ns = std::abs(off) < 9.2e18L ? int64_t(off) : 0;
+
+    Status read_position(const Line& line, std::optional<glm::dvec3>& pos) const {
+        if (pos_cols_.empty()) return {};
+        double p[3];
+        for (int k = 0; k < 3; ++k) {
+            Result<double> v = number(line, pos_cols_[size_t(k)]);
+            if (!v.ok()) return v.error();
+            p[k] = *v;
+        }
+        pos = glm::dvec3(p[0], p[1], p[2]);
+        return {};
+    }
+
+    // Repairs against the previous kept sample.
+    Result<Step> repair_against_previous(const Line& line, const TraceSample& prev, int64_t t_ns,
+                                         glm::dquat& q, const std::optional<glm::dvec3>& pos) {
+        const std::string time_text(fields_[time_col_.index]);
+        if (t_ns < prev.time_ns)
+            return make_error(where(source_, line.number) + time_col_.label +
+                              ": time goes backwards: " + time_text + " after " + prev_time_text_ +
+                              " (line " + std::to_string(prev_line_) +
+                              "); the importer does not reorder rows");
+        if (t_ns == prev.time_ns) {
+            ++rep_.duplicate_times_dropped;
+            bool differs = angle_between_rad(q, prev.orientation) > kConflictAngleRad ||
+                           (pos && prev.position && *pos != *prev.position);
+            if (differs) ++rep_.duplicate_times_conflicting;
+            return Step::drop;
+        }
+        if (glm::dot(q, prev.orientation) < 0.0) {
+            q = -q;
+            ++rep_.sign_flips_fixed;
+        }
+        // Angular speed of this step: a jump no head makes (a wrong order, a glitch).
+        const double speed =
+            rad_to_deg(angle_between_rad(q, prev.orientation)) / ns_to_s(t_ns - prev.time_ns);
+        if (speed > options_.max_angular_speed_deg_s) {
+            ++rep_.fast_rotations;
+            if (on_fast_ == "refuse")
+                return make_error(where(source_, line.number) + "the orientation turns " +
+                                  fmt("%.0f", speed) + " deg/s since line " +
+                                  std::to_string(prev_line_) + ", above the limit of " +
+                                  fmt("%g", options_.max_angular_speed_deg_s) +
+                                  " deg/s (a wrong quaternion order, or a tracking glitch)");
+            if (on_fast_ == "drop") {
+                ++rep_.fast_rotations_dropped;
+                return Step::drop;
+            }
+        }
+        rep_.max_angular_speed_deg_s = std::max(rep_.max_angular_speed_deg_s, speed);
+        if (q == prev.orientation) ++rep_.repeated_orientations;
+        int64_t gap = t_ns - prev.time_ns;
+        if (gap > kGapReportNs) ++rep_.gaps_over_100ms;
+        rep_.longest_gap_ns = std::max(rep_.longest_gap_ns, gap);
+        return Step::keep;
     }
 
     // 4. The account.
-    auto count = [](size_t n, const char* one, const char* many) {
-        return std::to_string(n) + " " + (n == 1 ? one : many);
-    };
-    if (options.rebase_time)
-        rep.notes.push_back("time rebased: the first row (source time " + t0_text + ") is at 0 ns");
-    if (rep.sign_flips_fixed)
-        rep.notes.push_back(count(rep.sign_flips_fixed, "sign flip", "sign flips") +
-                            " made continuous (q -> -q, the same rotation)");
-    if (rep.duplicate_times_dropped)
-        rep.notes.push_back(count(rep.duplicate_times_dropped, "row", "rows") +
-                            " with a repeated time dropped (the first row at each time is kept); " +
-                            std::to_string(rep.duplicate_times_conflicting) +
-                            " of them had a different pose");
-    if (rep.non_unit_normalized)
-        rep.notes.push_back(count(rep.non_unit_normalized, "quaternion", "quaternions") +
-                            " normalised (norm off by more than 1e-6; furthest " +
-                            fmt("%.6g", worst_norm) + ")");
-    if (rep.gaps_over_100ms)
-        rep.notes.push_back(
-            count(rep.gaps_over_100ms, "gap", "gaps") + " over 100 ms kept (longest " +
-            fmt("%.1f", ns_to_ms(rep.longest_gap_ns)) + " ms); replay interpolates across them");
-    if (rep.repeated_orientations)
-        rep.notes.push_back(count(rep.repeated_orientations, "sample repeats", "samples repeat") +
-                            " the previous orientation at a new time (kept)");
-    if (rep.comment_lines_skipped)
-        rep.notes.push_back(count(rep.comment_lines_skipped, "comment line", "comment lines") +
-                            " among the rows skipped");
-    if (rep.fast_rotations)
-        rep.notes.push_back(count(rep.fast_rotations, "step turns", "steps turn") +
-                            " faster than " + fmt("%g", options.max_angular_speed_deg_s) +
-                            " deg/s" +
-                            (rep.fast_rotations_dropped ? ": dropped" : ": kept (reported)"));
-    if (trace.samples.size() >= 2) {
+    void add_account_notes() {
+        auto count = [](size_t n, const char* one, const char* many) {
+            return std::to_string(n) + " " + (n == 1 ? one : many);
+        };
+        if (options_.rebase_time)
+            rep_.notes.push_back("time rebased: the first row (source time " + t0_text_ +
+                                 ") is at 0 ns");
+        if (rep_.sign_flips_fixed)
+            rep_.notes.push_back(count(rep_.sign_flips_fixed, "sign flip", "sign flips") +
+                                 " made continuous (q -> -q, the same rotation)");
+        if (rep_.duplicate_times_dropped)
+            rep_.notes.push_back(
+                count(rep_.duplicate_times_dropped, "row", "rows") +
+                " with a repeated time dropped (the first row at each time is kept); " +
+                std::to_string(rep_.duplicate_times_conflicting) + " of them had a different pose");
+        if (rep_.non_unit_normalized)
+            rep_.notes.push_back(count(rep_.non_unit_normalized, "quaternion", "quaternions") +
+                                 " normalised (norm off by more than 1e-6; furthest " +
+                                 fmt("%.6g", worst_norm_) + ")");
+        if (rep_.gaps_over_100ms)
+            rep_.notes.push_back(count(rep_.gaps_over_100ms, "gap", "gaps") +
+                                 " over 100 ms kept (longest " +
+                                 fmt("%.1f", ns_to_ms(rep_.longest_gap_ns)) +
+                                 " ms); replay interpolates across them");
+        if (rep_.repeated_orientations)
+            rep_.notes.push_back(
+                count(rep_.repeated_orientations, "sample repeats", "samples repeat") +
+                " the previous orientation at a new time (kept)");
+        if (rep_.comment_lines_skipped)
+            rep_.notes.push_back(
+                count(rep_.comment_lines_skipped, "comment line", "comment lines") +
+                " among the rows skipped");
+        if (rep_.fast_rotations)
+            rep_.notes.push_back(count(rep_.fast_rotations, "step turns", "steps turn") +
+                                 " faster than " + fmt("%g", options_.max_angular_speed_deg_s) +
+                                 " deg/s" +
+                                 (rep_.fast_rotations_dropped ? ": dropped" : ": kept (reported)"));
+    }
+
+    // A median interval or a duration no head tracker has: an error naming the likely time unit.
+    Status check_time_plausible(const Trace& trace) {
+        if (trace.samples.size() < 2) return {};
         TraceStats st = compute_trace_stats(trace);
         const int64_t duration = trace.samples.back().time_ns - trace.samples.front().time_ns;
         if (st.median_interval_ns < kMinMedianIntervalNs ||
             st.median_interval_ns > kMaxMedianIntervalNs || duration > kMaxDurationNs) {
             // The unit under which the median interval would be that of a head tracker (~1 kHz
             // to ~10 Hz), among the usual ones.
-            const long double median_units = (long double)(st.median_interval_ns) / *ns_per;
+            const long double median_units = (long double)(st.median_interval_ns) / ns_per_;
             std::string likely;
             for (const auto& [name, per] :
                  std::initializer_list<std::pair<const char*, long double>>{
@@ -784,36 +869,74 @@ Result<Trace> import_trace_text(const std::string& text, const std::string& sour
                       100.0L},
                      {"--time-scale 2.0833333e-8 (48 MHz ticks)", 1e9L / 48e6L}}) {
                 const long double m = median_units * per;
-                if (per != *ns_per && m >= 5e5L && m <= 1e8L) {
+                if (per != ns_per_ && m >= 5e5L && m <= 1e8L) {
                     likely = std::string("; with ") + name + " the median interval would be " +
                              fmt("%.3g", double(m) * 1e-6) + " ms";
                     break;
                 }
             }
             return make_error(
-                source + ": " + time_col->label + " read as " + unit_name(*ns_per) +
+                source_ + ": " + time_col_.label + " read as " + unit_name(ns_per_) +
                 " gives a median interval of " + fmt("%.6g", ns_to_s(st.median_interval_ns)) +
                 " s over " + fmt("%.6g", ns_to_s(duration)) +
                 " s, implausible for a head tracker (median 10 us to 10 s, at most a day)" +
                 (likely.empty() ? std::string("; check the time unit") : likely));
         }
         if (st.median_interval_ns < 100 * kNsPerUs || st.median_interval_ns > kNsPerSecond)
-            rep.notes.push_back("the median interval " +
-                                fmt("%.6g", ns_to_s(st.median_interval_ns)) +
-                                " s is implausible for a head tracker: check the time unit");
+            rep_.notes.push_back("the median interval " +
+                                 fmt("%.6g", ns_to_s(st.median_interval_ns)) +
+                                 " s is implausible for a head tracker: check the time unit");
+        return {};
     }
 
-    std::string src_name = std::filesystem::path(source).filename().string();
-    trace.comments.push_back("imported from " + src_name + " by hmdnode trace import");
-    trace.comments.push_back(
-        "time: source " + time_col->label + " in " + unit_name(*ns_per) +
-        (options.rebase_time ? ", rebased to 0 at source time " + t0_text : ""));
-    trace.comments.push_back("fixes: " + std::to_string(rep.sign_flips_fixed) + " sign flips, " +
-                             std::to_string(rep.duplicate_times_dropped) +
-                             " repeated times dropped, " + std::to_string(rep.non_unit_normalized) +
-                             " quaternions normalised, " + std::to_string(rep.gaps_over_100ms) +
-                             " gaps over 100 ms kept");
-    return trace;
+    void add_trace_comments(Trace& trace) const {
+        std::string src_name = std::filesystem::path(source_).filename().string();
+        trace.comments.push_back("imported from " + src_name + " by hmdnode trace import");
+        trace.comments.push_back(
+            "time: source " + time_col_.label + " in " + unit_name(ns_per_) +
+            (options_.rebase_time ? ", rebased to 0 at source time " + t0_text_ : ""));
+        trace.comments.push_back(
+            "fixes: " + std::to_string(rep_.sign_flips_fixed) + " sign flips, " +
+            std::to_string(rep_.duplicate_times_dropped) + " repeated times dropped, " +
+            std::to_string(rep_.non_unit_normalized) + " quaternions normalised, " +
+            std::to_string(rep_.gaps_over_100ms) + " gaps over 100 ms kept");
+    }
+
+    const std::vector<Line>& lines_;
+    const std::string& source_;
+    const TraceImportOptions& options_;
+    TraceImportReport& rep_;
+    std::vector<std::string_view> fields_;  // of the line at hand
+
+    // Step 1.
+    Separator sep_;
+    size_t data_at_ = 0;  // index into lines_ of the first data row
+    size_t n_fields_ = 0;
+    std::vector<ColumnName> names_;
+    // Step 2.
+    Column time_col_;
+    long double ns_per_ = 1e9L;
+    std::optional<glm::dquat> frame_change_;
+    bool mirror_z_ = false;  // a left-handed source: the reflection z -> -z
+    std::string on_fast_;
+    std::vector<Column> quat_cols_, euler_cols_, pos_cols_;
+    // Step 3.
+    long double t0_ = 0.0L;
+    std::string t0_text_;
+    size_t prev_line_ = 0;
+    std::string prev_time_text_;
+    double worst_norm_ = 1.0;
+};
+
+}  // namespace
+
+Result<Trace> import_trace_text(const std::string& text, const std::string& source,
+                                const TraceImportOptions& options, TraceImportReport* out_report) {
+    TraceImportReport local;
+    TraceImportReport& rep = out_report ? *out_report : local;
+    rep = TraceImportReport{};
+    const std::vector<Line> lines = trace_text::split_lines(text);
+    return TableImporter(lines, source, options, rep).run();
 }
 
 Result<Trace> import_trace_table(const std::filesystem::path& path,
