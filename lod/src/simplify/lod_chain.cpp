@@ -433,12 +433,24 @@ std::vector<glm::vec3> material_boundary_positions(const Mesh& mesh) {
     return out;
 }
 
-Result<LodChainReport> generate_lod_chains(Scene& scene, const LodChainOptions& options_in) {
-    // note: one scratch for every simplify() call of this run (primitives, bisection steps), so
-    // the calls after the first reuse its pages; freed when the run ends.
-    SimplifyScratch scratch;
-    LodChainOptions options = options_in;
-    if (!options.simplify.scratch) options.simplify.scratch = &scratch;
+namespace {
+
+// Per source mesh: the new level meshes and their errors.
+struct Chain {
+    std::vector<int> level_meshes;
+    std::vector<double> errors;  // level 1.. Hausdorff, mesh space
+    double diameter = 0.0;
+};
+
+// The nodes that get a chain, their meshes, and the old alternates with the meshes of their levels.
+struct ChainPlan {
+    std::vector<int> chain_nodes;
+    std::vector<int> meshes;  // distinct meshes of chain nodes, in order of first use
+    std::vector<char> remove;
+    std::set<int> old_level_meshes;
+};
+
+Status check_lod_options(const LodChainOptions& options) {
     const AlgorithmInfo* algo = find_simplification_algorithm(options.algorithm);
     if (!algo) {
         std::string names;
@@ -454,159 +466,183 @@ Result<LodChainReport> generate_lod_chains(Scene& scene, const LodChainOptions& 
     if (options.progressive && !algo->edge_collapse)
         return make_error(cat("progressive meshes need an edge-collapse algorithm; \"", algo->name,
                               "\" is not one"));
+    return {};
+}
 
-    Scene out = scene;
-    LodChainReport report;
+// Clears the chain nodes' old alternates (lod_ids, screen_coverage) in `out`.
+ChainPlan plan_chains(Scene& out) {
+    ChainPlan plan;
     std::set<int> alternates;
     for (const Node& n : out.nodes)
         for (int id : n.lod_ids) alternates.insert(id);
-    std::vector<int> chain_nodes;
-    std::vector<int> meshes;  // distinct meshes of chain nodes, in order of first use
     for (size_t i = 0; i < out.nodes.size(); ++i) {
         const Node& n = out.nodes[i];
         if (n.mesh < 0 || size_t(n.mesh) >= out.meshes.size() || alternates.count(int(i))) continue;
-        chain_nodes.push_back(int(i));
-        if (std::find(meshes.begin(), meshes.end(), n.mesh) == meshes.end())
-            meshes.push_back(n.mesh);
+        plan.chain_nodes.push_back(int(i));
+        if (std::find(plan.meshes.begin(), plan.meshes.end(), n.mesh) == plan.meshes.end())
+            plan.meshes.push_back(n.mesh);
     }
 
     // Old alternates go unless something else holds them (a parent, the roots, a light).
-    std::vector<char> remove(out.nodes.size(), 0);
+    std::vector<char>& remove = plan.remove;
+    remove.assign(out.nodes.size(), 0);
     for (int id : alternates) remove[size_t(id)] = 1;
     for (int r : out.roots) remove[size_t(r)] = 0;
     for (const Node& n : out.nodes)
         for (int c : n.children) remove[size_t(c)] = 0;
     for (const Light& l : out.lights)
         if (l.node >= 0) remove[size_t(l.node)] = 0;
-    std::set<int> old_level_meshes;
     for (size_t i = 0; i < out.nodes.size(); ++i)
-        if (remove[i] && out.nodes[i].mesh >= 0) old_level_meshes.insert(out.nodes[i].mesh);
-    for (int n : chain_nodes) {
+        if (remove[i] && out.nodes[i].mesh >= 0) plan.old_level_meshes.insert(out.nodes[i].mesh);
+    for (int n : plan.chain_nodes) {
         out.nodes[size_t(n)].lod_ids.clear();
         out.nodes[size_t(n)].screen_coverage.clear();
     }
+    return plan;
+}
 
-    size_t total_triangles = 0, done_triangles = 0;
-    for (int m : meshes) total_triangles += out.meshes[size_t(m)].triangle_count();
-    // Per source mesh: the new level meshes and their errors.
-    struct Chain {
-        std::vector<int> level_meshes;
-        std::vector<double> errors;  // level 1.. Hausdorff, mesh space
-        double diameter = 0.0;
-    };
-    std::vector<Chain> chains(out.meshes.size());
-    for (int mi : meshes) {
-        const Mesh mesh = out.meshes[size_t(mi)];  // copy: out.meshes grows below
-        const size_t count = mesh.triangle_count();
-        auto progress = [&](double f) {
-            if (options.progress && total_triangles > 0)
-                options.progress((double(done_triangles) + f * double(count)) /
-                                 double(total_triangles));
-        };
-        const Soup base = soup_of(mesh.primitives);
-        const double diag = bounding_box_diagonal(base.view());
-        std::vector<MeasuredLevel> levels;
-        PrimitiveLogs logs;
-        PrimitiveLogs* log = options.progressive ? &logs : nullptr;
-        if (options.targets.max_error_m >= 0.0 || options.targets.max_error_pct >= 0.0) {
-            const ErrorBound bound = options.targets.max_error_m >= 0.0
-                                         ? ErrorBound{options.targets.max_error_m, false}
-                                         : ErrorBound{options.targets.max_error_pct, true};
-            Result<std::vector<MeasuredLevel>> r =
-                search_error(mesh, size_t(mi), base, bound, options, report.notes, progress, log);
-            if (!r.ok()) return r.error();
-            levels = std::move(r).value();
-        } else {
-            Result<std::vector<size_t>> targets =
-                count_targets(options.targets, count, mesh, options.max_levels, report.notes);
-            if (!targets.ok()) return targets.error();
-            Result<std::vector<BuiltLevel>> built = build_levels(
-                mesh, size_t(mi), *targets, options, [&](double f) { progress(0.6 * f); },
-                report.notes, log);
-            if (!built.ok()) return built.error();
-            const Reference reference(base, options.distance);
-            for (size_t k = 0; k < built->size(); ++k) {
-                levels.push_back(measure(std::move((*built)[k]), reference));
-                progress(0.6 + 0.4 * double(k + 1) / double(built->size()));
-            }
-        }
-        // A level with no fewer triangles than the one before it (an algorithm stopped by seams,
-        // borders or its granularity) adds nothing to the chain.
-        {
-            std::vector<MeasuredLevel> useful;
-            size_t previous = count;
-            for (MeasuredLevel& lvl : levels) {
-                size_t tris = 0;
-                for (const Primitive& p : lvl.built.primitives) tris += p.triangle_count();
-                if (tris >= previous) {
-                    report.notes.push_back(cat("mesh \"", mesh.name, "\": the level for ",
-                                               lvl.built.target, " triangles has ", tris,
-                                               ", not fewer than the level before (", previous,
-                                               "); dropped"));
-                    continue;
-                }
-                previous = tris;
-                useful.push_back(std::move(lvl));
-            }
-            levels = std::move(useful);
-        }
-        if (options.progressive && levels.empty()) {
-            report.notes.push_back(
-                cat("mesh \"", mesh.name, "\" has no level: no progressive mesh"));
-        } else if (options.progressive) {
-            // Based at the run's last target: the last level, or, where the last levels were
-            // dropped for not shrinking, the same mesh as the last level kept.
-            for (size_t p = 0; p < mesh.primitives.size(); ++p) {
-                if (p >= logs.size() || !logs[p]) {
-                    report.notes.push_back(cat("mesh \"", mesh.name, "\" primitive ", p,
-                                               " is not simplified: no progressive mesh"));
-                    continue;
-                }
-                report.progressive.push_back(
-                    {mi, mesh.name, p, mesh.primitives.size(), std::move(*logs[p])});
-            }
-        }
-        Chain& chain = chains[size_t(mi)];
-        chain.diameter = diag;
-        LodLevelReport row0;
-        row0.mesh = mi;
-        row0.mesh_name = mesh.name;
-        row0.triangles = count;
-        report.levels.push_back(row0);
-        for (size_t k = 0; k < levels.size(); ++k) {
-            MeasuredLevel& lvl = levels[k];
-            Mesh m;
-            m.name = cat(mesh.name, "_lod", k + 1);
-            m.primitives = std::move(lvl.built.primitives);
-            LodLevelReport row;
-            row.mesh = int(out.meshes.size());
-            row.mesh_name = m.name;
-            row.level = int(k + 1);
-            row.triangles = m.triangle_count();
-            row.target = lvl.built.target;
-            row.hausdorff_m = lvl.distance.hausdorff;
-            row.hausdorff_pct = lvl.distance.hausdorff_pct();
-            row.mean_m = lvl.distance.mean;
-            row.mean_pct = lvl.distance.mean_pct();
-            row.hausdorff_upper_m = lvl.distance.hausdorff_upper;
-            row.hausdorff_upper_pct = lvl.distance.hausdorff_upper_pct();
-            row.mean_stderr_m = lvl.distance.mean_stderr;
-            row.mean_stderr_pct = lvl.distance.mean_stderr_pct();
-            row.estimated_error = lvl.built.estimated_error;
-            row.simplify_ms = lvl.built.simplify_ms;
-            row.measure_ms = lvl.measure_ms;
-            row.measure_cpu_ms = lvl.measure_cpu_ms;
-            report.levels.push_back(row);
-            chain.level_meshes.push_back(int(out.meshes.size()));
-            chain.errors.push_back(lvl.distance.hausdorff);
-            out.meshes.push_back(std::move(m));
-        }
-        done_triangles += count;
-        progress(1.0);
-        ++report.meshes;
+// The measured levels of one mesh: searched for the error bound, or built for the counts.
+Result<std::vector<MeasuredLevel>> make_levels(const Mesh& mesh, int mi, const Soup& base,
+                                               const LodChainOptions& options,
+                                               std::vector<std::string>& notes,
+                                               const std::function<void(double)>& progress,
+                                               PrimitiveLogs* log) {
+    if (options.targets.max_error_m >= 0.0 || options.targets.max_error_pct >= 0.0) {
+        const ErrorBound bound = options.targets.max_error_m >= 0.0
+                                     ? ErrorBound{options.targets.max_error_m, false}
+                                     : ErrorBound{options.targets.max_error_pct, true};
+        return search_error(mesh, size_t(mi), base, bound, options, notes, progress, log);
     }
+    Result<std::vector<size_t>> targets =
+        count_targets(options.targets, mesh.triangle_count(), mesh, options.max_levels, notes);
+    if (!targets.ok()) return targets.error();
+    Result<std::vector<BuiltLevel>> built = build_levels(
+        mesh, size_t(mi), *targets, options, [&](double f) { progress(0.6 * f); }, notes, log);
+    if (!built.ok()) return built.error();
+    const Reference reference(base, options.distance);
+    std::vector<MeasuredLevel> levels;
+    for (size_t k = 0; k < built->size(); ++k) {
+        levels.push_back(measure(std::move((*built)[k]), reference));
+        progress(0.6 + 0.4 * double(k + 1) / double(built->size()));
+    }
+    return levels;
+}
 
-    // New alternate nodes.
+// A level with no fewer triangles than the one before it (an algorithm stopped by seams,
+// borders or its granularity) adds nothing to the chain.
+std::vector<MeasuredLevel> drop_unshrinking_levels(std::vector<MeasuredLevel> levels,
+                                                   const Mesh& mesh,
+                                                   std::vector<std::string>& notes) {
+    std::vector<MeasuredLevel> useful;
+    size_t previous = mesh.triangle_count();
+    for (MeasuredLevel& lvl : levels) {
+        size_t tris = 0;
+        for (const Primitive& p : lvl.built.primitives) tris += p.triangle_count();
+        if (tris >= previous) {
+            notes.push_back(cat("mesh \"", mesh.name, "\": the level for ", lvl.built.target,
+                                " triangles has ", tris, ", not fewer than the level before (",
+                                previous, "); dropped"));
+            continue;
+        }
+        previous = tris;
+        useful.push_back(std::move(lvl));
+    }
+    return useful;
+}
+
+void add_progressive_meshes(const Mesh& mesh, int mi, bool no_levels, PrimitiveLogs& logs,
+                            LodChainReport& report) {
+    if (no_levels) {
+        report.notes.push_back(cat("mesh \"", mesh.name, "\" has no level: no progressive mesh"));
+        return;
+    }
+    // Based at the run's last target: the last level, or, where the last levels were
+    // dropped for not shrinking, the same mesh as the last level kept.
+    for (size_t p = 0; p < mesh.primitives.size(); ++p) {
+        if (p >= logs.size() || !logs[p]) {
+            report.notes.push_back(cat("mesh \"", mesh.name, "\" primitive ", p,
+                                       " is not simplified: no progressive mesh"));
+            continue;
+        }
+        report.progressive.push_back(
+            {mi, mesh.name, p, mesh.primitives.size(), std::move(*logs[p])});
+    }
+}
+
+LodLevelReport level_row(const MeasuredLevel& lvl, const Mesh& m, int mesh_index, size_t k) {
+    LodLevelReport row;
+    row.mesh = mesh_index;
+    row.mesh_name = m.name;
+    row.level = int(k + 1);
+    row.triangles = m.triangle_count();
+    row.target = lvl.built.target;
+    row.hausdorff_m = lvl.distance.hausdorff;
+    row.hausdorff_pct = lvl.distance.hausdorff_pct();
+    row.mean_m = lvl.distance.mean;
+    row.mean_pct = lvl.distance.mean_pct();
+    row.hausdorff_upper_m = lvl.distance.hausdorff_upper;
+    row.hausdorff_upper_pct = lvl.distance.hausdorff_upper_pct();
+    row.mean_stderr_m = lvl.distance.mean_stderr;
+    row.mean_stderr_pct = lvl.distance.mean_stderr_pct();
+    row.estimated_error = lvl.built.estimated_error;
+    row.simplify_ms = lvl.built.simplify_ms;
+    row.measure_ms = lvl.measure_ms;
+    row.measure_cpu_ms = lvl.measure_cpu_ms;
+    return row;
+}
+
+// The levels as meshes of `out`, their rows in the report (level 0 first) and in `chain`.
+void add_level_meshes(Scene& out, const Mesh& mesh, int mi, std::vector<MeasuredLevel>& levels,
+                      LodChainReport& report, Chain& chain) {
+    LodLevelReport row0;
+    row0.mesh = mi;
+    row0.mesh_name = mesh.name;
+    row0.triangles = mesh.triangle_count();
+    report.levels.push_back(row0);
+    for (size_t k = 0; k < levels.size(); ++k) {
+        MeasuredLevel& lvl = levels[k];
+        Mesh m;
+        m.name = cat(mesh.name, "_lod", k + 1);
+        m.primitives = std::move(lvl.built.primitives);
+        report.levels.push_back(level_row(lvl, m, int(out.meshes.size()), k));
+        chain.level_meshes.push_back(int(out.meshes.size()));
+        chain.errors.push_back(lvl.distance.hausdorff);
+        out.meshes.push_back(std::move(m));
+    }
+}
+
+// The chain of mesh `mi` of `out`; progress runs from done_triangles over its triangles.
+Status chain_mesh(Scene& out, int mi, const LodChainOptions& options, size_t total_triangles,
+                  size_t& done_triangles, LodChainReport& report, Chain& chain) {
+    const Mesh mesh = out.meshes[size_t(mi)];  // copy: out.meshes grows below
+    const size_t count = mesh.triangle_count();
+    auto progress = [&](double f) {
+        if (options.progress && total_triangles > 0)
+            options.progress((double(done_triangles) + f * double(count)) /
+                             double(total_triangles));
+    };
+    const Soup base = soup_of(mesh.primitives);
+    const double diag = bounding_box_diagonal(base.view());
+    PrimitiveLogs logs;
+    PrimitiveLogs* log = options.progressive ? &logs : nullptr;
+    Result<std::vector<MeasuredLevel>> made =
+        make_levels(mesh, mi, base, options, report.notes, progress, log);
+    if (!made.ok()) return made.error();
+    std::vector<MeasuredLevel> levels =
+        drop_unshrinking_levels(std::move(made).value(), mesh, report.notes);
+    if (options.progressive) add_progressive_meshes(mesh, mi, levels.empty(), logs, report);
+    chain.diameter = diag;
+    add_level_meshes(out, mesh, mi, levels, report, chain);
+    done_triangles += count;
+    progress(1.0);
+    ++report.meshes;
+    return {};
+}
+
+// New alternate nodes.
+void add_alternate_nodes(Scene& out, const std::vector<int>& chain_nodes,
+                         const std::vector<Chain>& chains, double screen_tolerance,
+                         LodChainReport& report) {
     for (int ni : chain_nodes) {
         const Chain& chain = chains[size_t(out.nodes[size_t(ni)].mesh)];
         out.nodes[size_t(ni)].geometric_error_m = 0.0;
@@ -615,7 +651,7 @@ Result<LodChainReport> generate_lod_chains(Scene& scene, const LodChainOptions& 
         double previous = 1.0;
         for (double e : chain.errors) {
             const double c =
-                std::min(previous, e > 0.0 ? chain.diameter * options.screen_tolerance / e : 1.0);
+                std::min(previous, e > 0.0 ? chain.diameter * screen_tolerance / e : 1.0);
             coverage.push_back(std::min(1.0, c));
             previous = coverage.back();
         }
@@ -638,8 +674,11 @@ Result<LodChainReport> generate_lod_chains(Scene& scene, const LodChainOptions& 
         out.nodes[size_t(ni)].screen_coverage = std::move(coverage);
         ++report.nodes;
     }
+}
 
-    // Drop the old alternates and the meshes only they used; renumber.
+// Drop the old alternates and the meshes only they used; renumber.
+void drop_old_alternates(Scene& out, std::vector<char> remove,
+                         const std::set<int>& old_level_meshes, LodChainReport& report) {
     remove.resize(out.nodes.size(), 0);
     std::vector<int> node_id(out.nodes.size(), -1);
     std::vector<Node> nodes;
@@ -676,6 +715,31 @@ Result<LodChainReport> generate_lod_chains(Scene& scene, const LodChainOptions& 
     out.nodes = std::move(nodes);
     out.meshes = std::move(kept_meshes);
     for (LodLevelReport& row : report.levels) row.mesh = mesh_id[size_t(row.mesh)];
+}
+
+}  // namespace
+
+Result<LodChainReport> generate_lod_chains(Scene& scene, const LodChainOptions& options_in) {
+    // note: one scratch for every simplify() call of this run (primitives, bisection steps), so
+    // the calls after the first reuse its pages; freed when the run ends.
+    SimplifyScratch scratch;
+    LodChainOptions options = options_in;
+    if (!options.simplify.scratch) options.simplify.scratch = &scratch;
+    if (Status s = check_lod_options(options); !s.ok()) return s.error();
+
+    Scene out = scene;
+    LodChainReport report;
+    ChainPlan plan = plan_chains(out);
+    size_t total_triangles = 0, done_triangles = 0;
+    for (int m : plan.meshes) total_triangles += out.meshes[size_t(m)].triangle_count();
+    std::vector<Chain> chains(out.meshes.size());
+    for (int mi : plan.meshes)
+        if (Status s = chain_mesh(out, mi, options, total_triangles, done_triangles, report,
+                                  chains[size_t(mi)]);
+            !s.ok())
+            return s.error();
+    add_alternate_nodes(out, plan.chain_nodes, chains, options.screen_tolerance, report);
+    drop_old_alternates(out, std::move(plan.remove), plan.old_level_meshes, report);
 
     scene = std::move(out);
     if (options.progress) options.progress(1.0);
