@@ -249,7 +249,7 @@ Result<AtlasReport> build_uv_atlas(Scene& scene, const AtlasOptions& options) {
 
 namespace {
 
-Result<AtlasReport> build_uv_atlas_in(Scene& scene, const AtlasOptions& options) {
+Status check_atlas_options(const AtlasOptions& options) {
     if (!(options.texels_per_metre > 0.0) || !std::isfinite(options.texels_per_metre))
         return make_error("uv atlas: texels_per_metre must be > 0");
     if (options.padding_texels < 2) return make_error("uv atlas: padding_texels must be >= 2");
@@ -259,20 +259,53 @@ Result<AtlasReport> build_uv_atlas_in(Scene& scene, const AtlasOptions& options)
         return make_error(
             "uv atlas: chart_angle_deg must be in (0, 180], planar_angle_deg in "
             "[0, 90)");
-    AtlasReport report;
+    return {};
+}
 
-    // origin[m]: the mesh index the caller knows (clones made below map to their original).
-    std::vector<int> origin(scene.meshes.size());
-    std::iota(origin.begin(), origin.end(), 0);
-    auto chosen = [&](int m, int p) {
-        return !options.lightmapped || options.lightmapped(origin[size_t(m)], p);
-    };
+// One atlased (mesh, primitive): its charts are charts[first_chart, end_chart).
+struct Job {
+    int mesh, prim;
+    size_t first_chart, end_chart;
+};
+
+// Charts too large for the atlas: all are counted, the largest (in texels: the one that needs
+// the lowest density) is named with the density at which it fits, so that one rerun at that
+// density fits them all.
+struct TooLarge {
+    size_t count = 0;
+    double largest_extent = 0.0;
+    std::string largest_message;
+};
+
+// The passes of build_uv_atlas_in over one scene, in order, and what they hand on.
+class AtlasBuilder {
+  public:
+    AtlasBuilder(Scene& scene, const AtlasOptions& options)
+        : scene_(scene), options_(options), origin_(scene.meshes.size()) {
+        std::iota(origin_.begin(), origin_.end(), 0);
+    }
+
+    Result<AtlasReport> run() {
+        if (options_.unshare_instances) unshare_instances();
+        const std::vector<double> mesh_scale = world_scales();
+        if (Status s = segment_and_parameterise(mesh_scale); !s.ok()) return s.error();
+        if (Status s = pack_charts(); !s.ok()) return s.error();
+        find_exclusive_materials();
+        // Rewrite the primitives: one output primitive per atlas its charts use.
+        for (size_t j = 0; j < jobs_.size(); ++j) rewrite_primitive(j);
+        return report_;
+    }
+
+  private:
+    bool chosen(int m, int p) const {
+        return !options_.lightmapped || options_.lightmapped(origin_[size_t(m)], p);
+    }
 
     // Instances: a mesh placed by several nodes gets one copy per extra node, so that each
     // instance has its own lightmap texels.
-    if (options.unshare_instances) {
-        std::vector<char> claimed(scene.meshes.size(), 0);
-        for (Node& node : scene.nodes) {
+    void unshare_instances() {
+        std::vector<char> claimed(scene_.meshes.size(), 0);
+        for (Node& node : scene_.nodes) {
             const int m = node.mesh;
             if (m < 0 || size_t(m) >= claimed.size()) continue;
             if (!claimed[size_t(m)]) {
@@ -280,26 +313,26 @@ Result<AtlasReport> build_uv_atlas_in(Scene& scene, const AtlasOptions& options)
                 continue;
             }
             bool atlased = false;
-            for (size_t pi = 0; pi < scene.meshes[size_t(m)].primitives.size(); ++pi) {
-                const Primitive& prim = scene.meshes[size_t(m)].primitives[pi];
+            for (size_t pi = 0; pi < scene_.meshes[size_t(m)].primitives.size(); ++pi) {
+                const Primitive& prim = scene_.meshes[size_t(m)].primitives[pi];
                 atlased |= chosen(m, int(pi)) && prim.uv1.empty() && !prim.indices.empty();
             }
             if (!atlased) continue;
-            Mesh copy = scene.meshes[size_t(m)];
-            copy.name += "_instance" + std::to_string(++report.unshared_instances);
-            node.mesh = int(scene.meshes.size());
-            scene.meshes.push_back(std::move(copy));
-            origin.push_back(origin[size_t(m)]);
+            Mesh copy = scene_.meshes[size_t(m)];
+            copy.name += "_instance" + std::to_string(++report_.unshared_instances);
+            node.mesh = int(scene_.meshes.size());
+            scene_.meshes.push_back(std::move(copy));
+            origin_.push_back(origin_[size_t(m)]);
         }
     }
 
     // World scale per mesh: the largest axis scale among the nodes using it.
-    std::vector<double> mesh_scale(scene.meshes.size(), 0.0);
-    {
-        const std::vector<glm::dmat4> world = detail::node_world_matrices(scene);
-        for (size_t i = 0; i < scene.nodes.size(); ++i) {
-            const int m = scene.nodes[i].mesh;
-            if (m < 0 || size_t(m) >= scene.meshes.size()) continue;
+    std::vector<double> world_scales() const {
+        std::vector<double> mesh_scale(scene_.meshes.size(), 0.0);
+        const std::vector<glm::dmat4> world = detail::node_world_matrices(scene_);
+        for (size_t i = 0; i < scene_.nodes.size(); ++i) {
+            const int m = scene_.nodes[i].mesh;
+            if (m < 0 || size_t(m) >= scene_.meshes.size()) continue;
             const glm::dmat4& w = world[i];
             const double s = std::max({glm::length(glm::dvec3(w[0])), glm::length(glm::dvec3(w[1])),
                                        glm::length(glm::dvec3(w[2]))});
@@ -307,132 +340,153 @@ Result<AtlasReport> build_uv_atlas_in(Scene& scene, const AtlasOptions& options)
         }
         for (double& s : mesh_scale)
             if (!(s > 0.0) || !std::isfinite(s)) s = 1.0;
+        return mesh_scale;
     }
 
     // Segment and parameterise.
-    std::vector<Chart> charts;
-    std::vector<std::vector<uint32_t>> welds;  // per (mesh, prim) job
-    struct Job {
-        int mesh, prim;
-        size_t first_chart, end_chart;
-    };
-    std::vector<Job> jobs;
-    const double cos_planar = std::cos(options.planar_angle_deg * kPi / 180.0);
-    double distortion_sum = 0.0, distortion_area = 0.0;
-    // Charts too large for the atlas: all are counted, the largest (in texels: the one that needs
-    // the lowest density) is named with the density at which it fits, so that one rerun at that
-    // density fits them all.
-    size_t too_large = 0;
-    double largest_extent = 0.0;
-    std::string largest_message;
-    for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
-        const Mesh& mesh = scene.meshes[mi];
-        for (size_t pi = 0; pi < mesh.primitives.size(); ++pi) {
-            const Primitive& prim = mesh.primitives[pi];
-            if (!chosen(int(mi), int(pi)) || prim.indices.empty()) continue;
-            if (!prim.uv1.empty()) {
-                report.kept_primitives++;
-                const int mat = prim.material;
-                if (mat < 0 || size_t(mat) >= scene.materials.size() ||
-                    scene.materials[size_t(mat)].lightmap.texture < 0)
-                    report.kept_without_lightmap.push_back("'" + mesh.name + "'/" +
-                                                           std::to_string(pi));
-                continue;
+    Status segment_and_parameterise(const std::vector<double>& mesh_scale) {
+        const double cos_planar = std::cos(options_.planar_angle_deg * kPi / 180.0);
+        TooLarge too_large;
+        for (size_t mi = 0; mi < scene_.meshes.size(); ++mi) {
+            const Mesh& mesh = scene_.meshes[mi];
+            for (size_t pi = 0; pi < mesh.primitives.size(); ++pi) {
+                const Primitive& prim = mesh.primitives[pi];
+                if (!chosen(int(mi), int(pi)) || prim.indices.empty()) continue;
+                if (!prim.uv1.empty()) {
+                    report_.kept_primitives++;
+                    const int mat = prim.material;
+                    if (mat < 0 || size_t(mat) >= scene_.materials.size() ||
+                        scene_.materials[size_t(mat)].lightmap.texture < 0)
+                        report_.kept_without_lightmap.push_back("'" + mesh.name + "'/" +
+                                                                std::to_string(pi));
+                    continue;
+                }
+                if (Status s = check_primitive(mesh, pi); !s.ok()) return s;
+                parameterise_primitive(mi, pi, cos_planar);
+                const double texels = mesh_scale[mi] * options_.texels_per_metre;
+                scale_charts(jobs_.back(), mesh.name, texels, too_large);
             }
-            for (size_t v = 0; v < prim.positions.size(); ++v)
-                if (!finite(prim.positions[v]))
-                    return make_error("uv atlas: mesh '" + mesh.name + "' primitive " +
-                                      std::to_string(pi) + ": vertex " + std::to_string(v) +
-                                      " has a non-finite position");
-            for (uint32_t i : prim.indices)
-                if (i >= prim.positions.size())
-                    return make_error("uv atlas: mesh '" + mesh.name + "' primitive " +
-                                      std::to_string(pi) + ": index " + std::to_string(i) +
-                                      " out of range");
-            welds.push_back(weld_positions(prim.positions));
-            int count = 0;
-            const std::vector<int> seg =
-                segment_charts(prim.positions, prim.indices, options.chart_angle_deg,
-                               options.max_chart_faces, &count);
-            std::vector<std::vector<uint32_t>> groups(static_cast<size_t>(count));
-            for (size_t f = 0; f < seg.size(); ++f) groups[size_t(seg[f])].push_back(uint32_t(f));
-            ParamContext ctx{&prim, &welds.back(), cos_planar, &report};
-            Job job{int(mi), int(pi), charts.size(), 0};
-            for (const auto& g : groups) parameterise(ctx, g, 0, charts);
-            job.end_chart = charts.size();
-            jobs.push_back(job);
-            distortion_sum += ctx.distortion_sum;
-            distortion_area += ctx.distortion_area;
-            const double texels = mesh_scale[mi] * options.texels_per_metre;
-            for (size_t c = job.first_chart; c < job.end_chart; ++c) {
-                Chart& ch = charts[c];
-                ch.mesh = int(mi), ch.prim = int(pi);
-                glm::dvec2 lo(1e300), hi(-1e300);
-                for (auto& w : ch.uv) {
-                    w *= texels;
-                    lo = glm::min(lo, w), hi = glm::max(hi, w);
-                }
-                for (auto& w : ch.uv) w -= lo;
-                ch.width = hi.x - lo.x, ch.height = hi.y - lo.y;
-                ch.area_texels *= texels * texels;
-                ch.rect_w = std::max(1, int(std::ceil(ch.width - 1e-9))) + options.padding_texels;
-                ch.rect_h = std::max(1, int(std::ceil(ch.height - 1e-9))) + options.padding_texels;
-                if (ch.rect_w > options.max_atlas_size || ch.rect_h > options.max_atlas_size) {
-                    const double extent = std::max(ch.width, ch.height);
-                    ++too_large;
-                    if (extent <= largest_extent) continue;
-                    largest_extent = extent;
-                    const double fit = options.texels_per_metre *
-                                       double(options.max_atlas_size - options.padding_texels - 1) /
-                                       extent;
-                    char buf[160];
-                    std::snprintf(buf, sizeof buf,
-                                  "%.0f x %.0f texels (%.3g x %.3g m) at %g texels/m does not fit "
-                                  "a %d-texel atlas; use at most %.3g texels per metre",
-                                  std::ceil(ch.width), std::ceil(ch.height), ch.width / texels,
-                                  ch.height / texels, options.texels_per_metre,
-                                  options.max_atlas_size, std::floor(fit * 1000.0) / 1000.0);
-                    largest_message = "mesh '" + mesh.name + "' primitive " + std::to_string(pi) +
-                                      ": a chart of " + buf;
-                }
+        }
+        if (too_large.count == 1) return make_error("uv atlas: " + too_large.largest_message);
+        if (too_large.count > 1)
+            return make_error("uv atlas: " + std::to_string(too_large.count) +
+                              " charts do not fit; the largest, " + too_large.largest_message);
+        report_.charts = charts_.size();
+        report_.primitives = jobs_.size();
+        report_.mean_conformal_distortion =
+            distortion_area_ > 0.0 ? distortion_sum_ / distortion_area_ : 1.0;
+        return {};
+    }
+
+    static Status check_primitive(const Mesh& mesh, size_t pi) {
+        const Primitive& prim = mesh.primitives[pi];
+        for (size_t v = 0; v < prim.positions.size(); ++v)
+            if (!finite(prim.positions[v]))
+                return make_error("uv atlas: mesh '" + mesh.name + "' primitive " +
+                                  std::to_string(pi) + ": vertex " + std::to_string(v) +
+                                  " has a non-finite position");
+        for (uint32_t i : prim.indices)
+            if (i >= prim.positions.size())
+                return make_error("uv atlas: mesh '" + mesh.name + "' primitive " +
+                                  std::to_string(pi) + ": index " + std::to_string(i) +
+                                  " out of range");
+        return {};
+    }
+
+    // The charts of one primitive, appended to charts_ (in metres), and its job.
+    void parameterise_primitive(size_t mi, size_t pi, double cos_planar) {
+        const Primitive& prim = scene_.meshes[mi].primitives[pi];
+        welds_.push_back(weld_positions(prim.positions));
+        int count = 0;
+        const std::vector<int> seg =
+            segment_charts(prim.positions, prim.indices, options_.chart_angle_deg,
+                           options_.max_chart_faces, &count);
+        std::vector<std::vector<uint32_t>> groups(static_cast<size_t>(count));
+        for (size_t f = 0; f < seg.size(); ++f) groups[size_t(seg[f])].push_back(uint32_t(f));
+        ParamContext ctx{&prim, &welds_.back(), cos_planar, &report_};
+        Job job{int(mi), int(pi), charts_.size(), 0};
+        for (const auto& g : groups) parameterise(ctx, g, 0, charts_);
+        job.end_chart = charts_.size();
+        jobs_.push_back(job);
+        distortion_sum_ += ctx.distortion_sum;
+        distortion_area_ += ctx.distortion_area;
+    }
+
+    // A job's charts scaled to texels (min corner at 0), with their padded rectangles.
+    void scale_charts(const Job& job, const std::string& mesh_name, double texels,
+                      TooLarge& too_large) {
+        for (size_t c = job.first_chart; c < job.end_chart; ++c) {
+            Chart& ch = charts_[c];
+            ch.mesh = job.mesh, ch.prim = job.prim;
+            glm::dvec2 lo(1e300), hi(-1e300);
+            for (auto& w : ch.uv) {
+                w *= texels;
+                lo = glm::min(lo, w), hi = glm::max(hi, w);
+            }
+            for (auto& w : ch.uv) w -= lo;
+            ch.width = hi.x - lo.x, ch.height = hi.y - lo.y;
+            ch.area_texels *= texels * texels;
+            ch.rect_w = std::max(1, int(std::ceil(ch.width - 1e-9))) + options_.padding_texels;
+            ch.rect_h = std::max(1, int(std::ceil(ch.height - 1e-9))) + options_.padding_texels;
+            if (ch.rect_w > options_.max_atlas_size || ch.rect_h > options_.max_atlas_size) {
+                const double extent = std::max(ch.width, ch.height);
+                ++too_large.count;
+                if (extent <= too_large.largest_extent) continue;
+                too_large.largest_extent = extent;
+                const double fit = options_.texels_per_metre *
+                                   double(options_.max_atlas_size - options_.padding_texels - 1) /
+                                   extent;
+                char buf[160];
+                std::snprintf(buf, sizeof buf,
+                              "%.0f x %.0f texels (%.3g x %.3g m) at %g texels/m does not fit "
+                              "a %d-texel atlas; use at most %.3g texels per metre",
+                              std::ceil(ch.width), std::ceil(ch.height), ch.width / texels,
+                              ch.height / texels, options_.texels_per_metre,
+                              options_.max_atlas_size, std::floor(fit * 1000.0) / 1000.0);
+                too_large.largest_message = "mesh '" + mesh_name + "' primitive " +
+                                            std::to_string(job.prim) + ": a chart of " + buf;
             }
         }
     }
-    if (too_large == 1) return make_error("uv atlas: " + largest_message);
-    if (too_large > 1)
-        return make_error("uv atlas: " + std::to_string(too_large) +
-                          " charts do not fit; the largest, " + largest_message);
-    report.charts = charts.size();
-    report.primitives = jobs.size();
-    report.mean_conformal_distortion =
-        distortion_area > 0.0 ? distortion_sum / distortion_area : 1.0;
 
     // Pack: the charts of one primitive are kept consecutive in the rect list; stb sorts by
     // height internally, so a primitive may still straddle atlases (handled below).
-    std::vector<size_t> remaining(charts.size());
-    std::iota(remaining.begin(), remaining.end(), size_t(0));
-    const int half_pad = options.padding_texels / 2;
-    while (!remaining.empty()) {
-        // The smallest atlas (area after cropping) that holds everything, trying power-of-two
-        // widths at the full height and the charts lying (longer side along x) or standing;
-        // else a full max x max atlas of lying charts and the rest in the next one.
-        auto make_rects = [&](bool standing) {
-            std::vector<stbrp_rect> rects(remaining.size());
-            for (size_t i = 0; i < remaining.size(); ++i) {
-                rects[i].id = int(i);
-                rects[i].w = standing ? charts[remaining[i]].rect_h : charts[remaining[i]].rect_w;
-                rects[i].h = standing ? charts[remaining[i]].rect_w : charts[remaining[i]].rect_h;
-            }
-            return rects;
-        };
+    Status pack_charts() {
+        std::vector<size_t> remaining(charts_.size());
+        std::iota(remaining.begin(), remaining.end(), size_t(0));
+        while (!remaining.empty()) {
+            if (Status s = pack_atlas(remaining); !s.ok()) return s;
+        }
+        for (const Chart& ch : charts_) report_.chart_texels += ch.area_texels;
+        report_.atlases = report_.textures.size();
+        report_.utilisation =
+            report_.atlas_texels > 0 ? report_.chart_texels / double(report_.atlas_texels) : 0.0;
+        return {};
+    }
+
+    std::vector<stbrp_rect> make_rects(const std::vector<size_t>& remaining, bool standing) const {
+        std::vector<stbrp_rect> rects(remaining.size());
+        for (size_t i = 0; i < remaining.size(); ++i) {
+            rects[i].id = int(i);
+            rects[i].w = standing ? charts_[remaining[i]].rect_h : charts_[remaining[i]].rect_w;
+            rects[i].h = standing ? charts_[remaining[i]].rect_w : charts_[remaining[i]].rect_h;
+        }
+        return rects;
+    }
+
+    // The smallest atlas (area after cropping) that holds everything, trying power-of-two
+    // widths at the full height and the charts lying (longer side along x) or standing;
+    // else a full max x max atlas of lying charts and the rest in the next one.
+    // Returns the width (-1: none holds everything) and whether the charts stand.
+    std::pair<int, bool> choose_atlas_shape(const std::vector<size_t>& remaining) const {
         double need = 0.0;
-        for (size_t i : remaining) need += double(charts[i].rect_w) * charts[i].rect_h;
-        const int max_size = options.max_atlas_size;
+        for (size_t i : remaining) need += double(charts_[i].rect_w) * charts_[i].rect_h;
+        const int max_size = options_.max_atlas_size;
         double best_area = 1e300;
         int best_width = -1;
         bool best_standing = false;
         for (bool standing : {false, true}) {
-            const std::vector<stbrp_rect> rects = make_rects(standing);
+            const std::vector<stbrp_rect> rects = make_rects(remaining, standing);
             for (int w = 16;; w *= 2) {
                 const int width = std::min(w, max_size);
                 if (double(width) * max_size >= need) {
@@ -450,21 +504,29 @@ Result<AtlasReport> build_uv_atlas_in(Scene& scene, const AtlasOptions& options)
                 if (width == max_size) break;
             }
         }
-        std::vector<stbrp_rect> rects = make_rects(best_standing);
+        return {best_width, best_standing};
+    }
+
+    // One atlas of the remaining charts; `remaining` becomes those it does not hold.
+    Status pack_atlas(std::vector<size_t>& remaining) {
+        const int max_size = options_.max_atlas_size;
+        const int half_pad = options_.padding_texels / 2;
+        const auto [best_width, best_standing] = choose_atlas_shape(remaining);
+        std::vector<stbrp_rect> rects = make_rects(remaining, best_standing);
         size_t packed = pack(rects, best_width > 0 ? best_width : max_size, max_size);
         if (best_standing)  // turn the placed charts by 90 degrees (orientation preserved)
             for (const auto& r : rects) {
-                Chart& ch = charts[remaining[size_t(r.id)]];
+                Chart& ch = charts_[remaining[size_t(r.id)]];
                 for (auto& w : ch.uv) w = {ch.height - w.y, w.x};
                 std::swap(ch.width, ch.height);
                 std::swap(ch.rect_w, ch.rect_h);
             }
         if (packed == 0) return make_error("uv atlas: packing made no progress");  // unreachable
-        const int atlas = int(report.textures.size());
+        const int atlas = int(report_.textures.size());
         int used_w = 0, used_h = 0;
         std::vector<size_t> rest;
         for (const auto& r : rects) {
-            Chart& ch = charts[remaining[size_t(r.id)]];
+            Chart& ch = charts_[remaining[size_t(r.id)]];
             if (!r.was_packed) {
                 rest.push_back(remaining[size_t(r.id)]);
                 continue;
@@ -481,80 +543,79 @@ Result<AtlasReport> build_uv_atlas_in(Scene& scene, const AtlasOptions& options)
         tex.height = std::max(used_h, 4);
         tex.rgba8.assign(size_t(tex.width) * size_t(tex.height) * 4, 0);
         for (size_t i = 3; i < tex.rgba8.size(); i += 4) tex.rgba8[i] = 255;
-        report.textures.push_back(int(scene.textures.size()));
-        report.widths.push_back(tex.width);
-        report.heights.push_back(tex.height);
-        report.atlas_texels += size_t(tex.width) * size_t(tex.height);
-        scene.textures.push_back(std::move(tex));
+        report_.textures.push_back(int(scene_.textures.size()));
+        report_.widths.push_back(tex.width);
+        report_.heights.push_back(tex.height);
+        report_.atlas_texels += size_t(tex.width) * size_t(tex.height);
+        scene_.textures.push_back(std::move(tex));
         remaining = std::move(rest);
+        return {};
     }
-    for (const Chart& ch : charts) report.chart_texels += ch.area_texels;
-    report.atlases = report.textures.size();
-    report.utilisation =
-        report.atlas_texels > 0 ? report.chart_texels / double(report.atlas_texels) : 0.0;
 
     // Materials: a material may be lightmapped in place only when every primitive using it is
     // being atlased and it has no lightmap yet; the first atlas takes it, others get clones.
-    std::vector<char> exclusive(scene.materials.size(), 1);
-    for (size_t mi = 0; mi < scene.meshes.size(); ++mi)
-        for (size_t pi = 0; pi < scene.meshes[mi].primitives.size(); ++pi) {
-            const Primitive& prim = scene.meshes[mi].primitives[pi];
-            const bool atlased =
-                chosen(int(mi), int(pi)) && prim.uv1.empty() && !prim.indices.empty();
-            if (!atlased && prim.material >= 0 && size_t(prim.material) < exclusive.size())
-                exclusive[size_t(prim.material)] = 0;
-        }
-    for (size_t m = 0; m < scene.materials.size(); ++m)
-        if (scene.materials[m].lightmap.texture >= 0) exclusive[m] = 0;
-    std::map<std::pair<int, int>, int> material_for;  // (material, atlas) -> material
-    auto material_of = [&](int mat, int atlas) {
-        auto it = material_for.find({mat, atlas});
-        if (it != material_for.end()) return it->second;
+    void find_exclusive_materials() {
+        exclusive_.assign(scene_.materials.size(), 1);
+        for (size_t mi = 0; mi < scene_.meshes.size(); ++mi)
+            for (size_t pi = 0; pi < scene_.meshes[mi].primitives.size(); ++pi) {
+                const Primitive& prim = scene_.meshes[mi].primitives[pi];
+                const bool atlased =
+                    chosen(int(mi), int(pi)) && prim.uv1.empty() && !prim.indices.empty();
+                if (!atlased && prim.material >= 0 && size_t(prim.material) < exclusive_.size())
+                    exclusive_[size_t(prim.material)] = 0;
+            }
+        for (size_t m = 0; m < scene_.materials.size(); ++m)
+            if (scene_.materials[m].lightmap.texture >= 0) exclusive_[m] = 0;
+    }
+
+    int material_of(int mat, int atlas) {
+        auto it = material_for_.find({mat, atlas});
+        if (it != material_for_.end()) return it->second;
         int out;
-        if (mat >= 0 && size_t(mat) < scene.materials.size() && exclusive[size_t(mat)]) {
+        if (mat >= 0 && size_t(mat) < scene_.materials.size() && exclusive_[size_t(mat)]) {
             out = mat;
-            exclusive[size_t(mat)] = 0;
+            exclusive_[size_t(mat)] = 0;
         } else {
             Material copy;
-            if (mat >= 0 && size_t(mat) < scene.materials.size()) {
-                copy = scene.materials[size_t(mat)];
+            if (mat >= 0 && size_t(mat) < scene_.materials.size()) {
+                copy = scene_.materials[size_t(mat)];
                 copy.name += "_lightmap" + std::to_string(atlas);
             } else {
                 copy.name = "lightmapped_default_" + std::to_string(atlas);
             }
-            out = int(scene.materials.size());
-            scene.materials.push_back(copy);
+            out = int(scene_.materials.size());
+            scene_.materials.push_back(copy);
         }
-        Lightmap& lm = scene.materials[size_t(out)].lightmap;
-        lm.texture = report.textures[size_t(atlas)];
+        Lightmap& lm = scene_.materials[size_t(out)].lightmap;
+        lm.texture = report_.textures[size_t(atlas)];
         lm.tex_coord = 1;
         lm.intensity = 1.0f;
-        material_for[{mat, atlas}] = out;
+        material_for_[{mat, atlas}] = out;
         return out;
-    };
+    }
 
-    // Rewrite the primitives: one output primitive per atlas its charts use.
-    for (size_t j = 0; j < jobs.size(); ++j) {
-        const Job& job = jobs[j];
-        Mesh& mesh = scene.meshes[size_t(job.mesh)];
+    // Job j's primitive as one output primitive per atlas its charts use.
+    void rewrite_primitive(size_t j) {
+        const Job& job = jobs_[j];
+        Mesh& mesh = scene_.meshes[size_t(job.mesh)];
         const Primitive src = mesh.primitives[size_t(job.prim)];
         std::map<int, Primitive> per_atlas;
         std::map<int, std::map<std::pair<uint32_t, size_t>, uint32_t>> vertex_maps;
         std::vector<int> chart_of_face(src.triangle_count(), -1);
         for (size_t c = job.first_chart; c < job.end_chart; ++c)
-            for (uint32_t f : charts[c].faces) chart_of_face[f] = int(c);
+            for (uint32_t f : charts_[c].faces) chart_of_face[f] = int(c);
         for (size_t f = 0; f < src.triangle_count(); ++f) {
-            const Chart& ch = charts[size_t(chart_of_face[f])];
+            const Chart& ch = charts_[size_t(chart_of_face[f])];
             Primitive& dst = per_atlas[ch.atlas];
             auto& vmap = vertex_maps[ch.atlas];
             const int atlas = ch.atlas;
-            const double W = report.widths[size_t(atlas)], H = report.heights[size_t(atlas)];
+            const double W = report_.widths[size_t(atlas)], H = report_.heights[size_t(atlas)];
             for (int k = 0; k < 3; ++k) {
                 const uint32_t v = src.indices[3 * f + k];
                 const auto key = std::make_pair(v, size_t(chart_of_face[f]));
                 auto it = vmap.find(key);
                 if (it == vmap.end()) {
-                    const uint32_t w = welds[j][v];
+                    const uint32_t w = welds_[j][v];
                     const glm::dvec2 t = ch.uv[ch.local.at(w)] + glm::dvec2(ch.x, ch.y);
                     const uint32_t nv = uint32_t(dst.positions.size());
                     dst.positions.push_back(src.positions[v]);
@@ -568,11 +629,11 @@ Result<AtlasReport> build_uv_atlas_in(Scene& scene, const AtlasOptions& options)
                 dst.indices.push_back(it->second);
             }
         }
-        report.vertices_before += src.positions.size();
+        report_.vertices_before += src.positions.size();
         bool first = true;
         for (auto& [atlas, dst] : per_atlas) {
             dst.material = material_of(src.material, atlas);
-            report.vertices_after += dst.positions.size();
+            report_.vertices_after += dst.positions.size();
             if (first) {
                 mesh.primitives[size_t(job.prim)] = std::move(dst);
                 first = false;
@@ -581,7 +642,23 @@ Result<AtlasReport> build_uv_atlas_in(Scene& scene, const AtlasOptions& options)
             }
         }
     }
-    return report;
+
+    Scene& scene_;
+    const AtlasOptions& options_;
+    AtlasReport report_;
+    // origin_[m]: the mesh index the caller knows (clones made below map to their original).
+    std::vector<int> origin_;
+    std::vector<Chart> charts_;
+    std::vector<std::vector<uint32_t>> welds_;  // per (mesh, prim) job
+    std::vector<Job> jobs_;
+    double distortion_sum_ = 0.0, distortion_area_ = 0.0;
+    std::vector<char> exclusive_;                      // per material: may be lightmapped in place
+    std::map<std::pair<int, int>, int> material_for_;  // (material, atlas) -> material
+};
+
+Result<AtlasReport> build_uv_atlas_in(Scene& scene, const AtlasOptions& options) {
+    if (Status s = check_atlas_options(options); !s.ok()) return s.error();
+    return AtlasBuilder(scene, options).run();
 }
 
 }  // namespace
