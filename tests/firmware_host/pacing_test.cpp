@@ -582,8 +582,23 @@ TEST(Ladder, RecordedLavapipeCostsKeepTheirVsyncsWithTheLadderAndTheRate) {
     const PacedRun paced = run(render, 0, 20.0, {.pixel_bound = true, .warp_sequence = warp});
     EXPECT_LT(plain.summary.on_time_rate, 0.5);
     EXPECT_GT(paced.summary.on_time_rate, plain.summary.on_time_rate + 0.25);
-    EXPECT_GT(paced.summary.on_time_rate, 0.7);
-    EXPECT_LT(paced.summary.longest_late_run, plain.summary.longest_late_run);
+    // About 94 %, runs of at most 5 (74 % and 8 before a vsync the plan could no longer reach was
+    // re-warped at once); a warp-only schedule with no rendering at all makes at most 97.8 % of
+    // these vsyncs.
+    EXPECT_GT(paced.summary.on_time_rate, 0.92);
+    EXPECT_LE(paced.summary.longest_late_run, 6u);
+}
+
+// A pass whose 95th percentile and margin exceed a period (a 5 ms warp, 15 ms one time in ten:
+// the plan wakes every warp more than a period early) beside a 4 ms pixel-bound render: the vsync
+// whose planned wake-up has passed is still warped for at once, since a typical warp makes it, so
+// only the slow warps themselves cost vsyncs.
+TEST(Pacing, AJitteryPassWhoseTailExceedsAPeriodStillKeepsTheVsyncsItsMedianMakes) {
+    auto warp = [](int i) { return (i % 10 == 9 ? 15 : 5) * kNsPerMs * 5 / 2; };  // CA: 2.5x
+    const PacedRun r = run([](int) { return 4 * kNsPerMs; }, 0, 10.0,
+                           {.pixel_bound = true, .warp_sequence = warp});
+    EXPECT_GE(r.summary.on_time_rate, 0.9);
+    EXPECT_LE(r.summary.longest_late_run, 2u);
 }
 
 }  // namespace hmdnode
