@@ -15,6 +15,11 @@
 //     target's photon time, warp the eye buffers to that pose through the lens-distortion mesh,
 //     present; the display reports the vsync the frame landed on. A missed latch grows the
 //     margin; each vsync made shrinks it a little.
+//  Wherever the loop stands (before a new frame, between pieces, after a render), a free vsync
+//  before the planned one whose planned warp should already have started, but which a warp of
+//  median cost started now still makes, gets that warp at once (rescue_vsync): on a jittery CPU
+//  renderer the warp's estimate and margin exceed a period, and the vsync would otherwise go
+//  without a present.
 // Estimates are the 95th percentile of the last 90 measured costs (on a simulated clock, of the
 // cost model's). Before the tracker's first sample a call renders nothing and reports
 // FrameOutcome::no_pose_yet (never an unbounded wait). Cost per present: O(objects log objects)
