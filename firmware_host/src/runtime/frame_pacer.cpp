@@ -53,24 +53,29 @@ FramePacer::FramePacer(const PacingConfig& config, int64_t period_ns, int64_t la
     assert(period_ns > 0);
 }
 
-// While fewer than three costs are measured since a restart, the larger of the prediction and
-// the largest measured (a prediction too low is corrected by the first frame).
+namespace {
+
+// The p-quantile of a cost window; while fewer than three costs are measured since a restart, the
+// larger of the prediction and the window's `short_p`-quantile (a prediction too low is corrected
+// by the first frame). `fallback` while the window is empty and nothing is predicted.
+int64_t estimate(const CostWindow& w, int64_t predicted, double p, double short_p,
+                 int64_t fallback) {
+    if (w.size() < 3 && predicted >= 0) return std::max(predicted, w.percentile(short_p, 0));
+    return w.percentile(p, fallback);
+}
+
+}  // namespace
+
 int64_t FramePacer::render_estimate() const {
-    if (render_.size() < 3 && render_predicted_ >= 0)
-        return std::max(render_predicted_, render_.percentile(1.0, 0));
-    return render_.percentile(config_.percentile, period_ns_ / 2);
+    return estimate(render_, render_predicted_, config_.percentile, 1.0, period_ns_ / 2);
 }
 
 int64_t FramePacer::warp_estimate() const {
-    if (warp_.size() < 3 && warp_predicted_ >= 0)
-        return std::max(warp_predicted_, warp_.percentile(1.0, 0));
-    return warp_.percentile(config_.percentile, period_ns_ / 10);
+    return estimate(warp_, warp_predicted_, config_.percentile, 1.0, period_ns_ / 10);
 }
 
 int64_t FramePacer::warp_typical() const {
-    if (warp_.size() < 3 && warp_predicted_ >= 0)
-        return std::max(warp_predicted_, warp_.percentile(0.5, 0));
-    return warp_.percentile(0.5, period_ns_ / 10);
+    return estimate(warp_, warp_predicted_, 0.5, 0.5, period_ns_ / 10);
 }
 
 int64_t FramePacer::frame_estimate() const {
