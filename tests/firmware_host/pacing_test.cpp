@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <functional>
 #include <memory>
@@ -583,10 +584,33 @@ TEST(Ladder, RecordedLavapipeCostsKeepTheirVsyncsWithTheLadderAndTheRate) {
     EXPECT_LT(plain.summary.on_time_rate, 0.5);
     EXPECT_GT(paced.summary.on_time_rate, plain.summary.on_time_rate + 0.25);
     // About 94 %, runs of at most 5 (74 % and 8 before a vsync the plan could no longer reach was
-    // re-warped at once); a warp-only schedule with no rendering at all makes at most 97.8 % of
-    // these vsyncs.
+    // re-warped at once).
     EXPECT_GT(paced.summary.on_time_rate, 0.92);
     EXPECT_LE(paced.summary.longest_late_run, 6u);
+    // The bound the pass itself sets: one-sample warps back to back on one queue with no
+    // rendering at all, each started `lead` before its latch or as soon as the one before ends,
+    // on time when it ends by its latch. About 97.8 % at a 14 ms lead and 98.9 % at 20 ms: the
+    // 99 % target is out of reach on these costs whatever the pacing, and the paced loop, which
+    // also renders, stays within 5 points of it.
+    auto warp_only = [&](int64_t lead) {
+        const int64_t period = 11'111'111, latch = 500'000;
+        int64_t end = INT64_MIN;
+        size_t on_time = 0;
+        for (size_t i = 0; i < c.warp.size(); ++i) {
+            const int64_t deadline = int64_t(i + 3) * period - latch;
+            end = std::max(deadline - lead, end) + c.warp[i];
+            on_time += end <= deadline;
+        }
+        return double(on_time) / double(c.warp.size());
+    };
+    const double bound14 = warp_only(14 * kNsPerMs), bound20 = warp_only(20 * kNsPerMs);
+    std::printf(
+        "recorded lavapipe costs: paced %.1f %% of vsyncs on time (longest missed run %zu); "
+        "warp-only bound %.1f %% (14 ms lead), %.1f %% (20 ms lead)\n",
+        100.0 * paced.summary.on_time_rate, size_t(paced.summary.longest_late_run), 100.0 * bound14,
+        100.0 * bound20);
+    EXPECT_LT(bound20, 0.99);
+    EXPECT_GT(paced.summary.on_time_rate, bound14 - 0.05);
 }
 
 // A pass whose 95th percentile and margin exceed a period (a 5 ms warp, 15 ms one time in ten:
