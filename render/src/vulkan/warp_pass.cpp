@@ -143,21 +143,12 @@ Status create_common(DeviceContext& ctx, const Image eyes[2], uint32_t width, ui
     w.readback = std::move(*readback);
 
     // 2. The eye buffers as a sampled array, behind a bilinear sampler that is black outside.
-    VkSamplerCreateInfo sampler_info{};
-    sampler_info.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
-    sampler_info.magFilter = VK_FILTER_LINEAR;
-    sampler_info.minFilter = VK_FILTER_LINEAR;
-    sampler_info.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
     // note: clamp to edge, with the outside blacked out by the shader: llvmpipe's fast 8-bit
     // filtering path does not take a border colour.
-    sampler_info.addressModeU = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
-    sampler_info.addressModeV = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
-    sampler_info.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
-    sampler_info.maxLod = 0.0f;
-    VkSampler sampler = VK_NULL_HANDLE;
-    HMDNODE_VK_TRY(vkCreateSampler(ctx.device, &sampler_info, nullptr, &sampler),
-                   "vkCreateSampler (warp)");
-    w.sampler = Sampler(ctx.device, sampler);
+    auto sampler =
+        create_sampler(ctx, VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE, "vkCreateSampler (warp)");
+    if (!sampler) return sampler.error();
+    w.sampler = std::move(*sampler);
     for (int slot = 0; slot < 2; ++slot)
         for (uint32_t e = 0; e < 2; ++e) {
             auto eyes_view = create_view(ctx, eyes[slot], kEyeSampleFormat,
