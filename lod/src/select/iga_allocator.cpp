@@ -46,6 +46,7 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <optional>
 
 #include "hmdnode/lod/budget.hpp"
 
@@ -79,225 +80,297 @@ using Gene = IgaLodAllocator::Gene;
 
 }  // namespace
 
-BudgetAllocation IgaLodAllocator::allocate(std::span<const BudgetCandidate> candidates,
-                                           double base_ms, double per_triangle_ms, double budget_ms,
-                                           std::span<int> levels) {
-    assert(levels.size() == candidates.size());
-    const size_t n = candidates.size();
-    const size_t P = size_t(std::max(4, params_.population));
-    const double slope = std::max(0.0, per_triangle_ms);
-    generations_ = 0;
-    BudgetAllocation out;
-    out.predicted_ms = base_ms;
-    if (n == 0) return out;
+// One allocate() call: the problem, the generator, and the algorithm's steps over the
+// allocator's scratch (sized by the first frames, kept across calls).
+struct IgaLodAllocator::Run {
+    IgaLodAllocator& a;
+    std::span<const BudgetCandidate> candidates;
+    double base_ms, per_triangle_ms, budget_ms;
+    std::span<int> levels;
+    size_t n;      // objects
+    size_t P;      // antibodies
+    double slope;  // ms per triangle, >= 0
+    SplitMix rng;  // seeded from IgaParams::seed on every call
 
-    // Per object: its range of levels and its benefit per ms over the whole range.
-    finest_.resize(n);
-    coarsest_.resize(n);
-    density_.resize(n);
-    order_.resize(n);
-    for (size_t i = 0; i < n; ++i) {
-        const BudgetCandidate& c = candidates[i];
-        assert(!c.level_triangles.empty() && c.level_triangles.size() == c.level_errors_m.size());
-        assert(c.level_triangles.size() <= std::numeric_limits<Gene>::max());
-        const int L = int(c.level_triangles.size()) - 1;
-        const int fin = std::clamp(c.finest, 0, L);
-        coarsest_[i] = Gene(L);
-        finest_[i] = Gene(fin);
-        const double benefit =
-            (c.level_errors_m[size_t(L)] - c.level_errors_m[size_t(fin)]) * c.error_scale;
-        const double cost =
-            slope * (double(c.level_triangles[size_t(fin)]) - double(c.level_triangles[size_t(L)]));
-        density_[i] = cost > 0.0 ? benefit / cost : std::numeric_limits<double>::infinity();
+    uint64_t tri(size_t i, Gene l) const { return candidates[i].level_triangles[l]; }
+    bool fits(uint64_t t) const { return base_ms + slope * double(t) <= budget_ms; }
+    double error_of(const Gene* g) const {
+        double f = 0.0;
+        for (size_t i = 0; i < n; ++i)
+            f += candidates[i].level_errors_m[g[i]] * candidates[i].error_scale;
+        return f;
     }
-    std::iota(order_.begin(), order_.end(), 0u);
-    std::sort(order_.begin(), order_.end(), [&](uint32_t a, uint32_t b) {
-        return density_[a] < density_[b] || (density_[a] == density_[b] && a < b);
-    });
+    static bool better(const Antibody& x, const Antibody& y) {
+        return x.f < y.f || (x.f == y.f && x.triangles < y.triangles);
+    }
 
-    const auto tri = [&](size_t i, Gene l) { return candidates[i].level_triangles[l]; };
-    const auto fits = [&](uint64_t t) { return base_ms + slope * double(t) <= budget_ms; };
-    // Repair, fill and evaluate an antibody in place.
-    const auto polish = [&](Gene* g) -> Antibody {
+    // Per object: its range of levels, its benefit per ms over the whole range, and the objects
+    // ordered by it.
+    void set_ranges() {
+        a.finest_.resize(n);
+        a.coarsest_.resize(n);
+        a.density_.resize(n);
+        a.order_.resize(n);
+        for (size_t i = 0; i < n; ++i) {
+            const BudgetCandidate& c = candidates[i];
+            assert(!c.level_triangles.empty() &&
+                   c.level_triangles.size() == c.level_errors_m.size());
+            assert(c.level_triangles.size() <= std::numeric_limits<Gene>::max());
+            const int L = int(c.level_triangles.size()) - 1;
+            const int fin = std::clamp(c.finest, 0, L);
+            a.coarsest_[i] = Gene(L);
+            a.finest_[i] = Gene(fin);
+            const double benefit =
+                (c.level_errors_m[size_t(L)] - c.level_errors_m[size_t(fin)]) * c.error_scale;
+            const double cost = slope * (double(c.level_triangles[size_t(fin)]) -
+                                         double(c.level_triangles[size_t(L)]));
+            a.density_[i] = cost > 0.0 ? benefit / cost : std::numeric_limits<double>::infinity();
+        }
+        std::iota(a.order_.begin(), a.order_.end(), 0u);
+        std::sort(a.order_.begin(), a.order_.end(), [&](uint32_t x, uint32_t y) {
+            return a.density_[x] < a.density_[y] || (a.density_[x] == a.density_[y] && x < y);
+        });
+    }
+
+    // Repairs, fills and evaluates an antibody in place (the constraint, by repair).
+    Antibody polish(Gene* g) const {
         uint64_t t = 0;
         for (size_t i = 0; i < n; ++i) t += tri(i, g[i]);
         for (size_t k = 0; k < n && !fits(t); ++k) {  // repair: least worthwhile first
-            const uint32_t i = order_[k];
-            for (; g[i] < coarsest_[i] && !fits(t); ++g[i]) t = t - tri(i, g[i]) + tri(i, g[i] + 1);
+            const uint32_t i = a.order_[k];
+            for (; g[i] < a.coarsest_[i] && !fits(t); ++g[i])
+                t = t - tri(i, g[i]) + tri(i, g[i] + 1);
         }
         for (size_t k = n; k-- > 0;) {  // fill: most worthwhile first
-            const uint32_t i = order_[k];
-            for (; g[i] > finest_[i]; --g[i]) {
+            const uint32_t i = a.order_[k];
+            for (; g[i] > a.finest_[i]; --g[i]) {
                 const uint64_t up = t - tri(i, g[i]) + tri(i, g[i] - 1);
                 if (!fits(up)) break;
                 t = up;
             }
         }
-        double f = 0.0;
-        for (size_t i = 0; i < n; ++i)
-            f += candidates[i].level_errors_m[g[i]] * candidates[i].error_scale;
-        return Antibody{f, t};
-    };
-    const auto mutate = [&](Gene* g, double p, SplitMix& rng) {
+        return Antibody{error_of(g), t};
+    }
+
+    // Mutation (eq. 18): each gene reset to a random level of its range with probability p.
+    void mutate(Gene* g, double p) {
         for (size_t j = rng.skip(p) - 1; j < n; j += rng.skip(p))
-            g[j] = Gene(finest_[j] + rng.below(uint32_t(coarsest_[j] - finest_[j]) + 1));
-    };
-    const auto finish = [&](const Gene* g, const Antibody& a) {
-        out.triangles = a.triangles;
-        out.predicted_ms = base_ms + slope * double(a.triangles);
+            g[j] = Gene(a.finest_[j] + rng.below(uint32_t(a.coarsest_[j] - a.finest_[j]) + 1));
+    }
+
+    // The answer: antibody g's levels into `levels`.
+    BudgetAllocation finish(const Gene* g, const Antibody& ab) {
+        BudgetAllocation out;
+        out.triangles = ab.triangles;
+        out.predicted_ms = base_ms + slope * double(ab.triangles);
         out.coarsened = 0;
         for (size_t i = 0; i < n; ++i) {
             levels[i] = g[i];
-            out.coarsened += g[i] > finest_[i];
+            out.coarsened += g[i] > a.finest_[i];
         }
         // Every antibody is filled: an object left coarser has no step that still fits.
         out.limited = out.coarsened > 0;
         return out;
-    };
+    }
 
-    SplitMix rng{params_.seed};
-    genes_.resize(P * n);
-    children_.resize(P * n);
-    warm_.resize(n);
-    antibodies_.resize(P);
-    child_antibodies_.resize(P);
     // Antibody 1: the selector's levels, repaired. When they fit there is nothing to search; when
     // not even every object at its coarsest fits, that is the answer (the cheapest frame).
-    Gene* a1 = &genes_[n];
-    std::copy(finest_.begin(), finest_.end(), a1);
-    antibodies_[1] = polish(a1);
-    bool any_previous = false;
-    for (size_t i = 0; i < n; ++i) any_previous |= candidates[i].previous >= 0;
-    if (fits(antibodies_[1].triangles) && std::equal(finest_.begin(), finest_.end(), a1))
-        return finish(a1, antibodies_[1]);
-    Gene* a2 = &genes_[2 * n];
-    uint64_t coarsest_triangles = 0;
-    for (size_t i = 0; i < n; ++i) coarsest_triangles += tri(i, coarsest_[i]);
-    if (!fits(coarsest_triangles)) {
-        std::copy(coarsest_.begin(), coarsest_.end(), a2);
-        antibodies_[2] = Antibody{0.0, coarsest_triangles};
-        for (size_t i = 0; i < n; ++i)
-            antibodies_[2].f += candidates[i].level_errors_m[a2[i]] * candidates[i].error_scale;
-        return finish(a2, antibodies_[2]);
-    }
-    // Antibody 2: the greedy allocator's answer (prior knowledge, as an immune algorithm's vaccine
-    // is): with elitism the IGA never returns worse than the greedy.
-    greedy_levels_.resize(n);
-    greedy_.allocate(candidates, base_ms, per_triangle_ms, budget_ms, greedy_levels_);
-    for (size_t i = 0; i < n; ++i) a2[i] = Gene(greedy_levels_[i]);
-    antibodies_[2] = polish(a2);
-    // Antibody 0: last frame's levels within this frame's ranges (the memory cell); objects
-    // without one start at the selector's level.
-    Gene* a0 = &genes_[0];
-    for (size_t i = 0; i < n; ++i)
-        a0[i] = candidates[i].previous < 0
-                    ? finest_[i]
-                    : Gene(std::clamp(candidates[i].previous, int(finest_[i]), int(coarsest_[i])));
-    antibodies_[0] = polish(a0);
-    std::copy(a0, a0 + n, warm_.begin());
-    const Antibody warm = antibodies_[0];
-    for (size_t p = 3; p < P; ++p) {
-        Gene* g = &genes_[p * n];
-        std::copy(a0, a0 + n, g);
-        mutate(g, 0.05, rng);
-        antibodies_[p] = polish(g);
+    std::optional<BudgetAllocation> answer_without_search() {
+        Gene* a1 = &a.genes_[n];
+        std::copy(a.finest_.begin(), a.finest_.end(), a1);
+        a.antibodies_[1] = polish(a1);
+        if (fits(a.antibodies_[1].triangles) && std::equal(a.finest_.begin(), a.finest_.end(), a1))
+            return finish(a1, a.antibodies_[1]);
+        Gene* a2 = &a.genes_[2 * n];
+        uint64_t coarsest_triangles = 0;
+        for (size_t i = 0; i < n; ++i) coarsest_triangles += tri(i, a.coarsest_[i]);
+        if (!fits(coarsest_triangles)) {
+            std::copy(a.coarsest_.begin(), a.coarsest_.end(), a2);
+            a.antibodies_[2] = Antibody{error_of(a2), coarsest_triangles};
+            return finish(a2, a.antibodies_[2]);
+        }
+        return std::nullopt;
     }
 
-    const auto better = [](const Antibody& a, const Antibody& b) {
-        return a.f < b.f || (a.f == b.f && a.triangles < b.triangles);
-    };
-    const auto best_of = [&]() {
+    // The other initial antibodies (antibody 1 is answer_without_search()'s); returns antibody 0,
+    // the memory cell, whose genes are also kept in warm_.
+    Antibody seed_population() {
+        // Antibody 2: the greedy allocator's answer (prior knowledge, as an immune algorithm's
+        // vaccine is): with elitism the IGA never returns worse than the greedy.
+        Gene* a2 = &a.genes_[2 * n];
+        a.greedy_levels_.resize(n);
+        a.greedy_.allocate(candidates, base_ms, per_triangle_ms, budget_ms, a.greedy_levels_);
+        for (size_t i = 0; i < n; ++i) a2[i] = Gene(a.greedy_levels_[i]);
+        a.antibodies_[2] = polish(a2);
+        // Antibody 0: last frame's levels within this frame's ranges (the memory cell); objects
+        // without one start at the selector's level.
+        Gene* a0 = &a.genes_[0];
+        for (size_t i = 0; i < n; ++i)
+            a0[i] = candidates[i].previous < 0
+                        ? a.finest_[i]
+                        : Gene(std::clamp(candidates[i].previous, int(a.finest_[i]),
+                                          int(a.coarsest_[i])));
+        a.antibodies_[0] = polish(a0);
+        std::copy(a0, a0 + n, a.warm_.begin());
+        // The rest: antibody 0 with 5 % of its genes reset at random.
+        for (size_t p = 3; p < P; ++p) {
+            Gene* g = &a.genes_[p * n];
+            std::copy(a0, a0 + n, g);
+            mutate(g, 0.05);
+            a.antibodies_[p] = polish(g);
+        }
+        return a.antibodies_[0];
+    }
+
+    size_t best_of() const {
         size_t b = 0;
         for (size_t p = 1; p < P; ++p)
-            if (better(antibodies_[p], antibodies_[b])) b = p;
+            if (better(a.antibodies_[p], a.antibodies_[b])) b = p;
         return b;
-    };
-    size_t best = best_of();
-    const double pm = std::min(1.0, params_.mutations / double(n));
-    const size_t donors = std::clamp(size_t(std::max(1, params_.vaccine_donors)), size_t(1), P);
-    select_p_.resize(P);
-    affinity_.resize(P);
-    inv_concentration_.resize(P);
-    ranked_.resize(P);
-    vaccine_.resize(n);
-    int stall = 0;
-    for (int gen = 0; gen < params_.max_generations && stall < params_.stall_generations; ++gen) {
-        ++generations_;
-        // Vaccine: the rounded mean genes of the best antibodies.
-        std::iota(ranked_.begin(), ranked_.end(), 0u);
-        std::partial_sort(ranked_.begin(), ranked_.begin() + ptrdiff_t(donors), ranked_.end(),
-                          [&](uint32_t a, uint32_t b) {
-                              return better(antibodies_[a], antibodies_[b]) ||
-                                     (!better(antibodies_[b], antibodies_[a]) && a < b);
+    }
+
+    // Vaccine: the rounded mean genes of the best `donors` antibodies.
+    void make_vaccine(size_t donors) {
+        std::iota(a.ranked_.begin(), a.ranked_.end(), 0u);
+        std::partial_sort(a.ranked_.begin(), a.ranked_.begin() + ptrdiff_t(donors), a.ranked_.end(),
+                          [&](uint32_t x, uint32_t y) {
+                              return better(a.antibodies_[x], a.antibodies_[y]) ||
+                                     (!better(a.antibodies_[y], a.antibodies_[x]) && x < y);
                           });
         for (size_t i = 0; i < n; ++i) {
             unsigned sum = 0;
-            for (size_t d = 0; d < donors; ++d) sum += genes_[ranked_[d] * n + i];
-            vaccine_[i] = Gene((sum + unsigned(donors / 2)) / unsigned(donors));
+            for (size_t d = 0; d < donors; ++d) sum += a.genes_[a.ranked_[d] * n + i];
+            a.vaccine_[i] = Gene((sum + unsigned(donors / 2)) / unsigned(donors));
         }
-        // Selection probabilities from affinity (eq. 16, relative to the best) and concentration.
-        const double f_min = antibodies_[best].f;
+    }
+
+    // Selection probabilities from affinity (eq. 16, relative to the best) and concentration.
+    void selection_probabilities(size_t best) {
+        const IgaParams& params = a.params_;
+        const double f_min = a.antibodies_[best].f;
         double sum_aff = 0.0, sum_inv_c = 0.0;
         for (size_t p = 0; p < P; ++p) {
-            const double f = antibodies_[p].f;
+            const double f = a.antibodies_[p].f;
             size_t alike = 0;
             for (size_t q = 0; q < P; ++q)
-                alike += std::abs(antibodies_[q].f - f) <=
-                         params_.similar * std::max(f, antibodies_[q].f);
-            affinity_[p] = f_min > 0.0 ? (f_min / f) * (f_min / f) : (f == 0.0 ? 1.0 : 0.0);
-            inv_concentration_[p] = double(P) / double(std::max<size_t>(alike, 1));
-            sum_aff += affinity_[p];
-            sum_inv_c += inv_concentration_[p];
+                alike += std::abs(a.antibodies_[q].f - f) <=
+                         params.similar * std::max(f, a.antibodies_[q].f);
+            a.affinity_[p] = f_min > 0.0 ? (f_min / f) * (f_min / f) : (f == 0.0 ? 1.0 : 0.0);
+            a.inv_concentration_[p] = double(P) / double(std::max<size_t>(alike, 1));
+            sum_aff += a.affinity_[p];
+            sum_inv_c += a.inv_concentration_[p];
         }
-        const double w = std::clamp(params_.affinity_weight, 0.0, 1.0);
+        const double w = std::clamp(params.affinity_weight, 0.0, 1.0);
         for (size_t p = 0; p < P; ++p)
-            select_p_[p] =
-                w * affinity_[p] / sum_aff + (1.0 - w) * inv_concentration_[p] / sum_inv_c;
-        const auto pick = [&]() {
-            double u = rng.uniform(), acc = 0.0;
-            for (size_t p = 0; p < P; ++p)
-                if (u < (acc += select_p_[p])) return p;
-            return P - 1;
-        };
-        // Child 0: the elite, unchanged. The rest: pairs of selected parents, crossed and mutated.
-        std::copy(&genes_[best * n], &genes_[best * n] + n, &children_[0]);
-        child_antibodies_[0] = antibodies_[best];
-        for (size_t c = 1; c < P; c += 2) {
-            const Gene* pa = &genes_[pick() * n];
-            const Gene* pb = &genes_[pick() * n];
-            Gene* ca = &children_[c * n];
-            Gene* cb = c + 1 < P ? &children_[(c + 1) * n] : nullptr;
-            if (rng.uniform() < params_.crossover_p) {
-                const double u = rng.uniform();
-                for (size_t i = 0; i < n; ++i) {
-                    const double a = pa[i], b = pb[i];
-                    ca[i] = Gene(std::lround(u * a + (1.0 - u) * b));
-                    if (cb) cb[i] = Gene(std::lround((1.0 - u) * a + u * b));
-                }
-            } else {
-                std::copy(pa, pa + n, ca);
-                if (cb) std::copy(pb, pb + n, cb);
-            }
-            for (size_t k = c; k < std::min(c + 2, P); ++k) {
-                Gene* g = &children_[k * n];
-                mutate(g, pm, rng);
-                if (rng.uniform() < params_.vaccine_p)
-                    for (size_t j = rng.skip(params_.vaccine_genes) - 1; j < n;
-                         j += rng.skip(params_.vaccine_genes))
-                        g[j] = vaccine_[j];
-                child_antibodies_[k] = polish(g);
-            }
-        }
-        genes_.swap(children_);
-        antibodies_.swap(child_antibodies_);
-        const size_t next = best_of();
-        stall = better(antibodies_[next], child_antibodies_[best]) ? 0 : stall + 1;
-        best = next;
+            a.select_p_[p] =
+                w * a.affinity_[p] / sum_aff + (1.0 - w) * a.inv_concentration_[p] / sum_inv_c;
     }
+
+    // Roulette over the selection probabilities.
+    size_t pick() {
+        double u = rng.uniform(), acc = 0.0;
+        for (size_t p = 0; p < P; ++p)
+            if (u < (acc += a.select_p_[p])) return p;
+        return P - 1;
+    }
+
+    // Children c and c + 1 (when c + 1 < P): two selected parents, crossed (eq. 17), then each
+    // child mutated, perhaps vaccinated, and polished.
+    void breed(size_t c, double pm) {
+        const IgaParams& params = a.params_;
+        const Gene* pa = &a.genes_[pick() * n];
+        const Gene* pb = &a.genes_[pick() * n];
+        Gene* ca = &a.children_[c * n];
+        Gene* cb = c + 1 < P ? &a.children_[(c + 1) * n] : nullptr;
+        if (rng.uniform() < params.crossover_p) {
+            const double u = rng.uniform();
+            for (size_t i = 0; i < n; ++i) {
+                const double x = pa[i], y = pb[i];
+                ca[i] = Gene(std::lround(u * x + (1.0 - u) * y));
+                if (cb) cb[i] = Gene(std::lround((1.0 - u) * x + u * y));
+            }
+        } else {
+            std::copy(pa, pa + n, ca);
+            if (cb) std::copy(pb, pb + n, cb);
+        }
+        for (size_t k = c; k < std::min(c + 2, P); ++k) {
+            Gene* g = &a.children_[k * n];
+            mutate(g, pm);
+            if (rng.uniform() < params.vaccine_p)
+                for (size_t j = rng.skip(params.vaccine_genes) - 1; j < n;
+                     j += rng.skip(params.vaccine_genes))
+                    g[j] = a.vaccine_[j];
+            a.child_antibodies_[k] = polish(g);
+        }
+    }
+
+    // Generations until the cap or a stall; returns the best antibody's index.
+    size_t search() {
+        const IgaParams& params = a.params_;
+        size_t best = best_of();
+        const double pm = std::min(1.0, params.mutations / double(n));
+        const size_t donors = std::clamp(size_t(std::max(1, params.vaccine_donors)), size_t(1), P);
+        a.select_p_.resize(P);
+        a.affinity_.resize(P);
+        a.inv_concentration_.resize(P);
+        a.ranked_.resize(P);
+        a.vaccine_.resize(n);
+        int stall = 0;
+        for (int gen = 0; gen < params.max_generations && stall < params.stall_generations; ++gen) {
+            ++a.generations_;
+            make_vaccine(donors);
+            selection_probabilities(best);
+            // Child 0: the elite, unchanged. The rest: pairs of selected parents.
+            std::copy(&a.genes_[best * n], &a.genes_[best * n] + n, &a.children_[0]);
+            a.child_antibodies_[0] = a.antibodies_[best];
+            for (size_t c = 1; c < P; c += 2) breed(c, pm);
+            a.genes_.swap(a.children_);
+            a.antibodies_.swap(a.child_antibodies_);
+            const size_t next = best_of();
+            stall = better(a.antibodies_[next], a.child_antibodies_[best]) ? 0 : stall + 1;
+            best = next;
+        }
+        return best;
+    }
+};
+
+BudgetAllocation IgaLodAllocator::allocate(std::span<const BudgetCandidate> candidates,
+                                           double base_ms, double per_triangle_ms, double budget_ms,
+                                           std::span<int> levels) {
+    assert(levels.size() == candidates.size());
+    const size_t n = candidates.size();
+    Run run{.a = *this,
+            .candidates = candidates,
+            .base_ms = base_ms,
+            .per_triangle_ms = per_triangle_ms,
+            .budget_ms = budget_ms,
+            .levels = levels,
+            .n = n,
+            .P = size_t(std::max(4, params_.population)),
+            .slope = std::max(0.0, per_triangle_ms),
+            .rng = SplitMix{params_.seed}};
+    generations_ = 0;
+    if (n == 0) {
+        BudgetAllocation out;
+        out.predicted_ms = base_ms;
+        return out;
+    }
+    run.set_ranges();
+
+    genes_.resize(run.P * n);
+    children_.resize(run.P * n);
+    warm_.resize(n);
+    antibodies_.resize(run.P);
+    child_antibodies_.resize(run.P);
+    if (std::optional<BudgetAllocation> answer = run.answer_without_search()) return *answer;
+    bool any_previous = false;
+    for (size_t i = 0; i < n; ++i) any_previous |= candidates[i].previous >= 0;
+    const Antibody warm = run.seed_population();
+    const size_t best = run.search();
     // Last frame's levels stay unless clearly beaten: level changes cost a cross-fade each.
     if (any_previous && warm.f <= antibodies_[best].f * (1.0 + params_.keep_previous))
-        return finish(warm_.data(), warm);
-    return finish(&genes_[best * n], antibodies_[best]);
+        return run.finish(warm_.data(), warm);
+    return run.finish(&genes_[best * n], antibodies_[best]);
 }
 
 }  // namespace hmdnode

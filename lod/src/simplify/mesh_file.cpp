@@ -171,12 +171,39 @@ class PlyBody {
     int format_;  // 0 ascii, 1 little, 2 big
 };
 
-Result<Scene> load_ply(const std::filesystem::path& path, const std::string& bytes) {
-    const std::string file = path.string();
-    // Header: lines up to "end_header".
-    size_t pos = 0;
+// The header: the body's format (0 ascii, 1 little, 2 big endian), its elements in file order
+// and where the body starts.
+struct PlyHeader {
     int format = -1;
     std::vector<PlyElement> elements;
+    size_t body = 0;
+};
+
+// A "property" line after its keyword: a scalar or a list property of the last element.
+Status read_ply_property(std::istringstream& in, const std::string& where,
+                         std::vector<PlyElement>& elements) {
+    if (elements.empty()) return make_error(cat(where, ": property before any element"));
+    PlyProperty p;
+    std::string type;
+    in >> type;
+    if (type == "list") {
+        std::string ct, it;
+        in >> ct >> it >> p.name;
+        if (!ply_type(ct, p.count_type) || !ply_type(it, p.type))
+            return make_error(cat(where, ": unknown list type \"", ct, " ", it, "\""));
+        p.list = true;
+    } else {
+        if (!ply_type(type, p.type)) return make_error(cat(where, ": unknown type \"", type, "\""));
+        in >> p.name;
+    }
+    elements.back().properties.push_back(std::move(p));
+    return {};
+}
+
+// The header: lines up to "end_header".
+Result<PlyHeader> read_ply_header(const std::string& file, const std::string& bytes) {
+    PlyHeader h;
+    size_t pos = 0;
     int line_no = 0;
     bool ended = false;
     while (pos < bytes.size()) {
@@ -199,11 +226,11 @@ Result<Scene> load_ply(const std::filesystem::path& path, const std::string& byt
             std::string f;
             in >> f;
             if (f == "ascii")
-                format = 0;
+                h.format = 0;
             else if (f == "binary_little_endian")
-                format = 1;
+                h.format = 1;
             else if (f == "binary_big_endian")
-                format = 2;
+                h.format = 2;
             else
                 return make_error(cat(where, ": unknown format \"", f, "\""));
         } else if (word == "element") {
@@ -213,132 +240,169 @@ Result<Scene> load_ply(const std::filesystem::path& path, const std::string& byt
             if (e.name.empty() || count < 0)
                 return make_error(cat(where, ": malformed element line"));
             e.count = size_t(count);
-            elements.push_back(std::move(e));
+            h.elements.push_back(std::move(e));
         } else if (word == "property") {
-            if (elements.empty()) return make_error(cat(where, ": property before any element"));
-            PlyProperty p;
-            std::string type;
-            in >> type;
-            if (type == "list") {
-                std::string ct, it;
-                in >> ct >> it >> p.name;
-                if (!ply_type(ct, p.count_type) || !ply_type(it, p.type))
-                    return make_error(cat(where, ": unknown list type \"", ct, " ", it, "\""));
-                p.list = true;
-            } else {
-                if (!ply_type(type, p.type))
-                    return make_error(cat(where, ": unknown type \"", type, "\""));
-                in >> p.name;
-            }
-            elements.back().properties.push_back(std::move(p));
+            if (Status s = read_ply_property(in, where, h.elements); !s.ok()) return s.error();
         } else {
             return make_error(cat(where, ": unknown keyword \"", word, "\""));
         }
     }
     if (!ended) return make_error(cat(file, ": PLY header without end_header"));
-    if (format < 0) return make_error(cat(file, ": PLY header without a format line"));
+    if (h.format < 0) return make_error(cat(file, ": PLY header without a format line"));
+    h.body = pos;
+    return h;
+}
 
-    Mesh mesh;
-    mesh.name = path.stem().string();
+// What the body builds: the primitive, and which vertex attributes the file has.
+struct PlyMesh {
     Primitive prim;
     size_t vertex_count = 0;
     bool have_vertices = false, have_faces = false;
     bool any_normal = false, any_uv = false, any_color = false;
-    PlyBody body(bytes, pos, format);
-    for (const PlyElement& e : elements) {
-        const bool is_vertex = e.name == "vertex";
-        const bool is_face = e.name == "face";
-        // Property roles.
-        std::vector<int> role(e.properties.size(), -1);
-        int face_list = -1;
-        const char* vnames[] = {"x",   "y",     "z",    "nx",   "ny",        "nz",
-                                "u",   "v",     "s",    "t",    "texture_u", "texture_v",
-                                "red", "green", "blue", "alpha"};
-        for (size_t i = 0; i < e.properties.size(); ++i) {
-            const PlyProperty& p = e.properties[i];
-            if (is_vertex && !p.list)
-                for (int r = 0; r < 16; ++r)
-                    if (p.name == vnames[r]) role[i] = r;
-            if (is_face && p.list && (p.name == "vertex_indices" || p.name == "vertex_index"))
-                face_list = int(i);
+};
+
+// The role of each property of an element: for "vertex" the index into kPlyVertexNames (0-2
+// position, 3-5 normal, 6-11 texture coordinates, 12-15 colour), -1 for none; for "face" which
+// property is the vertex index list.
+constexpr const char* kPlyVertexNames[] = {"x",   "y",     "z",    "nx",   "ny",        "nz",
+                                           "u",   "v",     "s",    "t",    "texture_u", "texture_v",
+                                           "red", "green", "blue", "alpha"};
+struct PlyRoles {
+    std::vector<int> role;
+    int face_list = -1;
+};
+
+PlyRoles ply_roles(const PlyElement& e, bool is_vertex, bool is_face) {
+    PlyRoles r;
+    r.role.assign(e.properties.size(), -1);
+    for (size_t i = 0; i < e.properties.size(); ++i) {
+        const PlyProperty& p = e.properties[i];
+        if (is_vertex && !p.list)
+            for (int k = 0; k < 16; ++k)
+                if (p.name == kPlyVertexNames[k]) r.role[i] = k;
+        if (is_face && p.list && (p.name == "vertex_indices" || p.name == "vertex_index"))
+            r.face_list = int(i);
+    }
+    return r;
+}
+
+// Checks a vertex or face element before its items and notes what a vertex element brings.
+Status begin_ply_element(const std::string& file, const PlyElement& e, bool is_vertex, bool is_face,
+                         const PlyRoles& roles, size_t file_size, PlyMesh& m) {
+    if (is_vertex) {
+        bool xyz[3] = {false, false, false};
+        for (int r : roles.role)
+            if (r >= 0 && r < 3) xyz[r] = true;
+        if (!xyz[0] || !xyz[1] || !xyz[2])
+            return make_error(cat(file, ": element vertex lacks x, y or z"));
+        for (int r : roles.role) {
+            m.any_normal |= r >= 3 && r <= 5;
+            m.any_uv |= r >= 6 && r <= 11;
+            m.any_color |= r >= 12;
         }
+        m.have_vertices = true;
+        m.vertex_count = e.count;
+        m.prim.positions.reserve(std::min(e.count, file_size));
+    }
+    if (is_face) {
+        if (roles.face_list < 0)
+            return make_error(cat(file, ": element face has no vertex_indices list"));
+        m.have_faces = true;
+    }
+    return {};
+}
+
+// One item's vertex attributes, with their defaults.
+struct PlyVertex {
+    glm::vec3 pos{0.0f}, nrm{0.0f};
+    glm::vec2 uv{0.0f};
+    glm::vec4 col{1.0f};
+};
+
+// Reads the properties of item `item` of `e`: vertex attributes into v, the face's vertex index
+// list into poly, the rest skipped.
+Status read_ply_item(const std::string& file, const PlyElement& e, size_t item,
+                     const PlyRoles& roles, PlyBody& body, PlyVertex& v,
+                     std::vector<int64_t>& poly) {
+    for (size_t i = 0; i < e.properties.size(); ++i) {
+        const PlyProperty& p = e.properties[i];
+        auto truncated = [&] {
+            return make_error(cat(file, ": element ", e.name, " ", item, " property ", p.name,
+                                  ": truncated or not a number"));
+        };
+        if (p.list) {
+            double n = 0;
+            if (!body.read(p.count_type, n)) return truncated();
+            if (!(n >= 0 && n <= 1e6))
+                return make_error(cat(file, ": element ", e.name, " ", item, " property ", p.name,
+                                      ": list length ", n));
+            if (int(i) == roles.face_list) poly.clear();
+            for (size_t k = 0; k < size_t(n); ++k) {
+                double x = 0;
+                if (!body.read(p.type, x)) return truncated();
+                if (int(i) == roles.face_list) poly.push_back(to_index(x));
+            }
+            continue;
+        }
+        double x = 0;
+        if (!body.read(p.type, x)) return truncated();
+        const int r = roles.role[i];
+        if (r < 0) continue;
+        if (r < 3)
+            v.pos[r] = float(x);
+        else if (r < 6)
+            v.nrm[r - 3] = float(x);
+        else if (r < 12)
+            v.uv[(r - 6) % 2] = float(x);
+        else
+            v.col[r - 12] = ply_integer(p.type) ? float(x / 255.0) : float(x);
+    }
+    return {};
+}
+
+// One element of the body: its items as vertices or faces of m, or skipped.
+Status read_ply_element(const std::string& file, const PlyElement& e, size_t file_size,
+                        PlyBody& body, PlyMesh& m) {
+    const bool is_vertex = e.name == "vertex";
+    const bool is_face = e.name == "face";
+    const PlyRoles roles = ply_roles(e, is_vertex, is_face);
+    if (Status s = begin_ply_element(file, e, is_vertex, is_face, roles, file_size, m); !s.ok())
+        return s;
+    std::vector<int64_t> poly;
+    // An element without properties has no data: nothing to read however large its count.
+    for (size_t item = 0; item < e.count && !e.properties.empty(); ++item) {
+        PlyVertex v;
+        if (Status s = read_ply_item(file, e, item, roles, body, v, poly); !s.ok()) return s;
         if (is_vertex) {
-            bool xyz[3] = {false, false, false};
-            for (size_t i = 0; i < role.size(); ++i)
-                if (role[i] >= 0 && role[i] < 3) xyz[role[i]] = true;
-            if (!xyz[0] || !xyz[1] || !xyz[2])
-                return make_error(cat(file, ": element vertex lacks x, y or z"));
-            for (size_t i = 0; i < role.size(); ++i) {
-                any_normal |= role[i] >= 3 && role[i] <= 5;
-                any_uv |= role[i] >= 6 && role[i] <= 11;
-                any_color |= role[i] >= 12;
-            }
-            have_vertices = true;
-            vertex_count = e.count;
-            prim.positions.reserve(std::min(e.count, bytes.size()));
-        }
-        if (is_face) {
-            if (face_list < 0)
-                return make_error(cat(file, ": element face has no vertex_indices list"));
-            have_faces = true;
-        }
-        std::vector<int64_t> poly;
-        // An element without properties has no data: nothing to read however large its count.
-        for (size_t item = 0; item < e.count && !e.properties.empty(); ++item) {
-            glm::vec3 pos3(0.0f), nrm(0.0f);
-            glm::vec2 uv(0.0f);
-            glm::vec4 col(1.0f);
-            for (size_t i = 0; i < e.properties.size(); ++i) {
-                const PlyProperty& p = e.properties[i];
-                auto truncated = [&] {
-                    return make_error(cat(file, ": element ", e.name, " ", item, " property ",
-                                          p.name, ": truncated or not a number"));
-                };
-                if (p.list) {
-                    double n = 0;
-                    if (!body.read(p.count_type, n)) return truncated();
-                    if (!(n >= 0 && n <= 1e6))
-                        return make_error(cat(file, ": element ", e.name, " ", item, " property ",
-                                              p.name, ": list length ", n));
-                    if (int(i) == face_list) poly.clear();
-                    for (size_t k = 0; k < size_t(n); ++k) {
-                        double v = 0;
-                        if (!body.read(p.type, v)) return truncated();
-                        if (int(i) == face_list) poly.push_back(to_index(v));
-                    }
-                    continue;
-                }
-                double v = 0;
-                if (!body.read(p.type, v)) return truncated();
-                const int r = role[i];
-                if (r < 0) continue;
-                if (r < 3)
-                    pos3[r] = float(v);
-                else if (r < 6)
-                    nrm[r - 3] = float(v);
-                else if (r < 12)
-                    uv[(r - 6) % 2] = float(v);
-                else
-                    col[r - 12] = ply_integer(p.type) ? float(v / 255.0) : float(v);
-            }
-            if (is_vertex) {
-                prim.positions.push_back(pos3);
-                if (any_normal) prim.normals.push_back(nrm);
-                if (any_uv) prim.uv0.emplace_back(uv.x, 1.0f - uv.y);
-                if (any_color) prim.colors.push_back(col);
-            } else if (is_face) {
-                if (!have_vertices)
-                    return make_error(cat(file, ": element face before element vertex"));
-                if (Status s = add_polygon(poly, vertex_count, prim, cat(file, ": face ", item));
-                    !s.ok())
-                    return s.error();
-            }
+            m.prim.positions.push_back(v.pos);
+            if (m.any_normal) m.prim.normals.push_back(v.nrm);
+            if (m.any_uv) m.prim.uv0.emplace_back(v.uv.x, 1.0f - v.uv.y);
+            if (m.any_color) m.prim.colors.push_back(v.col);
+        } else if (is_face) {
+            if (!m.have_vertices)
+                return make_error(cat(file, ": element face before element vertex"));
+            if (Status s = add_polygon(poly, m.vertex_count, m.prim, cat(file, ": face ", item));
+                !s.ok())
+                return s;
         }
     }
-    if (!have_vertices) return make_error(cat(file, ": no element vertex"));
-    if (!have_faces || prim.indices.empty()) return make_error(cat(file, ": no faces"));
-    if (prim.normals.empty()) compute_vertex_normals(prim);
-    mesh.primitives.push_back(std::move(prim));
+    return {};
+}
+
+Result<Scene> load_ply(const std::filesystem::path& path, const std::string& bytes) {
+    const std::string file = path.string();
+    auto header = read_ply_header(file, bytes);
+    if (!header) return header.error();
+    PlyMesh m;
+    PlyBody body(bytes, header->body, header->format);
+    for (const PlyElement& e : header->elements)
+        if (Status s = read_ply_element(file, e, bytes.size(), body, m); !s.ok()) return s.error();
+    if (!m.have_vertices) return make_error(cat(file, ": no element vertex"));
+    if (!m.have_faces || m.prim.indices.empty()) return make_error(cat(file, ": no faces"));
+    if (m.prim.normals.empty()) compute_vertex_normals(m.prim);
+    Mesh mesh;
+    mesh.name = path.stem().string();
+    mesh.primitives.push_back(std::move(m.prim));
     return single_mesh_scene(std::move(mesh));
 }
 

@@ -13,21 +13,6 @@
 namespace hmdnode::vk {
 namespace {
 
-Result<Sampler> create_sampler(const DeviceContext& ctx, VkSamplerAddressMode address) {
-    VkSamplerCreateInfo info{};
-    info.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
-    info.magFilter = VK_FILTER_LINEAR;
-    info.minFilter = VK_FILTER_LINEAR;
-    info.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
-    info.addressModeU = address;
-    info.addressModeV = address;
-    info.addressModeW = address;
-    info.maxLod = 0.0f;
-    VkSampler sampler = VK_NULL_HANDLE;
-    HMDNODE_VK_TRY(vkCreateSampler(ctx.device, &info, nullptr, &sampler), "vkCreateSampler");
-    return Sampler(ctx.device, sampler);
-}
-
 // One texture to copy from the staging buffer.
 struct TextureCopy {
     VkImage image;
@@ -183,10 +168,11 @@ Status create_materials(DeviceContext& ctx, const Scene& scene, VkDescriptorSetL
     out.material_constants = std::move(*buffer);
 
     // 2. Samplers and descriptor sets.
-    auto base_sampler = create_sampler(ctx, VK_SAMPLER_ADDRESS_MODE_REPEAT);
+    auto base_sampler = create_sampler(ctx, VK_SAMPLER_ADDRESS_MODE_REPEAT, "vkCreateSampler");
     if (!base_sampler) return base_sampler.error();
     out.base_color_sampler = std::move(*base_sampler);
-    auto lightmap_sampler = create_sampler(ctx, VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE);
+    auto lightmap_sampler =
+        create_sampler(ctx, VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE, "vkCreateSampler");
     if (!lightmap_sampler) return lightmap_sampler.error();
     out.lightmap_sampler = std::move(*lightmap_sampler);
 

@@ -4,7 +4,7 @@
 
 #include <string>
 
-#include "vk_check.hpp"
+#include "render_target.hpp"
 
 namespace hmdnode::vk {
 namespace {
@@ -19,58 +19,34 @@ bool supports(const DeviceContext& ctx, VkFormat format, VkFormatFeatureFlags fe
 }
 
 // Attachments: 0 colour (with samples > 1 the multisampled image), 1 depth.
-Result<RenderPass> create_render_pass(const DeviceContext& ctx, VkFormat depth_format,
+Result<RenderPass> create_stereo_pass(const DeviceContext& ctx, VkFormat depth_format,
                                       bool multiview, bool load, VkSampleCountFlagBits samples) {
-    VkAttachmentDescription attachments[2]{};
-    attachments[0].format = kColorFormat;
-    attachments[0].samples = samples;
-    attachments[0].loadOp = load ? VK_ATTACHMENT_LOAD_OP_LOAD : VK_ATTACHMENT_LOAD_OP_CLEAR;
-    attachments[0].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-    attachments[0].stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
-    attachments[0].stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-    attachments[0].initialLayout =
-        load ? VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED;
-    attachments[0].finalLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-    attachments[1].format = depth_format;
-    attachments[1].samples = samples;
-    attachments[1].loadOp = load ? VK_ATTACHMENT_LOAD_OP_LOAD : VK_ATTACHMENT_LOAD_OP_CLEAR;
-    attachments[1].storeOp = VK_ATTACHMENT_STORE_OP_STORE;  // a later piece of the frame loads it
-    attachments[1].stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
-    attachments[1].stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-    attachments[1].initialLayout =
-        load ? VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED;
-    attachments[1].finalLayout = VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+    const VkAttachmentLoadOp load_op =
+        load ? VK_ATTACHMENT_LOAD_OP_LOAD : VK_ATTACHMENT_LOAD_OP_CLEAR;
+    const VkAttachmentDescription attachments[2] = {
+        stored_attachment(kColorFormat, samples, load_op,
+                          load ? VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED,
+                          VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL),
+        // Depth stored: a later piece of the frame loads it.
+        stored_attachment(
+            depth_format, samples, load_op,
+            load ? VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED,
+            VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL)};
 
-    VkAttachmentReference color_ref{0, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL};
-    VkAttachmentReference depth_ref{1, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL};
-    VkSubpassDescription subpass{};
-    subpass.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
-    subpass.colorAttachmentCount = 1;
-    subpass.pColorAttachments = &color_ref;
-    subpass.pDepthStencilAttachment = &depth_ref;
-
+    RenderPassDesc desc;
+    desc.attachments = attachments;
     // note: the previous frame's (or piece's) read-back copy, colour and depth writes and the warp
-    // pass's reads must finish before this pass writes the attachments; this pass's colour writes
-    // must finish before its own copy reads them.
-    VkSubpassDependency deps[2]{};
-    deps[0].srcSubpass = VK_SUBPASS_EXTERNAL;
-    deps[0].dstSubpass = 0;
-    deps[0].srcStageMask =
+    // pass's reads must finish before this pass writes the attachments.
+    desc.before.srcStageMask =
         VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT |
         VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT;
-    deps[0].dstStageMask =
+    desc.before.dstStageMask =
         VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_EARLY_FRAGMENT_TESTS_BIT;
-    deps[0].srcAccessMask =
+    desc.before.srcAccessMask =
         VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
-    deps[0].dstAccessMask =
+    desc.before.dstAccessMask =
         VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_COLOR_ATTACHMENT_READ_BIT |
         VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
-    deps[1].srcSubpass = 0;
-    deps[1].dstSubpass = VK_SUBPASS_EXTERNAL;
-    deps[1].srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
-    deps[1].dstStageMask = VK_PIPELINE_STAGE_TRANSFER_BIT;
-    deps[1].srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
-    deps[1].dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
 
     VkRenderPassMultiviewCreateInfo multiview_info{};
     multiview_info.sType = VK_STRUCTURE_TYPE_RENDER_PASS_MULTIVIEW_CREATE_INFO;
@@ -78,19 +54,9 @@ Result<RenderPass> create_render_pass(const DeviceContext& ctx, VkFormat depth_f
     multiview_info.pViewMasks = &kViewMask;
     multiview_info.correlationMaskCount = 1;
     multiview_info.pCorrelationMasks = &kCorrelationMask;
-
-    VkRenderPassCreateInfo info{};
-    info.sType = VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO;
-    info.pNext = multiview ? &multiview_info : nullptr;
-    info.attachmentCount = 2;
-    info.pAttachments = attachments;
-    info.subpassCount = 1;
-    info.pSubpasses = &subpass;
-    info.dependencyCount = 2;
-    info.pDependencies = deps;
-    VkRenderPass pass = VK_NULL_HANDLE;
-    HMDNODE_VK_TRY(vkCreateRenderPass(ctx.device, &info, nullptr, &pass), "vkCreateRenderPass");
-    return RenderPass(ctx.device, pass);
+    desc.next = multiview ? &multiview_info : nullptr;
+    desc.what = "vkCreateRenderPass";
+    return create_render_pass(ctx, desc);
 }
 
 }  // namespace
@@ -156,10 +122,10 @@ Result<StereoTargets> create_stereo_targets(const DeviceContext& ctx, uint32_t w
         if (!color) return color.error();
         t.color_msaa = std::move(*color);
     }
-    auto pass = create_render_pass(ctx, t.depth_format, multiview, false, t.samples);
+    auto pass = create_stereo_pass(ctx, t.depth_format, multiview, false, t.samples);
     if (!pass) return pass.error();
     t.render_pass = std::move(*pass);
-    auto load_pass = create_render_pass(ctx, t.depth_format, multiview, true, t.samples);
+    auto load_pass = create_stereo_pass(ctx, t.depth_format, multiview, true, t.samples);
     if (!load_pass) return load_pass.error();
     t.render_pass_load = std::move(*load_pass);
 
@@ -184,24 +150,14 @@ Result<StereoTargets> create_stereo_targets(const DeviceContext& ctx, uint32_t w
             t.color_view[slot][v] = std::move(*color_view);
             const VkImageView views[2] = {msaa ? t.color_msaa_view[v] : t.color_view[slot][v],
                                           t.depth_view[v]};
-            VkFramebufferCreateInfo fb{};
-            fb.sType = VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO;
-            fb.renderPass = t.render_pass;
-            fb.attachmentCount = 2;
-            fb.pAttachments = views;
-            fb.width = width;
-            fb.height = height;
-            fb.layers = 1;
-            VkFramebuffer framebuffer = VK_NULL_HANDLE;
-            HMDNODE_VK_TRY(vkCreateFramebuffer(ctx.device, &fb, nullptr, &framebuffer),
-                           "vkCreateFramebuffer (stereo)");
-            t.framebuffer[slot][v] = Framebuffer(ctx.device, framebuffer);
+            auto framebuffer = create_framebuffer(ctx, t.render_pass, views, width, height,
+                                                  "vkCreateFramebuffer (stereo)");
+            if (!framebuffer) return framebuffer.error();
+            t.framebuffer[slot][v] = std::move(*framebuffer);
         }
     }
 
-    auto readback =
-        create_buffer(ctx, VkDeviceSize(width) * height * 4 * 2, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                      MemoryUse::Readback, "stereo read-back");
+    auto readback = create_readback(ctx, width, height, "stereo read-back");
     if (!readback) return readback.error();
     t.readback = std::move(*readback);
     return t;

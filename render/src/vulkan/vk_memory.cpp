@@ -172,6 +172,22 @@ Result<Image> create_image(const DeviceContext& ctx, const ImageDesc& desc, cons
     return img;
 }
 
+Result<Sampler> create_sampler(const DeviceContext& ctx, VkSamplerAddressMode address,
+                               const char* what) {
+    VkSamplerCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
+    info.magFilter = VK_FILTER_LINEAR;
+    info.minFilter = VK_FILTER_LINEAR;
+    info.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
+    info.addressModeU = address;
+    info.addressModeV = address;
+    info.addressModeW = address;
+    info.maxLod = 0.0f;
+    VkSampler sampler = VK_NULL_HANDLE;
+    HMDNODE_VK_TRY(vkCreateSampler(ctx.device, &info, nullptr, &sampler), what);
+    return Sampler(ctx.device, sampler);
+}
+
 Result<ImageView> create_view(const DeviceContext& ctx, const Image& image, VkFormat format,
                               VkImageAspectFlags aspect, const char* what, uint32_t base_layer,
                               uint32_t layer_count) {

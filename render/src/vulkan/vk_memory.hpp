@@ -1,6 +1,7 @@
 // Owning wrappers of Vulkan objects: a generic move-only handle, buffers and images with their
-// own memory allocation (one vkAllocateMemory each: scenes have few, large resources). Creation
-// allocates; nothing here runs on the frame path except map-less accessors.
+// own memory allocation (one vkAllocateMemory each: scenes have few, large resources), image views
+// and the bilinear sampler. Creation allocates; nothing here runs on the frame path except
+// map-less accessors.
 #pragma once
 
 #include <vulkan/vulkan.h>
@@ -145,6 +146,11 @@ Result<Image> create_image(const DeviceContext& ctx, const ImageDesc& desc, cons
 Result<ImageView> create_view(const DeviceContext& ctx, const Image& image, VkFormat format,
                               VkImageAspectFlags aspect, const char* what, uint32_t base_layer = 0,
                               uint32_t layer_count = 0);
+
+// A bilinear sampler: linear minification and magnification, nearest mip level, level 0 only,
+// `address` on all three axes. `what` names the call in errors.
+Result<Sampler> create_sampler(const DeviceContext& ctx, VkSamplerAddressMode address,
+                               const char* what);
 
 // Records a copy of `layers` layers of a colour image (TRANSFER_SRC_OPTIMAL) into a host-visible
 // buffer, layer after layer, rows top to bottom, and the barrier that makes it visible to the host.

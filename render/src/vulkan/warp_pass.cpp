@@ -8,6 +8,7 @@
 #include <string>
 
 #include "pipeline_state.hpp"
+#include "render_target.hpp"
 #include "scene_geometry.hpp"
 #include "vk_check.hpp"
 #include "vk_shader.hpp"
@@ -40,47 +41,19 @@ constexpr VkFormat kPanelFormat = VK_FORMAT_R8G8B8A8_UNORM;
 constexpr VkFormat kEyeSampleFormat = VK_FORMAT_R8G8B8A8_UNORM;
 
 Result<RenderPass> create_panel_render_pass(const DeviceContext& ctx) {
-    VkAttachmentDescription color{};
-    color.format = kPanelFormat;
-    color.samples = VK_SAMPLE_COUNT_1_BIT;
-    color.loadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;  // the mesh covers the whole panel
-    color.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-    color.stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
-    color.stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-    color.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-    color.finalLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-    VkAttachmentReference ref{0, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL};
-    VkSubpassDescription subpass{};
-    subpass.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
-    subpass.colorAttachmentCount = 1;
-    subpass.pColorAttachments = &ref;
-    // note: the previous warp's read-back copy must finish before this pass writes the panel;
-    // this pass's writes must finish before its own copy reads them.
-    VkSubpassDependency deps[2]{};
-    deps[0].srcSubpass = VK_SUBPASS_EXTERNAL;
-    deps[0].dstSubpass = 0;
-    deps[0].srcStageMask = VK_PIPELINE_STAGE_TRANSFER_BIT;
-    deps[0].dstStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
-    deps[0].srcAccessMask = 0;
-    deps[0].dstAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
-    deps[1].srcSubpass = 0;
-    deps[1].dstSubpass = VK_SUBPASS_EXTERNAL;
-    deps[1].srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
-    deps[1].dstStageMask = VK_PIPELINE_STAGE_TRANSFER_BIT;
-    deps[1].srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
-    deps[1].dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
-    VkRenderPassCreateInfo info{};
-    info.sType = VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO;
-    info.attachmentCount = 1;
-    info.pAttachments = &color;
-    info.subpassCount = 1;
-    info.pSubpasses = &subpass;
-    info.dependencyCount = 2;
-    info.pDependencies = deps;
-    VkRenderPass pass = VK_NULL_HANDLE;
-    HMDNODE_VK_TRY(vkCreateRenderPass(ctx.device, &info, nullptr, &pass),
-                   "vkCreateRenderPass (warp)");
-    return RenderPass(ctx.device, pass);
+    // Loaded DONT_CARE: the mesh covers the whole panel.
+    const VkAttachmentDescription color =
+        stored_attachment(kPanelFormat, VK_SAMPLE_COUNT_1_BIT, VK_ATTACHMENT_LOAD_OP_DONT_CARE,
+                          VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+    RenderPassDesc desc;
+    desc.attachments = {&color, 1};
+    // note: the previous warp's read-back copy must finish before this pass writes the panel.
+    desc.before.srcStageMask = VK_PIPELINE_STAGE_TRANSFER_BIT;
+    desc.before.dstStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
+    desc.before.srcAccessMask = 0;
+    desc.before.dstAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+    desc.what = "vkCreateRenderPass (warp)";
+    return create_render_pass(ctx, desc);
 }
 
 // The shaders of one warp pipeline: the mesh pass (vertex input from the distortion mesh) or the
@@ -160,41 +133,22 @@ Status create_common(DeviceContext& ctx, const Image eyes[2], uint32_t width, ui
         if (!view) return view.error();
         w.panel_view[e] = std::move(*view);
         const VkImageView attachment = w.panel_view[e];
-        VkFramebufferCreateInfo fb{};
-        fb.sType = VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO;
-        fb.renderPass = w.render_pass;
-        fb.attachmentCount = 1;
-        fb.pAttachments = &attachment;
-        fb.width = width;
-        fb.height = height;
-        fb.layers = 1;
-        VkFramebuffer framebuffer = VK_NULL_HANDLE;
-        HMDNODE_VK_TRY(vkCreateFramebuffer(ctx.device, &fb, nullptr, &framebuffer),
-                       "vkCreateFramebuffer (panel)");
-        w.framebuffer[e] = Framebuffer(ctx.device, framebuffer);
+        auto framebuffer = create_framebuffer(ctx, w.render_pass, {&attachment, 1}, width, height,
+                                              "vkCreateFramebuffer (panel)");
+        if (!framebuffer) return framebuffer.error();
+        w.framebuffer[e] = std::move(*framebuffer);
     }
-    auto readback =
-        create_buffer(ctx, VkDeviceSize(width) * height * 4 * 2, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                      MemoryUse::Readback, "panel read-back");
+    auto readback = create_readback(ctx, width, height, "panel read-back");
     if (!readback) return readback.error();
     w.readback = std::move(*readback);
 
     // 2. The eye buffers as a sampled array, behind a bilinear sampler that is black outside.
-    VkSamplerCreateInfo sampler_info{};
-    sampler_info.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
-    sampler_info.magFilter = VK_FILTER_LINEAR;
-    sampler_info.minFilter = VK_FILTER_LINEAR;
-    sampler_info.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
     // note: clamp to edge, with the outside blacked out by the shader: llvmpipe's fast 8-bit
     // filtering path does not take a border colour.
-    sampler_info.addressModeU = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
-    sampler_info.addressModeV = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
-    sampler_info.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
-    sampler_info.maxLod = 0.0f;
-    VkSampler sampler = VK_NULL_HANDLE;
-    HMDNODE_VK_TRY(vkCreateSampler(ctx.device, &sampler_info, nullptr, &sampler),
-                   "vkCreateSampler (warp)");
-    w.sampler = Sampler(ctx.device, sampler);
+    auto sampler =
+        create_sampler(ctx, VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE, "vkCreateSampler (warp)");
+    if (!sampler) return sampler.error();
+    w.sampler = std::move(*sampler);
     for (int slot = 0; slot < 2; ++slot)
         for (uint32_t e = 0; e < 2; ++e) {
             auto eyes_view = create_view(ctx, eyes[slot], kEyeSampleFormat,

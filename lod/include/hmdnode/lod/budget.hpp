@@ -142,6 +142,7 @@ class IgaLodAllocator {
         double f = 0.0;  // visible error left, in tolerances (to minimise)
         uint64_t triangles = 0;
     };
+    struct Run;  // the steps of one allocate() call (iga_allocator.cpp)
     IgaParams params_;
     int generations_ = 0;
     GreedyLodAllocator greedy_;  // its answer is one initial antibody
