@@ -18,7 +18,6 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "cli/cli_checks.hpp"
 #include "hmdnode/bake/bake.hpp"
 #include "hmdnode/bake/progress_eta.hpp"
 #include "hmdnode/core/atomic_file.hpp"
@@ -62,8 +61,7 @@ CLI::Validator number_in(double lo, bool open_lo, double hi, const std::string& 
 void run_bake(const BakeArgs& args) {
     const auto t0 = std::chrono::steady_clock::now();
     // note: the options' own checks (below) refuse every value out of range, nan and inf.
-    if (!cli::check_outputs("hmdnode bake", {{"--out", args.out}, {"--report", args.report}}))
-        return set_exit_code(1);
+    if (!errors.check_outputs({{"--out", args.out}, {"--report", args.report}})) return;
 
     Result<Scene> loaded = load_gltf(args.in);
     if (!loaded) return errors.fail(loaded.error().message);
@@ -125,8 +123,7 @@ void run_bake(const BakeArgs& args) {
     if (!baked) {
         remove_exrs(exr_tmp_prefix, 64);
         errors.fail(baked.error().message);
-        std::fprintf(stderr, "hmdnode bake: nothing written to %s\n", args.out.c_str());
-        return;
+        return errors.fail("nothing written to " + args.out);
     }
     const BakeReport& r = *baked;
     if (Status st = save_glb(scene, out); !st) {
@@ -145,8 +142,7 @@ void run_bake(const BakeArgs& args) {
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
-    for (const std::string& w : r.warnings)
-        std::fprintf(stderr, "hmdnode bake: warning: %s\n", w.c_str());
+    for (const std::string& w : r.warnings) errors.warning(w);
     std::printf("baked %s -> %s\n", args.in.c_str(), args.out.c_str());
     std::printf("  %-22s %zu (%zu maps)\n", "texels", r.texels, r.maps.size());
     for (size_t k = 0; k < r.maps.size(); ++k) {

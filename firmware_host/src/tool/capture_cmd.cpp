@@ -17,10 +17,13 @@
 #include "hmdnode/hal/codec/vive_imu.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
 #include "hmdnode/hal/transport/usbmon_capture.hpp"
+#include "tool/cli_errors.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
 namespace {
+
+const CliErrors errors{"capture info"};
 
 const char* transfer_name(uint8_t t) {
     switch (t) {
@@ -118,30 +121,17 @@ void print_decoded(const UsbCapture& cap, const CaptureDeviceSummary& d) {
 
 void run_info(const std::string& file, const std::string& device) {
     auto cap = read_usbmon_capture(file);
-    if (!cap) {
-        std::fprintf(stderr, "hmdnode capture info: %s\n", cap.error().message.c_str());
-        set_exit_code(1);
-        return;
-    }
-    for (const std::string& w : cap->warnings)
-        std::fprintf(stderr, "hmdnode capture info: warning: %s\n", w.c_str());
+    if (!cap) return errors.fail(cap.error().message);
+    for (const std::string& w : cap->warnings) errors.warning(w);
     CaptureSummary s = summarize_capture(*cap);
     const std::string sidecar = file + ".usbdevs";
     if (std::filesystem::exists(sidecar)) {
         auto r = apply_usbdevs_sidecar(sidecar, &s);
-        if (!r) {
-            std::fprintf(stderr, "hmdnode capture info: %s\n", r.error().message.c_str());
-            set_exit_code(1);
-            return;
-        }
+        if (!r) return errors.fail(r.error().message);
     }
     if (!device.empty()) {
         auto f = parse_vid_pid(device);
-        if (!f) {
-            std::fprintf(stderr, "hmdnode capture info: %s\n", f.error().message.c_str());
-            set_exit_code(2);
-            return;
-        }
+        if (!f) return errors.usage(f.error().message);
         size_t unknown = 0;
         for (const auto& d : s.devices) unknown += d.id_source.empty() ? 1 : 0;
         for (auto& d : s.devices)

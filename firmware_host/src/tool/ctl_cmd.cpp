@@ -14,10 +14,13 @@
 #include <nlohmann/json.hpp>
 
 #include "hmdnode/firmware_host/control_socket.hpp"
+#include "tool/cli_errors.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
 namespace {
+
+const CliErrors errors{"ctl"};
 
 struct CtlArgs {
     std::string socket = "/run/hmdnode/control";
@@ -28,15 +31,9 @@ struct CtlArgs {
 void run_ctl(const CtlArgs& args, const nlohmann::json& command) {
     Result<nlohmann::json> r =
         control_request(args.socket, command, int(std::lround(args.timeout_s * 1000.0)));
-    if (!r.ok()) {
-        std::fprintf(stderr, "hmdnode ctl: %s\n", r.error().message.c_str());
-        return set_exit_code(1);
-    }
+    if (!r.ok()) return errors.fail(r.error().message);
     const nlohmann::json& j = *r;
-    if (!j.value("ok", false)) {
-        std::fprintf(stderr, "hmdnode ctl: %s\n", j.value("error", j.dump()).c_str());
-        return set_exit_code(1);
-    }
+    if (!j.value("ok", false)) return errors.fail(j.value("error", j.dump()));
     const std::string cmd = command["cmd"].get<std::string>();
     if (cmd == "metrics")
         std::fputs(j.value("metrics", "").c_str(), stdout);
@@ -93,9 +90,10 @@ void add_ctl_command(CLI::App& app) {
         else if (!boolean)
             v = nlohmann::json::parse(args->value, nullptr, false);
         if (boolean ? !v.is_boolean() : (v.is_discarded() || !v.is_number())) {
-            std::fprintf(stderr, "hmdnode ctl set %s: \"%s\" is not %s\n", args->key.c_str(),
-                         args->value.c_str(), boolean ? "on or off" : "a number");
-            return set_exit_code(2);
+            // "hmdnode ctl set KEY: ...": the command as typed, with the key it sets.
+            const std::string command = "ctl set " + args->key;
+            return CliErrors{command}.usage("\"" + args->value + "\" is not " +
+                                            (boolean ? "on or off" : "a number"));
         }
         run_ctl(*args, {{"cmd", "set"}, {"key", key}, {"value", v}});
     });

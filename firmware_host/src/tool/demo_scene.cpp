@@ -333,79 +333,74 @@ ObjectReport add_lod_object(Builder& b, const std::string& name, Primitive base,
     return report;
 }
 
-}  // namespace
+// Where the showpieces stand, and their stands' heights.
+const glm::vec3 kBunnyAt(0.0f, 0.0f, -2.0f), kCowAt(1.8f, 0.0f, -1.2f),
+    kSphereAt(-1.4f, 0.0f, 1.8f);
+constexpr float kPlinthH = 1.0f, kTableH = 0.45f, kPedestalH = 0.8f;
 
-Result<Scene> make_demo_scene(const fs::path& data_dir, std::string* out_summary) {
-    const Clock::time_point t_start = Clock::now();
-    Result<Mesh> bunny = load_obj(data_dir / "meshes" / "stanford-bunny.obj");
-    if (!bunny) return bunny.error();
-    Result<Mesh> spot = load_obj(data_dir / "meshes" / "spot.obj");
-    if (!spot) return spot.error();
-    const double t_load = seconds_since(t_start);
-
-    Builder b;
-    Texture atlas;
-    atlas.name = "lightmap_atlas";
-    atlas.width = atlas.height = kAtlasSize;
-    b.scene.textures.push_back(atlas);
-
-    // Room: inward faces, one material and one chart each.
-    {
-        const float h = kHalf, y = kHeight;
-        int room = b.mesh("room");
-        struct Face {
-            const char* name;
-            glm::vec3 color, o, u, v;
-        } faces[] = {
-            {"floor_oak", {0.42f, 0.27f, 0.15f}, {-h, 0, h}, {2 * h, 0, 0}, {0, 0, -2 * h}},
-            {"ceiling_plaster", {0.80f, 0.79f, 0.76f}, {-h, y, -h}, {2 * h, 0, 0}, {0, 0, 2 * h}},
-            {"wall_front_blue", {0.38f, 0.48f, 0.62f}, {-h, 0, -h}, {2 * h, 0, 0}, {0, y, 0}},
-            {"wall_back_sand", {0.70f, 0.62f, 0.48f}, {h, 0, h}, {-2 * h, 0, 0}, {0, y, 0}},
-            {"wall_left_sage", {0.47f, 0.56f, 0.44f}, {-h, 0, h}, {0, 0, -2 * h}, {0, y, 0}},
-            {"wall_right_terracotta", {0.66f, 0.38f, 0.28f}, {h, 0, -h}, {0, 0, 2 * h}, {0, y, 0}},
-        };
-        for (const Face& f : faces) {
-            int prim = b.primitive(room, b.material(f.name, f.color, true));
-            b.quad(room, prim, f.o, f.u, f.v, true);
-        }
-        b.scene.nodes[b.node("room", room, glm::dvec3(0.0))].geometric_error_m = 0.0;
+// Room: inward faces, one material and one chart each.
+void add_room(Builder& b) {
+    const float h = kHalf, y = kHeight;
+    int room = b.mesh("room");
+    struct Face {
+        const char* name;
+        glm::vec3 color, o, u, v;
+    } faces[] = {
+        {"floor_oak", {0.42f, 0.27f, 0.15f}, {-h, 0, h}, {2 * h, 0, 0}, {0, 0, -2 * h}},
+        {"ceiling_plaster", {0.80f, 0.79f, 0.76f}, {-h, y, -h}, {2 * h, 0, 0}, {0, 0, 2 * h}},
+        {"wall_front_blue", {0.38f, 0.48f, 0.62f}, {-h, 0, -h}, {2 * h, 0, 0}, {0, y, 0}},
+        {"wall_back_sand", {0.70f, 0.62f, 0.48f}, {h, 0, h}, {-2 * h, 0, 0}, {0, y, 0}},
+        {"wall_left_sage", {0.47f, 0.56f, 0.44f}, {-h, 0, h}, {0, 0, -2 * h}, {0, y, 0}},
+        {"wall_right_terracotta", {0.66f, 0.38f, 0.28f}, {h, 0, -h}, {0, 0, 2 * h}, {0, y, 0}},
+    };
+    for (const Face& f : faces) {
+        int prim = b.primitive(room, b.material(f.name, f.color, true));
+        b.quad(room, prim, f.o, f.u, f.v, true);
     }
+    b.scene.nodes[b.node("room", room, glm::dvec3(0.0))].geometric_error_m = 0.0;
+}
 
-    // Stands and furniture (single level, lightmapped).
+// The lamps' materials, made with the furniture's so that the materials keep their order.
+struct LampMaterials {
+    int shade = -1, cord = -1;
+};
+
+// Stands and furniture (single level, lightmapped).
+LampMaterials add_furniture(Builder& b) {
     const int stone = b.material("plinth_stone", {0.62f, 0.60f, 0.57f}, true);
     const int wood = b.material("table_walnut", {0.33f, 0.21f, 0.13f}, true);
     const int concrete = b.material("pillar_concrete", {0.55f, 0.55f, 0.53f}, true);
     const int fabric = b.material("bench_fabric", {0.22f, 0.30f, 0.45f}, true);
     const int crate_wood = b.material("crate_pine", {0.63f, 0.48f, 0.30f}, true);
-    const int shade_mat =
-        b.material("lamp_shade", {0.85f, 0.82f, 0.72f}, true, /*double_sided=*/true);
-    const int cord_mat = b.material("lamp_cord", {0.05f, 0.05f, 0.05f}, false);
-    const glm::vec3 bunny_at(0.0f, 0.0f, -2.0f), cow_at(1.8f, 0.0f, -1.2f),
-        sphere_at(-1.4f, 0.0f, 1.8f);
-    const float plinth_h = 1.0f, table_h = 0.45f, pedestal_h = 0.8f;
-    b.box_prop("bunny_plinth", stone, {0.6f, plinth_h, 0.6f}, bunny_at);
-    b.box_prop("cow_table", wood, {0.8f, table_h, 0.8f}, cow_at);
-    b.box_prop("sphere_pedestal", stone, {0.4f, pedestal_h, 0.4f}, sphere_at);
+    LampMaterials lamp;
+    lamp.shade = b.material("lamp_shade", {0.85f, 0.82f, 0.72f}, true, /*double_sided=*/true);
+    lamp.cord = b.material("lamp_cord", {0.05f, 0.05f, 0.05f}, false);
+    b.box_prop("bunny_plinth", stone, {0.6f, kPlinthH, 0.6f}, kBunnyAt);
+    b.box_prop("cow_table", wood, {0.8f, kTableH, 0.8f}, kCowAt);
+    b.box_prop("sphere_pedestal", stone, {0.4f, kPedestalH, 0.4f}, kSphereAt);
     b.box_prop("pillar_front_left", concrete, {0.4f, kHeight, 0.4f}, {-2.3f, 0.0f, -2.3f}, false);
     b.box_prop("pillar_back_right", concrete, {0.4f, kHeight, 0.4f}, {2.3f, 0.0f, 2.2f}, false);
     b.box_prop("bench_left", fabric, {0.5f, 0.45f, 1.4f}, {-2.6f, 0.0f, 0.2f});
     b.box_prop("crate_back", crate_wood, {0.6f, 0.6f, 0.6f}, {0.9f, 0.0f, 2.4f});
     b.box_prop("crate_right", crate_wood, {0.5f, 0.5f, 0.5f}, {2.6f, 0.0f, 0.6f});
+    return lamp;
+}
 
-    // Pendant lamps: an open-bottomed shade around each light, hung on a cord.
+// Pendant lamps: an open-bottomed shade around each light, hung on a cord.
+void add_lamps(Builder& b, const LampMaterials& mat) {
     const glm::vec3 lamp_at[2] = {{-1.2f, kLampY, -0.8f}, {1.0f, kLampY, 1.2f}};
     const glm::vec3 lamp_color[2] = {{1.0f, 0.90f, 0.76f}, {1.0f, 0.95f, 0.88f}};
     const float shade_bottom = 0.05f, shade_h = 0.25f;
     for (int i = 0; i < 2; ++i) {
         const std::string tag = std::to_string(i + 1);
         int shade = b.mesh("lamp_shade_" + tag);
-        b.box(shade, b.primitive(shade, shade_mat), {0.4f, shade_h, 0.4f}, true);
+        b.box(shade, b.primitive(shade, mat.shade), {0.4f, shade_h, 0.4f}, true);
         int sn = b.node("lamp_shade_" + tag, shade,
                         glm::dvec3(lamp_at[i] - glm::vec3(0, shade_bottom, 0)));
         b.scene.nodes[sn].geometric_error_m = 0.0;
         int cord = b.mesh("lamp_cord_" + tag);
         const float cord_bottom = lamp_at[i].y - shade_bottom + shade_h;
-        b.box(cord, b.primitive(cord, cord_mat), {0.02f, kHeight - cord_bottom, 0.02f}, false);
+        b.box(cord, b.primitive(cord, mat.cord), {0.02f, kHeight - cord_bottom, 0.02f}, false);
         int cn =
             b.node("lamp_cord_" + tag, cord, glm::dvec3(lamp_at[i].x, cord_bottom, lamp_at[i].z));
         b.scene.nodes[cn].geometric_error_m = 0.0;
@@ -419,33 +414,31 @@ Result<Scene> make_demo_scene(const fs::path& data_dir, std::string* out_summary
         l.node = ln;
         b.scene.lights.push_back(l);
     }
+}
 
-    const float texels_per_m = b.pack();
-    if (texels_per_m <= 0.0f)
-        return make_error("demo scene: the lightmap charts do not fit a 512 x 512 atlas");
-
-    // Showpieces with LOD chains, vertex-lit.
-    const Clock::time_point t_lod0 = Clock::now();
+// Showpieces with LOD chains, vertex-lit: the bunny on its plinth, spot on the table, a sphere on
+// the pedestal.
+std::vector<ObjectReport> add_showpieces(Builder& b, const Mesh& bunny, const Mesh& spot) {
     std::vector<ObjectReport> lod_reports;
     {
-        Primitive p = bunny->primitives[0];
+        Primitive p = bunny.primitives[0];
         glm::vec3 size = stand_on_origin(&p);
         const double scale = 0.45 / size.y;  // 0.45 m tall
         int mat = b.material("bunny_clay", {0.78f, 0.66f, 0.52f}, false);
         // note: the scan faces -x; a 60 degree turn shows its face to a viewer at the origin.
         lod_reports.push_back(
             add_lod_object(b, "bunny", std::move(p), mat, {16000, 4000, 1000, 300},
-                           glm::dvec3(bunny_at) + glm::dvec3(0, plinth_h, 0), 60.0, scale));
+                           glm::dvec3(kBunnyAt) + glm::dvec3(0, kPlinthH, 0), 60.0, scale));
     }
     {
-        Primitive p = spot->primitives[0];
+        Primitive p = spot.primitives[0];
         p.uv0.clear();  // no texture ships with the mesh
         glm::vec3 size = stand_on_origin(&p);
         const double scale = 0.55 / size.y;  // 0.55 m tall
         int mat = b.material("spot_white", {0.85f, 0.84f, 0.82f}, false);
         // note: spot faces -z; 120 degrees turns it towards the viewer.
         lod_reports.push_back(add_lod_object(b, "spot", std::move(p), mat, {1500, 400},
-                                             glm::dvec3(cow_at) + glm::dvec3(0, table_h, 0), 120.0,
+                                             glm::dvec3(kCowAt) + glm::dvec3(0, kTableH, 0), 120.0,
                                              scale));
     }
     {
@@ -454,9 +447,78 @@ Result<Scene> make_demo_scene(const fs::path& data_dir, std::string* out_summary
         int mat = b.material("sphere_glaze", {0.20f, 0.45f, 0.70f}, false);
         lod_reports.push_back(add_lod_object(
             b, "sphere", std::move(p), mat, {1000, 250},
-            glm::dvec3(sphere_at) + glm::dvec3(0, pedestal_h + radius, 0), 0.0, 1.0));
+            glm::dvec3(kSphereAt) + glm::dvec3(0, kPedestalH + radius, 0), 0.0, 1.0));
     }
-    const double t_lod = seconds_since(t_lod0);
+    return lod_reports;
+}
+
+// Seconds each step took.
+struct StepTimes {
+    double load = 0, lod = 0, bake = 0, total = 0;
+};
+
+// The summary `hmdnode scene demo` prints: objects, levels with triangles and errors, the
+// lightmap, the bake, the times.
+std::string demo_summary(const Builder& b, const std::vector<ObjectReport>& lod_reports,
+                         const BakeReport& baked, float texels_per_m, const StepTimes& t) {
+    std::string s;
+    char line[256];
+    auto add = [&](const char* fmt, auto... args) {
+        std::snprintf(line, sizeof line, fmt, args...);
+        s += line;
+    };
+    const std::vector<SceneObject> objects = flatten_objects(b.scene);
+    size_t tris0 = 0;
+    for (const SceneObject& o : objects) tris0 += o.levels[0].triangles;
+    add("demo room 6 x 3 x 6 m: %zu objects, %zu triangles at level 0, %zu materials, %zu "
+        "lights\n",
+        objects.size(), tris0, b.scene.materials.size(), b.scene.lights.size());
+    for (const ObjectReport& r : lod_reports) {
+        add("  %-7s", r.name.c_str());
+        for (size_t k = 0; k < r.levels.size(); ++k)
+            add("%s L%zu %zu tris, err %.4f m (%.4f mesh)", k ? " |" : "", k, r.levels[k].triangles,
+                r.levels[k].error_world_m, r.levels[k].error_mesh_m);
+        s += "\n";
+    }
+    for (const BakedMap& m : baked.maps)
+        add("lightmap %dx%d at %.0f texels/m, %zu charts: %zu texels covered (%.0f %%), %zu "
+            "invalid, %zu dilated, intensity %.3f\n",
+            m.width, m.height, texels_per_m, b.charts.size(), m.covered,
+            100.0 * double(m.covered) / double(m.width * m.height), m.invalid, m.dilated,
+            m.intensity);
+    add("baked vertices %zu; %zu triangles traced, %.1f M rays (%.1f M rays/s)\n", baked.vertices,
+        baked.triangles, double(baked.rays) / 1e6, baked.rays_per_second / 1e6);
+    add("time: load %.2f s, lod %.2f s, bake %.2f s, total %.2f s\n", t.load, t.lod, t.bake,
+        t.total);
+    return s;
+}
+
+}  // namespace
+
+Result<Scene> make_demo_scene(const fs::path& data_dir, std::string* out_summary) {
+    const Clock::time_point t_start = Clock::now();
+    StepTimes times;
+    Result<Mesh> bunny = load_obj(data_dir / "meshes" / "stanford-bunny.obj");
+    if (!bunny) return bunny.error();
+    Result<Mesh> spot = load_obj(data_dir / "meshes" / "spot.obj");
+    if (!spot) return spot.error();
+    times.load = seconds_since(t_start);
+
+    Builder b;
+    Texture atlas;
+    atlas.name = "lightmap_atlas";
+    atlas.width = atlas.height = kAtlasSize;
+    b.scene.textures.push_back(atlas);
+    add_room(b);
+    const LampMaterials lamp_materials = add_furniture(b);
+    add_lamps(b, lamp_materials);
+    const float texels_per_m = b.pack();
+    if (texels_per_m <= 0.0f)
+        return make_error("demo scene: the lightmap charts do not fit a 512 x 512 atlas");
+
+    const Clock::time_point t_lod0 = Clock::now();
+    const std::vector<ObjectReport> lod_reports = add_showpieces(b, *bunny, *spot);
+    times.lod = seconds_since(t_lod0);
 
     // Bake: global illumination by the Embree path tracer at demo_bake_options()
     // (demo_scene.hpp, docs/baking.md "Demo scene"). Deterministic for any thread count.
@@ -464,40 +526,11 @@ Result<Scene> make_demo_scene(const fs::path& data_dir, std::string* out_summary
     const BakeOptions bake_opt = demo_bake_options();
     Result<BakeReport> baked = bake_scene(b.scene, bake_opt);
     if (!baked) return make_error("demo scene: " + baked.error().message);
-    const double t_bake = seconds_since(t_bake0);
+    times.bake = seconds_since(t_bake0);
 
     if (out_summary) {
-        std::string s;
-        char line[256];
-        auto add = [&](const char* fmt, auto... args) {
-            std::snprintf(line, sizeof line, fmt, args...);
-            s += line;
-        };
-        const std::vector<SceneObject> objects = flatten_objects(b.scene);
-        size_t tris0 = 0;
-        for (const SceneObject& o : objects) tris0 += o.levels[0].triangles;
-        add("demo room 6 x 3 x 6 m: %zu objects, %zu triangles at level 0, %zu materials, %zu "
-            "lights\n",
-            objects.size(), tris0, b.scene.materials.size(), b.scene.lights.size());
-        for (const ObjectReport& r : lod_reports) {
-            add("  %-7s", r.name.c_str());
-            for (size_t k = 0; k < r.levels.size(); ++k)
-                add("%s L%zu %zu tris, err %.4f m (%.4f mesh)", k ? " |" : "", k,
-                    r.levels[k].triangles, r.levels[k].error_world_m, r.levels[k].error_mesh_m);
-            s += "\n";
-        }
-        for (const BakedMap& m : baked->maps)
-            add("lightmap %dx%d at %.0f texels/m, %zu charts: %zu texels covered (%.0f %%), %zu "
-                "invalid, %zu dilated, intensity %.3f\n",
-                m.width, m.height, texels_per_m, b.charts.size(), m.covered,
-                100.0 * double(m.covered) / double(m.width * m.height), m.invalid, m.dilated,
-                m.intensity);
-        add("baked vertices %zu; %zu triangles traced, %.1f M rays (%.1f M rays/s)\n",
-            baked->vertices, baked->triangles, double(baked->rays) / 1e6,
-            baked->rays_per_second / 1e6);
-        add("time: load %.2f s, lod %.2f s, bake %.2f s, total %.2f s\n", t_load, t_lod, t_bake,
-            seconds_since(t_start));
-        *out_summary = std::move(s);
+        times.total = seconds_since(t_start);
+        *out_summary = demo_summary(b, lod_reports, *baked, texels_per_m, times);
     }
     return std::move(b.scene);
 }

@@ -9,18 +9,20 @@
 
 #include "hmdnode/hal/display/kms_display.hpp"
 #include "hmdnode/render/vk_display.hpp"
+#include "tool/cli_errors.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
 namespace {
 
+const CliErrors errors{"displays"};
+
+// A listing that fails is reported (exit 1) and the other still runs.
 void run_displays(const std::string& device, bool all_modes) {
-    int status = 0;
     Result<std::vector<KmsConnectorInfo>> conns = list_kms_connectors(device);
     std::printf("KMS connectors (display.type \"kms\"):\n");
     if (!conns.ok()) {
-        std::fprintf(stderr, "hmdnode displays: %s\n", conns.error().message.c_str());
-        status = 1;
+        errors.fail(conns.error().message);
     } else if (conns->empty()) {
         std::printf("  none (no /dev/dri/card*: no KMS driver loaded)\n");
     }
@@ -41,8 +43,7 @@ void run_displays(const std::string& device, bool all_modes) {
     Result<std::vector<VulkanDisplayInfo>> vk = list_vulkan_displays();
     std::printf("Vulkan displays (display.type \"vk-display\"):\n");
     if (!vk.ok()) {
-        std::fprintf(stderr, "hmdnode displays: %s\n", vk.error().message.c_str());
-        status = 1;
+        errors.fail(vk.error().message);
     } else if (vk->empty()) {
         std::printf("  none (no driver exposes a display through VK_KHR_display)\n");
     } else {
@@ -53,7 +54,6 @@ void run_displays(const std::string& device, bool all_modes) {
                 std::printf("    %dx%d@%.3f\n", m.width, m.height, m.refresh_hz);
         }
     }
-    set_exit_code(status);
 }
 
 void add_displays_command(CLI::App& app) {

@@ -16,7 +16,6 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "cli/cli_checks.hpp"
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/time.hpp"
 #include "hmdnode/core/trace.hpp"
@@ -73,91 +72,117 @@ fs::path find_bundled_trace() {
     return kBundledTrace;  // reported missing by the reader
 }
 
-void run_latency(const LatencyArgs& a, const std::vector<std::string>& extras) {
-    if (!extras.empty()) return errors.usage("unexpected argument \"" + extras.front() + "\"");
-    if (a.scene.empty()) return errors.usage("--scene is required");
+// The options that are not numbers, each against the others: the first problem, or empty.
+std::string check_option_words(const LatencyArgs& a, const std::vector<std::string>& extras) {
+    if (!extras.empty()) return "unexpected argument \"" + extras.front() + "\"";
+    if (a.scene.empty()) return "--scene is required";
     if (a.profile != "step" && a.profile != "sine-sweep" && a.profile != "trace")
-        return errors.usage("--profile \"" + a.profile + "\": give step, sine-sweep or trace");
+        return "--profile \"" + a.profile + "\": give step, sine-sweep or trace";
     if (a.profile != "trace" && (!a.trace.empty() || !a.start.empty()))
-        return errors.usage("--trace and --start go with --profile trace");
+        return "--trace and --start go with --profile trace";
     if (a.clock != "real" && a.clock != "sim")
-        return errors.usage("--clock \"" + a.clock + "\": give real or sim");
+        return "--clock \"" + a.clock + "\": give real or sim";
     if (!a.warp_cost_ms.empty() && a.frame_cost_ms.empty())
-        return errors.usage("--warp-cost-ms needs --frame-cost-ms");
-    if (!cli::check_outputs("hmdnode latency", {{"--report", a.report}, {"--plot", a.plot}}))
-        return set_exit_code(1);
-    std::string err;
+        return "--warp-cost-ms needs --frame-cost-ms";
+    return {};
+}
+
+// The numeric options, checked and parsed.
+struct LatencyNumbers {
     double duration = 0, start = 0, eye_w = 0, eye_h = 0, refresh = 0, tracker_hz = 0;
     double frame_cost = -1, warp_cost = 0.5, mesh = 0;
-    if (!parse_number("--duration", a.duration, 0.1, 3600, &duration, &err) ||
-        (!a.start.empty() && !parse_number("--start", a.start, 0, 1e6, &start, &err)) ||
-        !parse_number("--eye-width", a.eye_width, 1, 16384, &eye_w, &err) ||
-        !parse_number("--eye-height", a.eye_height, 1, 16384, &eye_h, &err) ||
-        !parse_number("--refresh", a.refresh, 1, 1000, &refresh, &err) ||
-        !parse_number("--tracker-hz", a.tracker_hz, 0, 100000, &tracker_hz, &err) ||
-        !parse_number("--mesh", a.mesh, 0, 512, &mesh, &err) ||
+};
+
+// Parses the numeric options into `n`: the first problem, or empty.
+std::string parse_numbers(const LatencyArgs& a, LatencyNumbers* n) {
+    std::string err;
+    if (!parse_number("--duration", a.duration, 0.1, 3600, &n->duration, &err) ||
+        (!a.start.empty() && !parse_number("--start", a.start, 0, 1e6, &n->start, &err)) ||
+        !parse_number("--eye-width", a.eye_width, 1, 16384, &n->eye_w, &err) ||
+        !parse_number("--eye-height", a.eye_height, 1, 16384, &n->eye_h, &err) ||
+        !parse_number("--refresh", a.refresh, 1, 1000, &n->refresh, &err) ||
+        !parse_number("--tracker-hz", a.tracker_hz, 0, 100000, &n->tracker_hz, &err) ||
+        !parse_number("--mesh", a.mesh, 0, 512, &n->mesh, &err) ||
         (!a.frame_cost_ms.empty() &&
-         !parse_number("--frame-cost-ms", a.frame_cost_ms, 0, 10000, &frame_cost, &err)) ||
+         !parse_number("--frame-cost-ms", a.frame_cost_ms, 0, 10000, &n->frame_cost, &err)) ||
         (!a.warp_cost_ms.empty() &&
-         !parse_number("--warp-cost-ms", a.warp_cost_ms, 0, 10000, &warp_cost, &err)))
-        return errors.usage(err);
-    if (eye_w != std::floor(eye_w) || eye_h != std::floor(eye_h) || mesh != std::floor(mesh))
-        return errors.usage("--eye-width, --eye-height and --mesh are whole numbers");
-    if (frame_cost >= 0 && a.clock != "sim")
-        return errors.usage("--frame-cost-ms is the simulated clock's: give --clock sim");
-    Result<std::vector<LatencyMode>> modes = parse_latency_modes(a.modes);
-    if (!modes.ok()) return errors.usage(modes.error().message);
-    if (!a.report.empty() && !a.plot.empty() && fs::absolute(a.report) == fs::absolute(a.plot))
-        return errors.usage("--report and --plot name the same file");
+         !parse_number("--warp-cost-ms", a.warp_cost_ms, 0, 10000, &n->warp_cost, &err)))
+        return err;
+    if (n->eye_w != std::floor(n->eye_w) || n->eye_h != std::floor(n->eye_h) ||
+        n->mesh != std::floor(n->mesh))
+        return "--eye-width, --eye-height and --mesh are whole numbers";
+    if (n->frame_cost >= 0 && a.clock != "sim")
+        return "--frame-cost-ms is the simulated clock's: give --clock sim";
+    return {};
+}
 
-    // The head motion, as a trace in memory.
+// The head motion, as a trace in memory, and its name in the table and report.
+struct HeadMotion {
     std::shared_ptr<const Trace> trace;
-    std::string trace_name;
-    if (a.profile == "trace") {
-        const fs::path path = a.trace.empty() ? find_bundled_trace() : fs::path(a.trace);
-        if (a.start.empty()) start = a.trace.empty() ? kBundledTraceStart : 0.0;
-        Result<Trace> t = read_trace_csv(path);
-        if (!t.ok()) return errors.fail(t.error().message + "; nothing written");
-        const double length_s = ns_to_s(t->end_ns() - t->start_ns());
-        if (t->samples.size() < 2 || start + 0.1 > length_s) {
-            char b[64];
-            std::snprintf(b, sizeof b, "%.1f", length_s);
-            return errors.fail(path.string() + ": --start " + a.start +
-                               " leaves less than 0.1 s of a " + b + " s trace" +
-                               "; nothing written");
-        }
-        trace = std::make_shared<const Trace>(std::move(t).value());
-        trace_name = path.string();
-    } else {
-        Result<Trace> t = make_motion_profile(a.profile, duration);
-        if (!t.ok()) return errors.fail(t.error().message + "; nothing written");
-        trace = std::make_shared<const Trace>(std::move(t).value());
-        trace_name = a.profile;
-    }
+    std::string name;
+};
 
+// A recorded trace (--profile trace: --trace, else the bundled one; n->start defaulted), or the
+// synthetic profile over the duration.
+Result<HeadMotion> load_head_motion(const LatencyArgs& a, LatencyNumbers* n) {
+    if (a.profile != "trace") {
+        Result<Trace> t = make_motion_profile(a.profile, n->duration);
+        if (!t.ok()) return t.error();
+        return HeadMotion{std::make_shared<const Trace>(std::move(t).value()), a.profile};
+    }
+    const fs::path path = a.trace.empty() ? find_bundled_trace() : fs::path(a.trace);
+    if (a.start.empty()) n->start = a.trace.empty() ? kBundledTraceStart : 0.0;
+    Result<Trace> t = read_trace_csv(path);
+    if (!t.ok()) return t.error();
+    const double length_s = ns_to_s(t->end_ns() - t->start_ns());
+    if (t->samples.size() < 2 || n->start + 0.1 > length_s) {
+        char b[64];
+        std::snprintf(b, sizeof b, "%.1f", length_s);
+        return make_error(path.string() + ": --start " + a.start + " leaves less than 0.1 s of a " +
+                          b + " s trace");
+    }
+    return HeadMotion{std::make_shared<const Trace>(std::move(t).value()), path.string()};
+}
+
+// What every mode's replay shares.
+ReplayOptions base_replay_options(const LatencyArgs& a, const LatencyNumbers& n,
+                                  const HeadMotion& motion) {
     ReplayOptions base;
     base.scene = a.scene;
-    base.trace_data = trace;
-    base.trace = trace_name;
+    base.trace_data = motion.trace;
+    base.trace = motion.name;
     base.simulated_clock = a.clock == "sim";
-    base.start_s = start;
-    base.duration_s = duration;
-    base.tracker.resample_hz = tracker_hz;
-    base.display.eye_width = int(eye_w);
-    base.display.eye_height = int(eye_h);
-    base.display.refresh_hz = refresh;
-    base.node.mesh_cols = base.node.mesh_rows = int(mesh);
-    if (frame_cost >= 0) {
+    base.start_s = n.start;
+    base.duration_s = n.duration;
+    base.tracker.resample_hz = n.tracker_hz;
+    base.display.eye_width = int(n.eye_w);
+    base.display.eye_height = int(n.eye_h);
+    base.display.refresh_hz = n.refresh;
+    base.node.mesh_cols = base.node.mesh_rows = int(n.mesh);
+    if (n.frame_cost >= 0) {
         FrameCostModel m;
-        m.base_ns = ms_to_ns(frame_cost);
+        m.base_ns = ms_to_ns(n.frame_cost);
         m.per_triangle_ns = 0.0;
-        m.warp_ns = ms_to_ns(warp_cost);
+        m.warp_ns = ms_to_ns(n.warp_cost);
         base.frame_cost = m;
     }
+    return base;
+}
+
+// The modes' runs, and what the last one used.
+struct LatencyRuns {
     std::vector<LatencyModeResult> results;
     std::string renderer;
-    int used_mesh = int(mesh);
-    for (const LatencyMode& mode : *modes) {
+    int used_mesh = 0;
+};
+
+// One replay per mode, from `base` (a copy: the first mode's calibrated cost model goes to the
+// others); the first that fails ends it with an error naming the mode.
+Result<LatencyRuns> run_modes(const LatencyArgs& a, const std::vector<LatencyMode>& modes,
+                              ReplayOptions base) {
+    LatencyRuns runs;
+    runs.used_mesh = base.node.mesh_cols;
+    for (const LatencyMode& mode : modes) {
         ReplayOptions o = base;
         o.node.predict = mode.predict;
         o.node.warp = mode.warp;
@@ -166,13 +191,11 @@ void run_latency(const LatencyArgs& a, const std::vector<std::string>& extras) {
                          "hmdnode latency: %s (prediction %s, warp %s): %.1f s on the %s "
                          "clock...\n",
                          mode.name.c_str(), mode.predict ? "on" : "off", mode.warp ? "on" : "off",
-                         duration, a.clock.c_str());
+                         base.duration_s, a.clock.c_str());
         Result<ReplayResult> r = run_replay(o);
-        if (!r.ok())
-            return errors.fail("mode " + mode.name + ": " + r.error().message +
-                               "; nothing written");
-        renderer = r->device_name;
-        used_mesh = r->mesh_cols;
+        if (!r.ok()) return make_error("mode " + mode.name + ": " + r.error().message);
+        runs.renderer = r->device_name;
+        runs.used_mesh = r->mesh_cols;
         // The simulated clock's cost model is calibrated once, by the first mode, and given to
         // the others: the modes then differ only in what they do, not in a noisy calibration.
         if (base.simulated_clock && !base.frame_cost) base.frame_cost = r->summary.frame_cost_model;
@@ -182,52 +205,94 @@ void run_latency(const LatencyArgs& a, const std::vector<std::string>& extras) {
         m.period_ns = r->period_ns;
         m.on_time_vsyncs = m.summary.vsyncs - m.summary.missed_vsyncs;
         m.series = r->vsyncs;
-        results.push_back(std::move(m));
+        runs.results.push_back(std::move(m));
     }
+    return runs;
+}
 
-    std::string mode_names;
-    for (const LatencyMode& m : *modes) mode_names += (mode_names.empty() ? "" : ",") + m.name;
+// The table's (and the plot's) title line.
+std::string latency_title(const LatencyArgs& a, const LatencyNumbers& n, const HeadMotion& motion,
+                          int used_mesh) {
     char title[256];
     std::snprintf(title, sizeof title,
                   "hmdnode latency: %s, %.1f s, %dx%d per eye at %g Hz, mesh %d, tracker %g Hz, "
                   "%s clock",
-                  a.profile == "trace" ? trace_name.c_str() : a.profile.c_str(), duration,
-                  int(eye_w), int(eye_h), refresh, used_mesh, tracker_hz, a.clock.c_str());
-    const std::string subtitle = "renderer " + renderer;
-    std::printf("%s, %s\n%s", title, subtitle.c_str(), latency_table(results).c_str());
+                  a.profile == "trace" ? motion.name.c_str() : a.profile.c_str(), n.duration,
+                  int(n.eye_w), int(n.eye_h), n.refresh, used_mesh, n.tracker_hz, a.clock.c_str());
+    return title;
+}
 
-    // The report, then the plot; if the plot cannot be written the report goes again.
-    if (!a.report.empty()) {
-        nlohmann::json options = {
-            {"scene", a.scene},
+// The report's "options": what was run.
+nlohmann::json report_options(const LatencyArgs& a, const LatencyNumbers& n,
+                              const ReplayOptions& base, const HeadMotion& motion,
+                              const std::vector<LatencyMode>& modes) {
+    std::string mode_names;
+    for (const LatencyMode& m : modes) mode_names += (mode_names.empty() ? "" : ",") + m.name;
+    return {{"scene", a.scene},
             {"profile", a.profile},
-            {"trace", a.profile == "trace" ? nlohmann::json(trace_name) : nlohmann::json()},
-            {"start_s", start},
-            {"duration_s", duration},
+            {"trace", a.profile == "trace" ? nlohmann::json(motion.name) : nlohmann::json()},
+            {"start_s", n.start},
+            {"duration_s", n.duration},
             {"clock", a.clock},
-            {"eye_width", int(eye_w)},
-            {"eye_height", int(eye_h)},
-            {"refresh_hz", refresh},
+            {"eye_width", int(n.eye_w)},
+            {"eye_height", int(n.eye_h)},
+            {"refresh_hz", n.refresh},
             {"persistence_ms", ns_to_ms(base.display.persistence_ns)},
-            {"tracker_hz", tracker_hz},
+            {"tracker_hz", n.tracker_hz},
             {"tracker_latency_ms", ns_to_ms(base.tracker.latency_ns)},
-            {"frame_cost_ms", frame_cost >= 0 ? nlohmann::json(frame_cost) : nlohmann::json()},
-            {"warp_cost_ms", frame_cost >= 0 ? nlohmann::json(warp_cost) : nlohmann::json()},
+            {"frame_cost_ms", n.frame_cost >= 0 ? nlohmann::json(n.frame_cost) : nlohmann::json()},
+            {"warp_cost_ms", n.frame_cost >= 0 ? nlohmann::json(n.warp_cost) : nlohmann::json()},
             {"distortion",
              base.node.distortion ? nlohmann::json(base.node.headset.name) : nlohmann::json()},
             {"modes", mode_names}};
-        const std::string text = latency_report_json(options, renderer, results).dump(1) + "\n";
-        if (Status s = write_file_atomically(a.report, text); !s.ok())
-            return errors.fail(s.error().message + "; nothing written");
+}
+
+// The report, then the plot; if the plot cannot be written the report goes again. Reports a
+// failure (exit 1) and returns false.
+bool write_outputs(const LatencyArgs& a, const nlohmann::json& options, const LatencyRuns& runs,
+                   const std::string& title, const std::string& subtitle) {
+    if (!a.report.empty()) {
+        const std::string text =
+            latency_report_json(options, runs.renderer, runs.results).dump(1) + "\n";
+        if (Status s = write_file_atomically(a.report, text); !s.ok()) {
+            errors.fail(s.error().message + "; nothing written");
+            return false;
+        }
     }
     if (!a.plot.empty()) {
-        if (Status s = write_file_atomically(a.plot, latency_svg(results, title, subtitle));
+        if (Status s = write_file_atomically(a.plot, latency_svg(runs.results, title, subtitle));
             !s.ok()) {
             std::error_code ec;
             if (!a.report.empty()) fs::remove(a.report, ec);
-            return errors.fail(s.error().message + "; nothing written");
+            errors.fail(s.error().message + "; nothing written");
+            return false;
         }
     }
+    return true;
+}
+
+void run_latency(const LatencyArgs& a, const std::vector<std::string>& extras) {
+    if (std::string e = check_option_words(a, extras); !e.empty()) return errors.usage(e);
+    if (!errors.check_outputs({{"--report", a.report}, {"--plot", a.plot}})) return;
+    LatencyNumbers n;
+    if (std::string e = parse_numbers(a, &n); !e.empty()) return errors.usage(e);
+    Result<std::vector<LatencyMode>> modes = parse_latency_modes(a.modes);
+    if (!modes.ok()) return errors.usage(modes.error().message);
+    if (!a.report.empty() && !a.plot.empty() && fs::absolute(a.report) == fs::absolute(a.plot))
+        return errors.usage("--report and --plot name the same file");
+
+    Result<HeadMotion> motion = load_head_motion(a, &n);
+    if (!motion.ok()) return errors.fail(motion.error().message + "; nothing written");
+    const ReplayOptions base = base_replay_options(a, n, *motion);
+    Result<LatencyRuns> runs = run_modes(a, *modes, base);
+    if (!runs.ok()) return errors.fail(runs.error().message + "; nothing written");
+
+    const std::string title = latency_title(a, n, *motion, runs->used_mesh);
+    const std::string subtitle = "renderer " + runs->renderer;
+    std::printf("%s, %s\n%s", title.c_str(), subtitle.c_str(),
+                latency_table(runs->results).c_str());
+    if (!write_outputs(a, report_options(a, n, base, *motion, *modes), *runs, title, subtitle))
+        return;
     if (!a.report.empty()) std::printf("report: %s\n", a.report.c_str());
     if (!a.plot.empty()) std::printf("plot: %s\n", a.plot.c_str());
 }

@@ -305,8 +305,7 @@ void run_lod(const LodArgs& args) {
     if (Status s = repair_scene(*scene, repair); !s.ok())
         return errors.fail(s.error().message + "; nothing written");
     lap("repair");
-    for (const std::string& m : repair.messages)
-        std::fprintf(stderr, "hmdnode lod: warning: %s\n", m.c_str());
+    for (const std::string& m : repair.messages) errors.warning(m);
 
     ProgressBar bar(!args.no_progress);
     options.progress = [&bar](double f) { bar.update(f); };
@@ -318,8 +317,7 @@ void run_lod(const LodArgs& args) {
     if (!report.ok()) return errors.fail(report.error().message + "; nothing written");
     std::vector<ProgressiveOut> progressive =
         progressive_outputs(std::move(report->progressive), args.progressive);
-    for (const std::string& n : report->notes)
-        std::fprintf(stderr, "hmdnode lod: note: %s\n", n.c_str());
+    for (const std::string& n : report->notes) errors.note(n);
     for (const ProgressiveOut& p : progressive)
         if (std::error_code ec; std::filesystem::is_directory(p.path, ec))
             return errors.fail("--progressive " + p.path + ": is a directory; nothing written");

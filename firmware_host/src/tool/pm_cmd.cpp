@@ -14,7 +14,6 @@
 
 #include <CLI/CLI.hpp>
 
-#include "cli/cli_checks.hpp"
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/gltf.hpp"
 #include "hmdnode/lod/mesh_file.hpp"
@@ -31,7 +30,8 @@ struct PmArgs {
     size_t triangles = 0;
 };
 
-const CliErrors errors{"pm"};
+const CliErrors info_errors{"pm info"};
+const CliErrors refine_errors{"pm refine"};
 
 std::string attribute_list(const ProgressiveMesh& pm) {
     std::string s = "position";
@@ -44,7 +44,7 @@ std::string attribute_list(const ProgressiveMesh& pm) {
 
 void run_info(const PmArgs& args) {
     Result<ProgressiveMesh> pm = read_progressive_mesh(args.info_file);
-    if (!pm.ok()) return errors.fail(pm.error().message);
+    if (!pm.ok()) return info_errors.fail(pm.error().message);
     std::printf("%s\n", args.info_file.c_str());
     std::printf("  base triangles   %zu\n", pm->base_triangles());
     std::printf("  full triangles   %zu\n", pm->full_triangles());
@@ -82,15 +82,15 @@ std::string obj_text(const Primitive& p, const std::string& source) {
 
 void run_refine(const PmArgs& args) {
     if (args.in.empty() || args.out.empty())
-        return errors.usage("refine: --in and --out are required");
+        return refine_errors.usage("--in and --out are required");
     std::string ext = std::filesystem::path(args.out).extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(),
                    [](unsigned char c) { return char(std::tolower(c)); });
     if (ext != ".glb" && ext != ".obj")
-        return errors.usage("refine: --out \"" + args.out + "\" must end in .glb or .obj");
-    if (!cli::check_outputs("hmdnode pm refine", {{"--out", args.out}})) return set_exit_code(1);
+        return refine_errors.usage("--out \"" + args.out + "\" must end in .glb or .obj");
+    if (!refine_errors.check_outputs({{"--out", args.out}})) return;
     Result<ProgressiveMesh> pm = read_progressive_mesh(args.in);
-    if (!pm.ok()) return errors.fail(pm.error().message + "; nothing written");
+    if (!pm.ok()) return refine_errors.fail(pm.error().message + "; nothing written");
     Primitive prim = refine(*pm, args.triangles);
     prim.material = -1;  // the .hmpm holds no materials
     const std::string name = std::filesystem::path(args.out).stem().string();
@@ -103,10 +103,10 @@ void run_refine(const PmArgs& args) {
         mesh.primitives.push_back(prim);
         written = save_glb(single_mesh_scene(std::move(mesh)), args.out);
     }
-    if (!written.ok()) return errors.fail(written.error().message + "; nothing written");
+    if (!written.ok()) return refine_errors.fail(written.error().message + "; nothing written");
     if (args.triangles < pm->base_triangles())
-        std::fprintf(stderr, "hmdnode pm: note: %zu is below the base mesh; wrote the base\n",
-                     args.triangles);
+        refine_errors.note(std::to_string(args.triangles) +
+                           " is below the base mesh; wrote the base");
     std::printf("base %zu, full %zu, written %zu triangles (%zu vertices) to %s\n",
                 pm->base_triangles(), pm->full_triangles(), prim.triangle_count(),
                 prim.positions.size(), args.out.c_str());

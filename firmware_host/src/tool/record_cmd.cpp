@@ -29,7 +29,6 @@
 
 #include <CLI/CLI.hpp>
 
-#include "cli/cli_checks.hpp"
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/pose.hpp"
 #include "hmdnode/core/time.hpp"
@@ -190,15 +189,16 @@ void finish_tracker_recording(const RecordArgs& args, const std::string& label,
     if (pcap && !args.capture.empty()) {
         Status w = write_file_atomically(args.capture, pcap->bytes());
         if (!w.ok()) {
-            std::fprintf(stderr, "hmdnode record: %s\n", w.error().message.c_str());
+            errors.fail(w.error().message);
             ok = false;
         }
     }
     if (!args.out.empty()) {
         if (rec.trace.samples.size() < 2) {
-            std::fprintf(stderr,
-                         "hmdnode record: only %zu pose sample(s) in %.3f s: %s not written\n",
-                         rec.trace.samples.size(), rec.seconds, args.out.c_str());
+            char seconds[32];
+            std::snprintf(seconds, sizeof seconds, "%.3f", rec.seconds);
+            errors.fail("only " + std::to_string(rec.trace.samples.size()) + " pose sample(s) in " +
+                        seconds + " s: " + args.out + " not written");
             ok = false;
         } else {
             rec.trace.comments.push_back("recorded by hmdnode record from " + label + " via " +
@@ -207,7 +207,7 @@ void finish_tracker_recording(const RecordArgs& args, const std::string& label,
                                          "hmdnode's device tracker)");
             Status w = write_trace_csv(rec.trace, args.out);
             if (!w.ok()) {
-                std::fprintf(stderr, "hmdnode record: %s\n", w.error().message.c_str());
+                errors.fail(w.error().message);
                 ok = false;
             }
         }
@@ -225,8 +225,7 @@ void finish_tracker_recording(const RecordArgs& args, const std::string& label,
     std::printf("  %-24s %llu (%llu samples missing)\n", "sequence gaps",
                 static_cast<unsigned long long>(st.codec.sequence_gaps),
                 static_cast<unsigned long long>(st.codec.missing_samples));
-    if (!st.codec_warning.empty())
-        std::fprintf(stderr, "hmdnode record: warning: %s\n", st.codec_warning.c_str());
+    if (!st.codec_warning.empty()) errors.warning(st.codec_warning);
     if (!st.codec_info.empty())
         std::printf("  %-24s %s\n", "IMU calibration", st.codec_info.c_str());
     if (st.codec.saturated_samples || st.codec.stale_first_dropped)
@@ -249,12 +248,11 @@ void finish_tracker_recording(const RecordArgs& args, const std::string& label,
     if (!rec.failure.empty()) {
         // Never opened or no pose at all: bad input (exit 1). Gone mid-recording: exit 3.
         const bool never_opened = st.opens == 0 || rec.trace.samples.empty();
-        std::fprintf(stderr, "hmdnode record: %s -- stopped%s\n", rec.failure.c_str(),
-                     never_opened ? "" : "; what arrived before was written");
-        set_exit_code(never_opened ? 1 : 3);
-        return;
+        errors.fail_with(never_opened ? 1 : 3,
+                         rec.failure + " -- stopped" +
+                             (never_opened ? "" : "; what arrived before was written"));
     }
-    if (!ok) set_exit_code(1);
+    // note: a write that failed above has set exit status 1 already.
 }
 
 // --backend capture --from FILE: the capture's device through the device tracker, simulated clock.
@@ -378,13 +376,10 @@ void run_record_survive(const RecordArgs& args) {
         return errors.fail("--from " + args.from + ": no such file");
     auto loaded = read_survive_recording(args.from, args.device);
     if (!loaded.ok()) return errors.fail(loaded.error().message);
-    for (const std::string& w : loaded->warnings)
-        std::fprintf(stderr, "hmdnode record: warning: %s\n", w.c_str());
+    for (const std::string& w : loaded->warnings) errors.warning(w);
     if (!loaded->has_config)
-        std::fprintf(stderr,
-                     "hmdnode record: warning: %s has no CONFIG line for %s: no factory IMU "
-                     "calibration, the Index's axes\n",
-                     args.from.c_str(), args.device.c_str());
+        errors.warning(args.from + " has no CONFIG line for " + args.device +
+                       ": no factory IMU calibration, the Index's axes");
     auto rec = std::make_shared<const SurviveRecording>(std::move(*loaded));
     SimulatedClock clock(kNsPerSecond);
     const int64_t start = clock.now_ns();
@@ -421,10 +416,7 @@ void run_record_survive(const RecordArgs& args) {
             *rec, args.reference_out,
             args.reference_time == "imu" ? &out.row_time_of_arrival : nullptr, &skipped,
             &unmatched);
-        if (!w.ok()) {
-            std::fprintf(stderr, "hmdnode record: %s\n", w.error().message.c_str());
-            return set_exit_code(1);
-        }
+        if (!w.ok()) return errors.fail(w.error().message);
         std::printf(
             "  %-24s %s (%zu lighthouse poses at %s; %zu with a repeated time, %zu following no "
             "IMU sample, skipped)\n",
@@ -443,10 +435,10 @@ void run_record(const RecordArgs& args) {
         return errors.usage("--reference-out needs --backend rec (a recording's lighthouse poses)");
     if (args.fusion != "mahony" && args.backend != "rec")
         return errors.usage("--fusion gyro needs --backend rec");
-    if (!cli::check_outputs("hmdnode record", {{"--out", args.out},
-                                               {"--capture", args.capture},
-                                               {"--reference-out", args.reference_out}}))
-        return set_exit_code(1);
+    if (!errors.check_outputs({{"--out", args.out},
+                               {"--capture", args.capture},
+                               {"--reference-out", args.reference_out}}))
+        return;
     // A libsurvive recording names its devices (T20, WM0, ...), not by VID:PID.
     if (args.backend == "rec") return run_record_survive(args);
     Result<DeviceFilter> filter = parse_vid_pid(std::string_view(args.device));

@@ -6,10 +6,13 @@
 
 #include "cli/cli_checks.hpp"
 #include "hmdnode/firmware_host/render_bench.hpp"
+#include "tool/cli_errors.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
 namespace {
+
+const CliErrors errors{"render-bench"};
 
 void add_render_bench_command(CLI::App& app) {
     auto opt = std::make_shared<RenderBenchOptions>();
@@ -58,37 +61,21 @@ void add_render_bench_command(CLI::App& app) {
         long long first = 0, end = 0;
         char tail = 0;
         if (std::sscanf(frames->c_str(), "%lld:%lld%c", &first, &end, &tail) != 2 || first < 0 ||
-            end <= first) {
-            std::fprintf(stderr,
-                         "hmdnode render-bench: error: --frames \"%s\": expected FIRST:END with "
-                         "0 <= FIRST < END\n",
-                         frames->c_str());
-            set_exit_code(2);
-            return;
-        }
+            end <= first)
+            return errors.usage("--frames \"" + *frames +
+                                "\": expected FIRST:END with 0 <= FIRST < END");
         o.first_frame = first;
         o.end_frame = end;
         Result<LodMode> mode = parse_lod_mode(*lod);
-        if (!mode.ok()) {
-            std::fprintf(stderr, "hmdnode render-bench: error: %s\n", mode.error().message.c_str());
-            set_exit_code(2);
-            return;
-        }
+        if (!mode.ok()) return errors.usage(mode.error().message);
         o.lod = *mode;
         o.allocator = *parse_lod_allocator(*allocator);  // checked by IsMember
         o.eye_tracker = *parse_eye_tracker_backend(*eye_tracker, WiringKeys::command_line());
         o.compare_full = *compare == "full";
-        if (!cli::check_outputs("hmdnode render-bench",
-                                {{"--report", o.report.string()}, {"--plot", o.plot.string()}})) {
-            set_exit_code(1);
+        if (!errors.check_outputs({{"--report", o.report.string()}, {"--plot", o.plot.string()}}))
             return;
-        }
         Result<RenderBenchResult> r = run_render_bench(o);
-        if (!r.ok()) {
-            std::fprintf(stderr, "hmdnode render-bench: error: %s\n", r.error().message.c_str());
-            set_exit_code(1);
-            return;
-        }
+        if (!r.ok()) return errors.fail(r.error().message);
         std::fputs(render_bench_table(o, *r).c_str(), stdout);
         std::printf("report: %s\n", o.report.c_str());
         if (!o.plot.empty()) std::printf("plot: %s\n", o.plot.c_str());

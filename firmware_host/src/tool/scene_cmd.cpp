@@ -4,14 +4,18 @@
 #include <memory>
 #include <string>
 
-#include "cli/cli_checks.hpp"
 #include "hmdnode/core/gltf.hpp"
+#include "tool/cli_errors.hpp"
 #include "tool/commands.hpp"
 #include "tool/demo_scene.hpp"
 #include "tool/stress_scene.hpp"
 
 namespace hmdnode::tool {
 namespace {
+
+const CliErrors demo_errors{"scene demo"};
+const CliErrors stress_errors{"scene stress"};
+const CliErrors info_errors{"scene info"};
 
 const char* light_type_name(Light::Type t) {
     switch (t) {
@@ -91,14 +95,10 @@ void add_scene_command(CLI::App& app) {
         ->required();
     demo->add_option("--out", *out, "Scene to write (.glb)")->required();
     demo->callback([=] {
-        if (!cli::check_outputs("hmdnode scene demo", {{"--out", *out}})) return set_exit_code(1);
+        if (!demo_errors.check_outputs({{"--out", *out}})) return;
         std::string summary;
         Status st = build_demo_scene(*data_dir, *out, &summary);
-        if (!st) {
-            std::fprintf(stderr, "hmdnode scene demo: error: %s\n", st.error().message.c_str());
-            set_exit_code(1);
-            return;
-        }
+        if (!st) return demo_errors.fail(st.error().message);
         std::fputs(summary.c_str(), stdout);
     });
 
@@ -121,16 +121,11 @@ void add_scene_command(CLI::App& app) {
         ->check(CLI::Range(1, 1 << 16));
     stress->add_option("--seed", stress_opt->seed, "Seed of the placement");
     stress->callback([=] {
-        if (!cli::check_outputs("hmdnode scene stress", {{"--out", *stress_out}}))
-            return set_exit_code(1);
+        if (!stress_errors.check_outputs({{"--out", *stress_out}})) return;
         std::string summary;
         Result<Scene> s = make_stress_scene(*stress_data, *stress_opt, &summary);
         Status st = s.ok() ? save_glb(*s, *stress_out) : Status(s.error());
-        if (!st) {
-            std::fprintf(stderr, "hmdnode scene stress: error: %s\n", st.error().message.c_str());
-            set_exit_code(1);
-            return;
-        }
+        if (!st) return stress_errors.fail(st.error().message);
         std::fputs(summary.c_str(), stdout);
         std::printf("wrote %s\n", stress_out->c_str());
     });
@@ -142,11 +137,7 @@ void add_scene_command(CLI::App& app) {
     info->add_option("file", *file, "Scene (.glb/.gltf)")->required();
     info->callback([=] {
         Result<Scene> s = load_gltf(*file);
-        if (!s) {
-            std::fprintf(stderr, "hmdnode scene info: error: %s\n", s.error().message.c_str());
-            set_exit_code(1);
-            return;
-        }
+        if (!s) return info_errors.fail(s.error().message);
         print_scene_info(*file, *s);
     });
 }

@@ -92,15 +92,15 @@ void add_sun_and_sky(Scene* s, BakeOptions* o) {
     o->sky_radiance = glm::vec3(0.42f, 0.48f, 0.58f);
 }
 
-}  // namespace
-
-Result<Scene> make_stress_scene(const fs::path& data_dir, const StressSceneOptions& opt,
-                                std::string* out_summary) {
-    if (opt.copies < 1) return make_error("stress scene: --copies must be at least 1");
-    const Clock::time_point t0 = Clock::now();
-    // Chains, one per model, each level scaled to metres is done by the copies' nodes.
+// Per model one LOD chain, and the scale that makes a copy its typical height (the chains stay
+// in mesh units: the copies' nodes scale them to metres).
+struct ModelChains {
     std::vector<LodLevels> chains;
     std::vector<double> model_scale;
+};
+
+Result<ModelChains> make_model_chains(const fs::path& data_dir) {
+    ModelChains out;
     for (const Model& m : kModels) {
         Result<Mesh> mesh = load_obj(data_dir / "meshes" / m.file);
         if (!mesh) return mesh.error();
@@ -112,14 +112,16 @@ Result<Scene> make_stress_scene(const fs::path& data_dir, const StressSceneOptio
         const glm::vec3 size = stand_on_origin(&p);
         if (!(size.y > 0.0f))
             return make_error((data_dir / "meshes" / m.file).string() + ": flat mesh");
-        model_scale.push_back(m.height_m / size.y);
-        chains.push_back(make_lod_levels(p, m.targets));
+        out.model_scale.push_back(m.height_m / size.y);
+        out.chains.push_back(make_lod_levels(p, m.targets));
     }
-    const double t_lod = seconds_since(t0);
+    return out;
+}
 
-    // The bake: each model's base level alone on a ground plane, 8 m apart (far enough that
-    // the sun's shadows do not reach a neighbour), at its copies' typical size.
-    const Clock::time_point t_bake0 = Clock::now();
+// The studio the bake lights: each model's base level alone on a ground plane, 8 m apart (far
+// enough that the sun's shadows do not reach a neighbour), at its copies' typical size; one
+// material per model, then the ground's (the last). Gives every level its model's material.
+Scene make_studio(ModelChains* models) {
     Scene studio;
     for (const Model& m : kModels) {
         Material mat;
@@ -134,48 +136,56 @@ Result<Scene> make_stress_scene(const fs::path& data_dir, const StressSceneOptio
     const int ground_material = int(studio.materials.size()) - 1;
     int slot = 0;
     // Only each model's base level is baked; the coarser levels get its light by transfer.
-    for (size_t mi = 0; mi < chains.size(); ++mi) {
-        for (Primitive& level : chains[mi].levels) level.material = int(mi);
+    for (size_t mi = 0; mi < models->chains.size(); ++mi) {
+        for (Primitive& level : models->chains[mi].levels) level.material = int(mi);
         Mesh mesh;
         mesh.name = std::string(kModels[mi].name) + "_studio";
-        mesh.primitives.push_back(chains[mi].levels.front());
+        mesh.primitives.push_back(models->chains[mi].levels.front());
         Node n;
         n.name = mesh.name;
         studio.meshes.push_back(std::move(mesh));
         n.mesh = int(studio.meshes.size()) - 1;
         n.translation = glm::dvec3(8.0 * slot++, 0.0, 0.0);
-        n.scale = glm::dvec3(model_scale[mi]);
+        n.scale = glm::dvec3(models->model_scale[mi]);
         studio.nodes.push_back(n);
         studio.roots.push_back(int(studio.nodes.size()) - 1);
     }
-    {
-        Mesh g;
-        g.name = "ground";
-        g.primitives.push_back(quad_xz(500.0f, ground_material));
-        studio.meshes.push_back(std::move(g));
-        Node n;
-        n.name = "ground";
-        n.mesh = int(studio.meshes.size()) - 1;
-        studio.nodes.push_back(n);
-        studio.roots.push_back(int(studio.nodes.size()) - 1);
-    }
+    Mesh g;
+    g.name = "ground";
+    g.primitives.push_back(quad_xz(500.0f, ground_material));
+    studio.meshes.push_back(std::move(g));
+    Node n;
+    n.name = "ground";
+    n.mesh = int(studio.meshes.size()) - 1;
+    studio.nodes.push_back(n);
+    studio.roots.push_back(int(studio.nodes.size()) - 1);
+    return studio;
+}
+
+// Path-traces the studio's vertex light (3 bounces, one-sided, under the sun and the sky).
+Result<BakeReport> bake_studio(Scene* studio, int vertex_samples) {
     BakeOptions bake;
     bake.vertex = true;
-    bake.samples = opt.vertex_samples;
-    bake.vertex_samples = opt.vertex_samples;
+    bake.samples = vertex_samples;
+    bake.vertex_samples = vertex_samples;
     bake.bounces = 3;
     bake.two_sided = false;
     bake.seed = 1;
-    add_sun_and_sky(&studio, &bake);
-    Result<BakeReport> baked = bake_scene(studio, bake);
+    add_sun_and_sky(studio, &bake);
+    Result<BakeReport> baked = bake_scene(*studio, bake);
     if (!baked) return make_error("stress scene: " + baked.error().message);
-    const double t_bake = seconds_since(t_bake0);
+    return baked;
+}
 
-    // The scene: the baked level meshes, shared by the copies, and a ground plane lit as the
-    // studio's far ground is (sun and open sky).
+// The scene's meshes from the baked studio: per model its levels (the base as baked, the coarser
+// ones with the base's light transferred), level_mesh[model][k] their indices; then a ground plane
+// lit as the studio's far ground is (sun and open sky), on node 0, the first root.
+Result<Scene> scene_of_baked_levels(const Scene& studio, const ModelChains& models,
+                                    std::vector<std::vector<int>>* level_mesh) {
+    const std::vector<LodLevels>& chains = models.chains;
     Scene s;
     s.materials = studio.materials;
-    std::vector<std::vector<int>> level_mesh(chains.size());
+    level_mesh->assign(chains.size(), {});
     size_t studio_mesh = 0;
     for (size_t mi = 0; mi < chains.size(); ++mi) {
         const Mesh& baked_base = studio.meshes[studio_mesh++];
@@ -192,25 +202,28 @@ Result<Scene> make_stress_scene(const fs::path& data_dir, const StressSceneOptio
                 mesh.primitives[0] = std::move(level);
             }
             s.meshes.push_back(std::move(mesh));
-            level_mesh[mi].push_back(int(s.meshes.size()) - 1);
+            (*level_mesh)[mi].push_back(int(s.meshes.size()) - 1);
         }
     }
-    {
-        Mesh g = studio.meshes[studio_mesh];
-        g.primitives[0].positions = quad_xz(200.0f, ground_material).positions;
-        s.meshes.push_back(std::move(g));
-        Node n;
-        n.name = "ground";
-        n.mesh = int(s.meshes.size()) - 1;
-        s.nodes.push_back(n);
-        s.roots.push_back(0);
-    }
+    const int ground_material = int(studio.materials.size()) - 1;
+    Mesh g = studio.meshes[studio_mesh];
+    g.primitives[0].positions = quad_xz(200.0f, ground_material).positions;
+    s.meshes.push_back(std::move(g));
+    Node n;
+    n.name = "ground";
+    n.mesh = int(s.meshes.size()) - 1;
+    s.nodes.push_back(n);
+    s.roots.push_back(0);
+    return s;
+}
 
-    // Cells nearest the origin first (ties by angle, so the order is total), beyond the clearing.
-    const int objects = opt.copies * int(std::size(kGroup));
-    struct Cell {
-        double x, z, r, a;
-    };
+struct Cell {
+    double x, z, r, a;
+};
+
+// Grid cells beyond the clearing, nearest the origin first (ties by angle, so the order is
+// total), at least `objects` of them.
+std::vector<Cell> placement_cells(int objects) {
     std::vector<Cell> cells;
     const int reach = int(std::ceil(std::sqrt(double(objects)) / 2.0)) + 3;
     for (int i = -reach; i <= reach; ++i)
@@ -220,16 +233,28 @@ Result<Scene> make_stress_scene(const fs::path& data_dir, const StressSceneOptio
         }
     std::sort(cells.begin(), cells.end(),
               [](const Cell& a, const Cell& b) { return a.r != b.r ? a.r < b.r : a.a < b.a; });
-    if (cells.size() < size_t(objects)) return make_error("stress scene: placement grid too small");
-    Pcg32 rng(opt.seed, 0x5712e55);
+    return cells;
+}
+
+// Triangles of the placed objects at full detail and at the coarsest levels.
+struct Placed {
     size_t full_triangles = 0, coarse_triangles = 0;
+};
+
+// One root node per object in cell order (models by kGroup), jittered, turned and sized by the
+// seed's Pcg32, with an MSFT_lod node per coarser level pointing at the shared level meshes.
+Placed place_objects(Scene* s, const ModelChains& models,
+                     const std::vector<std::vector<int>>& level_mesh,
+                     const std::vector<Cell>& cells, int objects, uint64_t seed) {
+    Pcg32 rng(seed, 0x5712e55);
+    Placed placed;
     for (int o = 0; o < objects; ++o) {
         const size_t mi = size_t(kGroup[o % int(std::size(kGroup))]);
         const Cell& c = cells[size_t(o)];
         const double jx = (rng.uniform() - 0.5) * 0.8, jz = (rng.uniform() - 0.5) * 0.8;
         const double yaw = rng.uniform() * 2.0 * std::numbers::pi;
         const double size = 0.65 + 0.55 * rng.uniform();  // of the model's typical height
-        const double scale = model_scale[mi] * size;
+        const double scale = models.model_scale[mi] * size;
         const std::string name = std::string(kModels[mi].name) + "_" + std::to_string(o);
         auto add_node = [&](const std::string& nname, int mesh, double error) {
             Node n;
@@ -239,47 +264,89 @@ Result<Scene> make_stress_scene(const fs::path& data_dir, const StressSceneOptio
             n.rotation = glm::angleAxis(yaw, glm::dvec3(0, 1, 0));
             n.scale = glm::dvec3(scale);
             n.geometric_error_m = error;
-            s.nodes.push_back(n);
-            return int(s.nodes.size()) - 1;
+            s->nodes.push_back(n);
+            return int(s->nodes.size()) - 1;
         };
-        const LodLevels& chain = chains[mi];
+        const LodLevels& chain = models.chains[mi];
         const int n0 = add_node(name, level_mesh[mi][0], 0.0);
-        s.roots.push_back(n0);
+        s->roots.push_back(n0);
         for (size_t k = 1; k < chain.levels.size(); ++k) {
-            // note: add_node grows s.nodes, so the level's index is taken before n0 is indexed
+            // note: add_node grows s->nodes, so the level's index is taken before n0 is indexed
             const int nk =
                 add_node(name + "_lod" + std::to_string(k), level_mesh[mi][k], chain.errors[k]);
-            s.nodes[size_t(n0)].lod_ids.push_back(nk);
+            s->nodes[size_t(n0)].lod_ids.push_back(nk);
         }
-        s.nodes[size_t(n0)].screen_coverage = lod_screen_coverage(chain);
-        full_triangles += chain.levels.front().triangle_count();
-        coarse_triangles += chain.levels.back().triangle_count();
+        s->nodes[size_t(n0)].screen_coverage = lod_screen_coverage(chain);
+        placed.full_triangles += chain.levels.front().triangle_count();
+        placed.coarse_triangles += chain.levels.back().triangle_count();
     }
+    return placed;
+}
+
+// Seconds each step took.
+struct StepTimes {
+    double lod = 0, bake = 0, total = 0;
+};
+
+// The summary `hmdnode scene stress` prints: objects and their reach, triangles, the levels of
+// each model, the bake, the times.
+std::string stress_summary(const StressSceneOptions& opt, const ModelChains& models, int objects,
+                           double reach_m, const Placed& placed, const BakeReport& baked,
+                           const StepTimes& t) {
+    std::string out;
+    char line[320];
+    auto add = [&](const char* fmt, auto... args) {
+        std::snprintf(line, sizeof line, fmt, args...);
+        out += line;
+    };
+    add("stress scene: %d objects (%d copies of 3 bunnies, a spot, a fandisk) on a %.1f m grid "
+        "out to %.1f m\n",
+        objects, opt.copies, kSpacing, reach_m);
+    add("triangles: %zu at full detail, %zu at the coarsest levels\n", placed.full_triangles,
+        placed.coarse_triangles);
+    for (size_t mi = 0; mi < models.chains.size(); ++mi) {
+        const LodLevels& chain = models.chains[mi];
+        add("  %-8s", kModels[mi].name);
+        for (size_t k = 0; k < chain.levels.size(); ++k)
+            add("%s L%zu %zu tris, err %.4f m", k ? " |" : "", k, chain.levels[k].triangle_count(),
+                chain.errors[k] * models.model_scale[mi]);
+        out += "\n";
+    }
+    add("bake: %d paths per vertex, %zu vertices, %.1f M rays (%.1f M rays/s)\n",
+        opt.vertex_samples, baked.vertices, double(baked.rays) / 1e6, baked.rays_per_second / 1e6);
+    add("time: lod %.2f s, bake %.2f s, total %.2f s\n", t.lod, t.bake, t.total);
+    return out;
+}
+
+}  // namespace
+
+Result<Scene> make_stress_scene(const fs::path& data_dir, const StressSceneOptions& opt,
+                                std::string* out_summary) {
+    if (opt.copies < 1) return make_error("stress scene: --copies must be at least 1");
+    const Clock::time_point t0 = Clock::now();
+    Result<ModelChains> models = make_model_chains(data_dir);
+    if (!models) return models.error();
+    StepTimes times;
+    times.lod = seconds_since(t0);
+
+    const Clock::time_point t_bake0 = Clock::now();
+    Scene studio = make_studio(&*models);
+    Result<BakeReport> baked = bake_studio(&studio, opt.vertex_samples);
+    if (!baked) return baked.error();
+    times.bake = seconds_since(t_bake0);
+
+    std::vector<std::vector<int>> level_mesh;
+    Result<Scene> s = scene_of_baked_levels(studio, *models, &level_mesh);
+    if (!s) return s.error();
+    const int objects = opt.copies * int(std::size(kGroup));
+    const std::vector<Cell> cells = placement_cells(objects);
+    if (cells.size() < size_t(objects)) return make_error("stress scene: placement grid too small");
+    const Placed placed = place_objects(&*s, *models, level_mesh, cells, objects, opt.seed);
 
     if (out_summary) {
-        std::string out;
-        char line[320];
-        auto add = [&](const char* fmt, auto... args) {
-            std::snprintf(line, sizeof line, fmt, args...);
-            out += line;
-        };
-        add("stress scene: %d objects (%d copies of 3 bunnies, a spot, a fandisk) on a %.1f m grid "
-            "out to %.1f m\n",
-            objects, opt.copies, kSpacing, cells[size_t(objects) - 1].r);
-        add("triangles: %zu at full detail, %zu at the coarsest levels\n", full_triangles,
-            coarse_triangles);
-        for (size_t mi = 0; mi < chains.size(); ++mi) {
-            add("  %-8s", kModels[mi].name);
-            for (size_t k = 0; k < chains[mi].levels.size(); ++k)
-                add("%s L%zu %zu tris, err %.4f m", k ? " |" : "", k,
-                    chains[mi].levels[k].triangle_count(), chains[mi].errors[k] * model_scale[mi]);
-            out += "\n";
-        }
-        add("bake: %d paths per vertex, %zu vertices, %.1f M rays (%.1f M rays/s)\n",
-            opt.vertex_samples, baked->vertices, double(baked->rays) / 1e6,
-            baked->rays_per_second / 1e6);
-        add("time: lod %.2f s, bake %.2f s, total %.2f s\n", t_lod, t_bake, seconds_since(t0));
-        *out_summary = std::move(out);
+        times.total = seconds_since(t0);
+        *out_summary = stress_summary(opt, *models, objects, cells[size_t(objects) - 1].r, placed,
+                                      *baked, times);
     }
     return s;
 }

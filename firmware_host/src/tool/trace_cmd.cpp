@@ -9,14 +9,18 @@
 
 #include <CLI/CLI.hpp>
 
-#include "cli/cli_checks.hpp"
 #include "hmdnode/core/synthetic_gaze.hpp"
 #include "hmdnode/core/time.hpp"
 #include "hmdnode/core/trace.hpp"
+#include "tool/cli_errors.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
 namespace {
+
+const CliErrors import_errors{"trace import"};
+const CliErrors info_errors{"trace info"};
+const CliErrors add_gaze_errors{"trace add-gaze"};
 
 struct ImportArgs {
     std::string from;
@@ -47,24 +51,18 @@ void print_gaze_rows(const TraceStats& st) {
 }
 
 void run_import(const ImportArgs& args) {
-    if (!cli::check_outputs("hmdnode trace import", {{"--to", args.to}})) return set_exit_code(1);
+    if (!import_errors.check_outputs({{"--to", args.to}})) return;
     TraceImportOptions options = args.options;
     options.rebase_time = !args.keep_time;
     options.euler_degrees = !args.euler_radians;
     TraceImportReport report;
     Result<Trace> trace = import_trace_table(args.from, options, &report);
     if (!trace.ok()) {
-        std::fprintf(stderr, "hmdnode trace import: %s\n", trace.error().message.c_str());
-        std::fprintf(stderr, "hmdnode trace import: nothing written to %s\n", args.to.c_str());
-        set_exit_code(1);
-        return;
+        import_errors.fail(trace.error().message);
+        return import_errors.fail("nothing written to " + args.to);
     }
     Status written = write_trace_csv(*trace, args.to);
-    if (!written.ok()) {
-        std::fprintf(stderr, "hmdnode trace import: %s\n", written.error().message.c_str());
-        set_exit_code(1);
-        return;
-    }
+    if (!written.ok()) return import_errors.fail(written.error().message);
     const TraceStats st = compute_trace_stats(*trace);
     std::printf("imported %s -> %s\n", args.from.c_str(), args.to.c_str());
     print_row("rows read", std::to_string(report.rows_read));
@@ -93,11 +91,7 @@ void run_import(const ImportArgs& args) {
 
 void run_info(const std::string& file) {
     Result<Trace> trace = read_trace_csv(file);
-    if (!trace.ok()) {
-        std::fprintf(stderr, "hmdnode trace info: %s\n", trace.error().message.c_str());
-        set_exit_code(1);
-        return;
-    }
+    if (!trace.ok()) return info_errors.fail(trace.error().message);
     const TraceStats st = compute_trace_stats(*trace);
     const double t0_s = ns_to_s(trace->start_ns());
     std::printf("%s\n", file.c_str());
@@ -123,25 +117,16 @@ struct AddGazeArgs {
 };
 
 void run_add_gaze(const AddGazeArgs& args) {
-    const char* cmd = "hmdnode trace add-gaze";
-    if (!cli::check_outputs(cmd, {{"--out", args.out}})) return set_exit_code(1);
+    if (!add_gaze_errors.check_outputs({{"--out", args.out}})) return;
     Result<Trace> head = read_trace_csv(args.in);
-    if (!head.ok()) {
-        std::fprintf(stderr, "%s: %s\n", cmd, head.error().message.c_str());
-        return set_exit_code(1);
-    }
+    if (!head.ok()) return add_gaze_errors.fail(head.error().message);
     Result<SyntheticGaze> g = synthesize_gaze(*head, args.params);
-    if (!g.ok()) {
-        std::fprintf(stderr, "%s: %s: %s\n", cmd, args.in.c_str(), g.error().message.c_str());
-        return set_exit_code(1);
-    }
+    if (!g.ok()) return add_gaze_errors.fail(args.in + ": " + g.error().message);
     g->trace.comments.insert(g->trace.comments.end() - 1,
                              "gaze added to " + std::filesystem::path(args.in).filename().string() +
                                  " by hmdnode trace add-gaze");
-    if (Status st = write_trace_csv(g->trace, args.out); !st.ok()) {
-        std::fprintf(stderr, "%s: %s\n", cmd, st.error().message.c_str());
-        return set_exit_code(1);
-    }
+    if (Status st = write_trace_csv(g->trace, args.out); !st.ok())
+        return add_gaze_errors.fail(st.error().message);
     const TraceStats st = compute_trace_stats(g->trace);
     std::printf("wrote %s: %zu samples with SYNTHETIC gaze (seed %llu), %zu saccades, %zu blinks\n",
                 args.out.c_str(), st.samples, static_cast<unsigned long long>(args.params.seed),

@@ -11,15 +11,17 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "cli/cli_checks.hpp"
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/orientation_eval.hpp"
 #include "hmdnode/core/time.hpp"
 #include "hmdnode/core/trace.hpp"
+#include "tool/cli_errors.hpp"
 #include "tool/commands.hpp"
 
 namespace hmdnode::tool {
 namespace {
+
+const CliErrors errors{"tracking eval"};
 
 struct EvalArgs {
     std::string reference, estimate, report, plot;
@@ -115,37 +117,34 @@ std::string error_plot_svg(const OrientationEval& e, const std::string& title) {
     return s;
 }
 
+// The warning for a fitted time offset at the edge of its search range (both in ms).
+std::string offset_at_limit_warning(double offset_ms, double range_ms) {
+    char b[200];
+    std::snprintf(b, sizeof b,
+                  "the fitted time offset %.3f ms is at the edge of the search range (+-%.0f ms; "
+                  "--max-time-offset widens it)",
+                  offset_ms, range_ms);
+    return b;
+}
+
 void run_eval(EvalArgs args) {
-    const char* cmd = "hmdnode tracking eval";
     if (args.time_offset == "auto") {
         args.options.fit_time_offset = true;
     } else {
         char* end = nullptr;
         const double ms = std::strtod(args.time_offset.c_str(), &end);
-        if (args.time_offset.empty() || *end != '\0' || !std::isfinite(ms)) {
-            std::fprintf(stderr, "%s: --time-offset \"%s\" is neither auto nor milliseconds\n", cmd,
-                         args.time_offset.c_str());
-            return set_exit_code(2);
-        }
+        if (args.time_offset.empty() || *end != '\0' || !std::isfinite(ms))
+            return errors.usage("--time-offset \"" + args.time_offset +
+                                "\" is neither auto nor milliseconds");
         args.options.time_offset_s = ms * 1e-3;
     }
-    if (!cli::check_outputs(cmd, {{"--report", args.report}, {"--plot", args.plot}}))
-        return set_exit_code(1);
+    if (!errors.check_outputs({{"--report", args.report}, {"--plot", args.plot}})) return;
     auto ref = read_trace_csv(args.reference);
-    if (!ref) {
-        std::fprintf(stderr, "%s: --reference %s\n", cmd, ref.error().message.c_str());
-        return set_exit_code(1);
-    }
+    if (!ref) return errors.fail("--reference " + ref.error().message);
     auto est = read_trace_csv(args.estimate);
-    if (!est) {
-        std::fprintf(stderr, "%s: --estimate %s\n", cmd, est.error().message.c_str());
-        return set_exit_code(1);
-    }
+    if (!est) return errors.fail("--estimate " + est.error().message);
     auto e = evaluate_orientation(*ref, *est, args.options);
-    if (!e) {
-        std::fprintf(stderr, "%s: %s\n", cmd, e.error().message.c_str());
-        return set_exit_code(1);
-    }
+    if (!e) return errors.fail(e.error().message);
     // The same alignment and offset, the reference samples in the disturbed intervals left out.
     const Saturation sat = saturation_of(*est);
     std::vector<double> err_ex, tilt_ex, heading_ex;
@@ -182,25 +181,17 @@ void run_eval(EvalArgs args) {
             {"saturated_imu_samples", sat.samples},
             {"intervals", sat.intervals.size()}};
     if (e->time_offset_at_range_limit)
-        std::fprintf(stderr,
-                     "%s: warning: the fitted time offset %.3f ms is at the edge of the search "
-                     "range (+-%.0f ms; --max-time-offset widens it)\n",
-                     cmd, double(e->time_offset_ns) * 1e-6, args.options.max_time_offset_s * 1e3);
+        errors.warning(offset_at_limit_warning(double(e->time_offset_ns) * 1e-6,
+                                               args.options.max_time_offset_s * 1e3));
     if (!args.report.empty()) {
         Status st = write_file_atomically(args.report, report.dump(2) + "\n");
-        if (!st.ok()) {
-            std::fprintf(stderr, "%s: %s\n", cmd, st.error().message.c_str());
-            return set_exit_code(1);
-        }
+        if (!st.ok()) return errors.fail(st.error().message);
     }
     if (!args.plot.empty()) {
         Status st = write_file_atomically(
             args.plot,
             error_plot_svg(*e, "orientation error of " + args.estimate + " vs " + args.reference));
-        if (!st.ok()) {
-            std::fprintf(stderr, "%s: %s\n", cmd, st.error().message.c_str());
-            return set_exit_code(1);
-        }
+        if (!st.ok()) return errors.fail(st.error().message);
     }
     std::printf("%s vs %s: %zu reference samples, %.3f to %.3f s\n", args.estimate.c_str(),
                 args.reference.c_str(), e->samples, ns_to_s(e->time_ns.front()),
