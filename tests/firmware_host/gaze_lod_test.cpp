@@ -81,14 +81,22 @@ std::shared_ptr<const Trace> still_head_gazing_left(double confidence) {
     return t;
 }
 
+// note: one folder per test: CTest runs the tests of this file in parallel, and a shared report
+// path let one test read another's report.
+fs::path test_dir() {
+    const fs::path dir = fs::path(HMDNODE_BINARY_DIR) / "test_tmp" / "gaze_lod" /
+                         ::testing::UnitTest::GetInstance()->current_test_info()->name();
+    fs::create_directories(dir);
+    return dir;
+}
+
 struct GazeRun {
     ReplayResult result;
     nlohmann::json report;
 };
 
 GazeRun replay(EyeTrackerBackend eye_tracker, double confidence) {
-    const fs::path dir = fs::path(HMDNODE_BINARY_DIR) / "test_tmp" / "gaze_lod";
-    fs::create_directories(dir);
+    const fs::path dir = test_dir();
     ReplayOptions o;
     o.scene = write_scene(dir);
     o.trace_data = still_head_gazing_left(confidence);
@@ -169,8 +177,7 @@ TEST(GazeLod, AGazeThatIsNotValidFallsBackToTheLensCentre) {
 
 TEST(GazeLod, TheEyeTrackerNeedsATraceWithGaze) {
     ReplayOptions o;
-    const fs::path dir = fs::path(HMDNODE_BINARY_DIR) / "test_tmp" / "gaze_lod";
-    fs::create_directories(dir);
+    const fs::path dir = test_dir();
     o.scene = write_scene(dir);
     auto head_only = std::make_shared<Trace>(*still_head_gazing_left(1.0));
     for (TraceSample& s : head_only->samples) s.gaze.reset();
