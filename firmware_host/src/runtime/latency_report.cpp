@@ -1,6 +1,7 @@
 // Per-vsync series, table, JSON report and SVG of `hmdnode latency` (latency_report.hpp). The
 // vsync walk is summarize_presents' (replay.cpp) so that the plots show what the summary counts.
-// Costs in the header; the SVG is built in one string (about 100 bytes per vsync and mode).
+// Costs in the header; the SVG is built in one string (about 100 bytes per vsync and mode): the
+// axes all modes share (latency_axes), then per mode a histogram panel and a timeline panel.
 #include "hmdnode/firmware_host/latency_report.hpp"
 
 #include <algorithm>
@@ -224,14 +225,37 @@ nlohmann::json latency_report_json(const nlohmann::json& options, const std::str
             {"modes", std::move(modes)}};
 }
 
-std::string latency_svg(const std::vector<LatencyModeResult>& results, const std::string& title,
-                        const std::string& subtitle) {
-    // Layout: a title line, then one row per mode: histogram (left), timeline (right).
-    const double width = 1200, row_h = 230, top = 56, left_x = 70, hist_w = 380, tl_x = 540,
-                 tl_w = 620, plot_h = 160;
-    const double height = top + row_h * double(results.size()) + 30;
+namespace {
 
-    // Shared axes: MTP range, error range, time range.
+// latency_svg's layout: a title line, then one row per mode: histogram (left), timeline (right).
+constexpr double kSvgWidth = 1200, kRowH = 230, kTop = 56, kLeftX = 70, kHistW = 380, kTlX = 540,
+                 kTlW = 620, kPlotH = 160;
+
+// The axes every mode's row shares: the MTP bins and range, the histograms' percentage (the
+// tallest bin of any mode), the error range and the time range.
+struct LatencyAxes {
+    double bin = 1.0;
+    int bins = 1;
+    double lat_axis = 1.0;
+    double pct_step = 1.0, pct_axis = 1.0;
+    double err_step = 1.0, err_axis = 1.0;
+    double t_step = 1.0, t_axis = 1.0;
+};
+
+// One mode's MTP histogram: vsyncs per bin of `bin` ms (*total: the vsyncs with a latency).
+std::vector<size_t> latency_histogram(const LatencyModeResult& r, double bin, int bins,
+                                      size_t* total) {
+    std::vector<size_t> counts(size_t(bins), 0);
+    *total = 0;
+    for (const VsyncSample& v : r.series) {
+        if (!std::isfinite(v.latency_ms)) continue;
+        counts[size_t(std::clamp(int(v.latency_ms / bin), 0, bins - 1))]++;
+        ++*total;
+    }
+    return counts;
+}
+
+LatencyAxes latency_axes(const std::vector<LatencyModeResult>& results) {
     double lat_max = 0.0, err_max = 0.0, t_max = 0.0;
     for (const LatencyModeResult& r : results) {
         for (const VsyncSample& v : r.series) {
@@ -242,32 +266,145 @@ std::string latency_svg(const std::vector<LatencyModeResult>& results, const std
         if (!r.series.empty())
             t_max = std::max(t_max, ns_to_s(r.series.back().vsync_ns - r.series.front().vsync_ns));
     }
-    const double bin = nice_step(lat_max, 40);
-    const int bins = std::max(1, int(std::ceil((lat_max + 1e-9) / bin)));
-    const double lat_axis = bin * bins;
-    // The histograms' percentage axis, shared too: the tallest bin of any mode.
-    auto histogram = [&](const LatencyModeResult& r, size_t* out_total) {
-        std::vector<size_t> counts(size_t(bins), 0);
-        *out_total = 0;
-        for (const VsyncSample& v : r.series) {
-            if (!std::isfinite(v.latency_ms)) continue;
-            counts[size_t(std::clamp(int(v.latency_ms / bin), 0, bins - 1))]++;
-            ++*out_total;
-        }
-        return counts;
-    };
+    LatencyAxes a;
+    a.bin = nice_step(lat_max, 40);
+    a.bins = std::max(1, int(std::ceil((lat_max + 1e-9) / a.bin)));
+    a.lat_axis = a.bin * a.bins;
     double pct_max = 0.0;
     for (const LatencyModeResult& r : results) {
         size_t total = 0;
-        for (size_t c : histogram(r, &total))
+        for (size_t c : latency_histogram(r, a.bin, a.bins, &total))
             pct_max = std::max(pct_max, 100.0 * double(c) / double(std::max<size_t>(total, 1)));
     }
-    const double pct_step = nice_step(pct_max, 4);
-    const double pct_axis = std::max(pct_step, std::ceil(pct_max / pct_step - 1e-9) * pct_step);
-    const double err_step = nice_step(err_max, 4);
-    const double err_axis = std::max(err_step, std::ceil(err_max / err_step - 1e-9) * err_step);
-    const double t_step = nice_step(t_max, 8);
-    const double t_axis = std::max(t_step, std::ceil(t_max / t_step - 1e-9) * t_step);
+    a.pct_step = nice_step(pct_max, 4);
+    a.pct_axis = std::max(a.pct_step, std::ceil(pct_max / a.pct_step - 1e-9) * a.pct_step);
+    a.err_step = nice_step(err_max, 4);
+    a.err_axis = std::max(a.err_step, std::ceil(err_max / a.err_step - 1e-9) * a.err_step);
+    a.t_step = nice_step(t_max, 8);
+    a.t_axis = std::max(a.t_step, std::ceil(t_max / a.t_step - 1e-9) * a.t_step);
+    return a;
+}
+
+void svg_text(std::ostream& o, double x, double y, const std::string& s,
+              const char* anchor = "middle", const char* extra = "") {
+    o << "<text x=\"" << x << "\" y=\"" << y << "\" text-anchor=\"" << anchor << "\"" << extra
+      << ">" << xml_escape(s) << "</text>\n";
+}
+
+void svg_line(std::ostream& o, double x0, double y0, double x1, double y1, const char* stroke) {
+    o << "<line x1=\"" << x0 << "\" y1=\"" << y0 << "\" x2=\"" << x1 << "\" y2=\"" << y1
+      << "\" stroke=\"" << stroke << "\"/>\n";
+}
+
+// An axis label: up to 6 decimals, no trailing zeros.
+std::string axis_num(double v) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%g", std::round(v * 1e6) / 1e6);
+    return std::string(b);
+}
+
+// A mode's MTP histogram (% of vsyncs per bin) between the plot's top y0 and bottom y1, with
+// its axes and the p50 and p99 marks.
+void histogram_panel(std::ostream& o, const LatencyModeResult& r, const LatencyAxes& a, double y0,
+                     double y1) {
+    size_t total = 0;
+    const std::vector<size_t> counts = latency_histogram(r, a.bin, a.bins, &total);
+    for (int i = 0; i < a.bins; ++i) {
+        if (counts[size_t(i)] == 0) continue;
+        const double pct = 100.0 * double(counts[size_t(i)]) / double(total);
+        const double h = kPlotH * pct / a.pct_axis, bw = kHistW / a.bins;
+        o << "<rect x=\"" << kLeftX + bw * i << "\" y=\"" << y1 - h << "\" width=\""
+          << std::max(bw - 1.0, 0.5) << "\" height=\"" << h << "\" fill=\"#4a7ebb\"><title>"
+          << axis_num(a.bin * i) << "-" << axis_num(a.bin * (i + 1)) << " ms: " << counts[size_t(i)]
+          << " vsyncs</title></rect>\n";
+    }
+    svg_line(o, kLeftX, y1, kLeftX + kHistW, y1, "black");
+    svg_line(o, kLeftX, y0, kLeftX, y1, "black");
+    const double lat_step = nice_step(a.lat_axis, 8);
+    for (double v = 0.0; v <= a.lat_axis + 1e-9; v += lat_step) {
+        const double x = kLeftX + kHistW * v / a.lat_axis;
+        svg_line(o, x, y1, x, y1 + 4, "black");
+        svg_text(o, x, y1 + 16, axis_num(v));
+    }
+    svg_text(o, kLeftX + kHistW / 2, y1 + 32,
+             "MTP latency (ms), bins of " + axis_num(a.bin) + " ms");
+    for (double v = 0.0; v <= a.pct_axis + 1e-9; v += a.pct_step) {
+        const double y = y1 - kPlotH * v / a.pct_axis;
+        svg_line(o, kLeftX - 4, y, kLeftX, y, "black");
+        svg_text(o, kLeftX - 6, y + 4, axis_num(v), "end");
+    }
+    o << "<text transform=\"translate(" << kLeftX - 42 << ',' << (y0 + y1) / 2
+      << ") rotate(-90)\" text-anchor=\"middle\">% of vsyncs</text>\n";
+    const Percentiles& lp = r.summary.latency_ms;
+    for (auto [q, name, colour] : {std::tuple{lp.p50, "p50", "#2a2"}, {lp.p99, "p99", "#c60"}}) {
+        if (!std::isfinite(q)) continue;
+        const double x = kLeftX + kHistW * std::min(q, a.lat_axis) / a.lat_axis;
+        o << "<line x1=\"" << x << "\" y1=\"" << y0 << "\" x2=\"" << x << "\" y2=\"" << y1
+          << "\" stroke=\"" << colour << "\" stroke-dasharray=\"4 3\"/>\n";
+    }
+    svg_text(o, kLeftX + kHistW, y0 - 3,
+             "p50 " + fmt("%.1f", lp.p50) + " ms, p99 " + fmt("%.1f", lp.p99) + " ms", "end");
+}
+
+// A mode's registration error over time between the plot's top y0 and bottom y1, with its axes
+// and the missed vsyncs as ticks.
+void timeline_panel(std::ostream& o, const LatencyModeResult& r, const LatencyAxes& a, double y0,
+                    double y1) {
+    svg_line(o, kTlX, y1, kTlX + kTlW, y1, "black");
+    svg_line(o, kTlX, y0, kTlX, y1, "black");
+    for (double v = 0.0; v <= a.t_axis + 1e-9; v += a.t_step) {
+        const double x = kTlX + kTlW * v / a.t_axis;
+        svg_line(o, x, y1, x, y1 + 4, "black");
+        svg_text(o, x, y1 + 16, axis_num(v));
+    }
+    svg_text(o, kTlX + kTlW / 2, y1 + 32, "time (s)");
+    for (double v = 0.0; v <= a.err_axis + 1e-9; v += a.err_step) {
+        const double y = y1 - kPlotH * v / a.err_axis;
+        svg_line(o, kTlX - 4, y, kTlX, y, "black");
+        if (v > 0) svg_line(o, kTlX, y, kTlX + kTlW, y, "#ddd");
+        svg_text(o, kTlX - 6, y + 4, axis_num(v), "end");
+    }
+    o << "<text transform=\"translate(" << kTlX - 40 << ',' << (y0 + y1) / 2
+      << ") rotate(-90)\" text-anchor=\"middle\">error (deg)</text>\n";
+    if (!r.series.empty()) {
+        const int64_t v0 = r.series.front().vsync_ns;
+        o << "<path fill=\"none\" stroke=\"#1f3f7a\" stroke-width=\"1\" d=\"";
+        bool pen = false;
+        o.precision(2);
+        for (const VsyncSample& v : r.series) {
+            if (!std::isfinite(v.registration_error_deg)) {
+                pen = false;
+                continue;
+            }
+            const double x = kTlX + kTlW * ns_to_s(v.vsync_ns - v0) / a.t_axis;
+            const double y = y1 - kPlotH * v.registration_error_deg / a.err_axis;
+            o << (pen ? 'L' : 'M') << x << ',' << y << ' ';
+            pen = true;
+        }
+        o << "\"/>\n";
+        o << "<path stroke=\"#f39c12\" d=\"";
+        for (const VsyncSample& v : r.series) {
+            if (v.on_time) continue;
+            const double x = kTlX + kTlW * ns_to_s(v.vsync_ns - v0) / a.t_axis;
+            o << 'M' << x << ',' << y1 - 1 << " v-5 ";
+        }
+        o << "\"/>\n";
+        o.precision(1);
+    }
+    const Percentiles& ep = r.summary.registration_error_deg;
+    svg_text(o, kTlX + kTlW, y0 - 3,
+             "p50 " + fmt("%.2f", ep.p50) + " deg, p99 " + fmt("%.2f", ep.p99) + " deg, on time " +
+                 fmt("%.1f", 100.0 * r.summary.on_time_rate) + "% of " +
+                 std::to_string(r.summary.vsyncs) + " vsyncs",
+             "end");
+}
+
+}  // namespace
+
+std::string latency_svg(const std::vector<LatencyModeResult>& results, const std::string& title,
+                        const std::string& subtitle) {
+    const double width = kSvgWidth, height = kTop + kRowH * double(results.size()) + 30;
+    const LatencyAxes axes = latency_axes(results);
 
     std::ostringstream o;
     o.setf(std::ios::fixed);
@@ -282,117 +419,15 @@ std::string latency_svg(const std::vector<LatencyModeResult>& results, const std
       << xml_escape(subtitle)
       << "; left: motion-to-photon latency per displayed vsync; right: registration error at "
          "each vsync (orange ticks: missed vsyncs)</text>\n";
-
-    auto text = [&](double x, double y, const std::string& s, const char* anchor = "middle",
-                    const char* extra = "") {
-        o << "<text x=\"" << x << "\" y=\"" << y << "\" text-anchor=\"" << anchor << "\"" << extra
-          << ">" << xml_escape(s) << "</text>\n";
-    };
-    auto line = [&](double x0, double y0, double x1, double y1, const char* stroke) {
-        o << "<line x1=\"" << x0 << "\" y1=\"" << y0 << "\" x2=\"" << x1 << "\" y2=\"" << y1
-          << "\" stroke=\"" << stroke << "\"/>\n";
-    };
-    auto num = [](double v) {
-        char b[32];
-        std::snprintf(b, sizeof b, "%g", std::round(v * 1e6) / 1e6);
-        return std::string(b);
-    };
-
     for (size_t m = 0; m < results.size(); ++m) {
         const LatencyModeResult& r = results[m];
-        const double y0 = top + row_h * double(m) + 30, y1 = y0 + plot_h;  // plot top, bottom
-        text(left_x - 60, y0 - 16,
-             r.mode.name + "  (prediction " + (r.mode.predict ? "on" : "off") + ", warp " +
-                 (r.mode.warp ? "on" : "off") + ")",
-             "start", " font-weight=\"bold\" font-size=\"13\"");
-
-        // Histogram of MTP, % of vsyncs per bin.
-        size_t total = 0;
-        const std::vector<size_t> counts = histogram(r, &total);
-        for (int i = 0; i < bins; ++i) {
-            if (counts[size_t(i)] == 0) continue;
-            const double pct = 100.0 * double(counts[size_t(i)]) / double(total);
-            const double h = plot_h * pct / pct_axis, bw = hist_w / bins;
-            o << "<rect x=\"" << left_x + bw * i << "\" y=\"" << y1 - h << "\" width=\""
-              << std::max(bw - 1.0, 0.5) << "\" height=\"" << h << "\" fill=\"#4a7ebb\"><title>"
-              << num(bin * i) << "-" << num(bin * (i + 1)) << " ms: " << counts[size_t(i)]
-              << " vsyncs</title></rect>\n";
-        }
-        line(left_x, y1, left_x + hist_w, y1, "black");
-        line(left_x, y0, left_x, y1, "black");
-        const double lat_step = nice_step(lat_axis, 8);
-        for (double v = 0.0; v <= lat_axis + 1e-9; v += lat_step) {
-            const double x = left_x + hist_w * v / lat_axis;
-            line(x, y1, x, y1 + 4, "black");
-            text(x, y1 + 16, num(v));
-        }
-        text(left_x + hist_w / 2, y1 + 32, "MTP latency (ms), bins of " + num(bin) + " ms");
-        for (double v = 0.0; v <= pct_axis + 1e-9; v += pct_step) {
-            const double y = y1 - plot_h * v / pct_axis;
-            line(left_x - 4, y, left_x, y, "black");
-            text(left_x - 6, y + 4, num(v), "end");
-        }
-        o << "<text transform=\"translate(" << left_x - 42 << ',' << (y0 + y1) / 2
-          << ") rotate(-90)\" text-anchor=\"middle\">% of vsyncs</text>\n";
-        const Percentiles& lp = r.summary.latency_ms;
-        for (auto [q, name, colour] :
-             {std::tuple{lp.p50, "p50", "#2a2"}, {lp.p99, "p99", "#c60"}}) {
-            if (!std::isfinite(q)) continue;
-            const double x = left_x + hist_w * std::min(q, lat_axis) / lat_axis;
-            o << "<line x1=\"" << x << "\" y1=\"" << y0 << "\" x2=\"" << x << "\" y2=\"" << y1
-              << "\" stroke=\"" << colour << "\" stroke-dasharray=\"4 3\"/>\n";
-        }
-        text(left_x + hist_w, y0 - 3,
-             "p50 " + fmt("%.1f", lp.p50) + " ms, p99 " + fmt("%.1f", lp.p99) + " ms", "end");
-
-        // Timeline of registration error.
-        line(tl_x, y1, tl_x + tl_w, y1, "black");
-        line(tl_x, y0, tl_x, y1, "black");
-        for (double v = 0.0; v <= t_axis + 1e-9; v += t_step) {
-            const double x = tl_x + tl_w * v / t_axis;
-            line(x, y1, x, y1 + 4, "black");
-            text(x, y1 + 16, num(v));
-        }
-        text(tl_x + tl_w / 2, y1 + 32, "time (s)");
-        for (double v = 0.0; v <= err_axis + 1e-9; v += err_step) {
-            const double y = y1 - plot_h * v / err_axis;
-            line(tl_x - 4, y, tl_x, y, "black");
-            if (v > 0) line(tl_x, y, tl_x + tl_w, y, "#ddd");
-            text(tl_x - 6, y + 4, num(v), "end");
-        }
-        o << "<text transform=\"translate(" << tl_x - 40 << ',' << (y0 + y1) / 2
-          << ") rotate(-90)\" text-anchor=\"middle\">error (deg)</text>\n";
-        if (!r.series.empty()) {
-            const int64_t v0 = r.series.front().vsync_ns;
-            o << "<path fill=\"none\" stroke=\"#1f3f7a\" stroke-width=\"1\" d=\"";
-            bool pen = false;
-            o.precision(2);
-            for (const VsyncSample& v : r.series) {
-                if (!std::isfinite(v.registration_error_deg)) {
-                    pen = false;
-                    continue;
-                }
-                const double x = tl_x + tl_w * ns_to_s(v.vsync_ns - v0) / t_axis;
-                const double y = y1 - plot_h * v.registration_error_deg / err_axis;
-                o << (pen ? 'L' : 'M') << x << ',' << y << ' ';
-                pen = true;
-            }
-            o << "\"/>\n";
-            o << "<path stroke=\"#f39c12\" d=\"";
-            for (const VsyncSample& v : r.series) {
-                if (v.on_time) continue;
-                const double x = tl_x + tl_w * ns_to_s(v.vsync_ns - v0) / t_axis;
-                o << 'M' << x << ',' << y1 - 1 << " v-5 ";
-            }
-            o << "\"/>\n";
-            o.precision(1);
-        }
-        const Percentiles& ep = r.summary.registration_error_deg;
-        text(tl_x + tl_w, y0 - 3,
-             "p50 " + fmt("%.2f", ep.p50) + " deg, p99 " + fmt("%.2f", ep.p99) + " deg, on time " +
-                 fmt("%.1f", 100.0 * r.summary.on_time_rate) + "% of " +
-                 std::to_string(r.summary.vsyncs) + " vsyncs",
-             "end");
+        const double y0 = kTop + kRowH * double(m) + 30, y1 = y0 + kPlotH;  // plot top, bottom
+        svg_text(o, kLeftX - 60, y0 - 16,
+                 r.mode.name + "  (prediction " + (r.mode.predict ? "on" : "off") + ", warp " +
+                     (r.mode.warp ? "on" : "off") + ")",
+                 "start", " font-weight=\"bold\" font-size=\"13\"");
+        histogram_panel(o, r, axes, y0, y1);
+        timeline_panel(o, r, axes, y0, y1);
     }
     o << "</svg>\n";
     return o.str();

@@ -25,11 +25,20 @@
 // FrameOutcome::no_pose_yet (never an unbounded wait). Cost per present: O(objects log objects)
 // CPU for LOD, the allocator and sorting, O(window) for the estimates, plus the render and the
 // warp.
+// In the code: run_frame reads the plan (plan_levers, read_estimates), then 1. aim_new_frame
+// (the vsync and wake-up, or a re-warp first) and open_frame (prediction, the LOD stage's
+// selection, begin_frame); 2. render_pieces (next_piece: a re-warp between pieces or the piece's
+// size; render_piece) and finish_render; 3. aim_warp and present_new_frame (warp_and_present);
+// rewarp presents the finished frame again. LOD selection, the frame budget with its learned
+// cost, the cross-fades and the draw list are the LOD stage's (lod_stage.hpp), which NodeRuntime
+// holds.
 #include "hmdnode/firmware_host/node.hpp"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+
+#include "lod_stage.hpp"
 
 namespace hmdnode {
 namespace {
@@ -78,18 +87,8 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
       scene_(&scene),
       config_(config),
       history_(config.history),
-      selector_(0, config.lod),
       pacer_(config.pacing, display.info().period_ns, display.info().latch_margin_ns),
-      ladder_({LadderStep{1.0, true, "full"}}, false, config.pacing),
-      feedback_(config.lod_feedback),
-      fade_(0, 0) {
-    // The control socket's setters check the range; a start value out of it (the config reader
-    // refuses those) leaves the default, 0.
-    (void)set_prediction_offset_ms(config.prediction_offset_ms);
-    (void)set_lod_bias(config.lod_bias);
-    adopt_objects(scene);
-    read_buf_.resize(256);
-
+      ladder_({LadderStep{1.0, true, "full"}}, false, config.pacing) {
     // The eye buffers' field of view: the lens's (or the rig's), grown for the late warp; the
     // panel's meshes map each panel point to the direction it shows.
     render_rig_ = config.rig;
@@ -113,7 +112,15 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
             render_rig_.eye[e] = grown(config.rig.eye[e], margin);
         }
     }
-    pixels_per_radian_ = pixels_per_radian(render_rig_.eye[0], info.eye_height);
+    lod_ = std::make_unique<LodStage>(
+        render_rig_, pixels_per_radian(render_rig_.eye[0], info.eye_height), config.lod_allocator,
+        config.lod_feedback, config.lod_fade_frames);
+    // The control socket's setters check the range; a start value out of it (the config reader
+    // refuses those) leaves the default, 0.
+    (void)set_prediction_offset_ms(config.prediction_offset_ms);
+    (void)set_lod_bias(config.lod_bias);
+    adopt_objects(scene);
+    read_buf_.resize(256);
     // The ladder: resolution steps, then the chromatic-aberration correction where the lens has
     // any to correct.
     bool chromatic = false;
@@ -123,6 +130,16 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
     ladder_ = PixelLadder(
         make_ladder(chromatic && config.distortion, std::clamp(config.min_render_scale, 0.1, 1.0)),
         config.pixel_ladder, config.pacing);
+}
+
+NodeRuntime::~NodeRuntime() = default;
+
+const std::vector<SceneObject>& NodeRuntime::objects() const {
+    return lod_->objects();
+}
+
+const FrameCostFit& NodeRuntime::lod_cost_fit() const {
+    return lod_->cost_fit();
 }
 
 HeadsetProfile NodeRuntime::pass_profile() const {
@@ -146,44 +163,23 @@ Status NodeRuntime::set_up_pass(bool fused) {
     return renderer_.set_warp(info.eye_width, info.eye_height, mesh_[0], mesh_[1]);
 }
 
-// The scene's objects and everything sized by them; the selector starts anew.
+// The scene's objects and everything sized by them (the LOD stage's); the selector starts anew.
 void NodeRuntime::adopt_objects(const Scene& scene) {
-    objects_ = flatten_objects(scene);
-    level_errors_.assign(objects_.size(), {});
-    level_triangles_.assign(objects_.size(), {});
-    coarsest_triangles_ = 0;
-    for (const SceneObject& o : objects_)
-        if (!o.levels.empty()) coarsest_triangles_ += o.levels.back().triangles;
-    for (size_t i = 0; i < objects_.size(); ++i)
-        for (const LodLevel& l : objects_[i].levels) {
-            level_errors_[i].push_back(l.geometric_error_m);
-            level_triangles_[i].push_back(l.triangles);
-        }
-    rebuild_selector();
-    // A new scene starts without transitions: its objects are not the old ones.
-    fade_ = LodCrossFade(objects_.size(), config_.lod_fade_frames);
-    fade_steps_.assign(objects_.size(), LodFadeStep{});
-    candidates_.reserve(objects_.size());
-    candidate_objects_.reserve(objects_.size());
-    allocated_.reserve(objects_.size());
-    allocated_levels_.assign(objects_.size(), -1);
-    draws_.reserve(2 * objects_.size());  // a cross-fading object is drawn twice
-    draw_triangles_.reserve(2 * objects_.size());
-    order_.reserve(objects_.size());
-    frame_levels_.assign(objects_.size(), 0);
-    frame_eccentricity_.assign(objects_.size(), 0.0);
-    open_levels_.assign(objects_.size(), 0);
-    open_eccentricity_.assign(objects_.size(), 0.0);
+    lod_->adopt(scene, selector_params());
 }
 
 // The selector from the configured tolerance scaled by the LOD bias (2^bias), with the panel's
 // persistence: the smear of a head turn lasts as long as the panel glows.
-void NodeRuntime::rebuild_selector() {
+LodSelectorParams NodeRuntime::selector_params() const {
     LodSelectorParams lod = config_.lod;
     lod.tolerance_px = config_.lod.tolerance_px * std::exp2(lod_bias_);
     if (const int64_t persistence = display_.info().persistence_ns; persistence > 0)
         lod.persistence_s = double(persistence) * 1e-9;
-    selector_ = LodSelector(objects_.size(), lod);
+    return lod;
+}
+
+void NodeRuntime::rebuild_selector() {
+    lod_->set_selector_params(selector_params());
 }
 
 Status NodeRuntime::replace_scene(const Scene& scene) {
@@ -196,10 +192,10 @@ Status NodeRuntime::replace_scene(const Scene& scene) {
         return st;
     }
     scene_ = &scene;
+    // The objects, the selector and the learned render cost start anew.
     adopt_objects(scene);
     // The finished frame in the eye buffers is gone with the upload: the next present renders.
     has_frame_ = false;
-    cost_fit_ = FrameCostFit();
     return {};
 }
 
@@ -317,113 +313,10 @@ Pose NodeRuntime::predict(int64_t photon_time_ns) const {
     return head;
 }
 
-uint64_t NodeRuntime::select_and_sort(const Pose& head, const StereoViews& views, FrameRecord* rec,
-                                      double target_ms) {
-    const glm::dvec3 omega = history_.angular_velocity();
-    LodViewer viewer;
-    viewer.eye_position = head.position;
-    // The gaze: the eye tracker's newest sample, in the head frame, turned with the predicted head
-    // (the eye's own motion is not predicted), while it is valid and fresh; else the lens centre.
-    viewer.gaze_direction = forward_of(head.orientation);
-    rec->gaze_source = GazeSource::lens_centre;
-    rec->gaze_eccentricity_deg = 0.0;
-    if (gaze_ && gaze_->valid() && clock_.now_ns() - gaze_->time_ns <= config_.gaze_max_age_ns) {
-        const glm::dvec3 g = glm::normalize(gaze_->direction);
-        viewer.gaze_direction = head.orientation * g;
-        rec->gaze_source = GazeSource::eye_tracker;
-        rec->gaze_eccentricity_deg =
-            rad_to_deg(std::acos(std::clamp(glm::dot(g, glm::dvec3(0, 0, -1)), -1.0, 1.0)));
-    }
-    viewer.angular_speed_dps = rad_to_deg(glm::length(omega));
-    viewer.pixels_per_radian = pixels_per_radian_;
-    viewer.near_m = render_rig_.near_m;
-    rec->levels.resize(objects_.size());
-    rec->eccentricity_deg.resize(objects_.size());
-    rec->culled = 0;
-    order_.clear();
-    // Per-eye frustum culling: an object whose bounding sphere lies outside both eyes' frusta
-    // (the rendered field, warp margin included) is not drawn; it keeps its level for hysteresis.
-    const glm::dmat4 view[2] = {glm::dmat4(views.view[0]), glm::dmat4(views.view[1])};
-    auto in_eye = [&](int e, const glm::dvec3& c, double r) {
-        return sphere_in_frustum(view[e], render_rig_.eye[e], render_rig_.near_m, c, r);
-    };
-    candidates_.clear();
-    candidate_objects_.clear();
-    for (size_t i = 0; i < objects_.size(); ++i) {
-        const SceneObject& o = objects_[i];
-        LodObjectView ov{o.bounds_center, o.bounds_radius, level_errors_[i]};
-        LodDecision d = selector_.select(i, ov, viewer);
-        rec->levels[i] = d.level;
-        rec->eccentricity_deg[i] = d.eccentricity_deg;
-        if (!in_eye(0, o.bounds_center, o.bounds_radius) &&
-            !in_eye(1, o.bounds_center, o.bounds_radius)) {
-            ++rec->culled;
-            fade_.hide(i);
-            continue;
-        }
-        candidate_objects_.push_back(i);
-        candidates_.push_back(BudgetCandidate{
-            level_errors_[i], level_triangles_[i],
-            viewer.pixels_per_radian / (d.distance_m * std::max(d.tolerance_px, 1e-9)), d.level});
-    }
-    // The frame budget: the selector's levels are the goal (the finest the eye needs); the
-    // allocator coarsens them, least benefit per ms first, until the predicted render fits.
-    open_budget_ = BudgetState{};
-    open_budget_.target_ms = target_ms;
-    if (config_.lod_allocator != LodAllocator::threshold) {
-        BudgetState& b = open_budget_;
-        b.learning = cost_fit_.empty();
-        // Nothing measured yet: every object at its coarsest (the cheapest frame teaches the model
-        // the most about the base cost and errs on the safe side).
-        b.budget_ms =
-            b.learning ? -std::numeric_limits<double>::infinity() : feedback_.scale() * target_ms;
-        allocated_.resize(candidates_.size());
-        const bool iga = config_.lod_allocator == LodAllocator::iga;
-        if (iga)  // warm start: each object's level of the last frame that drew it
-            for (size_t k = 0; k < candidate_objects_.size(); ++k)
-                candidates_[k].previous = allocated_levels_[candidate_objects_[k]];
-        const BudgetAllocation a =
-            iga ? iga_allocator_.allocate(candidates_, cost_fit_.base_ms(),
-                                          cost_fit_.per_triangle_ms(), b.budget_ms, allocated_)
-                : allocator_.allocate(candidates_, cost_fit_.base_ms(), cost_fit_.per_triangle_ms(),
-                                      b.budget_ms, allocated_);
-        for (size_t k = 0; k < candidate_objects_.size(); ++k) {
-            rec->levels[candidate_objects_[k]] = allocated_[k];
-            allocated_levels_[candidate_objects_[k]] = allocated_[k];
-        }
-        b.predicted_ms = a.predicted_ms;
-        b.coarsened = a.coarsened;
-        b.limited = a.limited;
-    }
-    // Level changes of visible objects become cross-fades (both levels drawn, complementary
-    // masks) instead of pops; the record shows the level fading in.
-    uint64_t triangles = 0;
-    open_fade_ = FadeCounts{};
-    for (size_t i : candidate_objects_) {
-        const SceneObject& o = objects_[i];
-        const LodFadeStep& step = fade_steps_[i] = fade_.update(i, rec->levels[i]);
-        rec->levels[i] = step.draws[0].level;
-        for (int d = 0; d < step.count; ++d)
-            triangles += o.levels[size_t(step.draws[d].level)].triangles;
-        open_fade_.fading += step.count > 1;
-        open_fade_.transitions += step.started;
-        open_fade_.pops += step.popped;
-        order_.emplace_back(glm::length(o.bounds_center - head.position) - o.bounds_radius, i);
-    }
-    // Front to back: nearest first saves fill on lavapipe.
-    std::sort(order_.begin(), order_.end());
-    draws_.clear();
-    draw_triangles_.clear();
-    for (const auto& [dist, i] : order_) {
-        const SceneObject& o = objects_[i];
-        const LodFadeStep& step = fade_steps_[i];
-        for (int d = 0; d < step.count; ++d) {
-            const LodLevel& l = o.levels[size_t(step.draws[d].level)];
-            draws_.push_back(DrawItem{l.mesh, glm::mat4(o.world), step.draws[d].dither});
-            draw_triangles_.push_back(l.triangles);
-        }
-    }
-    return triangles;
+const GazeSample* NodeRuntime::fresh_gaze() const {
+    if (gaze_ && gaze_->valid() && clock_.now_ns() - gaze_->time_ns <= config_.gaze_max_age_ns)
+        return &*gaze_;
+    return nullptr;
 }
 
 Status NodeRuntime::set_lod_tolerance_px(double tolerance_px) {
@@ -441,12 +334,13 @@ Result<FrameCostModel> NodeRuntime::calibrate_frame_cost(const std::function<boo
     head.position = config_.default_head_position;
     StereoImage* out = !pass_enabled() && config_.read_back ? &frame_ : nullptr;
     // Renders every object at one level (0 = finest, 1 = coarsest) from four headings.
+    std::vector<DrawItem> draws;
     auto time_renders = [&](bool coarsest, int rounds, uint64_t* triangles) -> Result<int64_t> {
-        draws_.clear();
+        draws.clear();
         *triangles = 0;
-        for (const SceneObject& o : objects_) {
+        for (const SceneObject& o : lod_->objects()) {
             const LodLevel& l = coarsest ? o.levels.back() : o.levels.front();
-            draws_.push_back(DrawItem{l.mesh, glm::mat4(o.world)});
+            draws.push_back(DrawItem{l.mesh, glm::mat4(o.world)});
             *triangles += l.triangles;
         }
         std::vector<int64_t> t;
@@ -455,7 +349,7 @@ Result<FrameCostModel> NodeRuntime::calibrate_frame_cost(const std::function<boo
                 head.orientation = glm::angleAxis(kPi / 2.0 * k, glm::dvec3(0, 1, 0));
                 if (stopped()) return make_error("frame cost calibration stopped");
                 const int64_t t0 = steady_ns();
-                Result<RenderStats> s = renderer_.render(views_for(head), draws_, out);
+                Result<RenderStats> s = renderer_.render(views_for(head), draws, out);
                 if (!s.ok()) return s.error();
                 t.push_back(steady_ns() - t0);
                 // On the system clock these are the first frames' estimates (the coarsest levels,
@@ -478,66 +372,68 @@ Result<FrameCostModel> NodeRuntime::calibrate_frame_cost(const std::function<boo
     // On the system clock the LOD cost model starts from these two points (the simulated clock's
     // frames cost the model, not what was measured here).
     if (!clock_.is_simulated()) {
-        cost_fit_.add(tri_coarse, ns_to_ms(*coarse));
-        cost_fit_.add(tri_fine, ns_to_ms(*fine));
+        lod_->learn_cost(tri_coarse, ns_to_ms(*coarse));
+        lod_->learn_cost(tri_fine, ns_to_ms(*fine));
     }
     model.warp_ns = 0;
-    if (pass_enabled()) {
-        // The passes, each timed on its own after a warm-up: the fused one (with and without the
-        // chromatic-aberration correction), the mesh one when the choice is automatic (kept only
-        // when at least 10 % faster), and the floor (three bilinear samples per pixel: the mesh
-        // pass over a single cell, no lens model between its corners).
-        const bool auto_choice = config_.lens_pass == LensPassChoice::automatic;
-        int64_t fused_ns = 0, mesh_ns = 0;
-        auto time_pass = [&](bool fused, int64_t* ns, double* ms) -> Status {
-            if (Status st = set_up_pass(fused); !st.ok()) return st;
-            auto t = time_warps(15, go_on);
-            if (!t.ok()) return t.error();
-            *ns = *t;
-            *ms = ns_to_ms(*t);
-            return Status::success();
-        };
-        if (config_.lens_pass != LensPassChoice::mesh)
-            if (Status st = time_pass(true, &fused_ns, &pass_times_.fused_ms); !st.ok())
-                return st.error();
-        if (config_.lens_pass != LensPassChoice::fused)
-            if (Status st = time_pass(false, &mesh_ns, &pass_times_.mesh_ms); !st.ok())
-                return st.error();
-        {
-            const DisplayInfo info = display_.info();
-            const HeadsetProfile p = pass_profile();
-            const DistortionMesh one[2] = {make_distortion_mesh(p, 0, 1, 1),
-                                           make_distortion_mesh(p, 1, 1, 1)};
-            if (Status st = renderer_.set_warp(info.eye_width, info.eye_height, one[0], one[1]);
-                !st.ok())
-                return st.error();
-            auto t = time_warps(15, go_on);
-            if (!t.ok()) return t.error();
-            pass_times_.floor_ms = ns_to_ms(*t);
-        }
-        const bool fused = config_.lens_pass == LensPassChoice::fused ||
-                           (auto_choice && !(double(mesh_ns) <= 0.9 * double(fused_ns)));
-        if (Status st = set_up_pass(fused); !st.ok()) return st.error();
-        model.warp_ns = fused ? fused_ns : mesh_ns;
-        model.warp_mono_ns = model.warp_ns;
-        if (renderer_.chromatic_aberration()) {
-            renderer_.set_chromatic_aberration(false);
-            auto t = time_warps(15, go_on);
-            renderer_.set_chromatic_aberration(true);
-            if (!t.ok()) return t.error();
-            // One sample per pixel never costs more than three: a mono pass timed above the full
-            // one met a slower moment of the machine, not a dearer pass.
-            model.warp_mono_ns = std::min(*t, model.warp_ns);
-        }
-        if (!clock_.is_simulated()) {
-            for (int i = 0; i < 8; ++i) {
-                pacer_.seed_warp(model.warp_ns);
-                ladder_.record_warp(true, model.warp_ns);
-                ladder_.record_warp(false, model.warp_mono_ns);
-            }
+    if (pass_enabled())
+        if (Status st = calibrate_passes(&model, go_on); !st.ok()) return st.error();
+    return model;
+}
+
+Status NodeRuntime::calibrate_passes(FrameCostModel* model, const std::function<bool()>& go_on) {
+    // The passes, each timed on its own after a warm-up: the fused one (with and without the
+    // chromatic-aberration correction), the mesh one when the choice is automatic (kept only
+    // when at least 10 % faster), and the floor (three bilinear samples per pixel: the mesh
+    // pass over a single cell, no lens model between its corners).
+    const bool auto_choice = config_.lens_pass == LensPassChoice::automatic;
+    int64_t fused_ns = 0, mesh_ns = 0;
+    auto time_pass = [&](bool fused, int64_t* ns, double* ms) -> Status {
+        if (Status st = set_up_pass(fused); !st.ok()) return st;
+        auto t = time_warps(15, go_on);
+        if (!t.ok()) return t.error();
+        *ns = *t;
+        *ms = ns_to_ms(*t);
+        return Status::success();
+    };
+    if (config_.lens_pass != LensPassChoice::mesh)
+        if (Status st = time_pass(true, &fused_ns, &pass_times_.fused_ms); !st.ok()) return st;
+    if (config_.lens_pass != LensPassChoice::fused)
+        if (Status st = time_pass(false, &mesh_ns, &pass_times_.mesh_ms); !st.ok()) return st;
+    {
+        const DisplayInfo info = display_.info();
+        const HeadsetProfile p = pass_profile();
+        const DistortionMesh one[2] = {make_distortion_mesh(p, 0, 1, 1),
+                                       make_distortion_mesh(p, 1, 1, 1)};
+        if (Status st = renderer_.set_warp(info.eye_width, info.eye_height, one[0], one[1]);
+            !st.ok())
+            return st;
+        auto t = time_warps(15, go_on);
+        if (!t.ok()) return t.error();
+        pass_times_.floor_ms = ns_to_ms(*t);
+    }
+    const bool fused = config_.lens_pass == LensPassChoice::fused ||
+                       (auto_choice && !(double(mesh_ns) <= 0.9 * double(fused_ns)));
+    if (Status st = set_up_pass(fused); !st.ok()) return st;
+    model->warp_ns = fused ? fused_ns : mesh_ns;
+    model->warp_mono_ns = model->warp_ns;
+    if (renderer_.chromatic_aberration()) {
+        renderer_.set_chromatic_aberration(false);
+        auto t = time_warps(15, go_on);
+        renderer_.set_chromatic_aberration(true);
+        if (!t.ok()) return t.error();
+        // One sample per pixel never costs more than three: a mono pass timed above the full
+        // one met a slower moment of the machine, not a dearer pass.
+        model->warp_mono_ns = std::min(*t, model->warp_ns);
+    }
+    if (!clock_.is_simulated()) {
+        for (int i = 0; i < 8; ++i) {
+            pacer_.seed_warp(model->warp_ns);
+            ladder_.record_warp(true, model->warp_ns);
+            ladder_.record_warp(false, model->warp_mono_ns);
         }
     }
-    return model;
+    return {};
 }
 
 Result<int64_t> NodeRuntime::time_warps(int n, const std::function<bool()>& go_on) {
@@ -635,8 +531,8 @@ void NodeRuntime::plan_levers() {
     // With a budgeted LOD allocator the geometry is the first lever: the allocator fits the
     // frame's triangles into what the frame leaves, so the ladder and the rate see the render at
     // the coarsest levels (what the allocator can reach), once its cost model has data.
-    if (config_.lod_allocator != LodAllocator::threshold && !cost_fit_.empty())
-        render_p = std::min(render_p, ms_to_ns(cost_fit_.predict_ms(coarsest_triangles_)));
+    if (const std::optional<double> coarsest_ms = lod_->coarsest_render_ms())
+        render_p = std::min(render_p, ms_to_ns(*coarsest_ms));
     // The rate: from the ladder's cheapest step (with the ladder off, the frame as it is).
     const int bottom = int(ladder_.steps().size()) - 1;
     PixelLadder::Budget b;
@@ -668,17 +564,10 @@ void NodeRuntime::plan_levers() {
 }
 
 Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& truth) {
-    const DisplayInfo info = display_.info();
-    const int64_t latch = info.latch_margin_ns;
-    const int64_t photon_offset = display_.photon_offset_ns();
-    FrameRecord& r = *rec;
-    auto fill_truth = [&] {
-        r.registration_error_deg = std::numeric_limits<double>::quiet_NaN();
-        if (truth)
-            if (std::optional<TruthPose> t = truth(r.photon_time_ns))
-                r.registration_error_deg =
-                    registration_error(r.shown_pose, *t, config_.registration_distance_m);
-    };
+    FramePlan p;
+    p.info = display_.info();
+    p.latch = p.info.latch_margin_ns;
+    p.photon_offset = display_.photon_offset_ns();
 
     drain_tracker();
     // Before the first sample there is nothing to show. Skip this vsync rather than wait for the
@@ -692,248 +581,298 @@ Result<FrameOutcome> NodeRuntime::run_frame(FrameRecord* rec, const TruthFn& tru
 
     // The render rate and the ladder's step for a new frame, chosen before it is planned.
     if (!open_) plan_levers();
-    const int64_t render_est = pacer_.render_estimate();
-    const int64_t warp_est = pacer_.warp_estimate();
-    // A new frame's render and warp together: the percentile of their sum, not the sum of their
-    // percentiles (a slow render rarely meets a slow warp).
-    const int64_t frame_est = pacer_.frame_estimate();
-    const int64_t margin = pacer_.margin();
-    const int divisor = pacer_.divisor();
-
-    // A re-warp of the finished frame for `vsync`, presented; the open frame (if any) resumes on
-    // the next call.
-    // early: at once rather than at its wake-up (the time until then is more than a draw item
-    // takes, and would be lost to the open frame; the pose it shows is that much older).
-    auto rewarp = [&](int64_t vsync, bool early = false) -> Result<FrameOutcome> {
-        const int64_t wake = early ? clock_.now_ns() : vsync - latch - (warp_est + margin);
-        if (Status st = warp_and_present(vsync, warp_est, &r, nullptr, early); !st.ok())
-            return st.error();
-        r.ladder_step = frame_step_;
-        r.render_scale = frame_scale_;
-        r.kind = FrameKind::rewarp;
-        r.wake_ns = wake;
-        r.late = false;
-        r.triangles = 0;
-        r.render_ms = 0.0;
-        r.lod_budget_ms = r.predicted_render_ms = std::numeric_limits<double>::quiet_NaN();
-        r.lod_coarsened = 0;
-        r.lod_fading = r.lod_transitions = r.lod_pops = 0;
-        r.levels.assign(frame_levels_.begin(), frame_levels_.end());
-        r.eccentricity_deg.assign(frame_eccentricity_.begin(), frame_eccentricity_.end());
-        r.frame_cost_ms = ns_to_ms(clock_.now_ns() - wake);
-        fill_truth();
-        return FrameOutcome::rewarped;
-    };
+    read_estimates(&p);
 
     // 1. A new frame for the first vsync it can make, unless one is being rendered. When it
     // cannot make the first vsync a present can, that vsync gets the finished frame re-warped:
     // before the new frame starts if that fits, else between its pieces (it starts at once).
     if (!open_) {
-        const int64_t now = clock_.now_ns();
-        // At a render rate of 1/d the frame's time holds d - 1 re-warps of the finished frame
-        // besides its own render and warp, and it aims at least d vsyncs after the previous new
-        // frame's, so new frames come at a steady 1/d of the refresh.
-        const int64_t need =
-            frame_est + margin + int64_t(divisor - 1) * (warp_est + margin + pacer_.gap_estimate());
-        int64_t target = display_.free_vsync_ns(now + need);
-        if (divisor > 1 && has_frame_)
-            target = std::max(target,
-                              display_.free_vsync_ns(last_new_vsync_ns_ + divisor * info.period_ns -
-                                                     latch - info.period_ns / 2));
-        open_wake_ns_ = target - latch - need;
-        // (Never when a typical warp alone takes a period: nothing else would run.)
-        if (config_.warp && has_frame_ && pacer_.warp_typical() < info.period_ns) {
-            const int64_t v_any = display_.free_vsync_ns(now + warp_est + margin);
-            // A vsync the plan cannot reach (its warp should have started already) but a typical
-            // warp started now still makes is re-warped for at once: otherwise it certainly goes
-            // without a present (a jittery pass whose estimate and margin exceed a period).
-            if (const int64_t v_hope = rescue_vsync(now); v_hope < std::min(v_any, target))
-                return rewarp(v_hope, true);
-            if (v_any < target) {
-                if (v_any - latch <= open_wake_ns_) return rewarp(v_any);
-                open_wake_ns_ = now;
-            }
-        }
-        clock_.sleep_until_ns(open_wake_ns_);
-        // The set-up (prediction, selection, the draw list, begin_frame: a GPU driver records
-        // and uploads there) is part of the frame's cost: left out, a frame whose set-up took
-        // longer than its render missed its vsync every time, and the margin never learned it
-        // because the re-aimed present was on time.
-        const int64_t setup_start = clock_.now_ns();
-        drain_tracker();
-        open_pose_ = predict(target + photon_offset);
-        // The render time that lets a new frame make every vsync: a frame's render and warp
-        // within one period (the wake-up and the present shift by the same margin), less headroom
-        // for the estimates' error.
-        const double target_ms =
-            ns_to_ms(std::max<int64_t>(0, divisor * (info.period_ns - warp_est - margin))) *
-            (1.0 - config_.lod_budget_headroom);
-        const StereoViews views = views_for(open_pose_);
-        open_triangles_ = select_and_sort(open_pose_, views, &r, target_ms);
-        std::copy(r.levels.begin(), r.levels.end(), open_levels_.begin());
-        std::copy(r.eccentricity_deg.begin(), r.eccentricity_deg.end(), open_eccentricity_.begin());
-        if (Status st = renderer_.begin_frame(views, draws_); !st.ok()) return st.error();
-        open_step_ = ladder_.step();
-        open_scale_ = renderer_.render_scale();
-        open_ = true;
-        open_cursor_ = 0;
-        open_rewarps_ = 0;
-        open_target_ns_ = target;
-        open_render_ns_ = clock_.now_ns() - setup_start;
-        open_render_ms_ = 0.0;
-        open_pose_sample_ns_ = history_.newest_time_ns();
+        int64_t target = 0;
+        if (const std::optional<Rewarp> w = aim_new_frame(p, &target))
+            return rewarp(p, *w, rec, truth);
+        if (Status st = open_frame(p, target, rec); !st.ok()) return st.error();
     }
 
-    // 2. Render it in pieces. Before a vsync that it cannot make, the finished frame is re-warped
-    // for that vsync between two pieces (one queue: a piece cannot be interrupted). A piece's cost
-    // is estimated per draw item, not per triangle: on a software rasteriser the pixels an object
-    // covers cost more than its triangles; and a piece gets 60 % of the time left, for the
-    // estimate's error (a piece also pays for loading the attachments).
+    // 2. Render it in pieces, with the re-warps of the finished frame its vsyncs need between
+    // them.
+    Result<std::optional<Rewarp>> between = render_pieces(p);
+    if (!between.ok()) return between.error();
+    if (*between) return rewarp(p, **between, rec, truth);
+    finish_render();
+
+    // 3. Late warp just before the latch, then present.
+    return present_new_frame(p, rec, truth);
+}
+
+void NodeRuntime::read_estimates(FramePlan* p) const {
+    p->render_est = pacer_.render_estimate();
+    p->warp_est = pacer_.warp_estimate();
+    p->frame_est = pacer_.frame_estimate();
+    p->margin = pacer_.margin();
+    p->divisor = pacer_.divisor();
+}
+
+std::optional<NodeRuntime::Rewarp> NodeRuntime::aim_new_frame(const FramePlan& p, int64_t* target) {
+    const int64_t now = clock_.now_ns();
+    // At a render rate of 1/d the frame's time holds d - 1 re-warps of the finished frame
+    // besides its own render and warp, and it aims at least d vsyncs after the previous new
+    // frame's, so new frames come at a steady 1/d of the refresh.
+    const int64_t need = p.frame_est + p.margin +
+                         int64_t(p.divisor - 1) * (p.warp_est + p.margin + pacer_.gap_estimate());
+    *target = display_.free_vsync_ns(now + need);
+    if (p.divisor > 1 && has_frame_)
+        *target = std::max(
+            *target, display_.free_vsync_ns(last_new_vsync_ns_ + p.divisor * p.info.period_ns -
+                                            p.latch - p.info.period_ns / 2));
+    open_wake_ns_ = *target - p.latch - need;
+    // (Never when a typical warp alone takes a period: nothing else would run.)
+    if (config_.warp && has_frame_ && pacer_.warp_typical() < p.info.period_ns) {
+        const int64_t v_any = display_.free_vsync_ns(now + p.warp_est + p.margin);
+        // A vsync the plan cannot reach (its warp should have started already) but a typical
+        // warp started now still makes is re-warped for at once: otherwise it certainly goes
+        // without a present (a jittery pass whose estimate and margin exceed a period).
+        if (const int64_t v_hope = rescue_vsync(now); v_hope < std::min(v_any, *target))
+            return Rewarp{v_hope, true};
+        if (v_any < *target) {
+            if (v_any - p.latch <= open_wake_ns_) return Rewarp{v_any, false};
+            open_wake_ns_ = now;
+        }
+    }
+    return std::nullopt;
+}
+
+Status NodeRuntime::open_frame(const FramePlan& p, int64_t target, FrameRecord* rec) {
+    clock_.sleep_until_ns(open_wake_ns_);
+    // The set-up (prediction, selection, the draw list, begin_frame: a GPU driver records
+    // and uploads there) is part of the frame's cost: left out, a frame whose set-up took
+    // longer than its render missed its vsync every time, and the margin never learned it
+    // because the re-aimed present was on time.
+    const int64_t setup_start = clock_.now_ns();
+    drain_tracker();
+    open_pose_ = predict(target + p.photon_offset);
+    // The render time that lets a new frame make every vsync: a frame's render and warp
+    // within one period (the wake-up and the present shift by the same margin), less headroom
+    // for the estimates' error.
+    const double target_ms =
+        ns_to_ms(std::max<int64_t>(0, p.divisor * (p.info.period_ns - p.warp_est - p.margin))) *
+        (1.0 - config_.lod_budget_headroom);
+    const StereoViews views = views_for(open_pose_);
+    lod_->select(open_pose_, views, history_.angular_velocity(), fresh_gaze(), rec, target_ms);
+    if (Status st = renderer_.begin_frame(views, lod_->draws()); !st.ok()) return st;
+    open_step_ = ladder_.step();
+    open_scale_ = renderer_.render_scale();
+    open_ = true;
+    open_cursor_ = 0;
+    open_rewarps_ = 0;
+    open_target_ns_ = target;
+    open_render_ns_ = clock_.now_ns() - setup_start;
+    open_render_ms_ = 0.0;
+    open_pose_sample_ns_ = history_.newest_time_ns();
+    return {};
+}
+
+// Before a vsync that the open frame cannot make, the finished frame is re-warped for that vsync
+// between two pieces (one queue: a piece cannot be interrupted). A piece's cost is estimated per
+// draw item, not per triangle: on a software rasteriser the pixels an object covers cost more
+// than its triangles; and a piece gets 60 % of the time left, for the estimate's error (a piece
+// also pays for loading the attachments).
+Result<std::optional<NodeRuntime::Rewarp>> NodeRuntime::render_pieces(const FramePlan& p) {
     // The render's share of the frame estimate the target was planned with.
-    const int64_t render_budget = frame_est > warp_est ? frame_est - warp_est : render_est;
-    const double per_item_ns = double(render_budget) / double(std::max<size_t>(1, draws_.size()));
+    const int64_t render_budget =
+        p.frame_est > p.warp_est ? p.frame_est - p.warp_est : p.render_est;
+    const double per_item_ns =
+        double(render_budget) / double(std::max<size_t>(1, lod_->draws().size()));
     while (open_) {
         const int64_t now = clock_.now_ns();
         uint64_t max_triangles = UINT64_MAX;
-        if (config_.warp && has_frame_) {
-            // The finished frame is re-warped for v_any when the open one, at its planned render
-            // cost, would not make it.
-            const int64_t remaining = std::max<int64_t>(0, render_budget - open_render_ns_);
-            const int64_t v_any = display_.free_vsync_ns(now + warp_est + margin);
-            // The frame's own warp is planned with the margin, less what a late wake-up (or a
-            // set-up dearer than planned) already used of it: counting the whole margin again
-            // would give the frame's vsync away after any late wake-up, and without it a frame at
-            // its estimate lands a vsync after v_any, which then goes without a present.
-            const int64_t used =
-                std::clamp<int64_t>(now - open_wake_ns_ - open_render_ns_, 0, margin);
-            const int64_t v_done =
-                display_.free_vsync_ns(now + remaining + warp_est + (margin - used));
-            // Re-warps may not starve the frame: while a warp leaves half of each period to the
-            // render they are unlimited; a dearer warp (llvmpipe at large panels) interrupts one
-            // frame at most twice.
-            const bool affordable =
-                2 * pacer_.warp_typical() <= info.period_ns || open_rewarps_ < 2;
-            // A vsync that only a warp started now can still make (see above), once the frame
-            // has made progress since the last re-warp.
-            if (const int64_t v_hope = rescue_vsync(now);
-                v_hope < v_any && pieces_since_rewarp_ > 0) {
-                pieces_since_rewarp_ = 0;
-                ++open_rewarps_;
-                return rewarp(v_hope, true);
-            }
-            if (v_done > v_any && affordable) {
-                const int64_t rewarp_wake = v_any - latch - (warp_est + margin);
-                const size_t fit =
-                    rewarp_wake > now
-                        ? size_t(kPieceShare * double(rewarp_wake - now) / per_item_ns)
-                        : 0;
-                // Progress: after a re-warp at least one piece, whatever the estimates say.
-                // (A frame with no draw items is one piece: it re-warps once at most, never
-                // forever.)
-                if (fit == 0 && pieces_since_rewarp_ > 0) {
-                    pieces_since_rewarp_ = 0;
-                    ++open_rewarps_;
-                    // The time until the re-warp is lost to the frame: the plans count it.
-                    pacer_.record_gap(std::max<int64_t>(0, rewarp_wake - now));
-                    return rewarp(v_any);
-                }
-                max_triangles = 0;
-                for (size_t i = open_cursor_; i < std::min(draws_.size(), open_cursor_ + fit); ++i)
-                    max_triangles += draw_triangles_[i];
-            }
-        }
-        const int64_t piece_start = clock_.now_ns();
-        size_t items = 0;
-        const auto t0 = std::chrono::steady_clock::now();
-        Result<bool> done = renderer_.render_more(max_triangles, &items);
-        const auto t1 = std::chrono::steady_clock::now();
-        if (!done.ok()) {
-            open_ = false;
-            return done.error();
-        }
-        open_render_ms_ += std::chrono::duration<double, std::milli>(t1 - t0).count();
-        if (clock_.is_simulated()) {
-            uint64_t piece_triangles = 0;
-            for (size_t i = open_cursor_; i < open_cursor_ + items; ++i)
-                piece_triangles += draw_triangles_[i];
-            // The model's base (mostly fill) spread over the draw items, as pieces are sized.
-            const int64_t base =
-                int64_t(double(config_.sim_cost.base_ns) * open_scale_ * open_scale_);
-            const int64_t cost =
-                int64_t(config_.sim_cost.per_triangle_ns * double(piece_triangles)) +
-                (draws_.empty() ? base : base * int64_t(items) / int64_t(draws_.size()));
-            clock_.sleep_until_ns(piece_start + cost);
-        }
-        open_cursor_ += items;
-        ++pieces_since_rewarp_;
-        open_render_ns_ += clock_.now_ns() - piece_start;
-        open_ = !*done;
+        if (config_.warp && has_frame_)
+            if (std::optional<Rewarp> w =
+                    next_piece(p, now, render_budget, per_item_ns, &max_triangles))
+                return w;
+        if (Status st = render_piece(max_triangles); !st.ok()) return st.error();
     }
+    return std::optional<Rewarp>{};
+}
+
+std::optional<NodeRuntime::Rewarp> NodeRuntime::next_piece(const FramePlan& p, int64_t now,
+                                                           int64_t render_budget,
+                                                           double per_item_ns,
+                                                           uint64_t* max_triangles) {
+    // The finished frame is re-warped for v_any when the open one, at its planned render
+    // cost, would not make it.
+    const int64_t remaining = std::max<int64_t>(0, render_budget - open_render_ns_);
+    const int64_t v_any = display_.free_vsync_ns(now + p.warp_est + p.margin);
+    // The frame's own warp is planned with the margin, less what a late wake-up (or a
+    // set-up dearer than planned) already used of it: counting the whole margin again
+    // would give the frame's vsync away after any late wake-up, and without it a frame at
+    // its estimate lands a vsync after v_any, which then goes without a present.
+    const int64_t used = std::clamp<int64_t>(now - open_wake_ns_ - open_render_ns_, 0, p.margin);
+    const int64_t v_done = display_.free_vsync_ns(now + remaining + p.warp_est + (p.margin - used));
+    // Re-warps may not starve the frame: while a warp leaves half of each period to the
+    // render they are unlimited; a dearer warp (llvmpipe at large panels) interrupts one
+    // frame at most twice.
+    const bool affordable = 2 * pacer_.warp_typical() <= p.info.period_ns || open_rewarps_ < 2;
+    // A vsync that only a warp started now can still make (see rescue_vsync), once the frame
+    // has made progress since the last re-warp.
+    if (const int64_t v_hope = rescue_vsync(now); v_hope < v_any && pieces_since_rewarp_ > 0) {
+        pieces_since_rewarp_ = 0;
+        ++open_rewarps_;
+        return Rewarp{v_hope, true};
+    }
+    if (v_done > v_any && affordable) {
+        const int64_t rewarp_wake = v_any - p.latch - (p.warp_est + p.margin);
+        const size_t fit =
+            rewarp_wake > now ? size_t(kPieceShare * double(rewarp_wake - now) / per_item_ns) : 0;
+        // Progress: after a re-warp at least one piece, whatever the estimates say.
+        // (A frame with no draw items is one piece: it re-warps once at most, never
+        // forever.)
+        if (fit == 0 && pieces_since_rewarp_ > 0) {
+            pieces_since_rewarp_ = 0;
+            ++open_rewarps_;
+            // The time until the re-warp is lost to the frame: the plans count it.
+            pacer_.record_gap(std::max<int64_t>(0, rewarp_wake - now));
+            return Rewarp{v_any, false};
+        }
+        const std::vector<uint64_t>& draw_triangles = lod_->draw_triangles();
+        *max_triangles = 0;
+        for (size_t i = open_cursor_; i < std::min(lod_->draws().size(), open_cursor_ + fit); ++i)
+            *max_triangles += draw_triangles[i];
+    }
+    return std::nullopt;
+}
+
+Status NodeRuntime::render_piece(uint64_t max_triangles) {
+    const int64_t piece_start = clock_.now_ns();
+    size_t items = 0;
+    const auto t0 = std::chrono::steady_clock::now();
+    Result<bool> done = renderer_.render_more(max_triangles, &items);
+    const auto t1 = std::chrono::steady_clock::now();
+    if (!done.ok()) {
+        open_ = false;
+        return done.error();
+    }
+    open_render_ms_ += std::chrono::duration<double, std::milli>(t1 - t0).count();
+    if (clock_.is_simulated()) {
+        const std::vector<uint64_t>& draw_triangles = lod_->draw_triangles();
+        const size_t draws = lod_->draws().size();
+        uint64_t piece_triangles = 0;
+        for (size_t i = open_cursor_; i < open_cursor_ + items; ++i)
+            piece_triangles += draw_triangles[i];
+        // The model's base (mostly fill) spread over the draw items, as pieces are sized.
+        const int64_t base = int64_t(double(config_.sim_cost.base_ns) * open_scale_ * open_scale_);
+        const int64_t cost = int64_t(config_.sim_cost.per_triangle_ns * double(piece_triangles)) +
+                             (draws == 0 ? base : base * int64_t(items) / int64_t(draws));
+        clock_.sleep_until_ns(piece_start + cost);
+    }
+    open_cursor_ += items;
+    ++pieces_since_rewarp_;
+    open_render_ns_ += clock_.now_ns() - piece_start;
+    open_ = !*done;
+    return {};
+}
+
+void NodeRuntime::finish_render() {
     ladder_.record_render(open_step_, open_render_ns_);
-    // The cost model learns from every frame at full resolution (node clock: on the simulated
-    // clock, the model's; a frame at a lower resolution costs less for its pixels, not its
-    // triangles); the budget's feedback from the allocator's frames.
-    const double measured_ms = ns_to_ms(open_render_ns_);
-    if (open_scale_ == 1.0) cost_fit_.add(open_triangles_, measured_ms);
-    if (config_.lod_allocator != LodAllocator::threshold && !open_budget_.learning)
-        feedback_.update(measured_ms, open_budget_.target_ms, open_budget_.limited);
-    frame_budget_ = open_budget_;
-    frame_fade_ = open_fade_;
+    // The LOD stage's cost model learns from every frame at full resolution (node clock: on the
+    // simulated clock, the model's); the budget's feedback from the allocator's frames.
+    lod_->finish(ns_to_ms(open_render_ns_), open_scale_ == 1.0);
     has_frame_ = true;
     ++render_index_;
     frame_pose_ = open_pose_;
     frame_target_vsync_ns_ = open_target_ns_;
     frame_pose_sample_ns_ = open_pose_sample_ns_;
-    frame_triangles_ = open_triangles_;
     frame_step_ = open_step_;
     frame_scale_ = open_scale_;
-    std::copy(open_levels_.begin(), open_levels_.end(), frame_levels_.begin());
-    std::copy(open_eccentricity_.begin(), open_eccentricity_.end(), frame_eccentricity_.begin());
+}
 
-    // 3. Late warp just before the latch, then present. A render that overran aims at the first
-    // vsync still reachable (the one it was meant for is missed).
+// A render that overran aims at the first vsync still reachable (the one it was meant for is
+// missed).
+int64_t NodeRuntime::aim_warp(const FramePlan& p, bool* early) const {
     int64_t target = open_target_ns_;
     const int64_t after = clock_.now_ns();
     // (Against the latch itself: the margin was the slack the wake-up was planned with.)
-    if (after + warp_est > target - latch) {
-        target = display_.free_vsync_ns(after + warp_est);
+    if (after + p.warp_est > target - p.latch) {
+        target = display_.free_vsync_ns(after + p.warp_est);
     } else if (config_.warp) {
         // Done early (a render rate below the refresh, or a cheap frame): shown at the first free
         // vsync it makes rather than left waiting while that vsync repeats the old image; the
         // warp predicts for the vsync it is shown at.
-        target = std::min(target, display_.free_vsync_ns(after + warp_est + margin));
+        target = std::min(target, display_.free_vsync_ns(after + p.warp_est + p.margin));
     }
     // A free vsync before the target that only a warp started now can make gets this frame now
     // rather than nothing (the frame is then shown a vsync sooner, or late at its target).
-    bool early = false;
+    *early = false;
     if (config_.warp)
         if (const int64_t v_hope = rescue_vsync(after); v_hope < target) {
             target = v_hope;
-            early = true;
+            *early = true;
         }
+    return target;
+}
+
+Result<FrameOutcome> NodeRuntime::present_new_frame(const FramePlan& p, FrameRecord* rec,
+                                                    const TruthFn& truth) {
+    bool early = false;
+    const int64_t target = aim_warp(p, &early);
     int64_t warp_cost = 0;
-    if (Status st = warp_and_present(target, warp_est, &r, &warp_cost, early); !st.ok())
+    if (Status st = warp_and_present(target, p.warp_est, rec, &warp_cost, early); !st.ok())
         return st.error();
+    FrameRecord& r = *rec;
     last_new_vsync_ns_ = r.vsync_ns;
     pacer_.record_frame(open_render_ns_, warp_cost);
+    const LodStage::Choice& shown = lod_->shown();
     r.ladder_step = frame_step_;
     r.render_scale = frame_scale_;
     r.kind = FrameKind::new_frame;
     r.wake_ns = open_wake_ns_;
     r.late = r.vsync_ns > frame_target_vsync_ns_;
-    r.triangles = frame_triangles_;
+    r.triangles = shown.triangles;
     r.render_ms = open_render_ms_;
-    r.lod_budget_ms = frame_budget_.budget_ms;
-    r.predicted_render_ms = frame_budget_.predicted_ms;
-    r.lod_coarsened = frame_budget_.coarsened;
-    r.lod_fading = frame_fade_.fading;
-    r.lod_transitions = frame_fade_.transitions;
-    r.lod_pops = frame_fade_.pops;
-    r.levels.assign(frame_levels_.begin(), frame_levels_.end());
-    r.eccentricity_deg.assign(frame_eccentricity_.begin(), frame_eccentricity_.end());
+    r.lod_budget_ms = shown.budget.budget_ms;
+    r.predicted_render_ms = shown.budget.predicted_ms;
+    r.lod_coarsened = shown.budget.coarsened;
+    r.lod_fading = shown.fade.fading;
+    r.lod_transitions = shown.fade.transitions;
+    r.lod_pops = shown.fade.pops;
+    r.levels.assign(shown.levels.begin(), shown.levels.end());
+    r.eccentricity_deg.assign(shown.eccentricity_deg.begin(), shown.eccentricity_deg.end());
     r.frame_cost_ms = ns_to_ms(clock_.now_ns() - open_wake_ns_);
-    fill_truth();
+    fill_truth(rec, truth);
     return FrameOutcome::rendered;
+}
+
+// The open frame (if any) resumes on the next call.
+Result<FrameOutcome> NodeRuntime::rewarp(const FramePlan& p, Rewarp w, FrameRecord* rec,
+                                         const TruthFn& truth) {
+    const int64_t wake = w.early ? clock_.now_ns() : w.vsync_ns - p.latch - (p.warp_est + p.margin);
+    if (Status st = warp_and_present(w.vsync_ns, p.warp_est, rec, nullptr, w.early); !st.ok())
+        return st.error();
+    FrameRecord& r = *rec;
+    const LodStage::Choice& shown = lod_->shown();
+    r.ladder_step = frame_step_;
+    r.render_scale = frame_scale_;
+    r.kind = FrameKind::rewarp;
+    r.wake_ns = wake;
+    r.late = false;
+    r.triangles = 0;
+    r.render_ms = 0.0;
+    r.lod_budget_ms = r.predicted_render_ms = std::numeric_limits<double>::quiet_NaN();
+    r.lod_coarsened = 0;
+    r.lod_fading = r.lod_transitions = r.lod_pops = 0;
+    r.levels.assign(shown.levels.begin(), shown.levels.end());
+    r.eccentricity_deg.assign(shown.eccentricity_deg.begin(), shown.eccentricity_deg.end());
+    r.frame_cost_ms = ns_to_ms(clock_.now_ns() - wake);
+    fill_truth(rec, truth);
+    return FrameOutcome::rewarped;
+}
+
+void NodeRuntime::fill_truth(FrameRecord* rec, const TruthFn& truth) const {
+    FrameRecord& r = *rec;
+    r.registration_error_deg = std::numeric_limits<double>::quiet_NaN();
+    if (truth)
+        if (std::optional<TruthPose> t = truth(r.photon_time_ns))
+            r.registration_error_deg =
+                registration_error(r.shown_pose, *t, config_.registration_distance_m);
 }
 
 }  // namespace hmdnode

@@ -12,7 +12,8 @@
 // shifts both alike; the report records the load average.
 //
 // Cost: one replay (its renders included) plus one or two renders and read-backs per frame, and
-// O(W H) per frame for SSIM.
+// O(W H) per frame for SSIM. In the code: replay_poses and frames_in_range are phase 1;
+// make_bench_renderer and bench_frame (per frame) phase 2; summarize_bench the summary.
 #include "hmdnode/firmware_host/render_bench.hpp"
 
 #include <algorithm>
@@ -116,7 +117,9 @@ std::string lod_mode_name(const LodMode& mode) {
     return "auto";
 }
 
-Result<RenderBenchResult> run_render_bench(const RenderBenchOptions& opt) {
+namespace {
+
+Status check_render_bench_options(const RenderBenchOptions& opt) {
     if (opt.first_frame < 0 || opt.end_frame <= opt.first_frame)
         return make_error("--frames: expected FIRST:END with 0 <= FIRST < END");
     if (opt.msaa_samples != 1 && opt.msaa_samples != 4)
@@ -124,12 +127,13 @@ Result<RenderBenchResult> run_render_bench(const RenderBenchOptions& opt) {
     for (const auto& p : {opt.report, opt.plot})
         if (!p.empty())
             if (Status st = check_output_file(p); !st.ok()) return st.error();
-    RenderBenchResult out;
-    out.summary.load_start = load_average_1min();
-    out.cpus = int(std::thread::hardware_concurrency());
+    return {};
+}
 
-    // Phase 1: the node's poses and levels. A trace of d seconds has at most d x rate + 1 vsyncs,
-    // so a range beyond that is refused before replaying it.
+// Phase 1: the node's poses and levels, from the trace replayed with *ro (filled here) on the
+// simulated clock, the late warp and the lens pass off. A trace of d seconds has at most
+// d x rate + 1 vsyncs, so a range beyond that is refused before replaying it.
+Result<ReplayResult> replay_poses(const RenderBenchOptions& opt, ReplayOptions* ro) {
     Result<Trace> trace = read_trace_csv(opt.trace);
     if (!trace.ok()) return trace.error();
     if (trace->samples.size() < 2)
@@ -141,136 +145,164 @@ Result<RenderBenchResult> run_render_bench(const RenderBenchOptions& opt) {
                           std::to_string(max_frames) + " frames at " +
                           std::to_string(opt.refresh_hz) + " Hz, none in " +
                           std::to_string(opt.first_frame) + ":" + std::to_string(opt.end_frame));
-    ReplayOptions ro;
-    ro.scene = opt.scene;
-    ro.trace = opt.trace;
-    ro.trace_data = std::make_shared<const Trace>(std::move(trace).value());
-    ro.simulated_clock = true;
-    ro.max_frames = opt.end_frame;
-    ro.display.eye_width = opt.eye_width;
-    ro.display.eye_height = opt.eye_height;
-    ro.display.refresh_hz = opt.refresh_hz;
-    ro.node.warp = false;
-    ro.node.distortion = false;
-    ro.node.lod.tolerance_px = opt.tolerance_px;
-    ro.node.lod_allocator = opt.allocator;
-    ro.renderer.msaa_samples = opt.msaa_samples;  // the greedy allocator learns its cost
-    ro.eye_tracker = opt.eye_tracker;
+    ro->scene = opt.scene;
+    ro->trace = opt.trace;
+    ro->trace_data = std::make_shared<const Trace>(std::move(trace).value());
+    ro->simulated_clock = true;
+    ro->max_frames = opt.end_frame;
+    ro->display.eye_width = opt.eye_width;
+    ro->display.eye_height = opt.eye_height;
+    ro->display.refresh_hz = opt.refresh_hz;
+    ro->node.warp = false;
+    ro->node.distortion = false;
+    ro->node.lod.tolerance_px = opt.tolerance_px;
+    ro->node.lod_allocator = opt.allocator;
+    ro->renderer.msaa_samples = opt.msaa_samples;  // the greedy allocator learns its cost
+    ro->eye_tracker = opt.eye_tracker;
     // Only the budgeted allocators' levels depend on the render cost (they learn the simulated
     // clock's model); otherwise a fixed cost that fits a period skips the calibration renders
     // (slow at full detail on a heavy scene) and makes rendered frame i the replay's vsync i.
     if (opt.allocator == LodAllocator::threshold || opt.lod.kind != LodMode::automatic)
-        ro.frame_cost = FrameCostModel{};
-    Result<ReplayResult> replay = run_replay(ro);
-    if (!replay.ok()) return replay.error();
-    out.gaze_source = gaze_source_summary(replay->summary);
-    out.gaze_frames = replay->summary.gaze_frames;
+        ro->frame_cost = FrameCostModel{};
+    return run_replay(*ro);
+}
+
+// The replay's new frames in [first, end).
+Result<std::vector<const FrameRecord*>> frames_in_range(const RenderBenchOptions& opt,
+                                                        const ReplayResult& replay) {
     std::vector<const FrameRecord*> records;
-    for (const FrameRecord& f : replay->frames)
+    for (const FrameRecord& f : replay.frames)
         if (f.kind == FrameKind::new_frame && int64_t(f.frame) >= opt.first_frame &&
             int64_t(f.frame) < opt.end_frame)
             records.push_back(&f);
     if (records.empty())
         return make_error(opt.trace.string() + ": the replay rendered " +
-                          std::to_string(replay->summary.new_frames) + " frames, none in " +
+                          std::to_string(replay.summary.new_frames) + " frames, none in " +
                           std::to_string(opt.first_frame) + ":" + std::to_string(opt.end_frame));
+    return records;
+}
 
-    // Phase 2: render them again, timed, on a renderer of our own.
+// Phase 2's renderer (of our own, the scene uploaded) and what its frames reuse.
+struct BenchRenderer {
+    std::vector<SceneObject> objects;
+    std::unique_ptr<Renderer> renderer;
+    std::vector<int> levels, full_levels;
+    StereoImage lod_image, full_image;
+    bool warmed = false;
+};
+
+Status make_bench_renderer(const RenderBenchOptions& opt, BenchRenderer* b) {
     Result<Scene> scene = load_gltf(opt.scene);
     if (!scene.ok()) return scene.error();
-    const std::vector<SceneObject> objects = flatten_objects(*scene);
+    b->objects = flatten_objects(*scene);
     RendererConfig rc;
     rc.eye_width = opt.eye_width;
     rc.eye_height = opt.eye_height;
     rc.msaa_samples = opt.msaa_samples;
     Result<std::unique_ptr<Renderer>> renderer = create_vulkan_renderer(rc);
     if (!renderer.ok()) return renderer.error();
-    Renderer& ren = **renderer;
-    if (Status st = ren.upload(*scene); !st.ok()) return st.error();
-    out.device_name = ren.device_name();
-    if (!opt.images_dir.empty()) {
-        std::error_code ec;
-        std::filesystem::create_directories(opt.images_dir, ec);
-        if (ec) return make_error("--images " + opt.images_dir.string() + ": " + ec.message());
-    }
+    b->renderer = std::move(renderer).value();
+    if (Status st = b->renderer->upload(*scene); !st.ok()) return st;
+    b->levels.assign(b->objects.size(), 0);
+    b->full_levels.assign(b->objects.size(), 0);
+    return {};
+}
 
-    const StereoRig& rig = ro.node.rig;  // no warp, no lens: the eye buffers show the rig's fov
-    std::vector<int> levels(objects.size()), full_levels(objects.size(), 0);
-    StereoImage lod_image, full_image;
-    bool warmed = false;
-    for (const FrameRecord* rec : records) {
-        for (size_t i = 0; i < objects.size(); ++i) {
-            const int last = int(objects[i].levels.size()) - 1;
-            switch (opt.lod.kind) {
-                case LodMode::automatic:
-                    levels[i] = std::clamp(rec->levels[i], 0, last);
-                    break;
-                case LodMode::full:
-                    levels[i] = 0;
-                    break;
-                case LodMode::fixed:
-                    levels[i] = std::min(opt.lod.level, last);
-                    break;
-            }
+// The levels of `rec` in the bench's --lod mode: the node's (within each chain), the finest, or
+// one level.
+void bench_levels(const RenderBenchOptions& opt, const FrameRecord& rec, BenchRenderer* b) {
+    for (size_t i = 0; i < b->objects.size(); ++i) {
+        const int last = int(b->objects[i].levels.size()) - 1;
+        switch (opt.lod.kind) {
+            case LodMode::automatic:
+                b->levels[i] = std::clamp(rec.levels[i], 0, last);
+                break;
+            case LodMode::full:
+                b->levels[i] = 0;
+                break;
+            case LodMode::fixed:
+                b->levels[i] = std::min(opt.lod.level, last);
+                break;
         }
-        StereoViews views;
-        for (int e = 0; e < 2; ++e) {
-            views.view[e] = eye_view_matrix(rig, rec->shown_pose, e);
-            views.projection[e] = eye_projection(rig.eye[e], rig.near_m, rig.far_m);
-        }
-        RenderBenchFrame f;
-        f.frame = int64_t(rec->frame);
-        f.vsync_ns = rec->render_target_vsync_ns;
-        const std::vector<DrawItem> items =
-            frame_items(objects, rig, rec->shown_pose, levels, &f.triangles, &f.culled);
-        size_t culled = 0;
-        const std::vector<DrawItem> full_items =
-            opt.compare_full ? frame_items(objects, rig, rec->shown_pose, full_levels,
-                                           &f.full_triangles, &culled)
-                             : std::vector<DrawItem>{};
-        if (!warmed) {  // pipelines and first-use allocations stay out of the timings
-            if (auto r = ren.render(views, items, &lod_image); !r.ok()) return r.error();
-            if (opt.compare_full)
-                if (auto r = ren.render(views, full_items, &full_image); !r.ok()) return r.error();
-            warmed = true;
-        }
-        Result<RenderStats> s = ren.render(views, items, &lod_image);
-        if (!s.ok()) return s.error();
-        f.render_ms = double(s->cpu_record_ns + s->gpu_wait_ns) * 1e-6;
-        if (opt.compare_full) {
-            Result<RenderStats> fs = ren.render(views, full_items, &full_image);
-            if (!fs.ok()) return fs.error();
-            f.full_render_ms = double(fs->cpu_record_ns + fs->gpu_wait_ns) * 1e-6;
-            Result<double> p = psnr_db(side_by_side(full_image), side_by_side(lod_image));
-            if (!p.ok()) return p.error();
-            f.psnr_db = *p;
-            double ss = 0.0;
-            for (int e = 0; e < 2; ++e) {
-                Result<double> v = ssim(full_image.eye[e], lod_image.eye[e]);
-                if (!v.ok()) return v.error();
-                ss += *v;
-            }
-            f.ssim = ss / 2.0;
-        }
-        if (!opt.images_dir.empty() && opt.images_every > 0 &&
-            (f.frame - opt.first_frame) % opt.images_every == 0) {
-            if (Status st = write_png(side_by_side(lod_image),
-                                      opt.images_dir / frame_png_name("lod", f.frame));
-                !st.ok())
-                return st.error();
-            if (opt.compare_full)
-                if (Status st = write_png(side_by_side(full_image),
-                                          opt.images_dir / frame_png_name("full", f.frame));
-                    !st.ok())
-                    return st.error();
-        }
-        out.frames.push_back(f);
     }
+}
 
-    RenderBenchSummary& s = out.summary;
-    s.frames = out.frames.size();
+// PSNR and SSIM (the eyes' mean) of the LOD image against the full-detail one.
+Status compare_images(const BenchRenderer& b, RenderBenchFrame* f) {
+    Result<double> p = psnr_db(side_by_side(b.full_image), side_by_side(b.lod_image));
+    if (!p.ok()) return p.error();
+    f->psnr_db = *p;
+    double ss = 0.0;
+    for (int e = 0; e < 2; ++e) {
+        Result<double> v = ssim(b.full_image.eye[e], b.lod_image.eye[e]);
+        if (!v.ok()) return v.error();
+        ss += *v;
+    }
+    f->ssim = ss / 2.0;
+    return {};
+}
+
+Status write_frame_images(const RenderBenchOptions& opt, const BenchRenderer& b, int64_t frame) {
+    if (Status st =
+            write_png(side_by_side(b.lod_image), opt.images_dir / frame_png_name("lod", frame));
+        !st.ok())
+        return st;
+    if (opt.compare_full)
+        if (Status st = write_png(side_by_side(b.full_image),
+                                  opt.images_dir / frame_png_name("full", frame));
+            !st.ok())
+            return st;
+    return {};
+}
+
+// Phase 2 for one rendered frame of the replay: its LOD render timed (and, with compare_full,
+// the same pose with every drawn object at level 0, timed and compared), its images written
+// where asked.
+Result<RenderBenchFrame> bench_frame(const RenderBenchOptions& opt, const StereoRig& rig,
+                                     const FrameRecord& rec, BenchRenderer* b) {
+    Renderer& ren = *b->renderer;
+    bench_levels(opt, rec, b);
+    StereoViews views;
+    for (int e = 0; e < 2; ++e) {
+        views.view[e] = eye_view_matrix(rig, rec.shown_pose, e);
+        views.projection[e] = eye_projection(rig.eye[e], rig.near_m, rig.far_m);
+    }
+    RenderBenchFrame f;
+    f.frame = int64_t(rec.frame);
+    f.vsync_ns = rec.render_target_vsync_ns;
+    const std::vector<DrawItem> items =
+        frame_items(b->objects, rig, rec.shown_pose, b->levels, &f.triangles, &f.culled);
+    size_t culled = 0;
+    const std::vector<DrawItem> full_items =
+        opt.compare_full ? frame_items(b->objects, rig, rec.shown_pose, b->full_levels,
+                                       &f.full_triangles, &culled)
+                         : std::vector<DrawItem>{};
+    if (!b->warmed) {  // pipelines and first-use allocations stay out of the timings
+        if (auto r = ren.render(views, items, &b->lod_image); !r.ok()) return r.error();
+        if (opt.compare_full)
+            if (auto r = ren.render(views, full_items, &b->full_image); !r.ok()) return r.error();
+        b->warmed = true;
+    }
+    Result<RenderStats> s = ren.render(views, items, &b->lod_image);
+    if (!s.ok()) return s.error();
+    f.render_ms = double(s->cpu_record_ns + s->gpu_wait_ns) * 1e-6;
+    if (opt.compare_full) {
+        Result<RenderStats> fs = ren.render(views, full_items, &b->full_image);
+        if (!fs.ok()) return fs.error();
+        f.full_render_ms = double(fs->cpu_record_ns + fs->gpu_wait_ns) * 1e-6;
+        if (Status st = compare_images(*b, &f); !st.ok()) return st.error();
+    }
+    if (!opt.images_dir.empty() && opt.images_every > 0 &&
+        (f.frame - opt.first_frame) % opt.images_every == 0)
+        if (Status st = write_frame_images(opt, *b, f.frame); !st.ok()) return st.error();
+    return f;
+}
+
+void summarize_bench(const RenderBenchOptions& opt, RenderBenchResult* out) {
+    RenderBenchSummary& s = out->summary;
+    s.frames = out->frames.size();
     std::vector<double> ms, fms, psnr, ss;
-    for (const RenderBenchFrame& f : out.frames) {
+    for (const RenderBenchFrame& f : out->frames) {
         ms.push_back(f.render_ms);
         s.triangles_mean += double(f.triangles) / double(s.frames);
         if (opt.compare_full) {
@@ -289,7 +321,42 @@ Result<RenderBenchResult> run_render_bench(const RenderBenchOptions& opt) {
         s.ssim_median = median(ss);
         s.ssim_min = min_of(ss);
     }
-    s.load_end = load_average_1min();
+}
+
+}  // namespace
+
+Result<RenderBenchResult> run_render_bench(const RenderBenchOptions& opt) {
+    if (Status st = check_render_bench_options(opt); !st.ok()) return st.error();
+    RenderBenchResult out;
+    out.summary.load_start = load_average_1min();
+    out.cpus = int(std::thread::hardware_concurrency());
+
+    // Phase 1: the node's poses and levels.
+    ReplayOptions ro;
+    Result<ReplayResult> replay = replay_poses(opt, &ro);
+    if (!replay.ok()) return replay.error();
+    out.gaze_source = gaze_source_summary(replay->summary);
+    out.gaze_frames = replay->summary.gaze_frames;
+    Result<std::vector<const FrameRecord*>> records = frames_in_range(opt, *replay);
+    if (!records.ok()) return records.error();
+
+    // Phase 2: render them again, timed, on a renderer of our own.
+    BenchRenderer b;
+    if (Status st = make_bench_renderer(opt, &b); !st.ok()) return st.error();
+    out.device_name = b.renderer->device_name();
+    if (!opt.images_dir.empty()) {
+        std::error_code ec;
+        std::filesystem::create_directories(opt.images_dir, ec);
+        if (ec) return make_error("--images " + opt.images_dir.string() + ": " + ec.message());
+    }
+    const StereoRig& rig = ro.node.rig;  // no warp, no lens: the eye buffers show the rig's fov
+    for (const FrameRecord* rec : *records) {
+        Result<RenderBenchFrame> f = bench_frame(opt, rig, *rec, &b);
+        if (!f.ok()) return f.error();
+        out.frames.push_back(*f);
+    }
+    summarize_bench(opt, &out);
+    out.summary.load_end = load_average_1min();
 
     if (!opt.report.empty())
         if (Status st = write_file_atomically(opt.report,

@@ -1,6 +1,9 @@
 // Replay: scene + trace (or capture) -> the node assembled in the one assembly place
 // (node_assembly.hpp: tracker -> node runtime -> renderer -> mock display), then the per-vsync
-// summary and the report.
+// summary and the report. run_replay's steps, one function each: the trace (replay_trace), the
+// node's spec (replay_node_spec), the simulated clock's frame cost (replay_frame_cost), the truth
+// for registration error (replay_truth), the frames (replay_frames), the summary
+// (summarize_replay).
 #include "hmdnode/firmware_host/replay.hpp"
 
 #include <algorithm>
@@ -166,15 +169,15 @@ Status check_replay_options(const ReplayOptions& opt) {
     return {};
 }
 
-Result<ReplayResult> run_replay(const ReplayOptions& opt) {
-    const auto wall0 = std::chrono::steady_clock::now();
-    if (Status st = check_replay_options(opt); !st.ok()) return st.error();
-    Result<Scene> scene = load_gltf(opt.scene);
-    if (!scene.ok()) return scene.error();
-    // The one wiring place (wiring.hpp), named by the command's flags.
-    const WiringKeys keys = WiringKeys::command_line();
-    const ClockKind clock_kind = opt.simulated_clock ? ClockKind::sim : ClockKind::real;
-    // The trace: replayed by the trace backend (and its truth), the sim device's motion.
+namespace {
+
+bool trace_has_position(const std::shared_ptr<const Trace>& trace) {
+    return trace && !trace->samples.empty() && trace->samples[0].position;
+}
+
+// The trace the replay reads (opt.trace_data, or opt.trace for the trace and sim backends),
+// moved for --recentre; null without one.
+Result<std::shared_ptr<const Trace>> replay_trace(const ReplayOptions& opt) {
     std::shared_ptr<const Trace> trace;
     const bool wants_trace =
         opt.tracker_backend == TrackerBackend::trace || opt.tracker_backend == TrackerBackend::sim;
@@ -188,9 +191,8 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
                               "`hmdnode trace import`)");
         trace = std::make_shared<const Trace>(std::move(trace_r).value());
     }
-    const bool has_position = trace && !trace->samples.empty() && trace->samples[0].position;
     if (trace && opt.recentre) {
-        if (!has_position)
+        if (!trace_has_position(trace))
             return make_error(opt.trace.string() + ": --recentre needs a trace with positions");
         Trace moved = *trace;
         const glm::dvec3 shift = opt.node.default_head_position - *moved.samples[0].position;
@@ -198,6 +200,14 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
             if (ts.position) *ts.position += shift;
         trace = std::make_shared<const Trace>(std::move(moved));
     }
+    return trace;
+}
+
+// What the one assembly place (node_assembly.hpp) builds for the replay: the clock, the trackers
+// (the trace's: replayed by the trace backend, the sim device's motion, the eye tracker's gaze
+// columns), the mock display, the renderer and the runtime.
+Result<NodeSpec> replay_node_spec(const ReplayOptions& opt, std::shared_ptr<const Trace> trace,
+                                  const WiringKeys& keys, ClockKind clock_kind) {
     TrackerSpec spec;
     spec.backend = opt.tracker_backend;
     spec.from = opt.from;
@@ -217,14 +227,8 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     eye_spec.duration_s = opt.duration_s;
     if (opt.eye_tracker == EyeTrackerBackend::trace && !trace)
         return make_error(keys.eye_tracker + " trace needs " + keys.trace);
-    // Only the trace backend has a truth to compare with (the sim device's motion is the trace,
-    // but its fused pose lags it by the device's latency: no truth there either).
-    const std::shared_ptr<const Trace> truth_trace =
-        opt.tracker_backend == TrackerBackend::trace ? trace : nullptr;
-
-    // The one assembly place (node_assembly.hpp): the clock, the trackers, the mock display, the
-    // renderer and the runtime, started, with the one read-back rule (only the frames the mock
-    // display writes come back to the CPU).
+    // The runtime's read-back follows the one read-back rule of make_node (only the frames the
+    // mock display writes come back to the CPU).
     NodeSpec ns;
     ns.keys = keys;
     ns.clock = clock_kind;
@@ -233,46 +237,47 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     ns.display.mock = opt.display;
     ns.renderer.config = opt.renderer;
     ns.node = opt.node;
-    Result<std::unique_ptr<AssembledNode>> assembled = make_node(ns, *scene);
-    if (!assembled.ok()) return assembled.error();
-    AssembledNode& parts = **assembled;
-    Clock* clock = &parts.clock();
-    NodeRuntime& node = parts.runtime();
-    const int64_t host_start = parts.host_start_ns();
-    // The simulated clock's frame cost: given, or measured on this renderer now (the simulated
-    // clock does not move while it is measured).
-    std::optional<FrameCostModel> cost_model;
+    return ns;
+}
+
+// The simulated clock's frame cost (given, or measured on this renderer now: the simulated clock
+// does not move while it is measured), and whether it was measured.
+struct ReplayFrameCost {
+    std::optional<FrameCostModel> model;
     bool calibrated = false;
+};
+
+Result<ReplayFrameCost> replay_frame_cost(const ReplayOptions& opt, NodeRuntime& node) {
+    ReplayFrameCost cost;
     if (!opt.simulated_clock) {
         // Seeds the pacing estimates with this renderer's measured costs.
         if (Result<FrameCostModel> m = node.calibrate_frame_cost(); !m.ok()) return m.error();
+        return cost;
+    }
+    if (opt.frame_cost) {
+        cost.model = *opt.frame_cost;
     } else {
-        if (opt.frame_cost) {
-            cost_model = *opt.frame_cost;
-        } else {
-            Result<FrameCostModel> m = node.calibrate_frame_cost();
-            if (!m.ok()) return m.error();
-            cost_model = *m;
-            calibrated = true;
-        }
-        node.set_sim_cost(*cost_model);
+        Result<FrameCostModel> m = node.calibrate_frame_cost();
+        if (!m.ok()) return m.error();
+        cost.model = *m;
+        cost.calibrated = true;
     }
-    // On the system clock the calibration above takes real time (seconds on a heavy scene) that
-    // would come out of the trace: the trace starts again now, on a fresh tracker.
-    int64_t trace_host_start = host_start;
-    if (!opt.simulated_clock && opt.tracker_backend == TrackerBackend::trace) {
-        trace_host_start = clock->now_ns();
-        if (Status st = parts.restart_trackers(); !st.ok()) return st.error();
-    }
+    node.set_sim_cost(*cost.model);
+    return cost;
+}
 
-    // Truth for registration error: the trace itself, slerped, at the photon time.
+// Truth for registration error: `truth_trace` itself (null: no truth), slerped, at the photon
+// time, the replay's part of it (--start, --duration) played from trace_host_start.
+TruthFn replay_truth(const ReplayOptions& opt, std::shared_ptr<const Trace> truth_trace,
+                     int64_t trace_host_start) {
     const int64_t start_offset_ns = s_to_ns(opt.start_s), duration_ns = s_to_ns(opt.duration_s);
     const int64_t trace_t0 = truth_trace ? truth_trace->start_ns() + start_offset_ns : 0;
     const int64_t trace_end = !truth_trace ? 0
                               : duration_ns > 0
                                   ? std::min(truth_trace->end_ns(), trace_t0 + duration_ns)
                                   : truth_trace->end_ns();
-    TruthFn truth = [&](int64_t host_ns) -> std::optional<TruthPose> {
+    const bool has_position = trace_has_position(truth_trace);
+    return [=](int64_t host_ns) -> std::optional<TruthPose> {
         if (!truth_trace) return std::nullopt;
         const int64_t t = host_ns - trace_host_start + trace_t0;
         if (t > trace_end) return std::nullopt;  // past the recording: no truth
@@ -282,31 +287,30 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
         if (has_position) tp.position = p.position;
         return tp;
     };
+}
 
-    ReplayResult result;
-    result.device_name = parts.renderer().device_name();
-    result.renderer_backend = parts.renderer().backend_name();
-    result.mesh_cols = node.mesh_cols();
-    result.mesh_rows = node.mesh_rows();
-    result.lod_allocator = opt.node.lod_allocator;
-    result.msaa_samples = parts.renderer().msaa_samples();
-    for (const SceneObject& o : node.objects()) result.object_names.push_back(o.name);
+// Runs the node's frames into result->frames until the tracker finishes, --duration ends (any
+// backend but trace: the frames whose wake-up falls within it; a trace's ends the trace) or
+// --max-frames, then stops it.
+Status replay_frames(const ReplayOptions& opt, AssembledNode& parts, const TruthFn& truth,
+                     ReplayResult* result) {
+    NodeRuntime& node = parts.runtime();
+    const int64_t host_start = parts.host_start_ns();
+    const int64_t start_offset_ns = s_to_ns(opt.start_s), duration_ns = s_to_ns(opt.duration_s);
     FrameRecord rec;
-    // Any backend but trace: --duration is the frames whose wake-up falls within it (a trace's
-    // ends the trace).
     const int64_t capture_end = opt.tracker_backend != TrackerBackend::trace && duration_ns > 0
                                     ? host_start + duration_ns
                                     : std::numeric_limits<int64_t>::max();
-    while (!node.tracker_finished() && clock->now_ns() < capture_end &&
-           (opt.max_frames <= 0 || int64_t(result.frames.size()) < opt.max_frames)) {
+    while (!node.tracker_finished() && parts.clock().now_ns() < capture_end &&
+           (opt.max_frames <= 0 || int64_t(result->frames.size()) < opt.max_frames)) {
         Result<FrameOutcome> fr = parts.run_frame(&rec, truth);
         if (!fr.ok()) {
             node.stop();
-            return make_error("frame " + std::to_string(result.frames.size()) + ": " +
+            return make_error("frame " + std::to_string(result->frames.size()) + ": " +
                               fr.error().message);
         }
         if (*fr == FrameOutcome::no_pose_yet) continue;  // nothing presented, nothing to record
-        result.frames.push_back(rec);
+        result->frames.push_back(rec);
         if (opt.on_frame) opt.on_frame(rec);
     }
     node.stop();
@@ -319,21 +323,28 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
         return make_error(opt.from.string() + ": --start " + start +
                           " s is past the capture's last sample");
     }
-    result.trace_samples = parts.tracker().counters().samples_delivered;
+    result->trace_samples = parts.tracker().counters().samples_delivered;
+    return {};
+}
 
-    result.period_ns = parts.display().info().period_ns;
-    result.vsyncs =
-        vsync_series(result.frames, result.period_ns, truth, opt.node.registration_distance_m);
-    result.summary = summarize_vsyncs(result.frames, result.vsyncs);
-    ReplaySummary& s = result.summary;
-    s.frame_cost_model = cost_model;
-    s.frame_cost_calibrated = calibrated;
+// The per-vsync series and the summary of the frames run, with what the node learned and used.
+void summarize_replay(const ReplayOptions& opt, AssembledNode& parts, const ReplayFrameCost& cost,
+                      const TruthFn& truth, std::chrono::steady_clock::time_point wall0,
+                      ReplayResult* result) {
+    const NodeRuntime& node = parts.runtime();
+    result->period_ns = parts.display().info().period_ns;
+    result->vsyncs =
+        vsync_series(result->frames, result->period_ns, truth, opt.node.registration_distance_m);
+    result->summary = summarize_vsyncs(result->frames, result->vsyncs);
+    ReplaySummary& s = result->summary;
+    s.frame_cost_model = cost.model;
+    s.frame_cost_calibrated = cost.calibrated;
     if (!node.lod_cost_fit().empty())
         s.lod_cost_fit = ReplaySummary::LearnedCost{node.lod_cost_fit().base_ms(),
                                                     node.lod_cost_fit().per_triangle_ms()};
     s.replayed_s =
         s.frames
-            ? ns_to_s(result.frames.back().photon_time_ns - result.frames.front().photon_time_ns)
+            ? ns_to_s(result->frames.back().photon_time_ns - result->frames.front().photon_time_ns)
             : 0.0;
     s.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
     s.lens_pass = node.lens_pass();
@@ -342,7 +353,7 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
     for (const LadderStep& st : node.ladder().steps())
         s.ladder.push_back({st.name, st.scale, st.chromatic, 0, 0});
     s.presents_by_divisor.assign(size_t(std::max(1, opt.node.pacing.max_divisor)), 0);
-    for (const FrameRecord& f : result.frames) {
+    for (const FrameRecord& f : result->frames) {
         ReplaySummary::LadderShare& l = s.ladder[size_t(f.ladder_step)];
         ++l.presents;
         if (f.kind == FrameKind::new_frame) ++l.new_frames;
@@ -350,12 +361,57 @@ Result<ReplayResult> run_replay(const ReplayOptions& opt) {
         if (d < s.presents_by_divisor.size()) ++s.presents_by_divisor[d];
     }
     // (On the simulated clock the pass costs what the model charges, not what it measured.)
-    const double pass_p99_ms = cost_model ? ns_to_ms(cost_model->warp_ns) : s.warp_ms.p99;
+    const double pass_p99_ms = cost.model ? ns_to_ms(cost.model->warp_ns) : s.warp_ms.p99;
     if (std::isfinite(pass_p99_ms))
         s.mtp_floor_ms = ns_to_ms(parts.display().photon_offset_ns() +
                                   parts.display().info().latch_margin_ns + opt.tracker.latency_ns) +
                          pass_p99_ms;
+}
 
+}  // namespace
+
+// Scene and trace, the node assembled (node_assembly.hpp) and calibrated, its frames, the
+// summary, the report.
+Result<ReplayResult> run_replay(const ReplayOptions& opt) {
+    const auto wall0 = std::chrono::steady_clock::now();
+    if (Status st = check_replay_options(opt); !st.ok()) return st.error();
+    Result<Scene> scene = load_gltf(opt.scene);
+    if (!scene.ok()) return scene.error();
+    // The one wiring place (wiring.hpp), named by the command's flags.
+    const WiringKeys keys = WiringKeys::command_line();
+    const ClockKind clock_kind = opt.simulated_clock ? ClockKind::sim : ClockKind::real;
+    Result<std::shared_ptr<const Trace>> trace = replay_trace(opt);
+    if (!trace.ok()) return trace.error();
+    Result<NodeSpec> ns = replay_node_spec(opt, *trace, keys, clock_kind);
+    if (!ns.ok()) return ns.error();
+    Result<std::unique_ptr<AssembledNode>> assembled = make_node(*ns, *scene);
+    if (!assembled.ok()) return assembled.error();
+    AssembledNode& parts = **assembled;
+    NodeRuntime& node = parts.runtime();
+    Result<ReplayFrameCost> cost = replay_frame_cost(opt, node);
+    if (!cost.ok()) return cost.error();
+    // On the system clock the calibration above takes real time (seconds on a heavy scene) that
+    // would come out of the trace: the trace starts again now, on a fresh tracker.
+    int64_t trace_host_start = parts.host_start_ns();
+    if (!opt.simulated_clock && opt.tracker_backend == TrackerBackend::trace) {
+        trace_host_start = parts.clock().now_ns();
+        if (Status st = parts.restart_trackers(); !st.ok()) return st.error();
+    }
+    // Only the trace backend has a truth to compare with (the sim device's motion is the trace,
+    // but its fused pose lags it by the device's latency: no truth there either).
+    const TruthFn truth = replay_truth(
+        opt, opt.tracker_backend == TrackerBackend::trace ? *trace : nullptr, trace_host_start);
+
+    ReplayResult result;
+    result.device_name = parts.renderer().device_name();
+    result.renderer_backend = parts.renderer().backend_name();
+    result.mesh_cols = node.mesh_cols();
+    result.mesh_rows = node.mesh_rows();
+    result.lod_allocator = opt.node.lod_allocator;
+    result.msaa_samples = parts.renderer().msaa_samples();
+    for (const SceneObject& o : node.objects()) result.object_names.push_back(o.name);
+    if (Status st = replay_frames(opt, parts, truth, &result); !st.ok()) return st.error();
+    summarize_replay(opt, parts, *cost, truth, wall0, &result);
     if (!opt.report.empty()) {
         const std::string text = replay_report_json(opt, result).dump(1);
         if (Status st = write_file_atomically(opt.report, text); !st.ok()) return st.error();

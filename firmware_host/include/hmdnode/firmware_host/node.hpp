@@ -3,7 +3,9 @@
 // level of detail per object, renders both eyes, then, just before the latch, reads the tracker
 // again and warps the finished frame to the newest prediction through the lens-distortion mesh,
 // presents, and records what it did. A vsync that a new frame cannot reach gets the previous frame
-// re-warped when that does not delay the next new frame.
+// re-warped when that does not delay the next new frame. The level-of-detail part (selection,
+// frame budget, cross-fades, draw list) is a stage of its own inside the runtime
+// (src/runtime/lod_stage.hpp); the steps of a frame are in src/runtime/node.cpp.
 //
 // Threads: a NodeRuntime belongs to one thread (the frame thread). The tracker's reader thread, if
 // any, only feeds the tracker's ring.
@@ -215,11 +217,16 @@ enum class FrameOutcome {
                   // the record is left as it was
 };
 
+class LodStage;  // the frame loop's LOD stage (src/runtime/lod_stage.hpp)
+
 class NodeRuntime {
   public:
     // All references must outlive the runtime. The scene is flattened and uploaded by start().
     NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Renderer& renderer,
                 const Scene& scene, const NodeConfig& config);
+    ~NodeRuntime();
+    NodeRuntime(const NodeRuntime&) = delete;
+    NodeRuntime& operator=(const NodeRuntime&) = delete;
 
     // Uploads the scene, sets up the warp pass and starts the tracker.
     Status start();
@@ -286,7 +293,7 @@ class NodeRuntime {
     // True once the tracker has no more samples and none are pending.
     bool tracker_finished() const;
 
-    const std::vector<SceneObject>& objects() const { return objects_; }
+    const std::vector<SceneObject>& objects() const;
     const NodeConfig& config() const { return config_; }
     // The field of view each eye buffer is rendered with (the lens's, grown for the warp).
     const StereoRig& render_rig() const { return render_rig_; }
@@ -297,7 +304,7 @@ class NodeRuntime {
     const PoseHistory& history() const { return history_; }
     // The render cost model learned from the frames so far (node clock: on the simulated clock it
     // converges to the sim_cost model's render part).
-    const FrameCostFit& lod_cost_fit() const { return cost_fit_; }
+    const FrameCostFit& lod_cost_fit() const;
     // The last rendered frame (empty unless config.read_back).
     const StereoImage& last_frame() const { return frame_; }
     // Reads the panel image back at the next present only (config.read_back off): a display that
@@ -318,16 +325,71 @@ class NodeRuntime {
     const PassTimes& pass_times() const { return pass_times_; }
 
   private:
+    // What one run_frame call plans with, read once: the display's timing and the pacer's
+    // estimates.
+    struct FramePlan {
+        DisplayInfo info;
+        int64_t latch = 0;          // info.latch_margin_ns
+        int64_t photon_offset = 0;  // a vsync to its photon time (the panel centre)
+        int64_t render_est = 0, warp_est = 0;
+        // A new frame's render and warp together: the percentile of their sum, not the sum of
+        // their percentiles (a slow render rarely meets a slow warp).
+        int64_t frame_est = 0;
+        int64_t margin = 0;
+        int divisor = 1;  // the render rate: a new frame every `divisor` vsyncs
+    };
+    // A present of the finished frame re-warped for `vsync_ns` in place of a new frame; early:
+    // at once rather than at its wake-up (the time until then is more than a draw item takes, and
+    // would be lost to the open frame; the pose it shows is that much older).
+    struct Rewarp {
+        int64_t vsync_ns = 0;
+        bool early = false;
+    };
+
     void drain_tracker();
     void adopt_objects(const Scene& scene);
+    // The selector's parameters: the configured tolerance scaled by the LOD bias, with the
+    // panel's persistence.
+    LodSelectorParams selector_params() const;
     void rebuild_selector();
     StereoViews views_for(const Pose& head) const;
     Pose predict(int64_t photon_time_ns) const;
-    // LOD selection for `head` seen through `views` (the frame's own, culled against), fills
-    // rec->levels / eccentricity, draws_ and draw_triangles_; returns triangles.
-    // target_ms: the budgeted allocator's render target before the feedback's scale.
-    uint64_t select_and_sort(const Pose& head, const StereoViews& views, FrameRecord* rec,
-                             double target_ms);
+    // The eye tracker's newest sample while it is valid and fresh (gaze_max_age_ns), else null.
+    const GazeSample* fresh_gaze() const;
+
+    // The frame loop's steps (run_frame, in this order).
+    // Chooses the render rate and the ladder's step for the next new frame and applies the step.
+    void plan_levers();
+    // The pacer's estimates for this call (after plan_levers).
+    void read_estimates(FramePlan* p) const;
+    // 1. The vsync a new frame aims at (*target) and its wake-up (open_wake_ns_), or the re-warp
+    // of the finished frame that comes before it.
+    std::optional<Rewarp> aim_new_frame(const FramePlan& p, int64_t* target);
+    // 1. Waits for the wake-up, predicts the pose, selects LOD (the LOD stage) and begins the
+    // frame for `target` in the back eye buffers.
+    Status open_frame(const FramePlan& p, int64_t target, FrameRecord* rec);
+    // 2. Renders the open frame in pieces until it is done, or until the finished frame must be
+    // re-warped first (returned; the open frame resumes on the next call).
+    Result<std::optional<Rewarp>> render_pieces(const FramePlan& p);
+    // 2. The re-warp that must come before the next piece, or the piece's triangle limit
+    // (*max_triangles; left as it is when the piece is not limited).
+    std::optional<Rewarp> next_piece(const FramePlan& p, int64_t now, int64_t render_budget,
+                                     double per_item_ns, uint64_t* max_triangles);
+    Status render_piece(uint64_t max_triangles);
+    // 2. The open frame is done: it becomes the finished frame; the ladder and the LOD stage
+    // learn its cost.
+    void finish_render();
+    // 3. The finished new frame's vsync (*early: warped at once, a rescued vsync), then its late
+    // warp and present, and the record.
+    int64_t aim_warp(const FramePlan& p, bool* early) const;
+    Result<FrameOutcome> present_new_frame(const FramePlan& p, FrameRecord* rec,
+                                           const TruthFn& truth);
+    // The finished frame re-warped and presented for `w`, and the record.
+    Result<FrameOutcome> rewarp(const FramePlan& p, Rewarp w, FrameRecord* rec,
+                                const TruthFn& truth);
+    // The record's registration error against the truth at its photon time (NaN without one).
+    void fill_truth(FrameRecord* rec, const TruthFn& truth) const;
+
     // Warps the finished frame for `target` (sampling the newest pose first when the warp is on),
     // presents it and fills the record's present fields; adapts the margin.
     // early: at once, not at its wake-up (a re-warp between pieces of a frame).
@@ -338,11 +400,12 @@ class NodeRuntime {
     HeadsetProfile pass_profile() const;
     // Sets up the pass `choice` names (fused unless mesh).
     Status set_up_pass(bool fused);
-    // Chooses the render rate and the ladder's step for the next new frame and applies the step.
-    void plan_levers();
     // The first free vsync a typical warp started at `now` makes (FramePacer::warp_typical): a
     // vsync before the planned one that would otherwise go without a present.
     int64_t rescue_vsync(int64_t now) const;
+    // The start-up calibration of the lens passes (pass_times_, the pass chosen, model's warp
+    // costs; on the system clock the pacing and ladder estimates seeded with them).
+    Status calibrate_passes(FrameCostModel* model, const std::function<bool()>& go_on);
     // Times `n` warps of the current pass (lower quartile, ns).
     Result<int64_t> time_warps(int n, const std::function<bool()>& go_on);
 
@@ -362,12 +425,6 @@ class NodeRuntime {
         glm::dvec3 from{0.0}, to{0.0};
     } recentre_;
     PoseHistory history_;
-    LodSelector selector_;
-    std::vector<SceneObject> objects_;
-    std::vector<std::vector<double>> level_errors_;  // per object, per level (world metres)
-    std::vector<DrawItem> draws_;                    // reused every frame
-    std::vector<uint64_t> draw_triangles_;           // per draw
-    std::vector<std::pair<double, size_t>> order_;   // front-to-back sort keys, reused
     std::vector<TrackerSample> read_buf_;
     StereoImage frame_;
     StereoRig render_rig_;
@@ -375,66 +432,34 @@ class NodeRuntime {
     FramePacer pacer_;
     PixelLadder ladder_;
     PassTimes pass_times_;
+    // LOD selection, the frame budget and its learned cost, the fades and the draw list; what it
+    // chose for the open and the finished frame.
+    std::unique_ptr<LodStage> lod_;
     bool read_back_once_ = false;
-    int open_step_ = 0;                // the ladder step the open frame is rendered at
-    int64_t last_new_vsync_ns_ = 0;    // the vsync the newest new frame was shown at
-    uint64_t coarsest_triangles_ = 0;  // every object at its coarsest level
-    int frame_step_ = 0;
-    double open_scale_ = 1.0, frame_scale_ = 1.0;  // the eye-buffer scale they were rendered at
+    int64_t last_new_vsync_ns_ = 0;  // the vsync the newest new frame was shown at
     uint64_t present_index_ = 0, render_index_ = 0;
     int64_t last_shown_vsync_ns_ = INT64_MIN;
+    int pieces_since_rewarp_ = 1;  // pieces of the open frames rendered since the last re-warp
     // The frame being rendered in pieces, between which the finished one may be re-warped.
     bool open_ = false;
-    size_t open_cursor_ = 0;       // draws rendered so far
-    int pieces_since_rewarp_ = 1;  // pieces of it rendered since the last re-warp
-    int open_rewarps_ = 0;         // re-warps that interrupted it
-    int64_t open_target_ns_ = 0;   // the vsync it is rendered for
+    size_t open_cursor_ = 0;      // draws rendered so far
+    int open_rewarps_ = 0;        // re-warps that interrupted it
+    int64_t open_target_ns_ = 0;  // the vsync it is rendered for
     int64_t open_wake_ns_ = 0;
     int64_t open_render_ns_ = 0;   // node-clock time its set-up and pieces took
     double open_render_ms_ = 0.0;  // measured wall time of its pieces
     Pose open_pose_;
     int64_t open_pose_sample_ns_ = 0;
-    uint64_t open_triangles_ = 0;
-    std::vector<int> open_levels_;
-    std::vector<double> open_eccentricity_;
-    // The finished frame in the eye buffers: its pose, target, levels and the tracker sample it
-    // used.
+    int open_step_ = 0;        // the ladder step it is rendered at
+    double open_scale_ = 1.0;  // the eye-buffer scale it is rendered at
+    // The finished frame in the eye buffers: its pose, target, the tracker sample it used, its
+    // ladder step and scale (its levels: the LOD stage's shown()).
     bool has_frame_ = false;
     Pose frame_pose_;
     int64_t frame_target_vsync_ns_ = 0;
     int64_t frame_pose_sample_ns_ = 0;
-    uint64_t frame_triangles_ = 0;
-    std::vector<int> frame_levels_;
-    std::vector<double> frame_eccentricity_;
-    double pixels_per_radian_ = 0.0;
-    // The frame budget (greedy or iga allocator): the learned cost, the budget's correction, the
-    // drawn objects as candidates (reused), and what the allocation of the open and the finished
-    // frame said.
-    struct BudgetState {
-        double target_ms = 0.0;  // before the feedback's scale
-        double budget_ms = std::numeric_limits<double>::quiet_NaN();
-        double predicted_ms = std::numeric_limits<double>::quiet_NaN();
-        size_t coarsened = 0;
-        bool limited = false;
-        bool learning = false;  // no cost model yet: everything at its coarsest, no feedback
-    };
-    FrameCostFit cost_fit_;
-    BudgetFeedback feedback_;
-    GreedyLodAllocator allocator_;
-    IgaLodAllocator iga_allocator_;
-    std::vector<int> allocated_levels_;  // per object, the allocator's last level (-1: none)
-    // Level changes as cross-fades; the open and the finished frame's counts (FrameRecord).
-    LodCrossFade fade_;
-    struct FadeCounts {
-        size_t fading = 0, transitions = 0, pops = 0;
-    };
-    FadeCounts open_fade_, frame_fade_;
-    std::vector<LodFadeStep> fade_steps_;  // per object, this frame's (drawn objects only)
-    std::vector<std::vector<uint64_t>> level_triangles_;  // per object, per level
-    std::vector<BudgetCandidate> candidates_;
-    std::vector<size_t> candidate_objects_;
-    std::vector<int> allocated_;
-    BudgetState open_budget_, frame_budget_;
+    int frame_step_ = 0;
+    double frame_scale_ = 1.0;
 };
 
 }  // namespace hmdnode
