@@ -1,10 +1,17 @@
 // Reading a Vive/Index device's JSON configuration over HID feature reports (0x10 start, 0x11
-// chunks, zlib): lighthouse_config.hpp. Cost: one round trip per 62 compressed bytes, O(size).
+// chunks, zlib), live or from a capture that recorded the read, and its sensor model:
+// lighthouse_config.hpp. Cost: one round trip per 62 compressed bytes, O(size).
 #include "hmdnode/hal/codec/lighthouse_config.hpp"
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
+#include <deque>
+#include <map>
+#include <set>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "transport/gunzip.hpp"
 
@@ -52,6 +59,103 @@ Result<std::string> read_lighthouse_config(Transport& t) {
         return make_error("configuration read: the zlib stream of " +
                           std::to_string(compressed.size()) + " bytes is cut short");
     return std::string(json->begin(), json->end());
+}
+
+namespace {
+
+// A device's recorded feature-report replies, answered in capture order per report id.
+class RecordedFeatures final : public Transport {
+  public:
+    std::map<uint8_t, std::deque<std::vector<uint8_t>>> replies;
+    DeviceId id() const override { return {}; }
+    Result<std::optional<InputReport>> read_input(int) override {
+        return std::optional<InputReport>();
+    }
+    Result<std::vector<uint8_t>> get_feature(uint8_t report_id, size_t) override {
+        auto it = replies.find(report_id);
+        if (it == replies.end() || it->second.empty())
+            return make_error("the capture holds no further reply to GET_REPORT " +
+                              std::to_string(report_id));
+        std::vector<uint8_t> r = std::move(it->second.front());
+        it->second.pop_front();
+        return r;
+    }
+    Status set_feature(std::span<const uint8_t>) override { return {}; }
+    Status write_output(std::span<const uint8_t>) override { return {}; }
+};
+
+}  // namespace
+
+Result<std::string> capture_lighthouse_config(const UsbCapture& capture, uint16_t bus,
+                                              uint8_t address) {
+    using namespace lighthouse_config;
+    RecordedFeatures t;
+    std::map<uint64_t, uint8_t> asked;  // urb id -> report id of a GET_REPORT(feature) submit
+    for (const UsbPacket& u : capture.packets) {
+        if (u.bus != bus || u.device_address != address || u.transfer_type != 2) continue;
+        // GET_REPORT: bmRequestType 0xA1, bRequest 0x01, wValue = 0x03 (feature) << 8 | id.
+        if (u.event == 'S' && u.setup_present && u.setup[0] == 0xa1 && u.setup[1] == 0x01 &&
+            u.setup[3] == 0x03 && (u.setup[2] == kStartReportId || u.setup[2] == kChunkReportId))
+            asked[u.urb_id] = u.setup[2];
+        if (u.event == 'C' && u.status == 0 && !u.data.empty()) {
+            auto it = asked.find(u.urb_id);
+            if (it == asked.end()) continue;
+            t.replies[it->second].push_back(u.data);
+            asked.erase(it);
+        }
+    }
+    if (t.replies[kStartReportId].empty())
+        return make_error("the capture holds no configuration read (GET_REPORT 0x10) of device " +
+                          std::to_string(bus) + "-" + std::to_string(address));
+    return read_lighthouse_config(t);
+}
+
+Result<LighthouseSensors> parse_lighthouse_sensors(const std::string& text,
+                                                   const std::string& source) {
+    nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+    if (j.is_discarded() || !j.is_object()) return make_error(source + ": not a JSON object");
+    LighthouseSensors s;
+    if (!j.contains("lighthouse_config")) return s;
+    const nlohmann::json& lc = j["lighthouse_config"];
+    const std::string w = source + ": lighthouse_config";
+    if (!lc.is_object()) return make_error(w + ": not an object");
+    auto points = [&](const char* key, std::vector<glm::dvec3>* out) -> Status {
+        if (!lc.contains(key)) return make_error(w + "." + key + ": missing");
+        const nlohmann::json& a = lc[key];
+        if (!a.is_array()) return make_error(w + "." + key + ": not an array");
+        for (size_t i = 0; i < a.size(); ++i) {
+            const nlohmann::json& v = a[i];
+            if (!v.is_array() || v.size() != 3 || !v[0].is_number() || !v[1].is_number() ||
+                !v[2].is_number())
+                return make_error(w + "." + key + "[" + std::to_string(i) +
+                                  "]: not an array of 3 numbers");
+            glm::dvec3 p(v[0].get<double>(), v[1].get<double>(), v[2].get<double>());
+            if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+                return make_error(w + "." + key + "[" + std::to_string(i) + "]: not finite");
+            out->push_back(p);
+        }
+        return {};
+    };
+    if (Status st = points("modelPoints", &s.points); !st) return st.error();
+    if (Status st = points("modelNormals", &s.normals); !st) return st.error();
+    if (s.normals.size() != s.points.size())
+        return make_error(w + ": " + std::to_string(s.points.size()) + " modelPoints but " +
+                          std::to_string(s.normals.size()) + " modelNormals");
+    if (lc.contains("channelMap")) {
+        const nlohmann::json& a = lc["channelMap"];
+        if (!a.is_array() || a.size() != s.points.size())
+            return make_error(w + ".channelMap: not an array of " +
+                              std::to_string(s.points.size()) + " channels");
+        std::set<int> seen;
+        for (size_t i = 0; i < a.size(); ++i) {
+            if (!a[i].is_number_integer() || a[i].get<int64_t>() < 0 || a[i].get<int64_t>() > 255 ||
+                !seen.insert(a[i].get<int>()).second)
+                return make_error(w + ".channelMap[" + std::to_string(i) +
+                                  "]: not a distinct channel 0..255");
+            s.channel_map.push_back(a[i].get<int>());
+        }
+    }
+    return s;
 }
 
 LighthouseModel lighthouse_model(const std::string& model_number) {

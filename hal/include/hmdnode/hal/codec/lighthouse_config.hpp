@@ -4,15 +4,19 @@
 // endian); GET_FEATURE 0x11 then answers one chunk at a time (byte 1: its length, up to 62; bytes
 // 2..: the data) until a chunk of length 0; the concatenation is a zlib stream of the JSON. This
 // is the exchange libsurvive (driver_vive.config.h) and Monado (vive_config.c) perform.
-// Cost: one feature-report round trip per 62 compressed bytes (~30 for an Index's ~1.8 kB),
-// O(inflated size) memory.
+// The sensor model (lighthouse_config) is read from the same JSON. Cost: one feature-report round
+// trip per 62 compressed bytes (~30 for an Index's ~1.8 kB), O(inflated size) memory.
 #pragma once
 
 #include <cstdint>
 #include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
 
 #include "hmdnode/core/result.hpp"
 #include "hmdnode/hal/transport.hpp"
+#include "hmdnode/hal/transport/usbmon_capture.hpp"
 
 namespace hmdnode {
 
@@ -27,6 +31,25 @@ constexpr size_t kMaxChunks = 4096;  // 248 kB compressed: far beyond any device
 // report id, a chunk length beyond its report, more than kMaxChunks chunks, fewer bytes than the
 // start report announced, a stream zlib cannot inflate or that is cut short.
 Result<std::string> read_lighthouse_config(Transport& transport);
+
+// The same read from a capture that recorded it: device BUS-ADDRESS's feature-report replies
+// (GET_REPORT 0x10, then the 0x11 chunks in capture order), as the capture backend cannot replay
+// them (it answers each id with its first reply). An error when the capture holds no such read.
+Result<std::string> capture_lighthouse_config(const UsbCapture& capture, uint16_t bus,
+                                              uint8_t address);
+
+// The photodiodes of a configuration's `lighthouse_config`: positions and normals in the device
+// frame (metres), and channelMap (model sensor i is raw channel channel_map[i]).
+struct LighthouseSensors {
+    std::vector<glm::dvec3> points;
+    std::vector<glm::dvec3> normals;
+    std::vector<int> channel_map;
+    bool empty() const { return points.empty(); }
+};
+// Absent lighthouse_config: empty. A malformed one (not arrays of 3 numbers, counts that differ,
+// a channel outside 0..255 or repeated) is an error naming the field; `source` names the text.
+Result<LighthouseSensors> parse_lighthouse_sensors(const std::string& json,
+                                                   const std::string& source);
 
 // Which device a configuration describes, for the IMU axes (28de:2300 is an Index's and also a
 // Vive Pro's): from `model_number` (e.g. "Utah MP" on an Index, "VIVE_Pro MV" on a Vive Pro).
