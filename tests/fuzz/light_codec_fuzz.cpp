@@ -63,10 +63,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
             }
             const LightCounters before = dec.counters();
             Status st = dec.decode_report(report);
-            if (!st.ok() && (dec.counters().syncs != before.syncs ||
-                             dec.counters().events != before.events ||
-                             dec.counters().lh1_pulses != before.lh1_pulses ||
-                             dec.counters().lh2_words != before.lh2_words))
+            if (!st.ok() &&
+                (dec.counters().syncs != before.syncs || dec.counters().events != before.events ||
+                 dec.counters().lh1_pulses != before.lh1_pulses ||
+                 dec.counters().lh2_words != before.lh2_words))
                 abort();
             check(dec, m.channel_map.size());
         }

@@ -322,6 +322,19 @@ TEST(LightCodec, TheAngleModelsInvertAndTheirCalibrationPhaseShiftsTheAngle) {
         }
 }
 
+TEST(LightCodec, ReportSlotsCarryingTheDevicesOwnTimeStampsAreSkipped) {
+    LightDecoder dec;
+    const std::vector<Lh1Pulse> slots = {
+        {0xfd, 1000, 0}, {3, 2000, 3000}, {0xfe, 3000, 0}, {0xfb, 4000, 0}, {4, 2010, 2990}};
+    ASSERT_TRUE(dec.decode_report(encode_lh1_report(slots)).ok());
+    EXPECT_EQ(dec.counters().lh1_pulses, 2u);
+    EXPECT_EQ(dec.counters().lh1_device_stamps, 3u);
+    auto r = parse_lh1_report(encode_lh1_report(slots));
+    ASSERT_TRUE(r.ok());
+    EXPECT_EQ(r->count, 2u);
+    EXPECT_EQ(r->pulses[1].sensor, 4);
+}
+
 // ---- Bad reports --------------------------------------------------------------------------------
 
 TEST(LightCodec, ACutOrUnknownReportOrAnOutOfModelSensorIsAnErrorNamingTheByteAndGivesNothing) {

@@ -15,9 +15,11 @@
 //    uses past angles, ours the order of a sensor's hits within a turn);
 //    src/survive_reproject_gen2.c and src/survive_reproject.c (the calibrated angle models);
 //    src/survive_recording.c (the W/B/Y/C/A lines this decoder is compared with).
-//  * Monado's Vive driver (src/xrt/drivers/vive/vive_device.c, the Monado authors, BSL-1.0),
-//    https://gitlab.freedesktop.org/monado/monado: the same report layouts on the HMD's light
-//    endpoint.
+//  * Monado's Vive driver (src/xrt/drivers/vive/vive_device.c, _decode_pulse_report; Philipp
+//    Zabel, Collabora and the Monado authors, BSL-1.0),
+//    https://gitlab.freedesktop.org/monado/monado: report 0x25's nine slots, whose ids 0xfb, 0xfd
+//    (a camera frame) and 0xfe (vsync) are the device's time stamps, not pulses (it only checks the
+//    sizes of 0x27 and 0x28).
 //
 // Cost: O(1) per pulse and word, plus a sort of each lighthouse-1 sync window (its <= 32 pulses)
 // and the OOTX decoder's per-bit and per-frame work (ootx.cpp).
@@ -67,6 +69,15 @@ std::string station_name(Generation g, int n) {
            (g == Generation::lh1 ? " base station " : " channel ") + std::to_string(n);
 }
 
+// Report 0x25 slot ids that are not a sensor: 0xff empty; 0xfb, 0xfd (a camera frame), 0xfe
+// (vsync): the device's time stamps (Monado's _decode_pulse_report).
+bool is_empty_slot(uint8_t id) {
+    return id == 0xff;
+}
+bool is_device_stamp(uint8_t id) {
+    return id == 0xfb || id == 0xfd || id == 0xfe;
+}
+
 int64_t mod(int64_t a, int64_t m) {
     const int64_t r = a % m;
     return r < 0 ? r + m : r;
@@ -92,7 +103,11 @@ Result<Lh1Report> parse_lh1_report(std::span<const uint8_t> b) {
             return make_error("byte " + std::to_string(at) + ": pulse " + std::to_string(i) +
                               " is cut short (" + std::to_string(b.size() - at) + " of 7 bytes)");
         const uint8_t sensor = b[at];
-        if (sensor >= 0xfe) continue;  // an empty slot
+        if (is_empty_slot(sensor)) continue;
+        if (is_device_stamp(sensor)) {
+            ++r.device_stamps;
+            continue;
+        }
         Lh1Pulse& p = r.pulses[r.count++];
         p.sensor = sensor;
         p.length = uint32_t(b[at + 1] | b[at + 2] << 8);
@@ -304,7 +319,9 @@ Status LightDecoder::decode_report(std::span<const uint8_t> report) {
         std::array<uint8_t, kLh1PulsesPerReport> m{};
         size_t slot = 0;
         for (size_t i = 0; i < r->count; ++i) {
-            while (report[1 + kLh1PulseBytes * slot] >= 0xfe) ++slot;  // the pulse's own slot
+            while (is_empty_slot(report[1 + kLh1PulseBytes * slot]) ||
+                   is_device_stamp(report[1 + kLh1PulseBytes * slot]))
+                ++slot;  // the pulse's own slot
             auto s = model_sensor(r->pulses[i].sensor);
             if (!s)
                 return fail("byte " + std::to_string(1 + kLh1PulseBytes * slot) + ": " +
@@ -312,6 +329,7 @@ Status LightDecoder::decode_report(std::span<const uint8_t> report) {
             m[i] = *s;
             ++slot;
         }
+        counters_.lh1_device_stamps += r->device_stamps;
         for (size_t i = 0; i < r->count; ++i) {
             ++counters_.lh1_pulses;
             lh1_pulse({m[i], unwrap(r->pulses[i].start), r->pulses[i].length});

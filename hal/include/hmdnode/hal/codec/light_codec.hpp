@@ -58,10 +58,12 @@ struct Lh1Pulse {
 };
 struct Lh1Report {
     std::array<Lh1Pulse, kLh1PulsesPerReport> pulses{};
-    size_t count = 0;  // slots with a sensor (0xfe and 0xff mark empty slots)
+    size_t count = 0;          // slots with a sensor
+    size_t device_stamps = 0;  // slots with id 0xfb, 0xfd (a camera frame) or 0xfe (vsync)
 };
-// Report 0x25: id + up to nine 7-byte pulses. A cut pulse, or another id, is an error naming the
-// byte.
+// Report 0x25: id + up to nine 7-byte slots. Slot id 0xff is empty; 0xfb, 0xfd and 0xfe carry the
+// device's own time stamps (as Monado reads them), not pulses, and are skipped. A cut slot, or
+// another report id, is an error naming the byte.
 Result<Lh1Report> parse_lh1_report(std::span<const uint8_t> bytes);
 
 struct Lh2Word {
@@ -131,6 +133,7 @@ struct LightCounters {
     uint64_t reports = 0;   // reports given to decode_report
     uint64_t rejected = 0;  // of those, errors (nothing used)
     uint64_t lh1_pulses = 0;
+    uint64_t lh1_device_stamps = 0;  // report 0x25 slots 0xfb/0xfd/0xfe (skipped)
     uint64_t lh2_words = 0;
     uint64_t syncs = 0;   // accepted sync events, both systems
     uint64_t events = 0;  // light events emitted
