@@ -11,6 +11,7 @@
 #include <set>
 #include <vector>
 
+#include <glm/gtc/quaternion.hpp>
 #include <nlohmann/json.hpp>
 
 #include "transport/gunzip.hpp"
@@ -110,14 +111,10 @@ Result<std::string> capture_lighthouse_config(const UsbCapture& capture, uint16_
     return read_lighthouse_config(t);
 }
 
-Result<LighthouseSensors> parse_lighthouse_sensors(const std::string& text,
-                                                   const std::string& source) {
-    nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
-    if (j.is_discarded() || !j.is_object()) return make_error(source + ": not a JSON object");
-    LighthouseSensors s;
-    if (!j.contains("lighthouse_config")) return s;
-    const nlohmann::json& lc = j["lighthouse_config"];
-    const std::string w = source + ": lighthouse_config";
+namespace {
+// The sensor model of a lighthouse_config object (`w` names it in errors).
+Status read_model(const nlohmann::json& lc, const std::string& w, LighthouseSensors* out) {
+    LighthouseSensors& s = *out;
     if (!lc.is_object()) return make_error(w + ": not an object");
     auto points = [&](const char* key, std::vector<glm::dvec3>* out) -> Status {
         if (!lc.contains(key)) return make_error(w + "." + key + ": missing");
@@ -154,6 +151,56 @@ Result<LighthouseSensors> parse_lighthouse_sensors(const std::string& text,
                                   "]: not a distinct channel 0..255");
             s.channel_map.push_back(a[i].get<int>());
         }
+    }
+    return {};
+}
+}  // namespace
+
+Result<LighthouseSensors> parse_lighthouse_sensors(const std::string& text,
+                                                   const std::string& source) {
+    nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+    if (j.is_discarded() || !j.is_object()) return make_error(source + ": not a JSON object");
+    LighthouseSensors s;
+    if (j.contains("lighthouse_config")) {
+        if (Status st = read_model(j["lighthouse_config"], source + ": lighthouse_config", &s); !st)
+            return st.error();
+    }
+    // The head frame: {plus_x, plus_z, position}, else trackref_from_head [qx qy qz qw x y z].
+    auto vec = [](const nlohmann::json& a, glm::dvec3* v) {
+        if (!a.is_array() || a.size() != 3 || !a[0].is_number() || !a[1].is_number() ||
+            !a[2].is_number())
+            return false;
+        *v = glm::dvec3(a[0].get<double>(), a[1].get<double>(), a[2].get<double>());
+        return std::isfinite(v->x) && std::isfinite(v->y) && std::isfinite(v->z);
+    };
+    if (j.contains("head") && j["head"].is_object() && j["head"].contains("plus_x")) {
+        const nlohmann::json& h = j["head"];
+        glm::dvec3 x, z(0, 0, 1), p(0.0);
+        if (!vec(h["plus_x"], &x) || (h.contains("plus_z") && !vec(h["plus_z"], &z)) ||
+            (h.contains("position") && !vec(h["position"], &p)))
+            return make_error(source + ": head: plus_x, plus_z, position: not arrays of 3 numbers");
+        if (std::abs(glm::length(x) - 1) > 0.01 || std::abs(glm::length(z) - 1) > 0.01 ||
+            std::abs(glm::dot(x, z)) > 0.01)
+            return make_error(source + ": head: plus_x and plus_z are not perpendicular unit axes");
+        x = glm::normalize(x);
+        z = glm::normalize(z - glm::dot(z, x) * x);
+        s.model_from_head = glm::dmat3(x, glm::cross(z, x), z);
+        s.head_origin = p;
+    } else if (j.contains("trackref_from_head")) {
+        const nlohmann::json& a = j["trackref_from_head"];
+        bool ok = a.is_array() && a.size() == 7;
+        double v[7] = {};
+        for (size_t i = 0; ok && i < 7; ++i) {
+            ok = a[i].is_number() && std::isfinite(a[i].get<double>());
+            if (ok) v[i] = a[i].get<double>();
+        }
+        const glm::dquat q(v[3], v[0], v[1], v[2]);
+        if (!ok || std::abs(glm::length(q) - 1) > 0.01)
+            return make_error(source +
+                              ": trackref_from_head: not [qx, qy, qz, qw, x, y, z] with a "
+                              "unit quaternion");
+        s.model_from_head = glm::mat3_cast(glm::normalize(q));
+        s.head_origin = glm::dvec3(v[4], v[5], v[6]);
     }
     return s;
 }

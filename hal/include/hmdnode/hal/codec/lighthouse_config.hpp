@@ -38,16 +38,27 @@ Result<std::string> read_lighthouse_config(Transport& transport);
 Result<std::string> capture_lighthouse_config(const UsbCapture& capture, uint16_t bus,
                                               uint8_t address);
 
-// The photodiodes of a configuration's `lighthouse_config`: positions and normals in the device
-// frame (metres), and channelMap (model sensor i is raw channel channel_map[i]).
+// The photodiodes of a configuration's `lighthouse_config`: positions and normals in the device's
+// tracking-reference frame (metres), and channelMap (model sensor i is raw channel
+// channel_map[i]); and where the device's head frame (the frame libsurvive's poses are of) lies in
+// it: p_model = model_from_head * p_head + head_origin, from the `head` object (plus_x, plus_z,
+// position) or `trackref_from_head` ([qx, qy, qz, qw, x, y, z], a Vive HMD's), as libsurvive's
+// solve_vive_pose and vive_json_pose_to_survive_pose read them; identity without either.
 struct LighthouseSensors {
     std::vector<glm::dvec3> points;
     std::vector<glm::dvec3> normals;
     std::vector<int> channel_map;
+    glm::dmat3 model_from_head{1.0};
+    glm::dvec3 head_origin{0.0};
     bool empty() const { return points.empty(); }
+    // A model point in the head frame.
+    glm::dvec3 in_head(const glm::dvec3& p) const {
+        return glm::transpose(model_from_head) * (p - head_origin);
+    }
 };
 // Absent lighthouse_config: empty. A malformed one (not arrays of 3 numbers, counts that differ,
-// a channel outside 0..255 or repeated) is an error naming the field; `source` names the text.
+// a channel outside 0..255 or repeated, a head frame whose axes are not perpendicular unit
+// vectors) is an error naming the field; `source` names the text.
 Result<LighthouseSensors> parse_lighthouse_sensors(const std::string& json,
                                                    const std::string& source);
 
