@@ -1,5 +1,5 @@
-// `hmdnode capture info` and `hmdnode replay --capture` as a user runs them, on the real Vive
-// capture bundled in data/traces and on bad input.
+// `hmdnode capture info` (its light section too) and `hmdnode replay --capture` as a user runs
+// them, on the real Vive capture bundled in data/traces and on bad input.
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
@@ -44,6 +44,20 @@ TEST(CaptureCmd, InfoSummarisesTheRealViveCapture) {
     EXPECT_TRUE(has(r.output, "sequence gaps         5 (171 samples missing)")) << r.output;
     EXPECT_TRUE(has(r.output, "20569 decoded, 0 malformed")) << r.output;
     EXPECT_TRUE(has(r.output, "(0.38 % from g)")) << r.output;
+    // Its light (lighthouse 1): every report decoded, both base stations calibrated.
+    EXPECT_TRUE(
+        has(r.output, "sensor model          32 sensors (the configuration read in the capture)"))
+        << r.output;
+    EXPECT_TRUE(has(r.output, "reports               16311, 0 refused")) << r.output;
+    EXPECT_TRUE(has(r.output, "events                30797 hits, 5376 syncs")) << r.output;
+    EXPECT_TRUE(has(r.output,
+                    "lighthouse 1 base station 0: 2681 syncs, 14721 hits on 12 sensors; "
+                    "calibration: id 0xf77e21f3"))
+        << r.output;
+    EXPECT_TRUE(has(r.output,
+                    "lighthouse 1 base station 1: 2695 syncs, 16076 hits on 15 sensors; "
+                    "calibration: id 0x0aa54f65"))
+        << r.output;
 }
 
 TEST(CaptureCmd, InfoFailsOnMissingOrForeignFiles) {

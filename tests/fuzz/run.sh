@@ -48,11 +48,14 @@ if [ -f "$SRC/data/traces/vive_cal.pcap.gz" ]; then
   gzip -c "$WORK/corpus/usbmon_capture_fuzz/seed.pcap" > "$WORK/corpus/usbmon_capture_fuzz/seed.pcap.gz"
 fi
 
-# Lines of the real libsurvive recording: IMU samples, poses, an option line.
+# Lines of the real libsurvive recording: IMU samples, poses, an option line, light lines (under
+# the 8192 bytes a run reads of an input).
 if [ -f "$SRC/data/traces/compare-test-index.rec.gz" ]; then
   { gzip -dc "$SRC/data/traces/compare-test-index.rec.gz" 2>/dev/null | head -n 600 | tail -n 40
-    gzip -dc "$SRC/data/traces/compare-test-index.rec.gz" 2>/dev/null | grep -m 40 ' T20 i '
+    gzip -dc "$SRC/data/traces/compare-test-index.rec.gz" 2>/dev/null | grep -m 25 ' T20 i '
     gzip -dc "$SRC/data/traces/compare-test-index.rec.gz" 2>/dev/null | grep -m 5 ' T20 POSE '
+    gzip -dc "$SRC/data/traces/compare-test-index.rec.gz" 2>/dev/null | grep -m 30 ' T20 [WBY] '
+    gzip -dc "$SRC/data/traces/compare-test-index.rec.gz" 2>/dev/null | grep -m 2 ' LH_POSE '
   } > "$WORK/corpus/survive_recording_fuzz/seed.rec" || true
 fi
 

@@ -3,15 +3,21 @@
 // ids and rates -- and, for each device hmdnode has a codec for (Vive/Index IMU, Rift DK2/CV1
 // IMU, the reference protocol), the decoded figures: unique samples per second, sequence gaps,
 // malformed/unknown reports, |accel| while still, the fused orientation's drift while still, and
-// the clock offset. Figures and formats: docs/tracking.md.
+// the clock offset; for a Vive/Index-family device with light reports (0x25, 0x28), the light
+// events per base station and sensor and each base station's calibration (OOTX) status.
+// Figures and formats: docs/tracking.md.
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <map>
+#include <set>
 #include <string>
 
 #include <CLI/CLI.hpp>
 
 #include "hmdnode/core/time.hpp"
+#include "hmdnode/hal/codec/light_codec.hpp"
+#include "hmdnode/hal/codec/lighthouse_config.hpp"
 #include "hmdnode/hal/codec/reference_protocol.hpp"
 #include "hmdnode/hal/codec/rift_imu.hpp"
 #include "hmdnode/hal/codec/vive_imu.hpp"
@@ -119,6 +125,73 @@ void print_decoded(const UsbCapture& cap, const CaptureDeviceSummary& d) {
                     sync.drift_ppm(), sync.jitter_ns() / 1e3, (unsigned long long)sync.resets());
 }
 
+// A Vive/Index-family device's light reports (the interrupt-IN endpoints other than the IMU's
+// 0x81 that carry reports 0x25 or 0x28) through the light decoder, its IMU reports giving the tick
+// reference, with the device's sensor model when the capture recorded its configuration read.
+void print_light(const UsbCapture& cap, const CaptureDeviceSummary& d) {
+    std::set<uint8_t> light;  // the endpoints carrying light reports
+    for (const CaptureEndpointSummary& e : d.endpoints)
+        if (e.endpoint != 0x81 && (e.report_ids.count(lighthouse::kLh1ReportId) ||
+                                   e.report_ids.count(lighthouse::kLh2ReportId)))
+            light.insert(e.endpoint);
+    if (light.empty()) return;
+    lighthouse::SensorModel model;
+    std::string model_from = "not in the capture: raw channels 0..31";
+    if (auto json = capture_lighthouse_config(cap, d.bus, d.address)) {
+        auto sensors = parse_lighthouse_sensors(*json, "configuration");
+        if (sensors && !sensors->empty()) {
+            model = {sensors->points.size(), sensors->channel_map};
+            model_from = "the configuration read in the capture";
+        }
+    }
+    lighthouse::LightDecoder dec(model);
+    vive::ImuDecoder imu;
+    std::array<vive::ImuSample, 3> out;
+    std::string first_error;
+    for (const UsbPacket& u : cap.packets) {
+        if (u.bus != d.bus || u.device_address != d.address || !is_interrupt_in_completion(u))
+            continue;
+        if (u.endpoint == 0x81) {
+            const size_t n = u.data[0] == vive::kImuReportId ? imu.decode(u.data, out) : 0;
+            if (n) dec.note_imu_ticks(uint32_t(out[n - 1].ticks));
+            continue;
+        }
+        if (!light.count(u.endpoint)) continue;
+        Status st = dec.decode_report(u.data);
+        if (!st && first_error.empty()) first_error = st.error().message;
+    }
+    dec.finish();
+    std::vector<lighthouse::LightEvent> events;
+    dec.take_events(events);
+    const lighthouse::LightCounters& c = dec.counters();
+    std::printf("    light (lighthouse):\n");
+    std::printf("      sensor model          %zu sensors (%s)\n",
+                model.channel_map.empty() ? model.count : model.channel_map.size(),
+                model_from.c_str());
+    std::printf("      reports               %llu, %llu refused%s%s\n",
+                (unsigned long long)c.reports, (unsigned long long)c.rejected,
+                first_error.empty() ? "" : "; first: ", first_error.c_str());
+    std::printf("      events                %llu hits, %llu syncs\n", (unsigned long long)c.events,
+                (unsigned long long)c.syncs);
+    for (const lighthouse::BaseStationState& s : dec.base_stations()) {
+        std::map<int, uint64_t> per_sensor;
+        for (const lighthouse::LightEvent& e : events)
+            if (e.generation == s.generation && e.base_station == s.base_station)
+                ++per_sensor[e.sensor];
+        std::printf("      %s %s %u: %llu syncs, %llu hits on %zu sensors; %s\n",
+                    lighthouse::generation_name(s.generation),
+                    s.generation == lighthouse::Generation::lh1 ? "base station" : "channel",
+                    unsigned(s.base_station), (unsigned long long)s.syncs,
+                    (unsigned long long)s.events, per_sensor.size(),
+                    dec.calibration_status(s.generation, s.base_station).c_str());
+        std::string line;
+        for (auto [sensor, n] : per_sensor)
+            line += " " + std::to_string(sensor) + ":" + std::to_string(n);
+        if (!line.empty()) std::printf("        hits per sensor%s\n", line.c_str());
+    }
+    for (const std::string& w : dec.take_warnings()) std::printf("      warning: %s\n", w.c_str());
+}
+
 void run_info(const std::string& file, const std::string& device) {
     auto cap = read_usbmon_capture(file);
     if (!cap) return errors.fail(cap.error().message);
@@ -167,6 +240,7 @@ void run_info(const std::string& file, const std::string& device) {
             std::printf("\n");
         }
         if (!d.id_source.empty() && has_codec(d.vendor_id, d.product_id)) print_decoded(*cap, d);
+        if (!d.id_source.empty() && d.vendor_id == vive::kVendorId) print_light(*cap, d);
     }
 }
 

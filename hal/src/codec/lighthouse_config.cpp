@@ -1,10 +1,18 @@
 // Reading a Vive/Index device's JSON configuration over HID feature reports (0x10 start, 0x11
-// chunks, zlib): lighthouse_config.hpp. Cost: one round trip per 62 compressed bytes, O(size).
+// chunks, zlib), live or from a capture that recorded the read, and its sensor model:
+// lighthouse_config.hpp. Cost: one round trip per 62 compressed bytes, O(size).
 #include "hmdnode/hal/codec/lighthouse_config.hpp"
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
+#include <deque>
+#include <map>
+#include <set>
 #include <vector>
+
+#include <glm/gtc/quaternion.hpp>
+#include <nlohmann/json.hpp>
 
 #include "transport/gunzip.hpp"
 
@@ -52,6 +60,149 @@ Result<std::string> read_lighthouse_config(Transport& t) {
         return make_error("configuration read: the zlib stream of " +
                           std::to_string(compressed.size()) + " bytes is cut short");
     return std::string(json->begin(), json->end());
+}
+
+namespace {
+
+// A device's recorded feature-report replies, answered in capture order per report id.
+class RecordedFeatures final : public Transport {
+  public:
+    std::map<uint8_t, std::deque<std::vector<uint8_t>>> replies;
+    DeviceId id() const override { return {}; }
+    Result<std::optional<InputReport>> read_input(int) override {
+        return std::optional<InputReport>();
+    }
+    Result<std::vector<uint8_t>> get_feature(uint8_t report_id, size_t) override {
+        auto it = replies.find(report_id);
+        if (it == replies.end() || it->second.empty())
+            return make_error("the capture holds no further reply to GET_REPORT " +
+                              std::to_string(report_id));
+        std::vector<uint8_t> r = std::move(it->second.front());
+        it->second.pop_front();
+        return r;
+    }
+    Status set_feature(std::span<const uint8_t>) override { return {}; }
+    Status write_output(std::span<const uint8_t>) override { return {}; }
+};
+
+}  // namespace
+
+Result<std::string> capture_lighthouse_config(const UsbCapture& capture, uint16_t bus,
+                                              uint8_t address) {
+    using namespace lighthouse_config;
+    RecordedFeatures t;
+    std::map<uint64_t, uint8_t> asked;  // urb id -> report id of a GET_REPORT(feature) submit
+    for (const UsbPacket& u : capture.packets) {
+        if (u.bus != bus || u.device_address != address || u.transfer_type != 2) continue;
+        // GET_REPORT: bmRequestType 0xA1, bRequest 0x01, wValue = 0x03 (feature) << 8 | id.
+        if (u.event == 'S' && u.setup_present && u.setup[0] == 0xa1 && u.setup[1] == 0x01 &&
+            u.setup[3] == 0x03 && (u.setup[2] == kStartReportId || u.setup[2] == kChunkReportId))
+            asked[u.urb_id] = u.setup[2];
+        if (u.event == 'C' && u.status == 0 && !u.data.empty()) {
+            auto it = asked.find(u.urb_id);
+            if (it == asked.end()) continue;
+            t.replies[it->second].push_back(u.data);
+            asked.erase(it);
+        }
+    }
+    if (t.replies[kStartReportId].empty())
+        return make_error("the capture holds no configuration read (GET_REPORT 0x10) of device " +
+                          std::to_string(bus) + "-" + std::to_string(address));
+    return read_lighthouse_config(t);
+}
+
+namespace {
+// The sensor model of a lighthouse_config object (`w` names it in errors).
+Status read_model(const nlohmann::json& lc, const std::string& w, LighthouseSensors* out) {
+    LighthouseSensors& s = *out;
+    if (!lc.is_object()) return make_error(w + ": not an object");
+    auto points = [&](const char* key, std::vector<glm::dvec3>* out) -> Status {
+        if (!lc.contains(key)) return make_error(w + "." + key + ": missing");
+        const nlohmann::json& a = lc[key];
+        if (!a.is_array()) return make_error(w + "." + key + ": not an array");
+        for (size_t i = 0; i < a.size(); ++i) {
+            const nlohmann::json& v = a[i];
+            if (!v.is_array() || v.size() != 3 || !v[0].is_number() || !v[1].is_number() ||
+                !v[2].is_number())
+                return make_error(w + "." + key + "[" + std::to_string(i) +
+                                  "]: not an array of 3 numbers");
+            glm::dvec3 p(v[0].get<double>(), v[1].get<double>(), v[2].get<double>());
+            if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+                return make_error(w + "." + key + "[" + std::to_string(i) + "]: not finite");
+            out->push_back(p);
+        }
+        return {};
+    };
+    if (Status st = points("modelPoints", &s.points); !st) return st.error();
+    if (Status st = points("modelNormals", &s.normals); !st) return st.error();
+    if (s.normals.size() != s.points.size())
+        return make_error(w + ": " + std::to_string(s.points.size()) + " modelPoints but " +
+                          std::to_string(s.normals.size()) + " modelNormals");
+    if (lc.contains("channelMap")) {
+        const nlohmann::json& a = lc["channelMap"];
+        if (!a.is_array() || a.size() != s.points.size())
+            return make_error(w + ".channelMap: not an array of " +
+                              std::to_string(s.points.size()) + " channels");
+        std::set<int> seen;
+        for (size_t i = 0; i < a.size(); ++i) {
+            if (!a[i].is_number_integer() || a[i].get<int64_t>() < 0 || a[i].get<int64_t>() > 255 ||
+                !seen.insert(a[i].get<int>()).second)
+                return make_error(w + ".channelMap[" + std::to_string(i) +
+                                  "]: not a distinct channel 0..255");
+            s.channel_map.push_back(a[i].get<int>());
+        }
+    }
+    return {};
+}
+}  // namespace
+
+Result<LighthouseSensors> parse_lighthouse_sensors(const std::string& text,
+                                                   const std::string& source) {
+    nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+    if (j.is_discarded() || !j.is_object()) return make_error(source + ": not a JSON object");
+    LighthouseSensors s;
+    if (j.contains("lighthouse_config")) {
+        if (Status st = read_model(j["lighthouse_config"], source + ": lighthouse_config", &s); !st)
+            return st.error();
+    }
+    // The head frame: {plus_x, plus_z, position}, else trackref_from_head [qx qy qz qw x y z].
+    auto vec = [](const nlohmann::json& a, glm::dvec3* v) {
+        if (!a.is_array() || a.size() != 3 || !a[0].is_number() || !a[1].is_number() ||
+            !a[2].is_number())
+            return false;
+        *v = glm::dvec3(a[0].get<double>(), a[1].get<double>(), a[2].get<double>());
+        return std::isfinite(v->x) && std::isfinite(v->y) && std::isfinite(v->z);
+    };
+    if (j.contains("head") && j["head"].is_object() && j["head"].contains("plus_x")) {
+        const nlohmann::json& h = j["head"];
+        glm::dvec3 x, z(0, 0, 1), p(0.0);
+        if (!vec(h["plus_x"], &x) || (h.contains("plus_z") && !vec(h["plus_z"], &z)) ||
+            (h.contains("position") && !vec(h["position"], &p)))
+            return make_error(source + ": head: plus_x, plus_z, position: not arrays of 3 numbers");
+        if (std::abs(glm::length(x) - 1) > 0.01 || std::abs(glm::length(z) - 1) > 0.01 ||
+            std::abs(glm::dot(x, z)) > 0.01)
+            return make_error(source + ": head: plus_x and plus_z are not perpendicular unit axes");
+        x = glm::normalize(x);
+        z = glm::normalize(z - glm::dot(z, x) * x);
+        s.model_from_head = glm::dmat3(x, glm::cross(z, x), z);
+        s.head_origin = p;
+    } else if (j.contains("trackref_from_head")) {
+        const nlohmann::json& a = j["trackref_from_head"];
+        bool ok = a.is_array() && a.size() == 7;
+        double v[7] = {};
+        for (size_t i = 0; ok && i < 7; ++i) {
+            ok = a[i].is_number() && std::isfinite(a[i].get<double>());
+            if (ok) v[i] = a[i].get<double>();
+        }
+        const glm::dquat q(v[3], v[0], v[1], v[2]);
+        if (!ok || std::abs(glm::length(q) - 1) > 0.01)
+            return make_error(source +
+                              ": trackref_from_head: not [qx, qy, qz, qw, x, y, z] with a "
+                              "unit quaternion");
+        s.model_from_head = glm::mat3_cast(glm::normalize(q));
+        s.head_origin = glm::dvec3(v[4], v[5], v[6]);
+    }
+    return s;
 }
 
 LighthouseModel lighthouse_model(const std::string& model_number) {

@@ -1,13 +1,15 @@
 // libsurvive recording reader and replay backend (survive_recording.hpp). The layout read is what
-// libsurvive's recorder (src/survive_recording.c) writes, learnt from its test corpus; the IMU
-// samples are replayed as the Index's own report 0x20 so the codec, the factory calibration, the
-// clock tracking and the fusion are those of a live device. Cost: O(file) time and memory; the
-// JSON parse of one CONFIG line.
+// libsurvive's recorder (src/survive_recording.c, its SWEEP/SYNC/SWEEP_ANGLE formats in
+// survive_recording.h, https://github.com/cntools/libsurvive) writes, learnt from its test
+// corpus; the IMU samples are replayed as the Index's own report 0x20 so the codec, the factory
+// calibration, the clock tracking and the fusion are those of a live device. Cost: O(file) time and
+// memory; the JSON parse of one CONFIG line.
 #include "hmdnode/hal/tracking/survive_recording.hpp"
 
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <iterator>
 #include <optional>
@@ -48,15 +50,134 @@ bool to_whole(std::string_view s, double lo, double hi, double* v) {
     return to_double(s, v) && *v == std::floor(*v) && *v >= lo && *v <= hi;
 }
 
+// A whole number field within [lo, hi], named in the error.
+std::string whole_field(std::string_view tok, const char* name, double lo, double hi, double* v) {
+    if (to_whole(tok, lo, hi, v)) return {};
+    char range[64];
+    std::snprintf(range, sizeof range, "%.0f..%.0f", lo, hi);
+    return std::string(name) + " \"" + std::string(tok) + "\" is not a whole number in " + range;
+}
+
+// The light lines (W B Y C A): fields after TIME DEV KIND.
+std::string parse_light_line(const std::vector<std::string_view>& t, int64_t time_ns,
+                             uint32_t line_no, SurviveRecording* rec) {
+    using K = SurviveLightLine::Kind;
+    struct Shape {
+        char kind;
+        K k;
+        size_t fields;
+        const char* layout;
+    };
+    static const Shape kShapes[] = {
+        {'W', K::sweep, 7, "TIME DEV W CHANNEL SENSOR TIMECODE FLAG"},
+        {'B', K::angle, 8, "TIME DEV B CHANNEL SENSOR TIMECODE PLANE ANGLE"},
+        {'Y', K::sync, 7, "TIME DEV Y CHANNEL TIMECODE OOTX GEN"},
+        {'C', K::pulse, 6, "TIME DEV C SENSOR TIMECODE LENGTH"},
+        {'A', K::lh1_angle, 9, "TIME DEV A SENSOR ACODE TIMECODE LENGTH_S ANGLE LH"},
+    };
+    const Shape* sh = nullptr;
+    for (const Shape& x : kShapes)
+        if (t[2].size() == 1 && t[2][0] == x.kind) sh = &x;
+    if (t.size() != sh->fields)
+        return std::string("a ") + sh->kind + " line has " + std::to_string(sh->fields) +
+               " fields (" + sh->layout + "), this one " + std::to_string(t.size());
+    SurviveLightLine l;
+    l.kind = sh->k;
+    l.line = line_no;
+    l.host_time_ns = time_ns;
+    double v = 0;
+    std::string e;
+    auto field = [&](size_t i, const char* name, double lo, double hi) {
+        if (e.empty()) e = whole_field(t[i], name, lo, hi, &v);
+        return e.empty();
+    };
+    auto angle = [&](size_t i, const char* name, double* out) {
+        if (!e.empty()) return false;
+        if (!to_double(t[i], out) || std::abs(*out) > 10.0)
+            e = std::string(name) + " \"" + std::string(t[i]) + "\" is not an angle in radians";
+        return e.empty();
+    };
+    constexpr double kU32 = 4294967295.0;
+    switch (sh->k) {
+        case K::sweep:
+        case K::angle:
+            if (field(3, "CHANNEL", 0, 15)) l.channel = uint8_t(v);
+            if (field(4, "SENSOR", 0, 255)) l.sensor = uint8_t(v);
+            if (field(5, "TIMECODE", 0, kU32)) l.timecode = uint32_t(v);
+            if (field(6, sh->k == K::sweep ? "FLAG" : "PLANE", 0, 1)) l.flag = uint8_t(v);
+            if (sh->k == K::angle) angle(7, "ANGLE", &l.angle);
+            break;
+        case K::sync:
+            if (field(3, "CHANNEL", 0, 15)) l.channel = uint8_t(v);
+            if (field(4, "TIMECODE", 0, kU32)) l.timecode = uint32_t(v);
+            if (field(5, "OOTX", 0, 1)) l.flag = uint8_t(v);
+            if (field(6, "GEN", 0, 1)) l.gen = uint8_t(v);
+            break;
+        case K::pulse:
+            if (field(3, "SENSOR", 0, 255)) l.sensor = uint8_t(v);
+            if (field(4, "TIMECODE", 0, kU32)) l.timecode = uint32_t(v);
+            if (field(5, "LENGTH", 0, kU32)) l.length = uint32_t(v);
+            break;
+        case K::lh1_angle:
+            if (field(3, "SENSOR", 0, 255)) l.sensor = uint8_t(v);
+            if (field(4, "ACODE", 0, 255)) l.flag = uint8_t(v);
+            if (field(5, "TIMECODE", 0, kU32)) l.timecode = uint32_t(v);
+            if (e.empty() && (!to_double(t[6], &l.length_s) || l.length_s < 0 || l.length_s > 1))
+                e = "LENGTH_S \"" + std::string(t[6]) + "\" is not a pulse length in seconds";
+            angle(7, "ANGLE", &l.angle);
+            if (field(8, "LH", 0, 15)) l.channel = uint8_t(v);
+            break;
+    }
+    if (!e.empty()) return e;
+    rec->light.push_back(l);
+    return {};
+}
+
+// An LH_POSE line (any device field: the base station's number), with or without its id.
+std::string parse_lh_pose(const std::vector<std::string_view>& t, int64_t time_ns,
+                          SurviveRecording* rec) {
+    if (t.size() != 10 && t.size() != 11)
+        return "an LH_POSE line has 10 or 11 fields (TIME N LH_POSE x y z qw qx qy qz [ID]), "
+               "this one " +
+               std::to_string(t.size());
+    double n = 0;
+    if (!to_whole(t[1], 0, 255, &n))
+        return "LH_POSE base station \"" + std::string(t[1]) + "\" is not a number 0..255";
+    double v[7];
+    for (size_t k = 0; k < 7; ++k)
+        if (!to_double(t[3 + k], &v[k]))
+            return "LH_POSE value " + std::to_string(k + 1) + " \"" + std::string(t[3 + k]) +
+                   "\" is not a number";
+    glm::dquat q(v[3], v[4], v[5], v[6]);
+    const double norm = glm::length(q);
+    if (std::abs(norm - 1.0) > 0.01)
+        return "LH_POSE quaternion (qw qx qy qz) has norm " + std::to_string(norm) + ", not 1";
+    SurviveBaseStationPose p{time_ns, int(n), glm::dvec3(v[0], v[1], v[2]), q / norm, {}};
+    if (t.size() == 11) {
+        double id = 0;
+        if (!to_whole(t[10], 0, 4294967295.0, &id))
+            return "LH_POSE ID \"" + std::string(t[10]) + "\" is not a 32-bit id";
+        p.id = uint32_t(id);
+    }
+    rec->base_station_poses.push_back(p);
+    return {};
+}
+
+bool is_light_kind(std::string_view k) {
+    return k == "W" || k == "B" || k == "Y" || k == "C" || k == "A";
+}
+
 // Parses one line of a kind read into rec; an error message (without the location) when it is
 // malformed.
 std::string parse_line(const std::vector<std::string_view>& t, std::string_view line,
-                       SurviveRecording* rec) {
+                       const std::string& source, uint32_t line_no, SurviveRecording* rec) {
     double time_s = 0;
     if (!to_double(t[0], &time_s) || time_s < 0)
         return "TIME \"" + std::string(t[0]) + "\" is not a non-negative number";
     const int64_t time_ns = std::llround(time_s * 1e9);
     const std::string_view kind = t[2];
+    if (kind == "LH_POSE") return parse_lh_pose(t, time_ns, rec);
+    if (is_light_kind(kind)) return parse_light_line(t, time_ns, line_no, rec);
     if (kind == "i") {
         if (t.size() != 15)
             return "an IMU line (i) has 15 fields (TIME DEV i MASK TICK ax ay az gx gy gz mx my mz "
@@ -100,11 +221,23 @@ std::string parse_line(const std::vector<std::string_view>& t, std::string_view 
     // CONFIG: the rest of the line after the kind is the device's JSON.
     const size_t at = size_t(kind.data() + kind.size() - line.data());
     const std::string json(line.substr(at));
-    auto cal = parse_imu_calibration_json(json, "CONFIG");
-    if (!cal) return cal.error().message;
-    rec->has_config = true;
-    rec->calibration = *cal;
     auto j = nlohmann::json::parse(json, nullptr, false);
+    if (j.is_discarded() || !j.is_object()) return "CONFIG: not a JSON object";
+    auto sensors = parse_lighthouse_sensors(json, "CONFIG");
+    if (!sensors) return sensors.error().message;
+    rec->sensors = std::move(*sensors);
+    if (j.contains("imu")) {
+        auto cal = parse_imu_calibration_json(json, "CONFIG");
+        if (!cal) return cal.error().message;
+        rec->has_config = true;
+        rec->calibration = *cal;
+    } else {
+        // A Vive HMD's configuration keeps its IMU calibration elsewhere (top-level acc_bias ...,
+        // trackref_from_imu), which is not read: its IMU is decoded without it.
+        rec->warnings.push_back(source + ":" + std::to_string(line_no) +
+                                ": CONFIG has no \"imu\" object (the factory IMU calibration); "
+                                "the IMU is decoded without one (its light model is read)");
+    }
     if (j.is_object() && j.contains("model_number") && j["model_number"].is_string())
         rec->model = j["model_number"].get<std::string>();
     return {};
@@ -252,15 +385,17 @@ Result<SurviveRecording> parse_survive_recording(const std::string& text, const 
         ++line_no;
         ++rec.lines;
         const auto t = tokens(line, 16);
-        const bool read_kind = t.size() >= 3 && (t[2] == "i" || t[2] == "POSE" || t[2] == "CONFIG");
+        const bool lh_pose = t.size() >= 3 && t[2] == "LH_POSE";
+        const bool read_kind = t.size() >= 3 && (t[2] == "i" || t[2] == "POSE" ||
+                                                 t[2] == "CONFIG" || is_light_kind(t[2]));
         if (read_kind &&
             std::find(rec.devices.begin(), rec.devices.end(), t[1]) == rec.devices.end())
             rec.devices.emplace_back(t[1]);
-        if (!read_kind || t[1] != device) {
+        if (!lh_pose && (!read_kind || t[1] != device)) {
             ++rec.other_lines;
             continue;
         }
-        std::string err = parse_line(t, line, &rec);
+        std::string err = parse_line(t, line, source, uint32_t(line_no), &rec);
         if (err.empty()) continue;
         const std::string where = source + ":" + std::to_string(line_no) + ": ";
         if (cut) {
@@ -292,9 +427,22 @@ Result<SurviveRecording> read_survive_recording(const std::filesystem::path& pat
         auto r = gunzip(bytes, &truncated);
         if (!r) return make_error(path.string() + ": " + r.error().message);
         text.assign(r->begin(), r->end());
-        if (truncated)
-            warnings.push_back(path.string() + ": gzip: truncated stream, " +
-                               std::to_string(text.size()) + " bytes inflated");
+        if (truncated) {
+            // Where it stopped: the last whole line's number and TIME.
+            const size_t end = text.rfind('\n');
+            const size_t lines = size_t(std::count(text.begin(), text.end(), '\n'));
+            std::string at;
+            if (end != std::string::npos && end > 0) {
+                const size_t prev = text.rfind('\n', end - 1);
+                const size_t begin = prev == std::string::npos ? 0 : prev + 1;
+                const auto t = tokens(std::string_view(text).substr(begin, end - begin), 1);
+                at = ", the last whole line is " + std::to_string(lines) +
+                     (t.empty() ? std::string() : " (TIME " + std::string(t[0]) + ")");
+            }
+            warnings.push_back(path.string() + ": gzip: the stream is cut short; " +
+                               std::to_string(text.size()) + " bytes inflated" + at +
+                               "; the rest of the recording is lost");
+        }
     } else {
         text.assign(bytes.begin(), bytes.end());
     }
@@ -302,6 +450,31 @@ Result<SurviveRecording> read_survive_recording(const std::filesystem::path& pat
     if (!rec) return rec;
     rec->warnings.insert(rec->warnings.begin(), warnings.begin(), warnings.end());
     return rec;
+}
+
+lighthouse::SensorModel survive_sensor_model(const SurviveRecording& rec) {
+    lighthouse::SensorModel m;
+    if (!rec.sensors.empty()) {
+        m.count = rec.sensors.points.size();
+        m.channel_map = rec.sensors.channel_map;
+    }
+    return m;
+}
+
+Status replay_survive_light(const SurviveRecording& rec, lighthouse::LightDecoder& decoder) {
+    using K = SurviveLightLine::Kind;
+    for (const SurviveLightLine& l : rec.light) {
+        Status st;
+        if (l.kind == K::sweep)
+            st = decoder.add_lh2_sweep(l.channel, l.sensor, l.timecode, l.flag != 0);
+        else if (l.kind == K::sync)
+            st = decoder.add_lh2_sync(l.channel, l.timecode, l.flag != 0, l.gen != 0);
+        else if (l.kind == K::pulse)
+            st = decoder.add_lh1_pulse(l.sensor, l.timecode, l.length);
+        if (!st) return make_error("line " + std::to_string(l.line) + ": " + st.error().message);
+    }
+    decoder.finish();
+    return {};
 }
 
 std::unique_ptr<TransportBackend> create_survive_backend(

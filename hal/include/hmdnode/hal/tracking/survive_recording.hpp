@@ -10,6 +10,15 @@
 //   TIME DEV CONFIG {json}                                  the device's factory configuration
 //   TIME DEV POSE x y z qw qx qy qz                          lighthouse-solved pose (libsurvive's
 //                                                           world, z up; the object's frame)
+//   TIME DEV W CHANNEL SENSOR TIMECODE FLAG                 lighthouse-2 sweep hit (SENSOR: the
+//                                                           model's index; FLAG: a half tick)
+//   TIME DEV B CHANNEL SENSOR TIMECODE PLANE ANGLE          libsurvive's angle of that hit (rad)
+//   TIME DEV Y CHANNEL TIMECODE OOTX GEN                    lighthouse-2 sync, one per rotor turn
+//   TIME DEV C SENSOR TIMECODE LENGTH                       lighthouse-1 pulse (raw channel)
+//   TIME DEV A SENSOR ACODE TIMECODE LENGTH_S ANGLE LH      libsurvive's lighthouse-1 angle (rad)
+//   TIME CH LH_POSE x y z qw qx qy qz [ID]                  a base station's pose (any device
+//                                                           field: the channel / number)
+// The light lines feed lighthouse::LightDecoder (codec/light_codec.hpp) in file order.
 // Every other line is counted and skipped. A malformed line of a kind read is an error naming the
 // file and line, except a cut last line (a recorder stopped mid-write), which is skipped with a
 // warning. Cost: O(file) time and memory.
@@ -19,6 +28,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,6 +37,8 @@
 
 #include "hmdnode/core/result.hpp"
 #include "hmdnode/core/time.hpp"
+#include "hmdnode/hal/codec/light_codec.hpp"
+#include "hmdnode/hal/codec/lighthouse_config.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
 #include "hmdnode/hal/transport.hpp"
 
@@ -46,16 +58,43 @@ struct SurvivePose {
     glm::dquat orientation{1, 0, 0, 0};  // object-to-world
 };
 
+// One light line of the device (see above), in file order.
+struct SurviveLightLine {
+    enum class Kind : uint8_t { sweep, angle, sync, pulse, lh1_angle };  // W B Y C A
+    Kind kind = Kind::sweep;
+    uint32_t line = 0;  // 1-based line number in the file
+    int64_t host_time_ns = 0;
+    uint8_t channel = 0;    // W B Y: lighthouse-2 channel; A: base station (LH)
+    uint8_t sensor = 0;     // W B A: model index; C: raw channel
+    uint32_t timecode = 0;  // 48 MHz, the device's 32-bit clock
+    uint8_t flag = 0;       // W: half tick; B: plane; Y: OOTX bit; A: ACODE
+    uint8_t gen = 0;        // Y
+    uint32_t length = 0;    // C: ticks
+    double angle = 0;       // B A: radians
+    double length_s = 0;    // A
+};
+
+struct SurviveBaseStationPose {
+    int64_t host_time_ns = 0;
+    int number = 0;  // libsurvive's: the lighthouse-2 channel, or the lighthouse-1 index
+    glm::dvec3 position{0.0};
+    glm::dquat orientation{1, 0, 0, 0};  // base station to world
+    std::optional<uint32_t> id;          // its OOTX id, when the line carries it
+};
+
 struct SurviveRecording {
     std::string device;  // e.g. "T20"
     std::vector<SurviveImuLine> imu;
     std::vector<SurvivePose> poses;
+    std::vector<SurviveLightLine> light;
+    std::vector<SurviveBaseStationPose> base_station_poses;  // every LH_POSE line
+    LighthouseSensors sensors;  // CONFIG's lighthouse_config (empty when none)
     bool has_config = false;
     ImuCalibration calibration;        // from the device's CONFIG (identity when none)
     std::string model;                 // CONFIG's model_number, when present
     uint64_t lines = 0;                // lines read
     uint64_t other_lines = 0;          // lines of other kinds or devices, skipped
-    std::vector<std::string> devices;  // every device name with i/POSE/CONFIG lines, in order
+    std::vector<std::string> devices;  // every device name with lines of a kind read, in order
     std::vector<std::string> warnings;
 };
 
@@ -72,6 +111,16 @@ Result<SurviveRecording> parse_survive_recording(const std::string& text, const 
 // device frame; the `head` object's plus_x / plus_z give the head frame in the same device frame).
 Result<ImuCalibration> parse_imu_calibration_json(const std::string& json,
                                                   const std::string& source);
+
+// The recording's device model for the light decoder (CONFIG's lighthouse_config; without one, 32
+// sensors, raw channel = index).
+lighthouse::SensorModel survive_sensor_model(const SurviveRecording& rec);
+
+// Feeds the recording's light input, in file order, to `decoder`: W (sweeps) and Y (syncs) lines
+// as lighthouse-2 events, C lines as lighthouse-1 pulses; B and A lines are libsurvive's own
+// angles, not input. Then finish(). A line the decoder refuses (a sensor beyond the model) is an
+// error naming the line.
+Status replay_survive_light(const SurviveRecording& rec, lighthouse::LightDecoder& decoder);
 
 // A backend with one device (28de:2300, product "Valve Index (libsurvive recording DEV)") whose
 // input reports are Vive/Index reports 0x20 built from the recording's IMU lines, one new sample
