@@ -8,7 +8,9 @@
 #
 # usage: run.sh LANE_BINARY DEMO_SCENE [WORK_DIR]
 # environment: HMDNODE_KERNEL_LANE_ACCEL=tcg|auto|kvm (default tcg); HMDNODE_RENDERER,
-# LP_NUM_THREADS, GALLIUM_DRIVER and LP_NATIVE_VECTOR_WIDTH are passed on to the guest's lane.
+# LP_NUM_THREADS, GALLIUM_DRIVER and LP_NATIVE_VECTOR_WIDTH are passed on to the guest's lane;
+# HMDNODE_LANE_RENDERERS (build_initramfs.sh); HMDNODE_WRITE_DOCS=1: when the lane passes, writes
+# docs/results/kernel-lane.md (one row per line of the lane: wall time and qemu's CPU time).
 set -u
 here=$(cd "$(dirname "$0")" && pwd)
 usage="usage: run.sh LANE_BINARY DEMO_SCENE [WORK_DIR]"
@@ -16,6 +18,8 @@ lane=${1:?$usage}
 scene=${2:?$usage}
 work=${3:-${TMPDIR:-/tmp}/hmdnode-kernel-lane}
 mkdir -p "$work"
+src=$(cd "$here/../.." && pwd)
+write_docs=${HMDNODE_WRITE_DOCS:-0}
 
 skip() {
     echo "kernel lane SKIPPED: $*"
@@ -32,8 +36,8 @@ kernel_lane_host || skip "$kernel_lane_missing"
 # read/writable. A /dev/kvm without it (this build machine's is kvm_pvm, which runs only PVM guest
 # kernels natively) runs Debian's kernel through KVM's instruction emulator: 40 s to the first
 # printk, then an emulation failure on cmpxchg16b (docs/hardware.md). Under KVM the target "0
-# missed vsyncs over 300 live flips" is checked (below); under TCG, where a frame takes ~200 ms of
-# host CPU, the figures are printed, not checked. TCG is the default: the KVM path has not yet run
+# missed vsyncs over 300 live flips" is checked (below); under TCG, where a frame takes many
+# periods of host CPU, the figures are printed, not checked. TCG is the default: the KVM path has not yet run
 # on a machine with hardware virtualization, so a test run opts in (auto or kvm) rather than a CI
 # runner that happens to expose /dev/kvm taking an unproven path.
 accel=${HMDNODE_KERNEL_LANE_ACCEL:-tcg}
@@ -63,7 +67,58 @@ for v in HMDNODE_RENDERER LP_NUM_THREADS GALLIUM_DRIVER LP_NATIVE_VECTOR_WIDTH; 
     esac
 done
 
+# docs/results/kernel-lane.md from this run (HMDNODE_WRITE_DOCS=1, after a pass).
+write_result() {
+    kernel_lane_wait_samples "$work/samples"
+    command="HMDNODE_WRITE_DOCS=1"
+    for v in HMDNODE_KERNEL_LANE_ACCEL HMDNODE_LANE_RENDERERS HMDNODE_RENDERER LP_NUM_THREADS \
+        GALLIUM_DRIVER LP_NATIVE_VECTOR_WIDTH; do
+        val=$(printenv "$v") && [ -n "$val" ] && command="$command $v=$val"
+    done
+    command="$command tests/kernel_lane/run.sh $(kernel_lane_in_tree "$src" "$lane")"
+    command="$command $(kernel_lane_in_tree "$src" "$scene") $(kernel_lane_in_tree "$src" "$work")"
+    # The renderers the lane created, e.g. "llvmpipe (LLVM 15.0.6, 256 bits) (gles)".
+    renderer=$(tr -d '\r' <"$log" | sed -n 's/^\[ *[0-9.]* s\] ok   [^:]*renderer[^:]*: \(gles\|vulkan\), \(.*\), [0-9.]* s$/\2 (\1)/p' |
+        paste -sd ';' - | sed 's/;/; /g')
+    body="$work/kernel-lane.body"
+    {
+        echo "Settings: the lane as \`ctest -L kernel\` runs it (\`HMDNODE_WRITE_DOCS=1 ctest --test-dir"
+        echo "build/release -L kernel\` writes this file and [package-boot.md](package-boot.md)): qemu"
+        echo "\`$qemu_accel -m 2048 -smp 2\`, \`bochs-display\` 320x240 at 60 Hz, the lane's KMS runs with the"
+        echo "${HMDNODE_LANE_RENDERERS:-gles} renderer's frames${guest_env:+, guest environment$guest_env}. The guest's vCPUs share the host's"
+        echo "cores with whatever else runs there: compare the rows of this table, not tables of different"
+        echo "runs. run.sh: PASS in $wall s wall${live_summary:+; $live_summary}."
+        echo
+        echo "| step | result | wall (s) | CPU (s) | figures |"
+        echo "|---|---|---|---|---|"
+        echo "$prepared $start $cpu_prepared $cpu_start $(basename "$kernel")${bios:+ with qboot}" |
+            awk '{ t = $1 - $2; c = $3 - $4; $1 = $2 = $3 = $4 = ""; sub(/^ +/, "")
+                   printf "| the boot image and the initramfs, on the host | ok | %.2f | %.1f | %s |\n", t, c, $0 }'
+        kernel_lane_rows "$work/samples" "$log" "$steps" \
+            's/^hmdnode kernel lane: \(.*\)/0\t-\thmdnode kernel lane: \1/p
+             s/^\[ *\([0-9.]*\) s\] \(ok\|info\|FAIL\) *\(.*\)/\1\t\2\t\3/p
+             s/^HMDNODE_KERNEL_LANE: \(.*\)/-\t\1\tthe lane'"'"'s result marker/p' \
+            "$up_start" "$up_end" "$(echo "$cpu_end $cpu_prepared" | awk '{ printf "%.2f", $1 - $2 }')" |
+            sed "s|$src/||g"
+        echo "$end $start $cpu_end $cpu_start" | awk '{ printf "| the whole lane | PASS | %.2f | %.1f | - |\n", $1 - $2, $3 - $4 }'
+        echo
+        echo "step: one row per line the lane program printed in the guest (its checks, \`ok\` or \`FAIL\`,"
+        echo "and its figures, \`info\`; the text before the first \`: \` outside parentheses), after a row for"
+        echo "the boot image and initramfs on the host and one for the boot, before one for the power-off and"
+        echo "one for the whole lane. wall: seconds from the row above, from the lane's own timestamps where"
+        echo "both rows have one, else from the host's clock when the line reached the serial log (sampled"
+        echo "every 0.25 s). CPU: qemu's user + system CPU time over the row, all its threads, from"
+        echo "\`/proc/PID/stat\` sampled every 0.25 s (a row shorter than that may show the CPU of rows before"
+        echo "it), which moves less with the host's other load than wall time does; on the first row, the"
+        echo "host commands'. figures: the rest of the line -- flips, vsyncs, render, warp and frame times as"
+        echo "the lane measured them in the guest."
+    } >"$body"
+    kernel_lane_write_result "$src" kernel-lane "The real-kernel lane in a qemu guest" "$command" "$renderer" "$body"
+}
+
 start=$(date +%s.%N)
+kernel_lane_cpu_now "$work/times"
+cpu_start=$kernel_lane_cpu
 
 # The ELF vmlinux with qboot where it can be extracted, else the bzImage (tests/kernel_lane/lib.sh).
 kernel_lane_boot_image "$vmlinuz" "$kver" "$work"
@@ -72,14 +127,28 @@ initrd="$work/initramfs-$kver.cpio"
 "$here/build_initramfs.sh" "$lane" "$scene" "$initrd" "$kver" || { echo "kernel lane: building the initramfs failed"; exit 1; }
 
 log="$work/serial.log"
+prepared=$(date +%s.%N)
+kernel_lane_cpu_now "$work/times"
+cpu_prepared=$kernel_lane_cpu
+# The lines the results file's rows are made of (kernel_lane_rows): the lane's first line, one per
+# check or figure, its result marker.
+steps='^(hmdnode kernel lane: |\[ *[0-9.]+ s\] |HMDNODE_KERNEL_LANE: )'
+rm -f "$work/qemu.pid" "$log"
+: >"$log"
+[ "$write_docs" = 1 ] && kernel_lane_sample "$work/qemu.pid" "$log" "$steps" "$work/samples"
+read -r up_start _ </proc/uptime
 # shellcheck disable=SC2086
 timeout 150 qemu-system-x86_64 $qemu_accel -m 2048 -smp 2 -nodefaults -no-user-config \
     -display none -serial stdio -no-reboot $bios -kernel "$kernel" -initrd "$initrd" \
     -device bochs-display,edid=on,xres=320,yres=240,refresh_rate=60000 \
     -virtfs local,path=/,mount_tag=host,security_model=none,readonly=on,multidevs=remap \
-    -append "console=ttyS0 quiet panic=-1 mitigations=off$guest_env$live_flips" </dev/null >"$log" 2>&1
+    -pidfile "$work/qemu.pid" \
+    -append "console=ttyS0 quiet panic=-1 mitigations=off$guest_env$live_flips" </dev/null >>"$log" 2>&1
 qemu_status=$?
+read -r up_end _ </proc/uptime
 end=$(date +%s.%N)
+kernel_lane_cpu_now "$work/times"
+cpu_end=$kernel_lane_cpu
 tr -d '\r' <"$log" | grep -v '^$' | sed 's/^/guest| /'
 wall=$(echo "$end $start" | awk '{ printf "%.1f", $1 - $2 }')
 if [ $qemu_status -eq 124 ]; then
@@ -92,11 +161,13 @@ fi
 # copy's with HMDNODE_LANE_RENDERERS=vulkan; the last such line counts.
 live=$(tr -d '\r' <"$log" | grep -a -E 'info KMS (GBM )?live .*pacing' | tail -n 1)
 live_ok=1
+live_summary=""
 if [ -n "$live" ]; then
     # shellcheck disable=SC2046 # the five numbers, split on purpose
     set -- $(echo "$live" | sed -n 's/.*at \([0-9.]*\) Hz.*; \([0-9]*\) of \([0-9]*\) presents missed their vsync; \([0-9]*\) of \([0-9]*\) vsyncs showed no new frame.*/\1 \2 \3 \4 \5/p')
     if [ $# -eq 5 ]; then
-        echo "kernel lane ($accel): live frames at $1 Hz: $4 missed vsyncs over $3 flips ($5 vsyncs from the first flip to the last; $2 presents late)"
+        live_summary="live frames at $1 Hz: $4 missed vsyncs over $3 flips ($5 vsyncs from the first flip to the last; $2 presents late)"
+        echo "kernel lane ($accel): $live_summary"
         if [ "$accel" = kvm ]; then
             if [ "$3" -lt 300 ]; then
                 echo "kernel lane: the target needs 300 live flips and the lane ran $3 (HMDNODE_KERNEL_LANE_LIVE_FLIPS not taken)"
@@ -118,6 +189,7 @@ elif [ "$accel" = kvm ]; then
 fi
 if [ $live_ok -eq 1 ] && grep -q "HMDNODE_KERNEL_LANE: PASS" "$log" && grep -q "HMDNODE_KERNEL_LANE_EXIT: 0" "$log"; then
     echo "kernel lane PASSED in $wall s wall ($accel, kernel $kver, $(basename "$kernel"))"
+    [ "$write_docs" = 1 ] && { write_result || exit 1; }
     exit 0
 fi
 echo "kernel lane FAILED (wall $wall s): no PASS marker from the guest; serial log: $log"
