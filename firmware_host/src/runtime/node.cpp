@@ -28,6 +28,7 @@
 #include "hmdnode/firmware_host/node.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <chrono>
 #include <cmath>
 
@@ -123,6 +124,8 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
     ladder_ = PixelLadder(
         make_ladder(chromatic && config.distortion, std::clamp(config.min_render_scale, 0.1, 1.0)),
         config.pixel_ladder, config.pacing);
+    // Both eyes have a panel mesh and a render field; the frame loop reads into read_buf_.
+    assert(!mesh_[0].vertices.empty() && !mesh_[1].vertices.empty() && !read_buf_.empty());
 }
 
 HeadsetProfile NodeRuntime::pass_profile() const {
@@ -159,6 +162,10 @@ void NodeRuntime::adopt_objects(const Scene& scene) {
             level_errors_[i].push_back(l.geometric_error_m);
             level_triangles_[i].push_back(l.triangles);
         }
+    // One list of level errors and triangle counts per object, one entry per level.
+    for (size_t i = 0; i < objects_.size(); ++i)
+        assert(level_errors_[i].size() == objects_[i].levels.size() &&
+               level_triangles_[i].size() == objects_[i].levels.size());
     rebuild_selector();
     // A new scene starts without transitions: its objects are not the old ones.
     fade_ = LodCrossFade(objects_.size(), config_.lod_fade_frames);
@@ -272,12 +279,14 @@ bool NodeRuntime::tracker_finished() const {
 void NodeRuntime::drain_tracker() {
     for (;;) {
         size_t n = tracker_->read(read_buf_);
+        assert(n <= read_buf_.size());  // a tracker fills at most the span it is given
         for (size_t i = 0; i < n; ++i) history_.push(read_buf_[i]);
         if (n < read_buf_.size()) break;
     }
     if (!eye_tracker_) return;
     for (;;) {
         size_t n = eye_tracker_->read(gaze_buf_);
+        assert(n <= gaze_buf_.size());
         if (n > 0) gaze_ = gaze_buf_[n - 1];
         if (n < gaze_buf_.size()) break;
     }
@@ -306,6 +315,7 @@ StereoViews NodeRuntime::views_for(const Pose& head) const {
 }
 
 Pose NodeRuntime::predict(int64_t photon_time_ns) const {
+    assert(!history_.empty());  // the frame loop predicts once the tracker gave a sample
     Pose head = config_.predict ? history_.pose_at(photon_time_ns + prediction_offset_ns_)
                                 : history_.pose_at(history_.newest_time_ns());
     // Recentred (identity until recentre()): the heading turned, the position moved.
@@ -387,7 +397,10 @@ uint64_t NodeRuntime::select_and_sort(const Pose& head, const StereoViews& views
                                           cost_fit_.per_triangle_ms(), b.budget_ms, allocated_)
                 : allocator_.allocate(candidates_, cost_fit_.base_ms(), cost_fit_.per_triangle_ms(),
                                       b.budget_ms, allocated_);
+        assert(allocated_.size() == candidates_.size());  // a level per candidate
         for (size_t k = 0; k < candidate_objects_.size(); ++k) {
+            assert(allocated_[k] >= 0 &&
+                   size_t(allocated_[k]) < objects_[candidate_objects_[k]].levels.size());
             rec->levels[candidate_objects_[k]] = allocated_[k];
             allocated_levels_[candidate_objects_[k]] = allocated_[k];
         }
@@ -410,6 +423,10 @@ uint64_t NodeRuntime::select_and_sort(const Pose& head, const StereoViews& views
         open_fade_.pops += step.popped;
         order_.emplace_back(glm::length(o.bounds_center - head.position) - o.bounds_radius, i);
     }
+    // One record per object; the candidates are the objects not culled, each with its entry.
+    assert(rec->levels.size() == objects_.size() &&
+           candidates_.size() == candidate_objects_.size() &&
+           order_.size() == candidate_objects_.size());
     // Front to back: nearest first saves fill on lavapipe.
     std::sort(order_.begin(), order_.end());
     draws_.clear();
@@ -423,6 +440,8 @@ uint64_t NodeRuntime::select_and_sort(const Pose& head, const StereoViews& views
             draw_triangles_.push_back(l.triangles);
         }
     }
+    // One triangle count per draw, and together the frame's triangles.
+    assert(draws_.size() == draw_triangles_.size());
     return triangles;
 }
 
@@ -541,6 +560,7 @@ Result<FrameCostModel> NodeRuntime::calibrate_frame_cost(const std::function<boo
 }
 
 Result<int64_t> NodeRuntime::time_warps(int n, const std::function<bool()>& go_on) {
+    assert(n >= 1);
     std::vector<int64_t> t;
     for (int i = 0; i < n + 2; ++i) {
         if (go_on && !go_on()) return make_error("frame cost calibration stopped");
@@ -560,6 +580,9 @@ Status NodeRuntime::warp_and_present(int64_t target, int64_t warp_est, FrameReco
     const int64_t margin = pacer_.margin();
     // The planned end of the warp: the margin before the latch.
     const int64_t planned_end = target - info.latch_margin_ns - margin;
+    // The schedule runs forward: the warp is planned to end before its target vsync.
+    assert(rec != nullptr && margin >= 0 && info.latch_margin_ns >= 0 && planned_end <= target);
+    assert(warp_est >= 0);
     if (!early) clock_.sleep_until_ns(planned_end - warp_est);
     const int64_t warp_start = clock_.now_ns();
     Pose shown = frame_pose_;
@@ -650,9 +673,11 @@ void NodeRuntime::plan_levers() {
         bottom_warp = c == chromatic_now ? warp_est : ladder_.warp_cost(c, warp_est);
     }
     b.divisor = pacer_.choose_divisor(bottom_render, bottom_warp);
+    assert(bottom >= 0 && b.divisor >= 1);
     b.available_ns = int64_t(b.divisor) * info.period_ns - info.latch_margin_ns;
     const int before = ladder_.step();
     ladder_.choose(b, render_p);
+    assert(ladder_.step() >= 0 && ladder_.step() <= bottom);
     // The estimates of what changed start again from the step's learned cost. (The scale can
     // change without a step: a frame found not bound by its pixels renders at full resolution.)
     const double scale = ladder_.effective_scale();
