@@ -9,6 +9,7 @@
 // paper does for colour; texels outside the mask are neither read nor written. Cost: O(25 x
 // iterations x texels) time, one copy of the map.
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <vector>
 
@@ -20,6 +21,12 @@ void atrous_denoise(std::vector<glm::vec3>& texels, const std::vector<uint8_t>& 
                     const std::vector<glm::vec3>& normals, const std::vector<glm::vec3>& positions,
                     const std::vector<float>& stddev, int width, int height, int iterations,
                     float sigma_position_m, float sigma_luminance) {
+    [[maybe_unused]] const size_t n = size_t(width) * size_t(height);
+    assert(width >= 0 && height >= 0 && texels.size() == n && mask.size() == n);
+    assert(normals.size() == n && positions.size() == n && stddev.size() == n);
+    // The step 2^i of the last pass must fit an int; the sigmas scale weights.
+    assert(iterations >= 0 && iterations < 31 && sigma_position_m >= 0.0f &&
+           sigma_luminance >= 0.0f);
     static const float kernel[5] = {1.0f / 16, 1.0f / 4, 3.0f / 8, 1.0f / 4, 1.0f / 16};
     const float inv_sp2 = 1.0f / std::max(1e-12f, sigma_position_m * sigma_position_m);
     auto lum = [](const glm::vec3& c) { return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b; };

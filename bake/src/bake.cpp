@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cassert>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -53,6 +54,7 @@ float luminance(const glm::vec3& c) {
 // bake applies it to the indirect part of each path; at factor 8 its bias in the furnace is
 // <= 0.1 % (Bake.FireflyClampBiasIsUnderHalfAPercentInTheFurnace; factor 4: up to 2.3 %).
 void clamp_fireflies(std::vector<glm::vec3>& values, float factor) {
+    assert(values.size() >= 2 && factor > 0.0f);  // the mean of the others needs one other
     size_t brightest = 0;
     double total = 0.0;
     for (size_t i = 0; i < values.size(); ++i) {
@@ -74,6 +76,7 @@ struct Moments {
     double var = 0.0;
 };
 Moments moments(const std::vector<glm::vec3>& values) {
+    assert(!values.empty());
     Moments m;
     double l1 = 0.0, l2 = 0.0;
     for (const glm::vec3& v : values) {
@@ -291,6 +294,8 @@ void trace_texel_paths(const BakeContext& ctx, const TexelRaster& r, uint32_t b,
     const BakeOptions& options = ctx.options;
     const int samples = options.samples;
     const bool clamp = options.firefly_factor > 0.0f && samples >= 4;
+    // A valid texel's visible samples: at least one, within the raster.
+    assert(samples >= 1 && b < e && e <= r.samples.size() && texel < t.rays.size());
     Pcg32 rng(options.seed, mix(mi + 1, texel));
     uint64_t rc = 0;
     thread_local std::vector<glm::vec3> dv, iv, sp, sn;
@@ -337,11 +342,16 @@ void trace_texel_paths(const BakeContext& ctx, const TexelRaster& r, uint32_t b,
 void trace_map(const BakeContext& ctx, const TexelRaster& r, const std::vector<uint32_t>& visible,
                size_t mi, BakedMap& map, TexelTrace& t) {
     const size_t n = size_t(r.width) * r.height;
+    assert(r.first.size() == n + 1 && r.first.back() == r.samples.size());
+    assert(map.valid.size() == n && t.normals.size() == n &&
+           (visible.empty() || visible.size() == n));
     map.raw.assign(n, glm::vec3(0.0f));
     const int samples = ctx.options.samples;
     parallel_for(n, ctx.options.threads, 16, [&](size_t texel, int thread) {
         const uint32_t b = r.first[texel], e_all = r.first[texel + 1];
+        assert(b <= e_all);  // CSR offsets rise
         if (b == e_all) return;
+        assert(visible.empty() || visible[texel] <= e_all - b);
         glm::vec3 nsum(0.0f), psum(0.0f);
         for (uint32_t s = b; s < e_all; ++s) {
             nsum += r.samples[s].normal;
@@ -361,6 +371,7 @@ void trace_map(const BakeContext& ctx, const TexelRaster& r, const std::vector<u
 // Denoise the valid texels (fills map.final_e).
 void denoise_map(const BakeOptions& options, const TexelRaster& r, BakedMap& map, TexelTrace& t) {
     const size_t n = size_t(r.width) * r.height;
+    assert(map.raw.size() == n && map.valid.size() == n && r.texel_size_m.size() == n);
     map.final_e = map.raw;
     if (options.denoise_iterations <= 0) return;
     double size_sum = 0.0;
@@ -390,6 +401,7 @@ void denoise_map(const BakeOptions& options, const TexelRaster& r, BakedMap& map
 std::vector<uint8_t> fill_map(Scene& scene, const BakeOptions& options, const TexelRaster& r,
                               BakedMap& map) {
     const size_t n = size_t(r.width) * r.height;
+    assert(map.final_e.size() == n && map.valid.size() == n);
     std::vector<uint8_t> filled = map.valid;
     // Invalid texels inside charts: fill until done (bounded by the map size).
     std::vector<uint8_t> want(n, 0);
@@ -476,6 +488,8 @@ Status bake_vertex_job(const BakeContext& ctx, VertexJob& job, int vsamples, uin
     Primitive& prim = *job.prim;
     Result<std::vector<glm::vec3>> e = vertex_irradiance_least_squares(prim, job.world, replay, 2);
     if (!e) return e.error();
+    // The fit asked the same queries, in the same order, as the dry run that recorded them.
+    assert(next == answers.size() && e->size() == prim.positions.size());
     prim.light.resize(prim.positions.size());
     for (size_t i = 0; i < prim.positions.size(); ++i)
         prim.light[i] = glm::max((*e)[i], glm::vec3(0.0f));

@@ -14,6 +14,7 @@
 // horizontal; no nesting of charts in each other's holes, as xatlas does); an atlas is cropped to
 // the rectangle its charts use; the chart cut is a median split, not a re-segmentation.
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -69,6 +70,7 @@ std::vector<std::vector<uint32_t>> components(const std::vector<uint32_t>& faces
     for (size_t i = 0; i < faces.size(); ++i) groups[find(i)].push_back(faces[i]);
     std::vector<std::vector<uint32_t>> out;
     for (auto& [k, g] : groups) out.push_back(std::move(g));
+    assert(!faces.empty() == !out.empty());  // a partition of the faces
     return out;
 }
 
@@ -94,12 +96,15 @@ ChartMesh chart_mesh(const ParamContext& ctx, const std::vector<uint32_t>& faces
             }
             m.indices.push_back(it->second);
         }
+    // The chart's own small mesh: 3 local indices per face, each a local vertex.
+    assert(m.indices.size() == 3 * faces.size() && local_of.size() == m.positions.size());
     return m;
 }
 
 // Parameterises a connected set of faces into one or more charts (metres, uv area = 3D area).
 void parameterise(ParamContext& ctx, const std::vector<uint32_t>& faces, int depth,
                   std::vector<Chart>& out) {
+    assert(!faces.empty() && depth >= 0 && depth <= 40);
     Chart chart;
     ChartMesh m = chart_mesh(ctx, faces, chart.local_of);
     const size_t nf = faces.size();
@@ -148,6 +153,8 @@ void parameterise(ParamContext& ctx, const std::vector<uint32_t>& faces, int dep
         std::sort(keyed.begin(), keyed.end());
         std::vector<uint32_t> half[2];
         for (size_t f = 0; f < nf; ++f) half[f < nf / 2 ? 0 : 1].push_back(keyed[f].second);
+        // Both halves are smaller, so the recursion ends (at single triangles at the latest).
+        assert(!half[0].empty() && !half[1].empty());
         for (auto& h : half)
             for (auto& c : components(h, ctx.prim->indices, *ctx.weld))
                 parameterise(ctx, c, depth + 1, out);
@@ -188,6 +195,7 @@ void parameterise(ParamContext& ctx, const std::vector<uint32_t>& faces, int dep
             while (k >= t && cross(hull[k - 2], hull[k - 1], pts[i]) <= 0.0) --k;
             hull[k++] = pts[i];
         }
+        assert(k <= 2 * pts.size());
         hull.resize(k > 1 ? k - 1 : k);
         double best_area = 1e300, best_c = 1.0, best_s = 0.0;
         for (size_t i = 0; i < hull.size(); ++i) {
@@ -211,6 +219,7 @@ void parameterise(ParamContext& ctx, const std::vector<uint32_t>& faces, int dep
         if (hi.y - lo.y > hi.x - lo.x)  // rotate by 90 degrees (orientation preserved)
             for (auto& w : uv) w = {w.y, -w.x};
     }
+    assert(uv.size() == chart.local_of.size());  // one uv per chart vertex
     chart.faces = faces;
     for (size_t i = 0; i < chart.local_of.size(); ++i) chart.local[chart.local_of[i]] = uint32_t(i);
     chart.uv = std::move(uv);
@@ -220,12 +229,18 @@ void parameterise(ParamContext& ctx, const std::vector<uint32_t>& faces, int dep
 
 // Packs rects into one width x height target; returns how many were packed.
 size_t pack(std::vector<stbrp_rect>& rects, int width, int height) {
+    assert(width > 0 && height > 0);
     stbrp_context ctx;
     std::vector<stbrp_node> nodes(size_t(width) + 1);
     stbrp_init_target(&ctx, width, height, nodes.data(), int(nodes.size()));
     stbrp_pack_rects(&ctx, rects.data(), int(rects.size()));
     size_t n = 0;
-    for (const auto& r : rects) n += r.was_packed ? 1 : 0;
+    for (const auto& r : rects) {
+        n += r.was_packed ? 1 : 0;
+        // A packed rectangle lies inside the target.
+        assert(!r.was_packed ||
+               (r.x >= 0 && r.y >= 0 && r.x + r.w <= width && r.y + r.h <= height));
+    }
     return n;
 }
 

@@ -3,6 +3,7 @@
 // bilinear filtering and mipmapping at chart borders never read the black gutter, and invalid
 // texels (inside geometry) take their valid neighbours' light.
 // Cost: O(rings x texels) time, one copy of the valid mask per pass. No departure.
+#include <cassert>
 #include <vector>
 
 #include "lightmap_passes.hpp"
@@ -11,6 +12,8 @@ namespace hmdnode::detail {
 
 size_t dilate(std::vector<glm::vec3>& texels, std::vector<uint8_t>& valid, int width, int height,
               int rings) {
+    assert(width >= 0 && height >= 0 && rings >= 0);
+    assert(texels.size() == size_t(width) * size_t(height) && valid.size() == texels.size());
     size_t filled = 0;
     for (int pass = 0; pass < rings; ++pass) {
         const std::vector<uint8_t> before = valid;
@@ -37,6 +40,7 @@ size_t dilate(std::vector<glm::vec3>& texels, std::vector<uint8_t>& valid, int w
                 ++this_pass;
             }
         filled += this_pass;
+        assert(filled <= texels.size());  // a texel is filled once: it is valued from then on
         if (this_pass == 0) break;
     }
     return filled;

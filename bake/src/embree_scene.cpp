@@ -8,6 +8,9 @@
 // that set it, so plain queries are unchanged.
 #include "embree_scene.hpp"
 
+#include <algorithm>
+#include <cassert>
+#include <climits>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -20,6 +23,11 @@ EmbreeScene::~EmbreeScene() {
 }
 
 Status EmbreeScene::build(const std::vector<glm::vec3>& corners) {
+    // Built once, from 3 finite corners per triangle (PathTracer::build checked the positions).
+    assert(device_ == nullptr && scene_ == nullptr && corners.size() % 3 == 0);
+    assert(std::all_of(corners.begin(), corners.end(), [](const glm::vec3& c) {
+        return std::isfinite(c.x) && std::isfinite(c.y) && std::isfinite(c.z);
+    }));
     device_ = rtcNewDevice("verbose=0");
     if (!device_) return make_error("Embree: cannot create a device");
     scene_ = rtcNewScene(device_);
@@ -70,6 +78,7 @@ void skip_filter(const RTCFilterFunctionNArguments* args) {
 std::optional<EmbreeHit> intersect_with(RTCScene scene, RTCIntersectContext* ctx,
                                         const glm::vec3& o, const glm::vec3& d, float t_near,
                                         float t_far) {
+    assert(scene != nullptr && ctx != nullptr);  // a built scene
     RTCRayHit rh;
     rh.ray.org_x = o.x;
     rh.ray.org_y = o.y;
@@ -114,6 +123,7 @@ std::optional<EmbreeHit> EmbreeScene::intersect_skipping(const glm::vec3& o, con
 bool EmbreeScene::occluded(const glm::vec3& o, const glm::vec3& d, float t_near,
                            float t_far) const {
     maybe_record(o, d, t_near, t_far, 2);
+    assert(scene_ != nullptr);
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     RTCRay r = make_ray(o, d, t_near, t_far);
@@ -129,6 +139,7 @@ void record_stream(const RTCRay& r, int kind) {
 
 void EmbreeScene::occluded_stream(RTCRay* rays, size_t count) const {
     if (count == 0) return;
+    assert(rays != nullptr && scene_ != nullptr && count <= size_t(UINT_MAX));
     if (g_record_every.load(std::memory_order_relaxed) != 0)
         for (size_t i = 0; i < count; ++i) record_stream(rays[i], 2);
     RTCIntersectContext ctx;
@@ -138,6 +149,7 @@ void EmbreeScene::occluded_stream(RTCRay* rays, size_t count) const {
 
 void EmbreeScene::intersect_stream(RTCRayHit* rays, size_t count) const {
     if (count == 0) return;
+    assert(rays != nullptr && scene_ != nullptr && count <= size_t(UINT_MAX));
     for (size_t i = 0; i < count; ++i) {
         if (g_record_every.load(std::memory_order_relaxed) != 0) record_stream(rays[i].ray, 1);
         rays[i].hit.geomID = RTC_INVALID_GEOMETRY_ID;

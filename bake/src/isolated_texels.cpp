@@ -4,11 +4,15 @@
 // neighbour within the margin. Cost: O(9 x texels), no allocation.
 #include "hmdnode/bake/lightmap_noise.hpp"
 
+#include <cassert>
+
 namespace hmdnode {
 
 size_t count_isolated_bright_texels(const std::vector<glm::vec3>& texels,
                                     const std::vector<uint8_t>& filled, int width, int height,
                                     float ratio) {
+    assert(width >= 0 && height >= 0 && texels.size() == size_t(width) * size_t(height));
+    assert(filled.empty() || filled.size() == texels.size());
     auto lum = [](const glm::vec3& c) { return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b; };
     auto in = [&](size_t i) { return filled.empty() || filled[i] != 0; };
     size_t count = 0;

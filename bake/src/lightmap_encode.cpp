@@ -9,6 +9,7 @@
 // the bound in lightmap_encode.hpp; no sRGB/gamma curve anywhere (the renderer samples the
 // lightmap through a UNORM view, so texels are linear).
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <cstring>
 
@@ -164,6 +165,7 @@ Result<HdrImage> read_exr(const std::filesystem::path& path) {
 
 ScaledRgba8 encode_scaled_rgba8(const HdrImage& image, double percentile,
                                 const std::vector<uint8_t>& mask) {
+    assert(percentile >= 0.0 && percentile <= 1.0);
     ScaledRgba8 out;
     const size_t n = image.rgb.size();
     std::vector<float> peaks;
@@ -178,6 +180,7 @@ ScaledRgba8 encode_scaled_rgba8(const HdrImage& image, double percentile,
         intensity = percentile_in_place(peaks.begin(), peaks.end(), percentile);
     }
     if (!(intensity > 0.0f)) intensity = 1.0f;
+    assert(intensity > 0.0f && std::isfinite(intensity));  // clean() kept the peaks finite
     out.intensity = intensity;
     out.rgba8.resize(n * 4);
     for (size_t i = 0; i < n; ++i) {
@@ -196,6 +199,7 @@ ScaledRgba8 encode_scaled_rgba8(const HdrImage& image, double percentile,
 
 HdrImage decode_scaled_rgba8(const std::vector<uint8_t>& rgba8, int width, int height,
                              float intensity) {
+    assert(width >= 0 && height >= 0 && intensity >= 0.0f);
     HdrImage out;
     out.width = width;
     out.height = height;
@@ -227,6 +231,7 @@ Result<float> store_lightmap(Scene& scene, int texture, const HdrImage& image, d
 }
 
 std::vector<uint8_t> encode_rgbm(const HdrImage& image, float range) {
+    assert(range > 0.0f && std::isfinite(range));
     std::vector<uint8_t> out(image.rgb.size() * 4);
     for (size_t i = 0; i < image.rgb.size(); ++i) {
         glm::vec3 e(clean(image.rgb[i].r), clean(image.rgb[i].g), clean(image.rgb[i].b));
@@ -234,6 +239,7 @@ std::vector<uint8_t> encode_rgbm(const HdrImage& image, float range) {
         const float peak = std::max({e.r, e.g, e.b});
         const int k = std::clamp(int(std::ceil(255.0f * peak / range - 1e-4f)), 1, 255);
         const float m = float(k) / 255.0f;
+        assert(k >= 1 && k <= 255 && m * range >= peak * (1.0f - 1e-3f));  // m never clamps E
         for (int c = 0; c < 3; ++c) out[4 * i + size_t(c)] = quantise(e[c] / (m * range));
         out[4 * i + 3] = uint8_t(k);
     }
@@ -241,6 +247,7 @@ std::vector<uint8_t> encode_rgbm(const HdrImage& image, float range) {
 }
 
 HdrImage decode_rgbm(const std::vector<uint8_t>& rgba8, int width, int height, float range) {
+    assert(width >= 0 && height >= 0 && range > 0.0f);
     HdrImage out;
     out.width = width;
     out.height = height;

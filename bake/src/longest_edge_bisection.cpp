@@ -11,6 +11,7 @@
 // gives the same conformity with simpler bookkeeping, but may split some edges the original
 // algorithm would not.
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <functional>
 #include <unordered_map>
@@ -29,6 +30,7 @@ uint64_t edge_key(uint32_t a, uint32_t b) {
 }
 
 uint32_t add_midpoint(Primitive& p, uint32_t a, uint32_t b) {
+    assert(a < p.positions.size() && b < p.positions.size() && a != b);
     const uint32_t m = uint32_t(p.positions.size());
     p.positions.push_back(0.5f * (p.positions[a] + p.positions[b]));
     if (!p.normals.empty()) {
@@ -40,6 +42,9 @@ uint32_t add_midpoint(Primitive& p, uint32_t a, uint32_t b) {
     if (!p.uv1.empty()) p.uv1.push_back(0.5f * (p.uv1[a] + p.uv1[b]));
     if (!p.colors.empty()) p.colors.push_back(0.5f * (p.colors[a] + p.colors[b]));
     if (!p.light.empty()) p.light.push_back(0.5f * (p.light[a] + p.light[b]));
+    // Every attribute stays either empty or one per vertex.
+    assert(p.normals.empty() || p.normals.size() == p.positions.size());
+    assert(p.uv1.empty() || p.uv1.size() == p.positions.size());
     return m;
 }
 
@@ -96,6 +101,8 @@ size_t split_long_edges(Primitive& prim, double max_edge) {
         };
         const std::vector<uint32_t> in = prim.indices;
         for (size_t f = 0; f + 2 < in.size(); f += 3) split(in[f], in[f + 1], in[f + 2]);
+        // A pass only adds triangles: each marked one becomes two or more.
+        assert(out.size() > in.size() && out.size() % 3 == 0);
         prim.indices = std::move(out);
     }
     return prim.triangle_count() - before;

@@ -15,6 +15,7 @@
 // conformal weight) keeps vertices touched only by zero-area triangles determined; the result is
 // rescaled so that the uv area equals the 3D area and mirrored if the majority is clockwise.
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 
 #include <Eigen/Sparse>
@@ -113,6 +114,9 @@ Result<std::vector<glm::dvec2>> lscm_parameterise(const ChartMesh& chart) {
         }
         return best;
     };
+    assert(chart.indices.size() % 3 == 0);
+    assert(std::all_of(chart.indices.begin(), chart.indices.end(),
+                       [nv](uint32_t i) { return i < nv; }));
     const size_t pin_a = farthest(0), pin_b = farthest(pin_a);
     const double diameter = glm::length(chart.positions[pin_b] - chart.positions[pin_a]);
     if (pin_a == pin_b || !(diameter > 0.0)) return make_error("lscm: chart has zero extent");
@@ -122,6 +126,7 @@ Result<std::vector<glm::dvec2>> lscm_parameterise(const ChartMesh& chart) {
     int nfree = 0;
     for (size_t i = 0; i < nv; ++i)
         if (i != pin_a && i != pin_b) col[i] = nfree++;
+    assert(nfree == int(nv) - 2);  // two pins, the rest free
     std::vector<glm::dvec2> uv(nv, glm::dvec2(0.0));
     uv[pin_a] = {0.0, 0.0};
     uv[pin_b] = {diameter, 0.0};
@@ -223,6 +228,7 @@ Result<std::vector<glm::dvec2>> lscm_parameterise(const ChartMesh& chart) {
 }
 
 std::vector<glm::dvec2> planar_parameterise(const ChartMesh& chart) {
+    assert(chart.indices.size() % 3 == 0);
     glm::dvec3 sum(0.0);
     const size_t nf = chart.indices.size() / 3;
     for (size_t f = 0; f < nf; ++f) {
@@ -242,6 +248,7 @@ std::vector<glm::dvec2> planar_parameterise(const ChartMesh& chart) {
 }
 
 ParamQuality measure_parameterisation(const ChartMesh& chart, const std::vector<glm::dvec2>& uv) {
+    assert(uv.size() == chart.positions.size() && chart.indices.size() % 3 == 0);
     ParamQuality q;
     const size_t nf = chart.indices.size() / 3;
     struct Tri {

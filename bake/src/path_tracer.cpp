@@ -25,6 +25,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cassert>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -62,6 +63,7 @@ struct LinearTexture {
     int w = 0, h = 0;
     std::vector<glm::vec3> rgb;  // linear
     glm::vec3 sample(glm::vec2 uv) const {
+        assert(w > 0 && h > 0 && rgb.size() == size_t(w) * size_t(h));
         // Bilinear with repeat wrapping (glTF default sampler), texel centres at +0.5.
         float x = uv.x * w - 0.5f, y = uv.y * h - 0.5f;
         if (!std::isfinite(x) || !std::isfinite(y)) return rgb[0];
@@ -102,6 +104,7 @@ int resolve_threads(int threads) {
 
 void parallel_for(size_t count, int threads, size_t chunk,
                   const std::function<void(size_t i, int thread)>& fn) {
+    assert(fn && threads >= 0);
     threads = resolve_threads(threads);
     chunk = std::max<size_t>(1, chunk);
     std::atomic<size_t> next{0};
@@ -111,6 +114,7 @@ void parallel_for(size_t count, int threads, size_t chunk,
             size_t begin = next.fetch_add(chunk);
             if (begin >= count) break;
             size_t end = std::min(count, begin + chunk);
+            assert(begin < end && end <= count);  // each index once: chunks taken in order
             for (size_t i = begin; i < end; ++i) fn(i, thread);
         }
     };
@@ -144,8 +148,10 @@ struct PathTracer::Impl {
     std::vector<std::string> warnings;
 
     glm::vec3 albedo(uint32_t tri, float u, float v) const {
+        assert(tri < material.size() && material[tri] < mats.size());
         const TriMaterial& m = mats[material[tri]];
         if (m.texture < 0) return m.albedo;
+        assert(size_t(m.texture) < textures.size() && 3 * size_t(tri) + 2 < uv0.size());
         glm::vec2 uv = (1 - u - v) * uv0[3 * tri] + u * uv0[3 * tri + 1] + v * uv0[3 * tri + 2];
         return m.albedo * textures[m.texture].sample(uv);
     }
@@ -164,6 +170,8 @@ struct PathTracer::Impl {
     std::optional<TraceHit> finish(std::optional<detail::EmbreeHit> h, const glm::vec3& o,
                                    const glm::vec3& d, float tn, float tf) const {
         if (!h) return std::nullopt;
+        // Embree's hit lies within the ray's interval, on one of our triangles.
+        assert(h->prim < normals.size() && h->t >= tn && h->t <= tf);
         bool swapped = false;
         if (glm::dot(normals[h->prim], d) >= 0.0f && !mats[material[h->prim]].double_sided) {
             // A back face that absorbs. Where another surface lies on it (two rooms sharing a
@@ -192,6 +200,7 @@ struct PathTracer::Impl {
 
     // intersect() for a batch of rays: one Embree stream, then the same back-face rule per ray.
     void intersect_batch(size_t count, const TraceQuery* rays, std::optional<TraceHit>* out) const {
+        assert(count == 0 || (rays != nullptr && out != nullptr));
         thread_local std::vector<RTCRayHit> rh;
         rh.resize(count);
         for (size_t i = 0; i < count; ++i)
@@ -234,7 +243,10 @@ struct PathTracer::Impl {
                   bool first = false) {
             items.push_back(Item{v, ray, op, target, first});
         }
-        bool blocked(int32_t ray) const { return ray < 0 || rays[size_t(ray)].tfar < 0.0f; }
+        bool blocked(int32_t ray) const {
+            assert(ray < int32_t(rays.size()));  // a shadow ray this batch logged
+            return ray < 0 || rays[size_t(ray)].tfar < 0.0f;
+        }
     };
 
     // Punctual lights at p with normal n, shadowed (the formula in world_lights.hpp): one
@@ -293,6 +305,7 @@ struct PathTracer::Impl {
                           emitter_cdf.begin());
         k = std::min(k, emitters.size() - 1);
         const uint32_t tri = emitters[k];
+        assert(emitter_cdf.size() == emitters.size() && tri < emitter_pdf_area.size());
         float s = std::sqrt(rng.uniform()), r2 = rng.uniform();
         const glm::vec3& a = corners[3 * tri];
         const glm::vec3& b = corners[3 * tri + 1];
@@ -340,6 +353,8 @@ struct PathTracer::Impl {
         float pdf_b = glm::dot(nx, d) / kPi;
         glm::vec3 beta(kPi);  // estimator weight: cos / pdf
         for (int k = 0;; ++k) {
+            // The bounce limit ends the path before it reflects once more.
+            assert(bounces < 0 || k <= bounces);
             if (rays) ++*rays;
             std::optional<TraceHit> h =
                 intersect(x + nx * offset(x), d, 0.0f, std::numeric_limits<float>::infinity());
@@ -384,9 +399,16 @@ struct PathTracer::Impl {
         bool first = false;
         size_t path = 0;
         auto sum = [&](uint8_t t) -> glm::vec3& { return t != 0 && indirect ? reflected : e; };
+        // The log nests: a path's groups (Group .. EndGroup: its lights and emitter sample) and
+        // additions, then EndPath; a path's first item is its first group.
+        [[maybe_unused]] bool in_group = false, path_started = false;
         for (const Deferred::Item& it : q.items) {
+            assert((it.op == Deferred::Light || it.op == Deferred::Emit ||
+                    it.op == Deferred::EndGroup) == in_group);
+            assert(it.op != Deferred::Group || it.first == !path_started);
             switch (it.op) {
                 case Deferred::Group:
+                    in_group = path_started = true;
                     group = glm::vec3(0.0f);
                     emit = glm::vec3(0.0f);
                     beta = it.value;
@@ -400,6 +422,7 @@ struct PathTracer::Impl {
                     emit = q.blocked(it.ray) ? glm::vec3(0.0f) : it.value;
                     break;
                 case Deferred::EndGroup:
+                    in_group = false;
                     if (first)
                         e = group + emit;
                     else
@@ -409,6 +432,7 @@ struct PathTracer::Impl {
                     sum(it.target) += it.value;
                     break;
                 case Deferred::EndPath:
+                    path_started = false;
                     out[path] = e;
                     if (indirect) indirect[path] = reflected;
                     e = reflected = glm::vec3(0.0f);
@@ -422,10 +446,15 @@ struct PathTracer::Impl {
     // them traced as one stream.
     void trace_batch(size_t count, const glm::vec3* points, const glm::vec3* normals_in, Pcg32& rng,
                      int bounces, glm::vec3* out, glm::vec3* indirect, uint64_t* rays) const {
+        assert(count == 0 || (points != nullptr && normals_in != nullptr && out != nullptr));
         thread_local Deferred q;
         q.clear();
         for (size_t i = 0; i < count; ++i)
             irradiance(points[i], normals_in[i], rng, rays, bounces, q);
+        // One EndPath per path: resolve() writes out[0 .. count) and no further.
+        assert(size_t(std::count_if(q.items.begin(), q.items.end(), [](const Deferred::Item& it) {
+                   return it.op == Deferred::EndPath;
+               })) == count);
         resolve(q, out, indirect);
     }
 
@@ -526,6 +555,11 @@ Result<PathTracer> PathTracer::build(const Scene& scene, const PathTracerOptions
             }
         }
     }
+    // One entry per kept triangle in every per-triangle array (3 for corners and uv0).
+    assert(impl->corners.size() == 3 * impl->material.size() &&
+           impl->uv0.size() == impl->corners.size() &&
+           impl->normals.size() == impl->material.size() &&
+           impl->areas.size() == impl->material.size());
     const glm::vec3 extent = impl->hi - impl->lo;
     impl->offset_scale = 2e-5f;
     (void)extent;
@@ -534,6 +568,7 @@ Result<PathTracer> PathTracer::build(const Scene& scene, const PathTracerOptions
     const size_t tris = impl->material.size();
     std::vector<double> power;
     for (size_t t = 0; t < tris; ++t) {
+        assert(impl->material[t] < impl->mats.size());
         const glm::vec3& le = impl->mats[impl->material[t]].emission;
         double lum = 0.2126 * le.r + 0.7152 * le.g + 0.0722 * le.b;
         if (lum > 0.0) {
@@ -548,6 +583,8 @@ Result<PathTracer> PathTracer::build(const Scene& scene, const PathTracerOptions
         double acc = 0.0;
         for (size_t k = 0; k < impl->emitters.size(); ++k) {
             acc += power[k];
+            // The cdf rises (power > 0 per emitter), so lower_bound finds the sampled one.
+            assert(impl->emitter_cdf.empty() || float(acc / total) >= impl->emitter_cdf.back());
             impl->emitter_cdf.push_back(float(acc / total));
             const uint32_t t = impl->emitters[k];
             impl->emitter_pdf_area[t] = float(power[k] / total / impl->areas[t]);

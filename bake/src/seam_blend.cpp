@@ -13,6 +13,7 @@
 // Cost: O(seam edges x samples x iterations); memory O(edges) for the edge map.
 #include <algorithm>
 #include <array>
+#include <cassert>
 #include <cmath>
 #include <map>
 #include <set>
@@ -29,6 +30,7 @@ struct Footprint {
 };
 
 Footprint footprint(glm::vec2 uv, int width, int height) {
+    assert(width > 0 && height > 0);
     const float x = uv.x * width - 0.5f, y = uv.y * height - 0.5f;
     const int x0 = int(std::floor(x)), y0 = int(std::floor(y));
     const float fx = x - x0, fy = y - y0;
@@ -38,6 +40,7 @@ Footprint footprint(glm::vec2 uv, int width, int height) {
         const int yi = std::clamp(y0 + (k >> 1), 0, height - 1);
         f.idx[k] = size_t(yi) * width + xi;
         f.w[k] = ((k & 1) ? fx : 1 - fx) * ((k >> 1) ? fy : 1 - fy);
+        assert(f.idx[k] < size_t(width) * size_t(height));  // clamped into the map
     }
     return f;
 }
@@ -63,6 +66,7 @@ glm::vec3 world_normal(const glm::dmat4& world, const glm::vec3& n) {
 }
 
 glm::vec3 face_normal(const glm::dmat4& world, const Primitive& prim, size_t t) {
+    assert(t + 2 < prim.indices.size());
     glm::vec3 p[3];
     for (int k = 0; k < 3; ++k)
         p[k] = glm::vec3(world * glm::dvec4(glm::dvec3(prim.positions[prim.indices[t + k]]), 1.0));
@@ -75,6 +79,8 @@ glm::vec3 face_normal(const glm::dmat4& world, const Primitive& prim, size_t t) 
 
 size_t blend_seams(const Scene& scene, int texture, std::vector<glm::vec3>& texels, int width,
                    int height, int iterations) {
+    assert(width > 0 && height > 0 && texels.size() == size_t(width) * size_t(height));
+    assert(texture >= 0 && iterations >= 0);
     using Key = std::array<long long, 6>;
     struct Side {
         glm::vec2 uv0, uv1;  // uv of the key's first and second endpoint

@@ -13,6 +13,7 @@
 // Cost: rays_per_sample short rays per sample, O(log T) each; no extra memory but one byte per
 // texel.
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -29,6 +30,10 @@ ValidityResult fix_texel_validity(TexelRaster& raster, const PathTracer& tracer,
                                   int rays_per_sample, float threshold, int threads,
                                   uint64_t seed) {
     const size_t n = size_t(raster.width) * raster.height;
+    // The raster's CSR: n + 1 offsets, rising, the last one the sample count.
+    assert(raster.width >= 0 && raster.height >= 0 && raster.first.size() == n + 1);
+    assert(raster.texel_size_m.size() == n && raster.first.back() == raster.samples.size());
+    assert(threshold >= 0.0f && threshold <= 1.0f);
     ValidityResult out;
     out.valid.assign(n, 0);
     out.visible.assign(n, 0);
@@ -40,6 +45,7 @@ ValidityResult fix_texel_validity(TexelRaster& raster, const PathTracer& tracer,
         Pcg32 rng(seed ^ 0x9e3779b97f4a7c15ULL, texel);
         const float len = 1.5f * std::max(raster.texel_size_m[texel], 1e-5f);
         const uint32_t b = raster.first[texel], e = raster.first[texel + 1];
+        assert(b < e && e <= raster.samples.size());
         // The texel's rays, all samples', as one stream: unbounded, over the hemisphere of the
         // sample's face (the other half only meets the sample's own surface).
         thread_local std::vector<TraceQuery> q;
@@ -61,6 +67,7 @@ ValidityResult fix_texel_validity(TexelRaster& raster, const PathTracer& tracer,
                 q.push_back(TraceQuery{origin, d, 0.0f, std::numeric_limits<float>::infinity()});
             }
         }
+        assert(q.size() == size_t(e - b) * size_t(rays_per_sample));
         hits.resize(q.size());
         tracer.intersect_batch(q.size(), q.data(), hits.data());
         inside.assign(e - b, 0);
@@ -118,12 +125,14 @@ ValidityResult fix_texel_validity(TexelRaster& raster, const PathTracer& tracer,
                 ++pushed[texel];
             }
         }
+        assert(ray == q.size());  // every ray of the stream read once, in order
         // Visible samples first (in their order), buried ones after.
         thread_local std::vector<TexelSample> keep;
         keep.clear();
         for (int pass = 0; pass < 2; ++pass)
             for (uint32_t si = b; si < e; ++si)
                 if (inside[si - b] == pass) keep.push_back(raster.samples[si]);
+        assert(keep.size() == size_t(e - b) && buried[texel] <= e - b);
         std::copy(keep.begin(), keep.end(), raster.samples.begin() + b);
         out.visible[texel] = uint32_t(e - b) - buried[texel];
         const bool bad = total == 0 || float(back) > threshold * float(total);

@@ -6,6 +6,7 @@
 // own side, and any renderer picks the side by back-face culling (glTF: a single-sided material's
 // back faces are not drawn). What Unity and Bakery call "double-sided GI" done as geometry.
 // Cost: O(vertices + indices) per split primitive; it doubles their triangles in the output.
+#include <cassert>
 #include <string>
 #include <vector>
 
@@ -14,6 +15,7 @@
 namespace hmdnode::detail {
 
 size_t split_two_sided(Scene& scene, const std::function<bool(const Primitive&)>& keep) {
+    assert(keep);
     std::vector<int> split_users(scene.materials.size(), 0), kept_users(scene.materials.size(), 0);
     auto double_sided = [&](const Primitive& p) {
         return p.material >= 0 && size_t(p.material) < scene.materials.size() &&
@@ -61,7 +63,12 @@ size_t split_two_sided(Scene& scene, const std::function<bool(const Primitive&)>
             for (size_t t = 0; t < faces; t += 3)  // reversed winding: the back side faces front
                 p.indices.insert(p.indices.end(),
                                  {p.indices[t] + n, p.indices[t + 2] + n, p.indices[t + 1] + n});
+            // Two sheets: every attribute twice, the back sheet's triangles on the copies.
+            assert(p.positions.size() == 2 * size_t(n) && p.indices.size() == 2 * faces);
+            assert(p.normals.empty() || p.normals.size() == p.positions.size());
             p.material = one_sided[size_t(p.material)];
+            assert(p.material >= 0 && size_t(p.material) < scene.materials.size() &&
+                   !scene.materials[size_t(p.material)].double_sided);
             ++split;
         }
     return split;

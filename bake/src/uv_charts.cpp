@@ -10,6 +10,7 @@
 // optimisation); positions are welded only when bit-identical; zero-area faces join whichever
 // neighbouring chart reaches them first.
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <cstring>
 #include <deque>
@@ -55,6 +56,7 @@ std::vector<uint32_t> weld_positions(const std::vector<glm::vec3>& positions) {
     for (size_t i = 0; i < positions.size(); ++i) {
         auto [it, inserted] = map.emplace(key_of(positions[i]), uint32_t(i));
         id[i] = it->second;
+        assert(id[i] <= i);  // the lowest index with these bits
     }
     return id;
 }
@@ -63,6 +65,9 @@ std::vector<int> segment_charts(const std::vector<glm::vec3>& positions,
                                 const std::vector<uint32_t>& indices, double angle_deg,
                                 size_t max_faces, int* chart_count) {
     const size_t nf = indices.size() / 3;
+    assert(indices.size() % 3 == 0 && angle_deg >= 0.0);
+    assert(std::all_of(indices.begin(), indices.end(),
+                       [&](uint32_t i) { return i < positions.size(); }));
     std::vector<int> chart(nf, -1);
     const std::vector<uint32_t> weld = weld_positions(positions);
 
@@ -110,6 +115,7 @@ std::vector<int> segment_charts(const std::vector<glm::vec3>& positions,
         while (!queue.empty()) {
             uint32_t f = queue.front();
             queue.pop_front();
+            assert(chart[f] == id);  // only faces of the growing chart are queued
             for (int e = 0; e < 3; ++e) {
                 uint32_t a = weld[indices[3 * f + e]], b = weld[indices[3 * f + (e + 1) % 3]];
                 if (a == b) continue;
@@ -129,6 +135,8 @@ std::vector<int> segment_charts(const std::vector<glm::vec3>& positions,
             }
         }
     }
+    // Every face in one chart, ids 0 .. next - 1.
+    assert(std::all_of(chart.begin(), chart.end(), [&](int c) { return c >= 0 && c < next; }));
     if (chart_count) *chart_count = next;
     return chart;
 }

@@ -15,6 +15,7 @@
 // texels are next in uv, not in space) and across a crease drop out; texels outside the mask are
 // neither read nor written. Cost: O((25 + 9) x iterations x texels) time, two copies of the map.
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <vector>
 
@@ -30,6 +31,9 @@ void variance_atrous(std::vector<glm::vec3>& texels, std::vector<float>& varianc
     static const float gauss[3] = {1.0f / 4, 1.0f / 2, 1.0f / 4};
     auto lum = [](const glm::vec3& c) { return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b; };
     const size_t n = size_t(width) * height;
+    assert(width >= 0 && height >= 0 && texels.size() == n && variance.size() == n);
+    assert(mask.size() == n && normals.size() == n && positions.size() == n);
+    assert(iterations >= 0 && iterations < 31 && texel_m >= 0.0f && sigma_luminance >= 0.0f);
     std::vector<float> blurred(n, 0.0f);
     for (int it = 0; it < iterations; ++it) {
         const int step = 1 << it;
@@ -90,6 +94,8 @@ void variance_atrous(std::vector<glm::vec3>& texels, std::vector<float>& varianc
                     texels[idx] = sum / wsum;
                     variance[idx] = vsum / (wsum * wsum);
                 }
+                // A variance of the mean stays one: filtering sums w^2 var with w >= 0.
+                assert(!(variance[idx] < 0.0f));
             }
     }
 }

@@ -13,6 +13,7 @@
 // primitive's own faces (split them first with split_long_edges for finer patches). Weights are
 // per vertex index, so vertices split at seams average only the faces that reference them.
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 
 #include "hmdnode/bake/vertex_bake.hpp"
@@ -38,9 +39,11 @@ Result<std::vector<glm::vec3>> vertex_irradiance_angle_weighted(const Primitive&
         sample_triangle(w, prim, f, subdivisions, samples);
         glm::dvec3 face(0.0);
         for (const Sample& s : samples) face += eval(oracle, s);
+        assert(!samples.empty());
         face /= double(samples.size());
         for (int k = 0; k < 3; ++k) {
             const uint32_t v = prim.indices[3 * f + size_t(k)];
+            assert(v < nv);
             const glm::dvec3 a = w.p[prim.indices[3 * f + size_t((k + 1) % 3)]] - w.p[v];
             const glm::dvec3 b = w.p[prim.indices[3 * f + size_t((k + 2) % 3)]] - w.p[v];
             const double la = glm::length(a), lb = glm::length(b);

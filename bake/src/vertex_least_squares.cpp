@@ -13,6 +13,7 @@
 // Departures: no edge-based regularisation of the paper's section 4.2 (smoothness term); the
 // integration rule is the sampled one rather than exact per-triangle quadrature.
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 
 #include <Eigen/Sparse>
@@ -46,6 +47,7 @@ Result<std::vector<glm::vec3>> vertex_irradiance_least_squares(const Primitive& 
     for (size_t f = 0; f < prim.triangle_count(); ++f) {
         sample_triangle(w, prim, f, subdivisions, samples);
         const uint32_t* t = &prim.indices[3 * f];
+        assert(t[0] < nv && t[1] < nv && t[2] < nv);  // place() checked the indices
         double m[3][3] = {};
         for (const Sample& s : samples) {
             total_area += s.w;
@@ -73,6 +75,7 @@ Result<std::vector<glm::vec3>> vertex_irradiance_least_squares(const Primitive& 
         const std::vector<uint32_t> weld = weld_positions(prim.positions);
         for (size_t v = 0; v < nv; ++v) {
             const uint32_t u = weld[v];
+            assert(u <= v);  // the lowest index of its position
             if (u == v || !used[v] || !used[u]) continue;
             trip.emplace_back(int(v), int(v), k);
             trip.emplace_back(int(u), int(u), k);
@@ -136,6 +139,7 @@ Result<VertexBakeReport> bake_vertex_irradiance(Primitive& prim, const glm::dmat
                                                    options.seam_weight)
                  : vertex_irradiance_angle_weighted(prim, world, oracle, options.subdivisions);
     if (!e.ok()) return e.error();
+    assert(e->size() == prim.positions.size());
     prim.light.resize(prim.positions.size());
     for (size_t v = 0; v < prim.positions.size(); ++v)
         prim.light[v] = glm::max((*e)[v], glm::vec3(0.0f));

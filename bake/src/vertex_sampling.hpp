@@ -3,6 +3,7 @@
 // sampling rule of vertex_bake.hpp. Cost: O(V) to place, O(n^2) per triangle to sample.
 #pragma once
 
+#include <cassert>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -52,6 +53,7 @@ struct Sample {
 // The n^2 sub-triangle centroids of triangle f, with interpolated (or face) normals.
 inline void sample_triangle(const WorldPrimitive& w, const Primitive& prim, size_t f, int n,
                             std::vector<Sample>& out) {
+    assert(n >= 1 && 3 * f + 2 < prim.indices.size());  // place() checked the indices
     out.clear();
     const uint32_t i0 = prim.indices[3 * f], i1 = prim.indices[3 * f + 1],
                    i2 = prim.indices[3 * f + 2];
@@ -63,6 +65,7 @@ inline void sample_triangle(const WorldPrimitive& w, const Primitive& prim, size
     auto push = [&](double a, double b) {
         Sample s;
         s.b[0] = 1.0 - a - b, s.b[1] = a, s.b[2] = b;
+        assert(s.b[0] > 0.0 && s.b[1] > 0.0 && s.b[2] > 0.0);  // a centroid inside the triangle
         s.p = s.b[0] * p0 + s.b[1] * p1 + s.b[2] * p2;
         glm::dvec3 nn = face_n;
         if (!w.n.empty()) {
@@ -78,14 +81,17 @@ inline void sample_triangle(const WorldPrimitive& w, const Primitive& prim, size
             push((i + 1.0 / 3.0) / n, (j + 1.0 / 3.0) / n);
             if (i + j <= n - 2) push((i + 2.0 / 3.0) / n, (j + 2.0 / 3.0) / n);
         }
+    assert(out.size() == size_t(n) * size_t(n));  // n^2 similar sub-triangles, one centroid each
 }
 
 inline glm::dvec3 eval(const IrradianceOracle& oracle, const Sample& s) {
+    assert(oracle);
     return glm::dvec3(oracle(glm::vec3(s.p), glm::vec3(s.n)));
 }
 
 // The oracle at a vertex itself (vertices used by no triangle).
 inline glm::dvec3 at_vertex(const WorldPrimitive& w, const IrradianceOracle& oracle, size_t v) {
+    assert(v < w.p.size() && (w.n.empty() || v < w.n.size()));
     const glm::dvec3 n = w.n.empty() ? glm::dvec3(0.0, 0.0, 1.0) : w.n[v];
     return glm::dvec3(oracle(glm::vec3(w.p[v]), glm::vec3(n)));
 }

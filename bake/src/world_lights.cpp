@@ -2,6 +2,7 @@
 #include "world_lights.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 
 namespace hmdnode::detail {
@@ -26,10 +27,12 @@ std::vector<glm::dmat4> node_world_matrices(const Scene& scene) {
         glm::dmat4 m =
             (k >= 0 && state[k] == 2) ? world[k] : glm::dmat4(1.0);  // in progress: a cycle
         for (auto it = chain.rbegin(); it != chain.rend(); ++it) {
+            assert(state[size_t(*it)] == 1);  // on this walk's chain, not finished before
             m = m * scene.nodes[*it].local_matrix();
             world[*it] = m;
             state[*it] = 2;
         }
+        assert(state[i] == 2);  // each node finished once its walk comes back down
     }
     return world;
 }
@@ -55,6 +58,7 @@ std::vector<WorldLight> world_lights(const Scene& scene) {
             float cos_inner = std::cos(l.inner_cone_rad);
             w.cone_scale = 1.0f / std::max(1e-4f, cos_inner - cos_outer);
             w.cone_offset = -cos_outer * w.cone_scale;
+            assert(w.cone_scale > 0.0f);
         }
         lights.push_back(w);
     }

@@ -2,6 +2,7 @@
 #include "frame_queue.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <chrono>
 #include <string>
 
@@ -29,20 +30,26 @@ Status FrameQueue::begin(std::span<const DrawItem> draw, std::span<const MeshRan
         }
         triangles.push_back(meshes[size_t(item.mesh)].triangles);
     }
-    items.assign(draw.begin(), draw.end());  // allocates only when the list grows
+    items.assign(draw.begin(), draw.end());    // allocates only when the list grows
+    assert(triangles.size() == items.size());  // one count per item
     cursor = 0;
     open = true;
     return Status::success();
 }
 
 size_t FrameQueue::piece_end(uint64_t max_triangles) const {
+    // A begun frame whose cursor has not passed its end.
+    assert(open && cursor <= items.size() && triangles.size() == items.size());
     size_t last = cursor;
     uint64_t sum = 0;
     do {
         sum += last < items.size() ? triangles[last] : 0;
         ++last;
     } while (last < items.size() && sum + triangles[last] <= max_triangles);
-    return std::min(last, items.size());
+    const size_t end = std::min(last, items.size());
+    // At least one item when any is left, and never past the end.
+    assert(end <= items.size() && (cursor == items.size() || end > cursor));
+    return end;
 }
 
 uint64_t FrameQueue::total_triangles() const {

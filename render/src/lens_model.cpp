@@ -46,6 +46,7 @@ double panel_aspect(const HeadsetProfile& p, const EyeLens& lens) {
 // Applies the radial model to an offset q from the channel centre: q * factor(|q|^2), with |q|^2
 // clamped at the cutoff and, where the model is undefined, at the largest defined r2 below.
 glm::dvec2 apply_radial(const EyeLens& lens, const LensChannel& ch, glm::dvec2 q, bool* valid) {
+    assert(valid != nullptr && lens.model != LensModel::none);
     double r2 = glm::dot(q, q);
     if (lens.undistort_r2_cutoff > 0.0 && r2 > lens.undistort_r2_cutoff) {
         q *= std::sqrt(lens.undistort_r2_cutoff / r2);
@@ -60,6 +61,8 @@ glm::dvec2 apply_radial(const EyeLens& lens, const LensChannel& ch, glm::dvec2 q
             const double mid = 0.5 * (lo + hi);
             (std::isnan(lens_radial_factor(lens.model, ch.coeffs, mid)) ? hi : lo) = mid;
         }
+        // The bisection keeps lo where the model is defined, below where it is not.
+        assert(lo >= 0.0 && lo <= hi && hi <= r2);
         q *= r2 > 0.0 ? std::sqrt(lo / r2) : 0.0;
         f = lens_radial_factor(lens.model, ch.coeffs, lo);
         if (std::isnan(f)) f = 0.0;
@@ -69,6 +72,7 @@ glm::dvec2 apply_radial(const EyeLens& lens, const LensChannel& ch, glm::dvec2 q
 
 // Eye-frame tangent -> head-aligned tangent through eye_to_head.
 glm::dvec2 to_head(const glm::dmat3& eye_to_head, glm::dvec2 t, bool* valid) {
+    assert(valid != nullptr);
     const glm::dvec3 ray = eye_to_head * glm::dvec3(t, -1.0);
     if (!(ray.z < -1e-9)) {
         *valid = false;
@@ -141,19 +145,25 @@ DistortionMesh make_distortion_mesh(const HeadsetProfile& profile, int eye, int 
             mesh.valid.push_back(s.valid ? 1 : 0);
         }
     }
+    assert(mesh.vertices.size() == vcols * vrows && mesh.valid.size() == mesh.vertices.size());
     mesh.indices.reserve(size_t(6) * cols * rows);
     for (int r = 0; r < rows; ++r) {
         for (int c = 0; c < cols; ++c) {
             const uint32_t v00 = uint32_t(r * vcols + c), v10 = v00 + 1;
             const uint32_t v01 = uint32_t(v00 + vcols), v11 = v01 + 1;
+            assert(v11 < mesh.vertices.size());  // the cell's corners are vertices of the grid
             mesh.indices.insert(mesh.indices.end(), {v00, v10, v11, v00, v11, v01});
         }
     }
+    assert(mesh.indices.size() == size_t(6) * size_t(cols) * size_t(rows));
     return mesh;
 }
 
 LensSample sample_distortion_mesh(const DistortionMesh& mesh, glm::dvec2 uv) {
     assert(mesh.cols > 0 && mesh.rows > 0);
+    // The grid make_distortion_mesh builds: (cols + 1) x (rows + 1) vertices.
+    assert(mesh.vertices.size() == (size_t(mesh.cols) + 1) * (size_t(mesh.rows) + 1));
+    assert(mesh.valid.empty() || mesh.valid.size() == mesh.vertices.size());
     const double fu = uv.x * mesh.cols, fv = uv.y * mesh.rows;
     const int c = std::clamp(int(std::floor(fu)), 0, mesh.cols - 1);
     const int r = std::clamp(int(std::floor(fv)), 0, mesh.rows - 1);
@@ -170,6 +180,9 @@ LensSample sample_distortion_mesh(const DistortionMesh& mesh, glm::dvec2 uv) {
         idx[0] = v00, idx[1] = v11, idx[2] = v01;
         w[0] = 1.0 - y, w[1] = x, w[2] = y - x;
     }
+    // Barycentric weights of the point in its triangle (inside it for uv in [0, 1]^2).
+    assert(std::abs(w[0] + w[1] + w[2] - 1.0) < 1e-9 && idx[1] < mesh.vertices.size() &&
+           idx[2] < mesh.vertices.size());
     LensSample out;
     for (int ch = 0; ch < 3; ++ch) {
         glm::dvec2 t(0.0);
@@ -205,6 +218,7 @@ MeshError mesh_interpolation_error(const HeadsetProfile& profile, int eye,
     // At every cell centre and the midpoints of its top and left edges (where a bilinear-like
     // error peaks): the mesh's tangent error through the inverse of the model's local Jacobian
     // (tangent per panel pixel, central differences over 0.25 px), for each channel.
+    assert((eye == 0 || eye == 1) && panel_width > 0 && panel_height > 0);
     const double w = panel_width, h = panel_height, d = 0.25;
     std::vector<double> errors;
     errors.reserve(size_t(mesh.cols) * mesh.rows * 3);
@@ -241,6 +255,7 @@ MeshError mesh_interpolation_error(const HeadsetProfile& profile, int eye,
 
 int choose_mesh_cells(const HeadsetProfile& profile, int panel_width, int panel_height,
                       double max_error_px) {
+    assert(panel_width > 0 && panel_height > 0 && max_error_px >= 0.0);
     const int sizes[] = {8, 12, 16, 24, 32, 48, 64, 96, 128};
     for (int n : sizes) {
         double worst = 0.0;

@@ -2,6 +2,7 @@
 #include "lens_pass.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <string>
 
@@ -14,6 +15,7 @@ namespace {
 // or the first radius where the model is undefined (a scan, then 40 bisection steps as
 // lens_sample() takes), whichever is smaller; a huge value where neither is met.
 double clamp_r2(const EyeLens& lens, const LensChannel& ch, double reach_r2) {
+    assert(lens.model != LensModel::none && reach_r2 >= 0.0);
     double limit = lens.undistort_r2_cutoff > 0.0 ? lens.undistort_r2_cutoff : 1e30;
     const double top = std::min(limit, reach_r2);
     const int steps = 4096;
@@ -26,6 +28,8 @@ double clamp_r2(const EyeLens& lens, const LensChannel& ch, double reach_r2) {
                 const double mid = 0.5 * (lo + hi);
                 (std::isnan(lens_radial_factor(lens.model, ch.coeffs, mid)) ? hi : lo) = mid;
             }
+            // Within the step where the model stops: defined at lo, below the cutoff.
+            assert(lo >= prev && lo <= r2 && lo <= limit);
             return lo;
         }
         prev = r2;
@@ -70,6 +74,9 @@ Result<LensPassSetup> make_lens_pass_setup(const HeadsetProfile& profile, int pa
     for (int e = 0; e < 2; ++e) {
         const EyeLens& lens = profile.eye[e];
         LensPassEye& out = setup.eye[e];
+        // A validated profile: the vive model's panel aspect is positive.
+        assert(lens.model != LensModel::vive_dpoly3_scaled || lens.aspect_x_over_y > 0.0 ||
+               (profile.panel_width > 0 && profile.panel_height > 0));
         LensUniforms& u = out.uniforms;
         out.model = lens.model == LensModel::vive_dpoly3_scaled ? LensPassModel::vive
                     : lens.model == LensModel::poly_radial      ? LensPassModel::poly_radial
@@ -116,6 +123,7 @@ Result<LensPassSetup> make_lens_pass_setup(const HeadsetProfile& profile, int pa
 }
 
 glm::vec3 lens_pass_direction(const LensPassEye& eye, int c, glm::vec2 uv) {
+    assert(c >= 0 && c < 3);
     const LensUniforms& u = eye.uniforms;
     const glm::vec2 ctr(u.center_limit[c]);
     auto radial = [&](glm::vec2 q) {

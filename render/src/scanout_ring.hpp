@@ -27,7 +27,10 @@ class ScanoutRing {
     }
 
     int size() const { return int(state_.size()); }
-    State state(int b) const { return state_[size_t(b)]; }
+    State state(int b) const {
+        assert(b >= 0 && b < size());
+        return state_[size_t(b)];
+    }
 
     // The next buffer to draw into: the first free one after the last acquired (round robin);
     // with none free, a drawn one that was never committed (it would be superseded anyway).
@@ -47,15 +50,17 @@ class ScanoutRing {
         if (pick < 0) return -1;
         state_[size_t(pick)] = State::drawing;
         last_ = pick;
+        assert(consistent());
         return pick;
     }
 
     // The draw into b is complete: b is the newest drawn buffer; an older drawn one is free.
     void finish(int b) {
-        assert(state_[size_t(b)] == State::drawing);
+        assert(b >= 0 && b < size() && state_[size_t(b)] == State::drawing);
         for (State& s : state_)
             if (s == State::drawn) s = State::free;
         state_[size_t(b)] = State::drawn;
+        assert(consistent());
     }
 
     // The newest drawn buffer, -1 when there is none (nothing drawn since the last commit).
@@ -68,7 +73,7 @@ class ScanoutRing {
     // A flip to the drawn buffer b was committed. The display commits only after the flip before
     // completed, so the buffer queued before is now shown and the one shown before is free.
     void commit(int b) {
-        assert(state_[size_t(b)] == State::drawn);
+        assert(b >= 0 && b < size() && state_[size_t(b)] == State::drawn);
         for (State& s : state_) {
             if (s == State::shown)
                 s = State::free;
@@ -76,9 +81,19 @@ class ScanoutRing {
                 s = State::shown;
         }
         state_[size_t(b)] = State::queued;
+        assert(consistent());
     }
 
   private:
+    // The ring's invariant: at most one buffer drawing, one drawn, one queued and one shown
+    // (the display shows one frame and holds one flip; the warp draws one).
+    bool consistent() const {
+        int count[5] = {};
+        for (State s : state_) ++count[int(s)];
+        return count[int(State::drawing)] <= 1 && count[int(State::drawn)] <= 1 &&
+               count[int(State::queued)] <= 1 && count[int(State::shown)] <= 1;
+    }
+
     std::vector<State> state_;
     int last_ = -1;
 };

@@ -3,6 +3,7 @@
 #include "scene_geometry.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 
 #include <numbers>
@@ -91,6 +92,14 @@ Result<SceneGeometry> build_scene_geometry(const Scene& scene) {
         gm.first_primitive = uint32_t(out.primitives.size());
         for (const Primitive& p : mesh.primitives) {
             if (p.indices.empty()) continue;
+            // A validated scene (validate_scene): attributes empty or one per vertex, whole
+            // triangles, a material that exists.
+            assert(p.normals.empty() || p.normals.size() == p.positions.size());
+            assert(p.uv0.empty() || p.uv0.size() == p.positions.size());
+            assert(p.uv1.empty() || p.uv1.size() == p.positions.size());
+            assert(p.colors.empty() || p.colors.size() == p.positions.size());
+            assert(p.light.empty() || p.light.size() == p.positions.size());
+            assert(p.indices.size() % 3 == 0 && p.material < int(scene.materials.size()));
             PrimitiveRange gp;
             gp.first_index = uint32_t(out.indices.size());
             gp.index_count = uint32_t(p.indices.size());
@@ -114,6 +123,9 @@ Result<SceneGeometry> build_scene_geometry(const Scene& scene) {
         gm.primitive_count = uint32_t(out.primitives.size()) - gm.first_primitive;
         out.meshes.push_back(gm);
     }
+    // Exactly what the first loop counted, one range per mesh.
+    assert(out.vertices.size() == vertex_count && out.indices.size() == index_count);
+    assert(out.meshes.size() == scene.meshes.size());
     return out;
 }
 
@@ -121,6 +133,7 @@ void texture_uses(const Scene& scene, std::vector<uint8_t>& srgb, std::vector<ui
     srgb.assign(scene.textures.size(), 0);
     unorm.assign(scene.textures.size(), 0);
     for (const Material& m : scene.materials) {
+        assert(m.base_color_texture < int(srgb.size()) && m.lightmap.texture < int(unorm.size()));
         if (m.base_color_texture >= 0) srgb[size_t(m.base_color_texture)] = 1;
         if (m.lightmap.texture >= 0) unorm[size_t(m.lightmap.texture)] = 1;
     }
@@ -134,20 +147,22 @@ glm::mat4 warp_reprojection(const glm::mat4& p, const glm::dquat& delta) {
 }
 
 ScaledViewport scaled_viewport(uint32_t width, uint32_t height, double scale) {
+    // check_render_scale() accepted the scale; an eye buffer has a pixel at least.
+    assert(width >= 1 && height >= 1 && scale > 0.0 && scale <= 1.0);
     ScaledViewport v;
     v.width = std::clamp(uint32_t(std::lround(double(width) * scale)), 1u, width);
     v.height = std::clamp(uint32_t(std::lround(double(height) * scale)), 1u, height);
     if (v.width == width && v.height == height) return v;  // (1, 1, 1, 1): no change at all
-    v.sample_rect = glm::vec4(float(v.width) / float(width), float(v.height) / float(height),
-                              (float(v.width) - 0.5f) / float(width),
-                              (float(v.height) - 0.5f) / float(height));
+    assert(v.width >= 1 && v.width <= width && v.height >= 1 && v.height <= height);
+    v.sample_rect =
+        glm::vec4(float(v.width) / float(width), float(v.height) / float(height),
+                  (float(v.width) - 0.5f) / float(width), (float(v.height) - 0.5f) / float(height));
     return v;
 }
 
 Status check_render_scale(double scale) {
     if (!(scale > 0.0 && scale <= 1.0))
-        return make_error("renderer: render scale " + std::to_string(scale) +
-                          " is outside (0, 1]");
+        return make_error("renderer: render scale " + std::to_string(scale) + " is outside (0, 1]");
     return Status::success();
 }
 

@@ -86,4 +86,12 @@ TEST(VkDisplay, ModeChoice) {
     VulkanDisplayInfo none = d;
     none.modes.clear();
     EXPECT_FALSE(choose_vulkan_display_mode(none, 0, 0, 0.0).ok());
+    // A mode whose driver reports no refresh rate has no vsync grid to pace on: an error.
+    VulkanDisplayInfo no_rate = d;
+    no_rate.modes = {{2880, 1600, 0.0}};
+    m = choose_vulkan_display_mode(no_rate, 0, 0, 0.0);
+    ASSERT_FALSE(m.ok());
+    EXPECT_NE(m.error().message.find("2880x1600 reports a refresh rate of 0.000 Hz"),
+              std::string::npos)
+        << m.error().message;
 }

@@ -12,6 +12,7 @@
 #include <sys/syscall.h>
 #include <unistd.h>
 
+#include <cassert>
 #include <cerrno>
 #include <cstdint>
 #include <cstring>
@@ -66,6 +67,7 @@ std::unique_ptr<CpuWakeGuard> CpuWakeGuard::start(CpuWake mode) {
         std::vector<int> cpus;
         for (int c = 0; c < CPU_SETSIZE; ++c)
             if (CPU_ISSET(c, &allowed)) cpus.push_back(c);
+        assert(!cpus.empty());  // the thread runs somewhere (CPU 0 when the mask is unknown)
         g->tids_ = std::make_unique<std::atomic<int>[]>(cpus.size());
         for (size_t i = 0; i < cpus.size(); ++i) {
             std::atomic<int>* tid = &g->tids_[i];
@@ -89,6 +91,7 @@ std::unique_ptr<CpuWakeGuard> CpuWakeGuard::start(CpuWake mode) {
                 break;
             }
         }
+        assert(g->spinners_.size() <= cpus.size());  // one spinner per allowed core at most
         if (!g->spinners_.empty()) {
             if (!g->description_.empty()) g->description_ += "; ";
             g->description_ += "spinning on " + std::to_string(g->spinners_.size()) +

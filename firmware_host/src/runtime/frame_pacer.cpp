@@ -29,12 +29,14 @@ CostWindow::CostWindow(int capacity)
     : ring_(size_t(std::clamp(capacity, 1, 256))), scratch_(ring_.size()) {}
 
 void CostWindow::push(int64_t ns) {
+    assert(head_ < ring_.size() && count_ <= ring_.size());
     ring_[head_] = ns;
     head_ = (head_ + 1) % ring_.size();
     count_ = std::min(count_ + 1, ring_.size());
 }
 
 int64_t CostWindow::percentile(double p, int64_t fallback) const {
+    assert(p >= 0.0 && p <= 1.0 && scratch_.size() == ring_.size());
     if (count_ == 0) return fallback;
     std::copy(ring_.begin(), ring_.begin() + std::ptrdiff_t(count_), scratch_.begin());
     return percentile_in_place(scratch_.begin(), scratch_.begin() + std::ptrdiff_t(count_), p);
@@ -51,6 +53,10 @@ FramePacer::FramePacer(const PacingConfig& config, int64_t period_ns, int64_t la
       overrun_(config.window),
       margin_ns_(std::clamp(config.margin_ns, config.min_margin_ns, config.max_margin_ns)) {
     assert(period_ns > 0);
+    // The estimates' percentiles and the margin's bounds (code's, not the config file's).
+    assert(config.percentile >= 0.0 && config.percentile <= 1.0);
+    assert(config.margin_percentile >= 0.0 && config.margin_percentile <= 1.0);
+    assert(config.min_margin_ns >= 0 && config.min_margin_ns <= config.max_margin_ns);
 }
 
 namespace {
@@ -106,9 +112,11 @@ void FramePacer::record_present(bool on_time, int64_t overrun_ns) {
     const int64_t used = std::max<int64_t>(0, overrun_.percentile(config_.margin_percentile, 0));
     margin_ns_ = std::clamp(used + config_.min_margin_ns + int64_t(miss_bump_ns_),
                             config_.min_margin_ns, config_.max_margin_ns);
+    assert(miss_bump_ns_ >= 0.0 && margin_ns_ >= config_.min_margin_ns);
 }
 
 int64_t FramePacer::frame_plan_ns(int64_t render_ns, int64_t warp_ns, int d) const {
+    assert(d >= 1);  // a render and at least one warp
     return render_ns + int64_t(d) * (warp_ns + margin_ns_) + int64_t(d - 1) * gap_estimate();
 }
 
@@ -122,6 +130,7 @@ int FramePacer::choose_divisor(int64_t render_ns, int64_t warp_ns) {
         // Slower at once, to the first rate that fits (the slowest when none does).
         while (divisor_ < max_d && !fits(divisor_, 0.0)) ++divisor_;
         fits_faster_ = 0;
+        assert(divisor_ >= 1 && divisor_ <= max_d);
         return divisor_;
     }
     if (divisor_ > 1 && fits(divisor_ - 1, config_.rate_spare)) {
@@ -132,10 +141,12 @@ int FramePacer::choose_divisor(int64_t render_ns, int64_t warp_ns) {
     } else {
         fits_faster_ = 0;
     }
+    assert(divisor_ >= 1 && divisor_ <= max_d && fits_faster_ >= 0);
     return divisor_;
 }
 
 std::vector<LadderStep> make_ladder(bool chromatic, double min_scale) {
+    assert(min_scale > 0.0 && min_scale <= 1.0);  // at least the full-resolution step
     std::vector<LadderStep> steps;
     char name[64];
     for (int i = 10; i >= 1; --i) {
@@ -151,6 +162,9 @@ std::vector<LadderStep> make_ladder(bool chromatic, double min_scale) {
         std::snprintf(name, sizeof name, "resolution %.1f, no CA correction", steps.back().scale);
         steps.push_back(LadderStep{steps.back().scale, false, name});
     }
+    // In order of quality: the scale never rises down the ladder, full resolution first.
+    assert(!steps.empty() && steps.front().scale == 1.0);
+    for (size_t i = 1; i < steps.size(); ++i) assert(steps[i].scale <= steps[i - 1].scale);
     return steps;
 }
 
@@ -167,6 +181,7 @@ PixelLadder::PixelLadder(std::vector<LadderStep> steps, bool enabled, const Paci
 }
 
 void PixelLadder::record_render(int step, int64_t ns) {
+    assert(step >= 0 && size_t(step) < steps_.size() && render_.size() == steps_.size());
     CostWindow& w = render_[size_t(step)];
     w.push(ns);
     if (not_pixel_bound_ > 0) --not_pixel_bound_;
@@ -184,6 +199,7 @@ void PixelLadder::record_warp(bool chromatic, int64_t ns) {
 
 int64_t PixelLadder::render_cost(int step, int64_t fallback_ns, int fallback_step) const {
     if (fallback_step < 0) fallback_step = step_;
+    assert(step >= 0 && size_t(step) < steps_.size() && size_t(fallback_step) < steps_.size());
     auto pixels = [&](int s) { return steps_[size_t(s)].scale * steps_[size_t(s)].scale; };
     const CostWindow& own = render_[size_t(step_)];
     const int64_t base = own.size() >= 3 ? own.percentile(0.9, fallback_ns) : fallback_ns;
@@ -200,6 +216,7 @@ int64_t PixelLadder::warp_cost(bool chromatic, int64_t fallback_ns) const {
 }
 
 int64_t PixelLadder::frame_cost(int step, const Budget& b, int64_t render_p_ns) const {
+    assert(step >= 0 && size_t(step) < steps_.size() && b.divisor >= 1);
     const LadderStep& st = steps_[size_t(step)];
     const int64_t warp =
         st.chromatic == b.warp_chromatic ? b.warp_ns : warp_cost(st.chromatic, b.warp_ns);
@@ -212,6 +229,7 @@ bool PixelLadder::choose(const Budget& b, int64_t render_p_ns) {
     if (!enabled_) return false;
     const int last = int(steps_.size()) - 1;
     auto change_to = [&](int s) {
+        assert(s >= 0 && s <= last);
         // A step to another resolution starts its window anew, and a step down is checked.
         if (steps_[size_t(s)].scale != steps_[size_t(step_)].scale) {
             // (While a check is pending, its reference stays: a descent of several steps is

@@ -7,6 +7,7 @@
 #include "lod_stage.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 
 #include "hmdnode/core/time.hpp"
@@ -35,6 +36,10 @@ void LodStage::adopt(const Scene& scene, const LodSelectorParams& selector) {
             level_errors_[i].push_back(l.geometric_error_m);
             level_triangles_[i].push_back(l.triangles);
         }
+    // One list of level errors and triangle counts per object, one entry per level.
+    for (size_t i = 0; i < objects_.size(); ++i)
+        assert(level_errors_[i].size() == objects_[i].levels.size() &&
+               level_triangles_[i].size() == objects_[i].levels.size());
     set_selector_params(selector);
     // A new scene starts without transitions: its objects are not the old ones.
     fade_ = LodCrossFade(objects_.size(), fade_frames_);
@@ -141,7 +146,10 @@ void LodStage::allocate(double target_ms, FrameRecord* rec) {
                             b.budget_ms, allocated_)
             : greedy_.allocate(candidates_, cost_fit_.base_ms(), cost_fit_.per_triangle_ms(),
                                b.budget_ms, allocated_);
+    assert(allocated_.size() == candidates_.size());  // a level per candidate
     for (size_t k = 0; k < candidate_objects_.size(); ++k) {
+        assert(allocated_[k] >= 0 &&
+               size_t(allocated_[k]) < objects_[candidate_objects_[k]].levels.size());
         rec->levels[candidate_objects_[k]] = allocated_[k];
         allocated_levels_[candidate_objects_[k]] = allocated_[k];
     }
@@ -166,6 +174,10 @@ uint64_t LodStage::fade_and_sort(const Pose& head, FrameRecord* rec) {
         open_.fade.pops += step.popped;
         order_.emplace_back(glm::length(o.bounds_center - head.position) - o.bounds_radius, i);
     }
+    // One record per object; the candidates are the objects not culled, each with its entry.
+    assert(rec->levels.size() == objects_.size() &&
+           candidates_.size() == candidate_objects_.size() &&
+           order_.size() == candidate_objects_.size());
     // Front to back: nearest first saves fill on lavapipe.
     std::sort(order_.begin(), order_.end());
     draws_.clear();
@@ -179,6 +191,8 @@ uint64_t LodStage::fade_and_sort(const Pose& head, FrameRecord* rec) {
             draw_triangles_.push_back(l.triangles);
         }
     }
+    // One triangle count per draw, and together the frame's triangles.
+    assert(draws_.size() == draw_triangles_.size());
     return triangles;
 }
 

@@ -35,6 +35,7 @@
 #include "hmdnode/firmware_host/node.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <chrono>
 #include <cmath>
 
@@ -130,6 +131,8 @@ NodeRuntime::NodeRuntime(Clock& clock, Tracker& tracker, Display& display, Rende
     ladder_ = PixelLadder(
         make_ladder(chromatic && config.distortion, std::clamp(config.min_render_scale, 0.1, 1.0)),
         config.pixel_ladder, config.pacing);
+    // Both eyes have a panel mesh and a render field; the frame loop reads into read_buf_.
+    assert(!mesh_[0].vertices.empty() && !mesh_[1].vertices.empty() && !read_buf_.empty());
 }
 
 NodeRuntime::~NodeRuntime() = default;
@@ -268,12 +271,14 @@ bool NodeRuntime::tracker_finished() const {
 void NodeRuntime::drain_tracker() {
     for (;;) {
         size_t n = tracker_->read(read_buf_);
+        assert(n <= read_buf_.size());  // a tracker fills at most the span it is given
         for (size_t i = 0; i < n; ++i) history_.push(read_buf_[i]);
         if (n < read_buf_.size()) break;
     }
     if (!eye_tracker_) return;
     for (;;) {
         size_t n = eye_tracker_->read(gaze_buf_);
+        assert(n <= gaze_buf_.size());
         if (n > 0) gaze_ = gaze_buf_[n - 1];
         if (n < gaze_buf_.size()) break;
     }
@@ -302,6 +307,7 @@ StereoViews NodeRuntime::views_for(const Pose& head) const {
 }
 
 Pose NodeRuntime::predict(int64_t photon_time_ns) const {
+    assert(!history_.empty());  // the frame loop predicts once the tracker gave a sample
     Pose head = config_.predict ? history_.pose_at(photon_time_ns + prediction_offset_ns_)
                                 : history_.pose_at(history_.newest_time_ns());
     // Recentred (identity until recentre()): the heading turned, the position moved.
@@ -437,6 +443,7 @@ Status NodeRuntime::calibrate_passes(FrameCostModel* model, const std::function<
 }
 
 Result<int64_t> NodeRuntime::time_warps(int n, const std::function<bool()>& go_on) {
+    assert(n >= 1);
     std::vector<int64_t> t;
     for (int i = 0; i < n + 2; ++i) {
         if (go_on && !go_on()) return make_error("frame cost calibration stopped");
@@ -456,6 +463,8 @@ Status NodeRuntime::warp_and_present(int64_t target, int64_t warp_est, FrameReco
     const int64_t margin = pacer_.margin();
     // The planned end of the warp: the margin before the latch.
     const int64_t planned_end = target - info.latch_margin_ns - margin;
+    // The schedule runs forward: the warp is planned to end before its target vsync.
+    assert(margin >= 0 && info.latch_margin_ns >= 0 && planned_end <= target && warp_est >= 0);
     if (!early) clock_.sleep_until_ns(planned_end - warp_est);
     const int64_t warp_start = clock_.now_ns();
     Pose shown = frame_pose_;
@@ -546,6 +555,7 @@ void NodeRuntime::plan_levers() {
         bottom_warp = c == chromatic_now ? warp_est : ladder_.warp_cost(c, warp_est);
     }
     b.divisor = pacer_.choose_divisor(bottom_render, bottom_warp);
+    assert(bottom >= 0 && b.divisor >= 1);
     b.available_ns = int64_t(b.divisor) * info.period_ns - info.latch_margin_ns;
     const int before = ladder_.step();
     ladder_.choose(b, render_p);

@@ -97,6 +97,8 @@ struct Step {
 };
 Step extrapolate(const glm::dvec3& w, const glm::dvec3& a_fit, double dt_s, double a_max,
                  double accel_gain, double decel_gain, double max_displacement) {
+    // Forward in time (a look-ahead), with gains that scale the fitted acceleration down.
+    assert(dt_s >= 0.0 && accel_gain >= 0.0 && decel_gain >= 0.0);
     glm::dvec3 a = clamp_length(a_fit, a_max);
     const double along = glm::dot(a, w);
     a *= along < 0.0 ? decel_gain : accel_gain;
@@ -108,6 +110,7 @@ Step extrapolate(const glm::dvec3& w, const glm::dvec3& a_fit, double dt_s, doub
         s = speed / -a_along;
         stopped = true;
     }
+    assert(s >= 0.0 && s <= dt_s);  // a stop only shortens the step
     Step out;
     out.displacement = clamp_length(w * s + 0.5 * s * s * a, max_displacement);
     out.velocity = stopped ? glm::dvec3(0.0) : w + s * a;
@@ -121,6 +124,7 @@ PoseHistory::PoseHistory(const PoseHistoryConfig& config)
     : config_(config), ring_(config.capacity) {
     assert(config.capacity >= 2);
     assert(config.prediction.min_fit_window_ns <= config.prediction.fit_window_ns);
+    assert(config.max_extrapolation_ns >= 0 && config.velocity_window_ns >= 0);
 }
 
 bool PoseHistory::push(const TrackerSample& sample) {
@@ -131,6 +135,10 @@ bool PoseHistory::push(const TrackerSample& sample) {
     ring_[head_] = s;
     head_ = (head_ + 1) % ring_.size();
     count_ = std::min(count_ + 1, ring_.size());
+    // The history stays in increasing time: the newest sample is the one just pushed, after
+    // the one before it.
+    assert(newest().time_ns == sample.time_ns &&
+           (count_ < 2 || at(count_ - 2).time_ns < sample.time_ns));
     return true;
 }
 
@@ -169,9 +177,12 @@ OriginFit PoseHistory::fit(int64_t window_ns, OriginFit* out_pos, SlopeFit* out_
     OriginFit rot;
     if (out_gyro && n.gyro) out_gyro->add(0.0, n.orientation * *n.gyro);
     bool positions = out_pos && n.position.has_value();
+    [[maybe_unused]] int64_t previous_age = 0;
     for (size_t k = count_ - 1; k-- > 0;) {
         const TrackerSample& s = at(k);
         const int64_t age = n.time_ns - s.time_ns;
+        assert(age > previous_age);  // older samples, in order, from the newest back
+        previous_age = age;
         if (age > window_ns && rot.n >= 2) break;
         const double tau = -ns_to_s(age);
         rot.add(tau, rotation_vector(s.orientation * inv_n));
@@ -265,9 +276,12 @@ Pose PoseHistory::pose_at(int64_t t_ns, PoseQuery* out_kind) const {
                 hi = mid;
         }
         kind = PoseQuery::Interpolated;
+        // t lies in (at(lo - 1), at(lo)]: the oldest sample is before t (the branch above).
+        assert(lo >= 1 && at(lo - 1).time_ns < t_ns && t_ns <= at(lo).time_ns);
         out = interpolate(to_pose(at(lo - 1)), to_pose(at(lo)), t_ns);
     } else {
         const int64_t ahead = t_ns - newest().time_ns;
+        assert(ahead > 0);
         kind =
             ahead > config_.max_extrapolation_ns ? PoseQuery::ClampedNew : PoseQuery::Extrapolated;
         out = predict(std::min(ahead, config_.max_extrapolation_ns));

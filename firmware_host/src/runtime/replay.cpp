@@ -7,6 +7,7 @@
 #include "hmdnode/firmware_host/replay.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -56,11 +57,18 @@ std::vector<VsyncSample> vsync_series(const std::vector<FrameRecord>& frames, in
                                       const TruthFn& truth, double registration_distance_m) {
     std::vector<VsyncSample> out;
     if (frames.empty() || period_ns <= 0) return out;
+    // A display shows one frame per vsync, in order (Display::present).
+    assert(std::adjacent_find(frames.begin(), frames.end(),
+                              [](const FrameRecord& a, const FrameRecord& b) {
+                                  return b.vsync_ns <= a.vsync_ns;
+                              }) == frames.end());
     const int64_t first = frames.front().vsync_ns, last = frames.back().vsync_ns;
     out.reserve(size_t((last - first) / period_ns + 2));
     size_t k = 0;
     for (int64_t v = first; v <= last + period_ns / 2; v += period_ns) {
         while (k + 1 < frames.size() && frames[k + 1].vsync_ns <= v + period_ns / 2) ++k;
+        // The newest present shown by this vsync: the walk never leaves one behind.
+        assert(k < frames.size() && frames[k].vsync_ns <= v + period_ns / 2);
         const FrameRecord& f = frames[k];
         const bool shown_now = std::llabs(f.vsync_ns - v) < period_ns / 2;
         VsyncSample s;
@@ -133,6 +141,7 @@ ReplaySummary summarize_vsyncs(const std::vector<FrameRecord>& frames,
         lat.push_back(v.latency_ms);
         reg.push_back(v.registration_error_deg);
     }
+    assert(good <= s.vsyncs && s.vsyncs == vsyncs.size());
     s.missed_vsyncs = s.vsyncs - good;
     s.on_time_rate = double(good) / double(s.vsyncs);
     s.new_frames_per_vsync = double(s.new_frames) / double(s.vsyncs);

@@ -8,6 +8,7 @@
 // Cost: O(1) per present besides the output's copy.
 #include "vk_display_pacing.hpp"
 
+#include <cassert>
 #include <cmath>
 
 #include "hmdnode/hal/display/vsync_grid.hpp"
@@ -26,6 +27,8 @@ class VkDisplayPacing final : public Display {
         info_.eye_height = m.height;
         info_.refresh_hz = m.refresh_hz;
         info_.period_ns = int64_t(std::llround(1e9 / m.refresh_hz));
+        // choose_vulkan_display_mode() refuses a mode without a refresh rate of 1..1000 Hz.
+        assert(info_.period_ns > 0 && latch_margin_ns >= 0 && persistence_ns >= 0);
         info_.latch_margin_ns = latch_margin_ns;
         info_.persistence_ns = persistence_ns;
         anchor_ns_ = clock_.now_ns();
@@ -67,6 +70,7 @@ class VkDisplayPacing final : public Display {
                              : next_vsync_ns(sent_ns + info_.latch_margin_ns - 1);
         }
         if (r.vsync_ns <= last_vsync_ns_) r.vsync_ns = last_vsync_ns_ + p;
+        assert(r.vsync_ns > last_vsync_ns_);  // one frame per vsync, in order
         last_vsync_ns_ = r.vsync_ns;
         r.on_time = r.vsync_ns == target_vsync_ns;
         r.photon_time_ns = r.vsync_ns + photon_offset_ns();

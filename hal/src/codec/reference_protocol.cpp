@@ -78,6 +78,7 @@ std::string check_header(std::span<const uint8_t> b, uint8_t id, size_t size, co
 }
 
 std::string get_string(const uint8_t* p, size_t n, bool* ok) {
+    assert(p != nullptr && ok != nullptr);
     std::string s;
     for (size_t i = 0; i < n && p[i] != 0; ++i) {
         if (p[i] < 0x20 || p[i] > 0x7e) *ok = false;
@@ -86,6 +87,7 @@ std::string get_string(const uint8_t* p, size_t n, bool* ok) {
     return s;
 }
 void put_string(uint8_t* p, size_t n, const std::string& s) {
+    assert(p != nullptr);
     std::memcpy(p, s.data(), std::min(n, s.size()));
 }
 
@@ -165,6 +167,7 @@ std::vector<uint8_t> encode(const ImuReport& r) {
     put_u32(&b[8], r.first_sequence);
     put_u64(&b[12], r.device_time_us);
     for (size_t i = 0; i < r.count; ++i) {
+        assert(20 + 14 * (i + 1) <= b.size());  // the sample's 14 bytes lie within the report
         uint8_t* p = &b[20 + 14 * i];
         const ImuSample& s = r.samples[i];
         put_u16(p, s.dt_us);
@@ -225,6 +228,7 @@ std::vector<uint8_t> encode(const TimeSyncReport& r) {
 Result<PoseReport> decode_pose(std::span<const uint8_t> b) {
     if (auto e = check_header(b, kPoseReport, kPoseReportSize, "pose"); !e.empty())
         return make_error(e);
+    assert(b.size() >= kPoseReportSize);  // check_header: every field below lies within b
     PoseReport r;
     r.version = b[1];
     r.flags = b[2];
@@ -251,6 +255,7 @@ Result<PoseReport> decode_pose(std::span<const uint8_t> b) {
 Result<ImuReport> decode_imu(std::span<const uint8_t> b) {
     if (auto e = check_header(b, kImuReport, kImuReportSize, "IMU"); !e.empty())
         return make_error(e);
+    assert(b.size() >= kImuReportSize);
     ImuReport r;
     r.version = b[1];
     r.count = b[2];
@@ -264,6 +269,7 @@ Result<ImuReport> decode_imu(std::span<const uint8_t> b) {
     r.first_sequence = get_u32(&b[8]);
     r.device_time_us = get_u64(&b[12]);
     for (size_t i = 0; i < r.count; ++i) {
+        assert(20 + 14 * (i + 1) <= b.size());  // count <= kMaxImuSamples keeps the cursor in
         const uint8_t* p = &b[20 + 14 * i];
         ImuSample& s = r.samples[i];
         s.dt_us = get_u16(p);
@@ -282,6 +288,7 @@ Result<DeviceInfoReport> decode_device_info(std::span<const uint8_t> b) {
     if (auto e = check_header(b, kDeviceInfoReport, kDeviceInfoReportSize, "device-info");
         !e.empty())
         return make_error(e);
+    assert(b.size() >= kDeviceInfoReportSize);
     DeviceInfoReport r;
     r.version = b[1];
     r.firmware_major = b[2];
@@ -302,6 +309,7 @@ Result<CalibrationReport> decode_calibration(std::span<const uint8_t> b) {
     if (auto e = check_header(b, kCalibrationReport, kCalibrationReportSize, "calibration");
         !e.empty())
         return make_error(e);
+    assert(b.size() >= kCalibrationReportSize);
     CalibrationReport r;
     r.version = b[1];
     r.accel_range_g = b[2];
@@ -319,6 +327,7 @@ Result<ReportRateReport> decode_report_rate(std::span<const uint8_t> b) {
     if (auto e = check_header(b, kReportRateReport, kReportRateReportSize, "report-rate");
         !e.empty())
         return make_error(e);
+    assert(b.size() >= kReportRateReportSize);
     ReportRateReport r;
     r.version = b[1];
     r.pose_rate_hz = get_u16(&b[2]);
@@ -329,6 +338,7 @@ Result<ReportRateReport> decode_report_rate(std::span<const uint8_t> b) {
 Result<TimeSyncReport> decode_time_sync(std::span<const uint8_t> b) {
     if (auto e = check_header(b, kTimeSyncReport, kTimeSyncReportSize, "time-sync"); !e.empty())
         return make_error(e);
+    assert(b.size() >= kTimeSyncReportSize);
     TimeSyncReport r;
     r.version = b[1];
     r.nonce = get_u32(&b[4]);

@@ -1,6 +1,7 @@
 // ReportCodec adapters: the Vive/Index IMU codec (vive_imu_codec.cpp) and the reference protocol
 // codec (reference_protocol.cpp) behind the interface the device tracker uses. Glue only: the
 // algorithms live in those files. O(1) per report.
+#include <cassert>
 #include <cctype>
 #include <cmath>
 #include <optional>
@@ -33,6 +34,7 @@ void accumulate(CodecCounters& c, const DecoderCounters& d) {
 // IMU-only samples (sequence, device time, gyro, accel) as DeviceSamples.
 template <class Samples>
 void copy_imu_samples(const Samples& in, std::span<DeviceSample> out) {
+    assert(in.size() <= out.size());
     for (size_t i = 0; i < in.size(); ++i) {
         out[i] = DeviceSample{};
         out[i].sequence = in[i].sequence;
@@ -173,6 +175,7 @@ class ViveCodec final : public ReportCodec {
         if (n == 0 && ++empty_reports_ < 3) return 0;
         if (n > 0 && follows(*held_, s[0])) {
             confirmed_ = true;
+            assert(n + 1 <= out.size());  // the held sample and this report's (3 at most)
             copy_imu_samples(std::span(&*held_, 1), out);
             copy_imu_samples(std::span(s).first(n), out.subspan(1));
             held_.reset();
@@ -269,6 +272,7 @@ class ReferenceCodec final : public ReportCodec {
             ++c_.reports;
             const uint64_t seq = pose_seq_.unwrap(r->sequence);
             if (have_pose_ && seq <= last_pose_seq_) return 0;  // repeat
+            assert(!have_pose_ || seq > last_pose_seq_);
             count_gap(have_pose_, last_pose_seq_, seq);
             have_pose_ = true;
             last_pose_seq_ = seq;
@@ -296,6 +300,7 @@ class ReferenceCodec final : public ReportCodec {
             for (size_t i = 0; i < r->count && n < out.size(); ++i) {
                 const uint64_t seq = first + i;
                 if (have_imu_ && seq <= last_imu_seq_) continue;
+                assert(n < out.size() && (!have_imu_ || seq > last_imu_seq_));
                 count_gap(have_imu_, last_imu_seq_, seq);
                 have_imu_ = true;
                 last_imu_seq_ = seq;

@@ -9,10 +9,12 @@
 #include "hmdnode/hal/codec/rift_imu.hpp"
 
 #include <algorithm>
+#include <cassert>
 
 namespace hmdnode::rift {
 
 std::array<int32_t, 3> unpack21(const uint8_t* b) {
+    assert(b != nullptr);
     const uint32_t x =
         (uint32_t(b[0]) << 24) | (uint32_t(b[1]) << 16) | (uint32_t(b[2] & 0xF8) << 8);
     const uint32_t y = (uint32_t(b[2] & 0x07) << 29) | (uint32_t(b[3]) << 21) |
@@ -23,6 +25,7 @@ std::array<int32_t, 3> unpack21(const uint8_t* b) {
 }
 
 void pack21(const std::array<int32_t, 3>& v, uint8_t* p) {
+    assert(p != nullptr);
     // 63 bits: x (21) y (21) z (21), big-endian, then one zero bit.
     const uint64_t m = (uint64_t(1) << 21) - 1;
     const uint64_t bits = ((uint64_t(uint32_t(v[0])) & m) << 43) |
@@ -106,6 +109,7 @@ size_t ImuDecoder::decode(std::span<const uint8_t> report, std::span<ImuSample, 
             ++counters_.repeated;
             continue;
         }
+        assert(k < out.size() && (!have_ || seq >= next_seq_));  // each sample once, in order
         if (have_ && seq > next_seq_) {
             ++counters_.sequence_gaps;
             counters_.missing_samples += seq - next_seq_;

@@ -5,6 +5,7 @@
 // apart from stale repeats without a previous sequence number); a slot whose tick goes backwards
 // keeps the previous unwrapped time instead of jumping forward by a whole wrap.
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <cstdint>
 
@@ -55,6 +56,7 @@ Result<std::array<RawSlot, 3>> parse_imu_report(std::span<const uint8_t> b) {
         return make_error("Vive IMU report 0x20: " + std::to_string(b.size()) + " bytes, needs 52");
     std::array<RawSlot, 3> slots;
     for (size_t i = 0; i < 3; ++i) {
+        assert(1 + 17 * (i + 1) <= b.size());  // the slot's 17 bytes lie within the report
         const uint8_t* p = b.data() + 1 + 17 * i;
         for (int k = 0; k < 3; ++k) slots[i].accel[k] = le_i16(p + 2 * k);
         for (int k = 0; k < 3; ++k) slots[i].gyro[k] = le_i16(p + 6 + 2 * k);
@@ -86,7 +88,9 @@ Variant variant_for_product(uint16_t product_id) {
 }
 
 ImuDecoder::ImuDecoder(Variant variant, const ImuRanges& ranges)
-    : variant_(variant), ranges_(ranges) {}
+    : variant_(variant), ranges_(ranges) {
+    assert(ranges.gyro_rad_s > 0.0 && ranges.accel_m_s2 > 0.0);  // full scales, LSB = range / 2^15
+}
 
 size_t ImuDecoder::decode(std::span<const uint8_t> report, std::span<ImuSample, 3> out) {
     if (report.empty() || report[0] != kImuReportId) {
@@ -127,12 +131,17 @@ size_t ImuDecoder::decode(std::span<const uint8_t> report, std::span<ImuSample, 
             for (size_t j = i; j > 0 && picks[j].delta < picks[j - 1].delta; --j)
                 std::swap(picks[j], picks[j - 1]);
     }
+    assert(n_picks <= out.size());
 
     const double accel_scale = ranges_.accel_m_s2 / 32768.0;
     const double gyro_scale = ranges_.gyro_rad_s / 32768.0;
     int prev_delta = 0;
     for (size_t k = 0; k < n_picks; ++k) {
         const RawSlot& s = slots[picks[k].slot];
+        // Picks are new slots in sequence order: each one past the last emitted and the previous.
+        assert(picks[k].slot < 3 && picks[k].delta > prev_delta);
+        [[maybe_unused]] const bool had_last = have_last_;
+        [[maybe_unused]] const uint64_t prev_seq = last_seq_, prev_ticks = ticks_;
         if (have_last_ && picks[k].delta > prev_delta + 1) {
             ++counters_.sequence_gaps;
             counters_.missing_samples += uint64_t(picks[k].delta - prev_delta - 1);
@@ -146,6 +155,9 @@ size_t ImuDecoder::decode(std::span<const uint8_t> report, std::span<ImuSample, 
             if (dt > 0) ticks_ += uint64_t(dt);
             last_seq_ += uint64_t(uint8_t(s.sequence - last_seq8_));
         }
+        // Each sample once, in order: the unwrapped sequence rises, the unwrapped clock never
+        // goes back.
+        assert(!had_last || (last_seq_ > prev_seq && ticks_ >= prev_ticks));
         have_last_ = true;
         last_ticks32_ = s.ticks;
         last_seq8_ = s.sequence;

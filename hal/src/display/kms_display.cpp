@@ -31,6 +31,7 @@
 #include <xf86drmMode.h>
 
 #include <algorithm>
+#include <cassert>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -569,7 +570,17 @@ class KmsDisplayImpl final : public KmsDisplay {
         }
         mode_ = c.modes[m];
         mode_info_ = ci.modes[size_t(m)];
+        // The driver's timings give the rate; a mode without one (no clock or totals, vrefresh 0)
+        // has no vsync grid to pace on.
+        if (!(mode_info_.refresh_hz >= 1.0 && mode_info_.refresh_hz <= 1000.0)) {
+            char b[64];
+            std::snprintf(b, sizeof b, "%.3f", mode_info_.refresh_hz);
+            return make_error(where + ": mode " + std::to_string(mode_info_.width) + "x" +
+                              std::to_string(mode_info_.height) + " of " + ci.name +
+                              " reports a refresh rate of " + b + " Hz");
+        }
         period_ns_ = int64_t(std::llround(1e9 / mode_info_.refresh_hz));
+        assert(period_ns_ > 0);
 
         // A CRTC one of its encoders can drive: the current one first.
         crtc_ = 0;

@@ -5,6 +5,7 @@
 #include "hmdnode/hal/display/mock_display.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <cstdio>
 #include <system_error>
@@ -18,6 +19,8 @@ class MockDisplay final : public Display {
         : clock_(clock),
           config_(config),
           period_ns_(int64_t(std::llround(1e9 / config.refresh_hz))) {
+        // create_mock_display() checked the configuration: 1..1000 Hz gives a period >= 1 ms.
+        assert(period_ns_ > 0 && config.frames_every >= 1 && config.latch_margin_ns >= 0);
         info_.name = "mock headset";
         info_.eye_width = config.eye_width;
         info_.eye_height = config.eye_height;
@@ -34,6 +37,9 @@ class MockDisplay final : public Display {
         int64_t k = rel >= 0 ? rel / period_ns_ + 1 : -((-rel) / period_ns_);
         int64_t v = config_.vsync_epoch_ns + k * period_ns_;
         if (v <= t_ns) v += period_ns_;
+        // The first vsync of the grid strictly after t: on the grid, within one period.
+        assert(v > t_ns && v - period_ns_ <= t_ns);
+        assert((v - config_.vsync_epoch_ns) % period_ns_ == 0);
         return v;
     }
 
@@ -41,6 +47,8 @@ class MockDisplay final : public Display {
         // The first vsync V with t <= V - latch, i.e. the first vsync after t + latch - 1.
         int64_t v = next_vsync_ns(t_ns + config_.latch_margin_ns - 1);
         if (v <= last_vsync_ns_) v = last_vsync_ns_ + period_ns_;
+        // Free: after the vsync an earlier present holds, and its latch point not before t.
+        assert(v > last_vsync_ns_ && v - config_.latch_margin_ns >= t_ns);
         return v;
     }
 
@@ -57,6 +65,8 @@ class MockDisplay final : public Display {
         // A display cannot show two frames at one vsync: the later one waits for the next free one;
         // nor can it show a frame before the vsync it was meant for.
         r.vsync_ns = std::max(free_vsync_ns(now), target_vsync_ns);
+        // The vsync sequence only moves forward: one frame per vsync, never before its target.
+        assert(r.vsync_ns > last_vsync_ns_ && r.vsync_ns >= target_vsync_ns);
         last_vsync_ns_ = r.vsync_ns;
         r.on_time = r.vsync_ns == target_vsync_ns;
         r.photon_time_ns = r.vsync_ns + photon_offset_ns();

@@ -4,6 +4,7 @@
 #include "hmdnode/hal/sim/sim_eye_tracker.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <vector>
 
 namespace hmdnode {
@@ -15,6 +16,7 @@ class SimEyeTracker final : public EyeTracker {
         : samples_(std::move(samples)), clock_(clock) {
         info_.name = "simulated eye tracker (trace gaze replay)";
         info_.nominal_rate_hz = rate_hz;
+        assert(!samples_.empty());  // create_sim_eye_tracker() refuses an empty range
     }
 
     EyeTrackerInfo info() const override { return info_; }
@@ -32,6 +34,7 @@ class SimEyeTracker final : public EyeTracker {
             counters_.samples_invalid += !samples_[cursor_].valid();
             out[n++] = samples_[cursor_++];
         }
+        assert(n <= out.size() && cursor_ <= samples_.size());
         counters_.samples_delivered += n;
         return n;
     }

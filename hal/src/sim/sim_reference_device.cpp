@@ -12,6 +12,7 @@
 #include "hmdnode/hal/sim/sim_reference_device.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <climits>
 #include <cmath>
 #include <deque>
@@ -77,6 +78,8 @@ uint64_t SimReferenceFirmware::device_time_us(int64_t t_ns) const {
 }
 
 int64_t SimReferenceFirmware::measure_time_ns(uint64_t index) const {
+    // The schedule restarts at schedule_index_ (boot, rate change): no measurement before it.
+    assert(config_.pose_rate_hz > 0 && index >= schedule_index_);
     const int64_t k = static_cast<int64_t>(index - schedule_index_);
     return schedule_origin_ns_ + k * kNsPerSecond / config_.pose_rate_hz;
 }
@@ -118,6 +121,8 @@ size_t SimReferenceFirmware::produce(int64_t until_ns, std::vector<InputReport>&
         InputReport ir;
         ir.bytes = refproto::encode(r);
         ir.host_time_ns = t + config_.latency_ns;
+        // The firmware's schedule moves forward: each report after the previous one.
+        assert(out.empty() || out.back().host_time_ns <= ir.host_time_ns);
         out.push_back(std::move(ir));
         ++next_index_;
         ++produced_;

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cassert>
 #include <random>
 #include <thread>
 #include <vector>
@@ -25,6 +26,11 @@ class SimTracker final : public Tracker {
         info_.provides_orientation = true;
         info_.provides_position = has_position;
         info_.provides_imu = has_imu;
+        // Delivered as USB delivers: in arrival order, never before the measurement.
+        assert(std::is_sorted(samples_.begin(), samples_.end(),
+                              [](const TrackerSample& a, const TrackerSample& b) {
+                                  return a.arrival_ns < b.arrival_ns;
+                              }));
     }
     ~SimTracker() override { stop(); }
 
@@ -53,6 +59,7 @@ class SimTracker final : public Tracker {
             while (n < out.size() && cursor_ < samples_.size() &&
                    samples_[cursor_].arrival_ns <= now)
                 out[n++] = samples_[cursor_++];
+            assert(cursor_ <= samples_.size());
         } else {
             while (n < out.size() && ring_.pop(&out[n])) ++n;
         }
@@ -171,6 +178,7 @@ Result<std::unique_ptr<Tracker>> create_sim_tracker(std::shared_ptr<const Trace>
         // USB delivers in order: an arrival never precedes the previous one.
         o.arrival_ns = std::max(
             last_arrival, o.time_ns + config.latency_ns + (config.jitter_ns > 0 ? jitter(rng) : 0));
+        assert(o.arrival_ns >= o.time_ns + config.latency_ns && o.arrival_ns >= last_arrival);
         last_arrival = o.arrival_ns;
         out.push_back(o);
     }

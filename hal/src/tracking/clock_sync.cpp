@@ -17,6 +17,7 @@
 #include "hmdnode/hal/tracking/clock_sync.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 
 namespace hmdnode {
@@ -35,13 +36,16 @@ uint64_t TickUnwrapper::unwrap(uint64_t raw) {
         return value_;
     }
     if (raw < last_raw_) ++wraps_;
+    assert(fwd <= modulus_ / 2 && value_ + fwd >= value_);  // forward only, by under half a wrap
     value_ += fwd;
     last_raw_ = raw;
     return value_;
 }
 
 ClockSync::ClockSync(const ClockSyncConfig& config)
-    : config_(config), bucket_ns_(std::max<int64_t>(1, config.window_ns / kBuckets)) {}
+    : config_(config), bucket_ns_(std::max<int64_t>(1, config.window_ns / kBuckets)) {
+    assert(config.window_ns > 0 && config.jump_threshold_ns >= 0 && config.fixed_latency_ns >= 0);
+}
 
 void ClockSync::reset(int64_t device_ns, int64_t arrival_ns) {
     if (have_) ++resets_;
@@ -65,6 +69,9 @@ void ClockSync::refit(int64_t current_index) {
         const Bucket& b = buckets_[size_t(((k % kBuckets) + kBuckets) % kBuckets)];
         if (b.used && b.index == k) pts[size_t(n++)] = &b;
     }
+    assert(n < kBuckets);        // the completed buckets of the window, the current one left out
+    for (int i = 1; i < n; ++i)  // in time order: the hull's x increases
+        assert(pts[size_t(i)]->index > pts[size_t(i - 1)]->index);
     const bool can_fit =
         config_.estimate_drift && n >= 2 &&
         pts[size_t(n - 1)]->at_device - pts[0]->at_device >= 2.0 * double(bucket_ns_);
@@ -84,8 +91,10 @@ void ClockSync::refit(int64_t current_index) {
         double mean_x = 0.0;
         for (int i = 0; i < n; ++i) mean_x += pts[size_t(i)]->at_device;
         mean_x /= n;
-        int e = 0;  // the edge [hull[e], hull[e + 1]] under the mean time
+        assert(h >= 2 && h <= n);  // the two ends of the points are always on the hull
+        int e = 0;                 // the edge [hull[e], hull[e + 1]] under the mean time
         while (e + 2 < h && hull[size_t(e + 1)]->at_device < mean_x) ++e;
+        assert(e + 1 < h);
         const Bucket* a = hull[size_t(e)];
         const Bucket* b = hull[size_t(e + 1)];
         slope_ = (b->min_diff - a->min_diff) / (b->at_device - a->at_device);
@@ -96,6 +105,7 @@ void ClockSync::refit(int64_t current_index) {
     double lowest = 1e300;
     for (const Bucket& b : buckets_)
         if (b.used) lowest = std::min(lowest, b.min_diff - slope_ * b.at_device);
+    assert(lowest < 1e300);  // refit runs after a bucket was filled: some bucket is in use
     intercept_ = lowest;
 }
 
@@ -148,6 +158,8 @@ int64_t ClockSync::update(int64_t device_ns, int64_t arrival_ns) {
         out = std::max(out, last_out_ + (device_ns - last_out_device_) / 2);
     else if (have_out_)
         out = std::max(out, last_out_);
+    // Output times are monotonic between resets (a reset clears have_out_).
+    assert(!have_out_ || out >= last_out_);
     have_out_ = true;
     last_out_ = out;
     last_out_device_ = device_ns;

@@ -9,6 +9,7 @@
 // is deterministic; that path may allocate (replay only).
 #include <algorithm>
 #include <atomic>
+#include <cassert>
 #include <cstdio>
 #include <deque>
 #include <mutex>
@@ -64,6 +65,8 @@ class DeviceTrackerImpl final : public DeviceTracker {
         if (clock_.is_simulated()) {
             const int64_t now = clock_.now_ns();
             pump_until(now);
+            // pump_until queues a sample only once the simulated clock reached its arrival.
+            assert(pending_.empty() || pending_.back().arrival_ns <= now);
             while (n < out.size() && !pending_.empty() && pending_.front().arrival_ns <= now) {
                 out[n++] = pending_.front();
                 pending_.pop_front();
@@ -71,6 +74,7 @@ class DeviceTrackerImpl final : public DeviceTracker {
         } else {
             while (n < out.size() && ring_.pop(&out[n])) ++n;
         }
+        assert(n <= out.size());
         delivered_.fetch_add(n, std::memory_order_relaxed);
         return n;
     }

@@ -22,6 +22,7 @@
 #include "hmdnode/hal/tracking/imu_fusion.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 
 namespace hmdnode {
@@ -50,6 +51,11 @@ glm::dquat integrate(const glm::dquat& q, const glm::dvec3& w, double dt) {
 
 ImuFusion::ImuFusion(const ImuFusionConfig& config) : config_(config) {
     config_.still_blocks = std::clamp(config_.still_blocks, 2, kMaxBlocks);
+    // Gains and gates are the caller's (code, not a file): non-negative, and the periods that
+    // divide or bound a window positive.
+    assert(config.kp >= 0.0 && config.ki >= 0.0 && config.init_kp >= 0.0 && config.init_ki >= 0.0);
+    assert(config.gravity > 0.0 && config.kp_rate_scale_rad_s > 0.0 && config.accel_gate >= 0.0);
+    assert(config.still_block_ns > 0 && config.max_dt_ns >= 0 && config.max_bias_rad_s >= 0.0);
 }
 
 void ImuFusion::reset() {
@@ -65,12 +71,14 @@ void ImuFusion::close_block(bool init_phase) {
         still_ = false;
         return;
     }
+    assert(block_head_ >= 0 && block_head_ < kMaxBlocks);
     blocks_[size_t(block_head_)] = b;
     block_head_ = (block_head_ + 1) % kMaxBlocks;
     blocks_filled_ = std::min(blocks_filled_ + 1, config_.still_blocks);
     still_ = false;
     if (blocks_filled_ < config_.still_blocks) return;
 
+    assert(blocks_filled_ == config_.still_blocks && config_.still_blocks <= kMaxBlocks);
     Block w;
     const int first = (block_head_ - config_.still_blocks + kMaxBlocks) % kMaxBlocks;
     const int last = (block_head_ - 1 + kMaxBlocks) % kMaxBlocks;
@@ -82,6 +90,7 @@ void ImuFusion::close_block(bool init_phase) {
         w.a_sum += x.a_sum;
         w.a_sq += x.a_sq;
     }
+    assert(w.n > 0);  // only blocks with samples (n > 0) enter the ring
     const double n = double(w.n);
     const glm::dvec3 g_mean = w.g_sum / n, a_mean = w.a_sum / n;
     const glm::dvec3 g_var = glm::max(w.g_sq / n - g_mean * g_mean, glm::dvec3(0.0));
@@ -178,6 +187,7 @@ void ImuFusion::update(int64_t time_ns, const glm::dvec3& gyro, const glm::dvec3
 
     omega_ = gyro - bias_;
     q_ = integrate(q_, omega_ + kp * e, dt);
+    assert(dt >= 0.0 && kp >= 0.0 && ki >= 0.0);
 }
 
 }  // namespace hmdnode

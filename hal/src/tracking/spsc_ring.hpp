@@ -32,6 +32,9 @@ class SpscRing {
             tail_cache_ = tail_.load(std::memory_order_acquire);
             if (head - tail_cache_ > mask_) return false;
         }
+        // The producer's view of the tail lags the consumer's (never passes the head); the ring
+        // has a free slot.
+        assert(head - tail_cache_ <= mask_);
         slots_[head & mask_] = value;
         head_.store(head + 1, std::memory_order_release);
         return true;
@@ -39,11 +42,14 @@ class SpscRing {
 
     // Consumer thread only.
     bool pop(T* out_value) {
+        assert(out_value != nullptr);
         const size_t tail = tail_.load(std::memory_order_relaxed);
         if (tail == head_cache_) {
             head_cache_ = head_.load(std::memory_order_acquire);
             if (tail == head_cache_) return false;
         }
+        // The consumer's view of the head is ahead of the tail by at most the capacity.
+        assert(head_cache_ - tail >= 1 && head_cache_ - tail <= mask_ + 1);
         *out_value = slots_[tail & mask_];
         tail_.store(tail + 1, std::memory_order_release);
         return true;

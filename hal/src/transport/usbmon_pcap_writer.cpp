@@ -6,6 +6,7 @@
 #include <time.h>
 
 #include <algorithm>
+#include <cassert>
 #include <cstring>
 #include <mutex>
 
@@ -37,6 +38,8 @@ UsbmonPcapWriter::UsbmonPcapWriter() {
 void UsbmonPcapWriter::event(int64_t realtime_ns, uint64_t urb_id, char type, uint8_t xfer_type,
                              uint8_t endpoint, uint32_t urb_length, const uint8_t* setup,
                              std::span<const uint8_t> data) {
+    // pcap stores the time as unsigned seconds since 1970: a recording is of now, not before.
+    assert(realtime_ns >= 0 && (setup != nullptr || xfer_type != 2 || type != 'S'));
     std::string h;
     put_le<uint64_t>(h, urb_id);
     h.push_back(type);
@@ -65,6 +68,7 @@ void UsbmonPcapWriter::event(int64_t realtime_ns, uint64_t urb_id, char type, ui
     put_le<uint32_t>(bytes_, len);
     bytes_ += h;
     put(bytes_, data.data(), data.size());
+    assert(h.size() == 64);  // the usbmon mmapped header (LINKTYPE_USB_LINUX_MMAPPED)
     ++events_;
 }
 

@@ -4,6 +4,7 @@
 #include "gpu_scene.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <cstring>
 #include <string>
 
@@ -102,6 +103,9 @@ Status upload_textures(DeviceContext& ctx, const Scene& scene, GpuScene& out) {
     for (size_t t = 0; t < n; ++t) {
         if (!srgb[t] && !unorm[t]) continue;
         const Texture& tex = scene.textures[t];
+        // validate_scene(): a sized texture holding its RGBA8 texels.
+        assert(tex.width >= 1 && tex.height >= 1 &&
+               tex.rgba8.size() == size_t(tex.width) * size_t(tex.height) * 4);
         auto gpu =
             create_texture(ctx, uint32_t(tex.width), uint32_t(tex.height), srgb[t], unorm[t]);
         if (!gpu) return gpu.error();
@@ -119,6 +123,9 @@ Status upload_textures(DeviceContext& ctx, const Scene& scene, GpuScene& out) {
     std::memcpy(dst, white_texel, 4);
     for (size_t t = 0, c = 1; t < n; ++t) {
         if (!srgb[t] && !unorm[t]) continue;
+        // Each texture at its own offset, in the order the copies were planned.
+        assert(c < copies.size() &&
+               copies[c].offset + scene.textures[t].rgba8.size() <= staging_size);
         std::memcpy(dst + copies[c++].offset, scene.textures[t].rgba8.data(),
                     scene.textures[t].rgba8.size());
     }
@@ -201,6 +208,11 @@ Status create_materials(DeviceContext& ctx, const Scene& scene, VkDescriptorSetL
     for (uint32_t i = 0; i < count; ++i) {
         const Material fallback;
         const Material& m = i < scene.materials.size() ? scene.materials[i] : fallback;
+        // Every texture a material samples was uploaded (texture_uses marked it).
+        assert(m.base_color_texture < 0 ||
+               out.textures[size_t(m.base_color_texture)].srgb_view.get() != VK_NULL_HANDLE);
+        assert(m.lightmap.texture < 0 ||
+               out.textures[size_t(m.lightmap.texture)].unorm_view.get() != VK_NULL_HANDLE);
         const VkImageView base = m.base_color_texture >= 0
                                      ? out.textures[m.base_color_texture].srgb_view.get()
                                      : out.white.unorm_view.get();

@@ -134,8 +134,19 @@ Result<size_t> choose_vulkan_display_mode(const VulkanDisplayInfo& display, int 
         if (refresh_hz > 0.0 && std::fabs(m.refresh_hz - refresh_hz) > 0.5) continue;
         if (!best || m.refresh_hz > display.modes[*best].refresh_hz) best = i;
     }
-    if (best) return *best;
-    if (any && !display.modes.empty()) return size_t{0};
+    if (!best && any && !display.modes.empty()) best = 0;
+    if (best) {
+        // The driver's refresh gives the vsync grid (firmware_host's pacing): none, no grid.
+        const VulkanDisplayMode& m = display.modes[*best];
+        if (!(m.refresh_hz >= 1.0 && m.refresh_hz <= 1000.0)) {
+            char b[96];
+            std::snprintf(b, sizeof b, "%dx%d reports a refresh rate of %.3f Hz", m.width, m.height,
+                          m.refresh_hz);
+            return make_error("display.mode: Vulkan display \"" + display.name + "\" on " +
+                              display.gpu + ": mode " + b);
+        }
+        return *best;
+    }
     std::string list;
     for (const VulkanDisplayMode& m : display.modes) {
         char b[64];

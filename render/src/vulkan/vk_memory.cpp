@@ -2,6 +2,7 @@
 // and creation time only); staging copies wait for the GPU.
 #include "vk_memory.hpp"
 
+#include <cassert>
 #include <cstring>
 #include <string>
 
@@ -80,6 +81,7 @@ Result<Buffer> create_buffer(const DeviceContext& ctx, VkDeviceSize size, VkBuff
             break;
     }
     if (type < 0) return make_error(std::string("Vulkan: no memory type for ") + what);
+    assert(uint32_t(type) < ctx.memory_properties.memoryTypeCount && req.size >= size);
     const VkMemoryPropertyFlags flags = ctx.memory_properties.memoryTypes[type].propertyFlags;
 
     VkMemoryAllocateInfo alloc{};
@@ -93,11 +95,14 @@ Result<Buffer> create_buffer(const DeviceContext& ctx, VkDeviceSize size, VkBuff
     if (flags & VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT)
         HMDNODE_VK_TRY(vkMapMemory(ctx.device, b.memory_, 0, VK_WHOLE_SIZE, 0, &b.mapped_),
                        (std::string("vkMapMemory (") + what + ")").c_str());
+    // Upload and read-back buffers are what the CPU maps: host-visible by their memory type.
+    assert(use == MemoryUse::DeviceLocal || b.mapped_ != nullptr);
     return b;
 }
 
 Result<Buffer> create_buffer_with_data(DeviceContext& ctx, std::span<const std::byte> bytes,
                                        VkBufferUsageFlags usage, const char* what) {
+    assert(!bytes.empty() && bytes.data() != nullptr);
     auto buffer = create_buffer(ctx, bytes.size(), usage | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                 MemoryUse::DeviceLocal, what);
     if (!buffer) return buffer.error();
@@ -138,6 +143,7 @@ void Image::reset() {
 }
 
 Result<Image> create_image(const DeviceContext& ctx, const ImageDesc& desc, const char* what) {
+    assert(desc.width >= 1 && desc.height >= 1 && desc.layers >= 1);
     Image img;
     img.device_ = ctx.device;
     img.desc_ = desc;
@@ -191,6 +197,7 @@ Result<Sampler> create_sampler(const DeviceContext& ctx, VkSamplerAddressMode ad
 Result<ImageView> create_view(const DeviceContext& ctx, const Image& image, VkFormat format,
                               VkImageAspectFlags aspect, const char* what, uint32_t base_layer,
                               uint32_t layer_count) {
+    assert(base_layer < image.desc().layers);
     if (layer_count == 0) layer_count = image.desc().layers - base_layer;
     assert(base_layer + layer_count <= image.desc().layers);
     VkImageViewCreateInfo info{};
@@ -207,6 +214,9 @@ Result<ImageView> create_view(const DeviceContext& ctx, const Image& image, VkFo
 
 void record_copy_to_host(VkCommandBuffer cmd, VkImage image, uint32_t width, uint32_t height,
                          uint32_t layers, const Buffer& buffer) {
+    // The buffer holds the layers' rows of 4-byte texels, one after the other.
+    assert(width >= 1 && height >= 1 && layers >= 1 &&
+           buffer.size() >= VkDeviceSize(width) * height * layers * 4);
     VkBufferImageCopy region{};
     region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, layers};
     region.imageExtent = {width, height, 1};

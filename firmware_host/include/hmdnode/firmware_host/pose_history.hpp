@@ -9,6 +9,7 @@
 // Threads: frame thread only. Fixed capacity; push() and queries neither allocate nor lock.
 #pragma once
 
+#include <cassert>
 #include <cstdint>
 #include <vector>
 
@@ -91,6 +92,7 @@ class PoseHistory {
 
   private:
     const TrackerSample& at(size_t i) const {
+        assert(i < count_ && count_ <= ring_.size());
         return ring_[(head_ + ring_.size() - count_ + i) % ring_.size()];
     }
     Pose to_pose(const TrackerSample& s) const;

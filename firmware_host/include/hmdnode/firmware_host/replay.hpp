@@ -132,7 +132,8 @@ struct VsyncSample {
 };
 
 // The per-vsync series of a run's presents (period and truth as in the run; a null truth gives
-// NaN registration error at repeated vsyncs).
+// NaN registration error at repeated vsyncs). The presents are the frame loop's: one per vsync,
+// in vsync order.
 std::vector<VsyncSample> vsync_series(const std::vector<FrameRecord>& frames, int64_t period_ns,
                                       const TruthFn& truth, double registration_distance_m);
 

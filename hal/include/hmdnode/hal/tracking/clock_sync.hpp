@@ -11,6 +11,7 @@
 #pragma once
 
 #include <array>
+#include <cassert>
 #include <cstdint>
 
 namespace hmdnode {
@@ -20,7 +21,7 @@ namespace hmdnode {
 // the previous value (and counts it) rather than adding a whole period.
 class TickUnwrapper {
   public:
-    explicit TickUnwrapper(uint64_t modulus) : modulus_(modulus) {}
+    explicit TickUnwrapper(uint64_t modulus) : modulus_(modulus) { assert(modulus >= 2); }
     uint64_t unwrap(uint64_t raw);
     uint64_t wraps() const { return wraps_; }
     uint64_t backward_steps() const { return backward_; }

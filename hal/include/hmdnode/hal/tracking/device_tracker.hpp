@@ -15,6 +15,7 @@
 #pragma once
 
 #include <array>
+#include <cassert>
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -111,7 +112,9 @@ class ReportChain {
   public:
     explicit ReportChain(std::unique_ptr<ReportCodec> codec, const ClockSyncConfig& clock = {},
                          const ImuFusionConfig& fusion = {})
-        : codec_(std::move(codec)), clock_config_(clock), sync_(clock), fusion_(fusion) {}
+        : codec_(std::move(codec)), clock_config_(clock), sync_(clock), fusion_(fusion) {
+        assert(codec_ != nullptr);
+    }
 
     // Decodes one report received at host_time_ns and calls emit(device_sample, tracker_sample)
     // for each sample, oldest first: the codec's sample on the device clock, and the tracker's on
@@ -121,6 +124,7 @@ class ReportChain {
     size_t feed(std::span<const uint8_t> report, int64_t host_time_ns, Emit&& emit) {
         std::array<DeviceSample, ReportCodec::kMaxSamplesPerReport> buf;
         const size_t n = codec_->decode(report, buf);
+        assert(n <= buf.size());
         for (size_t i = 0; i < n; ++i) {
             const DeviceSample& d = buf[i];
             if (d.clock_reset) reset_clock();
