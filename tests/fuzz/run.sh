@@ -1,7 +1,7 @@
 #!/bin/sh
 # Configures and builds the fuzz build of this project (HMDNODE_FUZZ=ON, tests/fuzz/CMakeLists.txt:
-# one libFuzzer executable per tests/fuzz/*_fuzz.cpp, linked to the libraries' own CMake targets,
-# all compiled by clang++ with the fuzzer's coverage and -fsanitize=address,undefined) in
+# one libFuzzer executable per tests/fuzz/*_fuzz.cpp, linked to the library of the parser sources
+# they reach, all compiled by clang++ with the fuzzer's coverage and -fsanitize=address,undefined) in
 # WORK_DIR/build, then runs each harness for FUZZ_SECONDS (default 10) seconds on its seeds (as many
 # at once as FUZZ_RUN_JOBS, default the cores online): the
 # committed ones (tests/fuzz/seeds/<harness>/) and those made below from the data.
