@@ -6,6 +6,7 @@
 // own side, and any renderer picks the side by back-face culling (glTF: a single-sided material's
 // back faces are not drawn). What Unity and Bakery call "double-sided GI" done as geometry.
 // Cost: O(vertices + indices) per split primitive; it doubles their triangles in the output.
+#include <algorithm>
 #include <cassert>
 #include <string>
 #include <vector>
@@ -48,7 +49,10 @@ size_t split_two_sided(Scene& scene, const std::function<bool(const Primitive&)>
                 continue;
             const uint32_t n = uint32_t(p.positions.size());
             auto twice = [](auto& v) {
-                if (!v.empty()) v.insert(v.end(), v.begin(), v.end());
+                // note: not insert(end, begin, end): a range into the vector itself is undefined.
+                const size_t n = v.size();
+                v.resize(2 * n);
+                std::copy_n(v.begin(), n, v.begin() + std::ptrdiff_t(n));
             };
             twice(p.positions);
             twice(p.uv0);
