@@ -134,6 +134,25 @@ std::string parse_light_line(const std::vector<std::string_view>& t, int64_t tim
 }
 
 // An LH_POSE line (any device field: the base station's number), with or without its id.
+// Fields 3..9 of a POSE or LH_POSE line (x y z qw qx qy qz): the position and the unit quaternion;
+// an error naming KIND and the field, or "".
+std::string parse_pose_fields(const std::vector<std::string_view>& t, std::string_view kind,
+                              glm::dvec3* position, glm::dquat* rotation) {
+    double v[7];
+    for (size_t k = 0; k < 7; ++k)
+        if (!to_double(t[3 + k], &v[k]))
+            return std::string(kind) + " value " + std::to_string(k + 1) + " \"" +
+                   std::string(t[3 + k]) + "\" is not a number";
+    const glm::dquat q(v[3], v[4], v[5], v[6]);
+    const double norm = glm::length(q);
+    if (std::abs(norm - 1.0) > 0.01)
+        return std::string(kind) + " quaternion (qw qx qy qz) has norm " + std::to_string(norm) +
+               ", not 1";
+    *position = glm::dvec3(v[0], v[1], v[2]);
+    *rotation = q / norm;
+    return {};
+}
+
 std::string parse_lh_pose(const std::vector<std::string_view>& t, int64_t time_ns,
                           SurviveRecording* rec) {
     if (t.size() != 10 && t.size() != 11)
@@ -143,16 +162,10 @@ std::string parse_lh_pose(const std::vector<std::string_view>& t, int64_t time_n
     double n = 0;
     if (!to_whole(t[1], 0, 255, &n))
         return "LH_POSE base station \"" + std::string(t[1]) + "\" is not a number 0..255";
-    double v[7];
-    for (size_t k = 0; k < 7; ++k)
-        if (!to_double(t[3 + k], &v[k]))
-            return "LH_POSE value " + std::to_string(k + 1) + " \"" + std::string(t[3 + k]) +
-                   "\" is not a number";
-    glm::dquat q(v[3], v[4], v[5], v[6]);
-    const double norm = glm::length(q);
-    if (std::abs(norm - 1.0) > 0.01)
-        return "LH_POSE quaternion (qw qx qy qz) has norm " + std::to_string(norm) + ", not 1";
-    SurviveBaseStationPose p{time_ns, int(n), glm::dvec3(v[0], v[1], v[2]), q / norm, {}};
+    glm::dvec3 position;
+    glm::dquat rotation;
+    if (std::string e = parse_pose_fields(t, "LH_POSE", &position, &rotation); !e.empty()) return e;
+    SurviveBaseStationPose p{time_ns, int(n), position, rotation, {}};
     if (t.size() == 11) {
         double id = 0;
         if (!to_whole(t[10], 0, 4294967295.0, &id))
@@ -206,16 +219,11 @@ std::string parse_line(const std::vector<std::string_view>& t, std::string_view 
         if (t.size() != 10)
             return "a POSE line has 10 fields (TIME DEV POSE x y z qw qx qy qz), this one " +
                    std::to_string(t.size());
-        double v[7];
-        for (size_t k = 0; k < 7; ++k)
-            if (!to_double(t[3 + k], &v[k]))
-                return "POSE value " + std::to_string(k + 1) + " \"" + std::string(t[3 + k]) +
-                       "\" is not a number";
-        glm::dquat q(v[3], v[4], v[5], v[6]);
-        const double n = glm::length(q);
-        if (std::abs(n - 1.0) > 0.01)
-            return "POSE quaternion (qw qx qy qz) has norm " + std::to_string(n) + ", not 1";
-        rec->poses.push_back({time_ns, glm::dvec3(v[0], v[1], v[2]), q / n});
+        glm::dvec3 position;
+        glm::dquat rotation;
+        if (std::string e = parse_pose_fields(t, "POSE", &position, &rotation); !e.empty())
+            return e;
+        rec->poses.push_back({time_ns, position, rotation});
         return {};
     }
     // CONFIG: the rest of the line after the kind is the device's JSON.
