@@ -24,7 +24,7 @@ struct Quad {
 };
 
 // A quad's lightmap chart: its 2-D frame (metres), size in texels and place in the atlas.
-struct Chart {
+struct WallChart {
     glm::vec3 o, u, v;  // world origin and unit axes
     glm::vec2 lo, size_m;
     int x = 0, y = 0, w = 0, h = 0;
@@ -89,7 +89,7 @@ void add_materials(Scene& s, bool lm) {
 
 // Converts q to metres, orients it (see the departures above) and returns its chart, sized in
 // texels when lm.
-Chart orient_and_chart(Quad& q, double texels_per_metre, bool lm) {
+WallChart orient_and_chart(Quad& q, double texels_per_metre, bool lm) {
     for (glm::vec3& p : q.p) p *= 0.001f;
     glm::vec3 n = glm::normalize(glm::cross(q.p[1] - q.p[0], q.p[2] - q.p[0]));
     const glm::vec3 c = (q.p[0] + q.p[1] + q.p[2] + q.p[3]) * 0.25f;
@@ -98,7 +98,7 @@ Chart orient_and_chart(Quad& q, double texels_per_metre, bool lm) {
         std::swap(q.p[1], q.p[3]);
         n = -n;
     }
-    Chart ch;
+    WallChart ch;
     ch.o = q.p[0];
     ch.u = glm::normalize(q.p[1] - q.p[0]);
     ch.v = glm::cross(n, ch.u);
@@ -119,7 +119,7 @@ Chart orient_and_chart(Quad& q, double texels_per_metre, bool lm) {
 
 // Shelf-packs the charts of every quad but the last (the light, not lightmapped) into a
 // square-ish atlas; returns the black, opaque atlas texture.
-Texture pack_charts(std::vector<Chart>& charts) {
+Texture pack_charts(std::vector<WallChart>& charts) {
     double area = 0.0;
     for (size_t qi = 0; qi + 1 < charts.size(); ++qi)
         area += double(charts[qi].w + kPad) * (charts[qi].h + kPad);
@@ -128,7 +128,7 @@ Texture pack_charts(std::vector<Chart>& charts) {
         width = std::max(width, charts[qi].w + 2 * kPad);
     int x = kPad, y = kPad, shelf = 0;
     for (size_t qi = 0; qi + 1 < charts.size(); ++qi) {
-        Chart& ch = charts[qi];
+        WallChart& ch = charts[qi];
         if (x + ch.w + kPad > width) {
             x = kPad;
             y += shelf + kPad;
@@ -149,7 +149,7 @@ Texture pack_charts(std::vector<Chart>& charts) {
 }
 
 // Appends quad q (two triangles) to p, with uv1 in its chart of the atlas when `uv1`.
-void add_quad(const Quad& q, const Chart& ch, bool uv1, glm::vec2 atlas, Primitive& p) {
+void add_quad(const Quad& q, const WallChart& ch, bool uv1, glm::vec2 atlas, Primitive& p) {
     const uint32_t b = uint32_t(p.positions.size());
     const glm::vec3 n = glm::normalize(glm::cross(q.p[1] - q.p[0], q.p[2] - q.p[0]));
     for (const glm::vec3& v : q.p) {
@@ -180,7 +180,7 @@ Scene cornell_box_scene(double texels_per_metre) {
     mesh.primitives.resize(4);
     for (int k = 0; k < 4; ++k) mesh.primitives[k].material = k;
 
-    std::vector<Chart> charts(quads.size());
+    std::vector<WallChart> charts(quads.size());
     for (size_t qi = 0; qi < quads.size(); ++qi)
         charts[qi] = orient_and_chart(quads[qi], texels_per_metre, lm);
     int atlas_w = 0, atlas_h = 0;

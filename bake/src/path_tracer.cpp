@@ -40,7 +40,7 @@
 namespace hmdnode {
 namespace {
 
-constexpr float kPi = std::numbers::pi_v<float>;
+constexpr float kPiF = std::numbers::pi_v<float>;
 
 float srgb_to_linear(float c) {
     return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
@@ -48,7 +48,7 @@ float srgb_to_linear(float c) {
 
 glm::vec3 cosine_sample(const glm::vec3& n, Pcg32& rng) {
     const float u1 = rng.uniform(), u2 = rng.uniform();
-    const float r = std::sqrt(u1), phi = 2.0f * kPi * u2;
+    const float r = std::sqrt(u1), phi = 2.0f * kPiF * u2;
     glm::vec3 t, b;
     detail::tangent_frame(n, t, b);
     const float z = std::sqrt(std::max(0.0f, 1.0f - u1));
@@ -325,7 +325,7 @@ struct PathTracer::Impl {
         const float pdf_l = emitter_pdf_area[tri] * dist * dist / cos_l;
         if (!(pdf_l > 0.0f)) return q.push(Deferred::Emit);
         if (rays) ++*rays;
-        const float pdf_b = cos_s / kPi;
+        const float pdf_b = cos_s / kPiF;
         const float w = pdf_l / (pdf_l + pdf_b);
         q.push(Deferred::Emit, m.emission * (cos_s / pdf_l * w),
                q.shadow(origin, d, 0.0f, dist * (1.0f - 1e-4f) - offset(qp)));
@@ -350,8 +350,8 @@ struct PathTracer::Impl {
         // Continuation: radiance along a cosine-sampled direction, times pi.
         glm::vec3 x = p, nx = n;
         glm::vec3 d = cosine_sample(nx, rng);
-        float pdf_b = glm::dot(nx, d) / kPi;
-        glm::vec3 beta(kPi);  // estimator weight: cos / pdf
+        float pdf_b = glm::dot(nx, d) / kPiF;
+        glm::vec3 beta(kPiF);  // estimator weight: cos / pdf
         for (int k = 0;; ++k) {
             // The bounce limit ends the path before it reflects once more.
             assert(bounces < 0 || k <= bounces);
@@ -375,17 +375,17 @@ struct PathTracer::Impl {
             if (max3(a) <= 0.0f) break;
             x = x + nx * offset(x) + d * h->t;
             nx = ns;
-            beta *= a / kPi;
+            beta *= a / kPiF;
             acc = 1;
             direct_group(x, nx, rng, rays, q, beta, acc, false);
-            beta *= kPi;  // cosine sampling: f cos / pdf = albedo
+            beta *= kPiF;  // cosine sampling: f cos / pdf = albedo
             if (k + 1 >= options.rr_min_bounces) {
-                const float qq = std::min(0.95f, max3(beta) / kPi);
+                const float qq = std::min(0.95f, max3(beta) / kPiF);
                 if (rng.uniform() >= qq) break;
                 beta /= qq;
             }
             d = cosine_sample(nx, rng);
-            pdf_b = glm::dot(nx, d) / kPi;
+            pdf_b = glm::dot(nx, d) / kPiF;
         }
         q.push(Deferred::EndPath);
     }
@@ -629,7 +629,8 @@ glm::vec3 PathTracer::radiance(const glm::vec3& origin, const glm::vec3& dir, Pc
     const glm::vec3 x = origin + dir * h->t;
     const glm::vec3 a = impl_->albedo(h->triangle, h->u, h->v);
     glm::vec3 l = m.emission;
-    if (max3(a) > 0.0f) l += a / kPi * impl_->irradiance1(x, ns, rng, rays, impl_->options.bounces);
+    if (max3(a) > 0.0f)
+        l += a / kPiF * impl_->irradiance1(x, ns, rng, rays, impl_->options.bounces);
     return l;
 }
 
@@ -722,7 +723,7 @@ double PathTracer::raw_rays_per_second(size_t count, int threads, uint64_t seed)
         const size_t end = std::min(count, (c + 1) * chunk);
         for (size_t i = c * chunk; i < end; ++i) {
             glm::vec3 o = lo + ext * glm::vec3(rng.uniform(), rng.uniform(), rng.uniform());
-            float z = 1.0f - 2.0f * rng.uniform(), phi = 2.0f * kPi * rng.uniform();
+            float z = 1.0f - 2.0f * rng.uniform(), phi = 2.0f * kPiF * rng.uniform();
             float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
             glm::vec3 d(r * std::cos(phi), r * std::sin(phi), z);
             if (impl_->embree.intersect(o, d, 0.0f, std::numeric_limits<float>::infinity())) ++h;

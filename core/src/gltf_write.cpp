@@ -33,7 +33,7 @@
 namespace hmdnode {
 namespace {
 
-bool finite3(const glm::dvec3& v) {
+bool finite_position(const glm::dvec3& v) {
     return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
 }
 
@@ -121,7 +121,7 @@ std::string check_scene(const Scene& s) {
         for (int id : n.lod_ids)
             if (!in_range(id, s.nodes.size()) || id == int(i))
                 return cat("node ", i, ": MSFT_lod id ", id, " is out of range or the node itself");
-        const bool finite = finite3(n.translation) && finite3(n.scale) &&
+        const bool finite = finite_position(n.translation) && finite_position(n.scale) &&
                             std::isfinite(n.rotation.w) && std::isfinite(n.rotation.x) &&
                             std::isfinite(n.rotation.y) && std::isfinite(n.rotation.z);
         if (!finite) return cat("node ", i, ": transform is not finite");

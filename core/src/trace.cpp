@@ -69,9 +69,7 @@ std::string known_columns() {
     return s;
 }
 
-std::string where(const std::string& source, size_t line) {
-    return source + ":" + std::to_string(line) + ": ";
-}
+using trace_text::where;
 
 std::string column_ref(size_t index, std::string_view name) {
     return "column " + std::to_string(index + 1) + " '" + std::string(name) + "': ";

@@ -43,9 +43,7 @@ std::string lower(std::string_view s) {
     return out;
 }
 
-std::string where(const std::string& source, size_t line) {
-    return source + ":" + std::to_string(line) + ": ";
-}
+using trace_text::where;
 
 // --- Separators and fields ---------------------------------------------------------------------
 

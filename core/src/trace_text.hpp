@@ -46,4 +46,9 @@ void append_item(std::string& list, std::string_view item, std::string_view sepa
 // `s` in single quotes for a message, cut to 40 characters.
 std::string in_quotes(std::string_view s);
 
+// "source:line: ", the start of a message about one line of a file.
+inline std::string where(const std::string& source, size_t line) {
+    return source + ":" + std::to_string(line) + ": ";
+}
+
 }  // namespace hmdnode::trace_text

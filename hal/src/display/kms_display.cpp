@@ -47,7 +47,7 @@
 namespace hmdnode {
 namespace {
 
-std::string errno_text(int e) {
+std::string strerror_text(int e) {
     return std::strerror(e);
 }
 
@@ -117,7 +117,7 @@ Result<int> open_card(const std::string& path) {
     int fd = open(path.c_str(), O_RDWR | O_CLOEXEC);
     if (fd < 0)
         return make_error(
-            path + ": " + errno_text(errno) +
+            path + ": " + strerror_text(errno) +
             (errno == EACCES ? " (add the user to the video group: docs/udev.md)" : ""));
     return fd;
 }
@@ -206,7 +206,7 @@ class KmsDisplayImpl final : public KmsDisplay {
         const std::string where = "kms display " + device;
         if (!drmIsMaster(fd_) && drmSetMaster(fd_) != 0)
             return make_error(
-                where + ": cannot become DRM master (" + errno_text(errno) +
+                where + ": cannot become DRM master (" + strerror_text(errno) +
                 "): another process, most likely a desktop compositor, holds the device. Stop it "
                 "or switch to a free VT, or get the connector from the compositor as a DRM lease "
                 "(docs/hardware.md, \"KMS output\")");
@@ -221,7 +221,7 @@ class KmsDisplayImpl final : public KmsDisplay {
             return make_error(where + ": the driver has no dumb buffers");
 
         drmModeRes* res = drmModeGetResources(fd_);
-        if (!res) return make_error(where + ": not a KMS device (" + errno_text(errno) + ")");
+        if (!res) return make_error(where + ": not a KMS device (" + strerror_text(errno) + ")");
         Status st = choose(where, res);
         drmModeFreeResources(res);
         if (!st.ok()) return st;
@@ -300,7 +300,7 @@ class KmsDisplayImpl final : public KmsDisplay {
         }
         if (rc != 0)
             return make_error("kms display " + device_ +
-                              ": page flip failed: " + errno_text(errno));
+                              ": page flip failed: " + strerror_text(errno));
         flip_pending_ = true;
         pending_fb_ = fb;
         pending_commit_ns_ = commit_ns;
@@ -357,13 +357,13 @@ class KmsDisplayImpl final : public KmsDisplay {
         const std::string where = "kms display " + device_ + ": read-back";
         if (Status st = finish(); !st.ok()) return st.error();
         drmModeCrtc* c = drmModeGetCrtc(fd_, crtc_);
-        if (!c) return make_error(where + ": GETCRTC: " + errno_text(errno));
+        if (!c) return make_error(where + ": GETCRTC: " + strerror_text(errno));
         const uint32_t fb_id = c->buffer_id;
         drmModeFreeCrtc(c);
         drmModeFB2* fb = drmModeGetFB2(fd_, fb_id);
         if (!fb)
             return make_error(where + ": GETFB2 " + std::to_string(fb_id) + ": " +
-                              errno_text(errno));
+                              strerror_text(errno));
         const uint32_t handle = fb->handles[0], pitch = fb->pitches[0], offset = fb->offsets[0];
         const uint32_t format = fb->pixel_format;
         const uint64_t modifier =
@@ -404,11 +404,11 @@ class KmsDisplayImpl final : public KmsDisplay {
         if (drmIoctl(fd_, DRM_IOCTL_MODE_MAP_DUMB, &m) == 0)
             p = mmap(nullptr, size, PROT_READ, MAP_SHARED, fd_, off_t(m.offset));
         else
-            why = "MAP_DUMB: " + errno_text(errno);
+            why = "MAP_DUMB: " + strerror_text(errno);
         if (p == MAP_FAILED) {
             if (drmPrimeHandleToFD(fd_, handle, DRM_CLOEXEC, &dmabuf) == 0)
                 p = mmap(nullptr, size, PROT_READ, MAP_SHARED, dmabuf, 0);
-            if (p == MAP_FAILED) why += "; PRIME mmap: " + errno_text(errno);
+            if (p == MAP_FAILED) why += "; PRIME mmap: " + strerror_text(errno);
         }
         if (p == MAP_FAILED) {
             if (dmabuf >= 0) close(dmabuf);
@@ -484,7 +484,7 @@ class KmsDisplayImpl final : public KmsDisplay {
                 undo();
                 return make_error(which + ": ADDFB2 (format 0x" + hex(b.fourcc) + ", modifier 0x" +
                                   hex(b.modifier) + ", pitch " + std::to_string(b.pitches[0]) +
-                                  "): " + errno_text(errno));
+                                  "): " + strerror_text(errno));
             }
             fbs.push_back(fb);
             handles.push_back(b.handles[0]);
@@ -639,21 +639,21 @@ class KmsDisplayImpl final : public KmsDisplay {
             c.height = uint32_t(mode_info_.height);
             c.bpp = 32;
             if (drmIoctl(fd_, DRM_IOCTL_MODE_CREATE_DUMB, &c) != 0)
-                return make_error(where + ": CREATE_DUMB: " + errno_text(errno));
+                return make_error(where + ": CREATE_DUMB: " + strerror_text(errno));
             b.handle = c.handle;
             b.pitch = c.pitch;
             b.size = c.size;
             uint32_t handles[4] = {b.handle}, pitches[4] = {b.pitch}, offsets[4] = {0};
             if (drmModeAddFB2(fd_, c.width, c.height, DRM_FORMAT_XRGB8888, handles, pitches,
                               offsets, &b.fb, 0) != 0)
-                return make_error(where + ": ADDFB2: " + errno_text(errno));
+                return make_error(where + ": ADDFB2: " + strerror_text(errno));
             drm_mode_map_dumb m{};
             m.handle = b.handle;
             if (drmIoctl(fd_, DRM_IOCTL_MODE_MAP_DUMB, &m) != 0)
-                return make_error(where + ": MAP_DUMB: " + errno_text(errno));
+                return make_error(where + ": MAP_DUMB: " + strerror_text(errno));
             void* p =
                 mmap(nullptr, b.size, PROT_READ | PROT_WRITE, MAP_SHARED, fd_, off_t(m.offset));
-            if (p == MAP_FAILED) return make_error(where + ": mmap: " + errno_text(errno));
+            if (p == MAP_FAILED) return make_error(where + ": mmap: " + strerror_text(errno));
             b.map = static_cast<uint8_t*>(p);
             std::memset(b.map, 0, b.size);
         }
@@ -665,13 +665,13 @@ class KmsDisplayImpl final : public KmsDisplay {
         front_fb_ = front.fb;
         if (!atomic_) {
             if (drmModeSetCrtc(fd_, crtc_, front.fb, 0, 0, &connector_, 1, &mode_) != 0)
-                return make_error(where + ": SETCRTC (legacy modeset): " + errno_text(errno));
+                return make_error(where + ": SETCRTC (legacy modeset): " + strerror_text(errno));
             return {};
         }
         std::map<std::string, Prop> cp = object_props(fd_, connector_, DRM_MODE_OBJECT_CONNECTOR);
         std::map<std::string, Prop> rp = object_props(fd_, crtc_, DRM_MODE_OBJECT_CRTC);
         if (drmModeCreatePropertyBlob(fd_, &mode_, sizeof mode_, &mode_blob_) != 0)
-            return make_error(where + ": mode blob: " + errno_text(errno));
+            return make_error(where + ": mode blob: " + strerror_text(errno));
         drmModeAtomicReq* req = drmModeAtomicAlloc();
         const uint64_t w = uint64_t(mode_info_.width), h = uint64_t(mode_info_.height);
         drmModeAtomicAddProperty(req, connector_, cp["CRTC_ID"].id, crtc_);
@@ -689,7 +689,7 @@ class KmsDisplayImpl final : public KmsDisplay {
         drmModeAtomicAddProperty(req, plane_, plane_props_["CRTC_H"].id, h);
         const int rc = drmModeAtomicCommit(fd_, req, DRM_MODE_ATOMIC_ALLOW_MODESET, nullptr);
         drmModeAtomicFree(req);
-        if (rc != 0) return make_error(where + ": atomic modeset: " + errno_text(errno));
+        if (rc != 0) return make_error(where + ": atomic modeset: " + strerror_text(errno));
         return {};
     }
 
@@ -759,7 +759,7 @@ class KmsDisplayImpl final : public KmsDisplay {
             pollfd p{fd_, POLLIN, 0};
             const int n = poll(&p, 1, int(left / 1'000'000) + 1);
             if (n < 0 && errno != EINTR)
-                return make_error("kms display " + device_ + ": poll: " + errno_text(errno));
+                return make_error("kms display " + device_ + ": poll: " + strerror_text(errno));
             if (n > 0 && drmHandleEvent(fd_, &ev) != 0)
                 return make_error("kms display " + device_ + ": reading DRM events failed");
         }
