@@ -57,6 +57,8 @@ LatencyMarkerDecode read_cells(const uint8_t* grey, int width, int height, int s
         return cell_mean(grey, width, height, stride, b.x0 + (cx - 1) * cw, b.y0 + (cy - 1) * ch,
                          cw, ch);
     };
+    // The references: the whole guard ring and separator, and per row of cells the guard and
+    // separator cells of that row (a rolling scan-out or shutter lights rows unevenly).
     double white = 0.0, black = 0.0;
     int nw = 0, nb = 0;
     for (int cy = 1; cy < kLatencyMarkerCells - 1; ++cy)
@@ -73,10 +75,20 @@ LatencyMarkerDecode read_cells(const uint8_t* grey, int width, int height, int s
             "guard pattern without contrast (" + std::to_string(int(d.contrast)) + " grey levels)";
         return d;
     }
-    const double mid = 0.5 * (white + black), margin = kMarginOfContrast * d.contrast;
     uint64_t bits = 0;
-    for (int cy = 1; cy < kLatencyMarkerCells - 1; ++cy)
-        for (int cx = 1; cx < kLatencyMarkerCells - 1; ++cx) {
+    for (int cy = 1; cy < kLatencyMarkerCells - 1; ++cy) {
+        const int n = kLatencyMarkerCells;
+        const double row_white = 0.5 * (mean(1, cy) + mean(n - 2, cy));
+        const double row_black =
+            cy == 1 || cy == n - 2 ? black : 0.5 * (mean(2, cy) + mean(n - 3, cy));
+        const double contrast = row_white - row_black;
+        if (contrast < 0.5 * kMinContrast) {
+            d.reason = "cell row " + std::to_string(cy) + " without contrast (" +
+                       std::to_string(int(contrast)) + " grey levels)";
+            return d;
+        }
+        const double mid = 0.5 * (row_white + row_black), margin = kMarginOfContrast * contrast;
+        for (int cx = 1; cx < n - 1; ++cx) {
             const int r = ring_of(cx, cy);
             const double v = mean(cx, cy);
             if (std::abs(v - mid) < margin) {
@@ -95,6 +107,7 @@ LatencyMarkerDecode read_cells(const uint8_t* grey, int width, int height, int s
             }
             if (r >= kDataOrigin) bits = (bits << 1) | (is_white ? 1u : 0u);
         }
+    }
     const uint8_t bytes[6] = {uint8_t(bits >> 56), uint8_t(bits >> 48), uint8_t(bits >> 40),
                               uint8_t(bits >> 32), uint8_t(bits >> 24), uint8_t(bits >> 16)};
     if (latency_marker_crc(bytes) != uint16_t(bits & 0xffff)) {

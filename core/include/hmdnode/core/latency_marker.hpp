@@ -19,10 +19,11 @@
 // quiet zone, sampling at module centres, a checksum): threshold the region at the midpoint of
 // its 2nd and 98th percentile, find bright 4-connected components shaped like the guard ring
 // (square bounding box, every pixel within 1.6 cells of the box's edge), take the cell grid from
-// the ring's box, measure the white and black references on the guard and separator cells (the
-// adaptive threshold), read each data cell from the mean of its central half, and accept only
-// when every guard, separator and data cell is clearly on its side of the threshold (a margin of
-// a fifth of the contrast) and the CRC matches. Anything else is reported, never guessed: a
+// the ring's box, measure the white and black references on the guard and separator cells of
+// each row of cells (the adaptive threshold: a rolling scan-out or shutter, or a lens's
+// vignetting, lights rows unevenly), read each cell from the mean of its central half, and accept
+// only when every guard, separator and data cell is clearly on its side of the threshold (a margin
+// of a fifth of the contrast) and the CRC matches. Anything else is reported, never guessed: a
 // camera exposure that saw two markers leaves cells half-lit, which the margin rejects.
 //
 // Cost: encoding O(1), no allocation (rects into a caller's span); drawing O(marker pixels);
