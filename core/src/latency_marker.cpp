@@ -138,6 +138,38 @@ bool ring_shaped(const std::vector<int>& labels, int width, int label, const Box
     return true;
 }
 
+// Bright (> threshold) 4-connected components of the region, with their bounding boxes.
+void label_components(const uint8_t* grey, int width, int height, int stride, int threshold,
+                      std::vector<int>& labels, std::vector<Box>& boxes,
+                      std::vector<size_t>& stack) {
+    const size_t total = size_t(width) * height;
+    for (size_t seed = 0; seed < total; ++seed) {
+        const int sx = int(seed % size_t(width)), sy = int(seed / size_t(width));
+        if (labels[seed] != -1 || grey[size_t(sy) * stride + sx] <= threshold) continue;
+        const int label = int(boxes.size());
+        Box b{sx, sy, sx, sy, 0};
+        labels[seed] = label;
+        stack.push_back(seed);
+        while (!stack.empty()) {
+            const size_t i = stack.back();
+            stack.pop_back();
+            const int x = int(i % size_t(width)), y = int(i / size_t(width));
+            ++b.area;
+            b.x0 = std::min(b.x0, x), b.x1 = std::max(b.x1, x);
+            b.y0 = std::min(b.y0, y), b.y1 = std::max(b.y1, y);
+            const int nx[4] = {x - 1, x + 1, x, x}, ny[4] = {y, y, y - 1, y + 1};
+            for (int k = 0; k < 4; ++k) {
+                if (nx[k] < 0 || ny[k] < 0 || nx[k] >= width || ny[k] >= height) continue;
+                const size_t j = size_t(ny[k]) * width + nx[k];
+                if (labels[j] != -1 || grey[size_t(ny[k]) * stride + nx[k]] <= threshold) continue;
+                labels[j] = label;
+                stack.push_back(j);
+            }
+        }
+        boxes.push_back(b);
+    }
+}
+
 }  // namespace
 
 LatencyMarkerPayload make_latency_marker_payload(int64_t sample_time_ns, uint64_t present_index) {
@@ -239,56 +271,34 @@ LatencyMarkerDecode decode_latency_marker(const uint8_t* grey, int width, int he
             if ((acc += hist[size_t(v)]) >= size_t(p * double(total))) return v;
         return 255;
     };
-    const int lo = level(0.02), hi = level(0.98);
+    const int lo = level(0.001), hi = level(0.999);
     if (hi - lo < kMinContrast) {
         fail.reason = "no marker: the region has no contrast";
         return fail;
     }
-    const int threshold = (lo + hi) / 2;
-    // Bright 4-connected components, with their bounding boxes.
-    std::vector<int> labels(total, -1);
+    // Thresholds from the middle outwards: a small marker dimmer than the scene's highlights
+    // separates only at a lower one.
+    LatencyMarkerDecode first;
+    first.reason = "no marker: no guard pattern in the region";
+    bool have_first = false;
+    std::vector<int> labels(total);
     std::vector<Box> boxes;
     std::vector<size_t> stack;
-    for (size_t seed = 0; seed < total; ++seed) {
-        const int sx = int(seed % size_t(width)), sy = int(seed / size_t(width));
-        if (labels[seed] != -1 || grey[size_t(sy) * stride + sx] <= threshold) continue;
-        const int label = int(boxes.size());
-        Box b{sx, sy, sx, sy, 0};
-        labels[seed] = label;
-        stack.push_back(seed);
-        while (!stack.empty()) {
-            const size_t i = stack.back();
-            stack.pop_back();
-            const int x = int(i % size_t(width)), y = int(i / size_t(width));
-            ++b.area;
-            b.x0 = std::min(b.x0, x), b.x1 = std::max(b.x1, x);
-            b.y0 = std::min(b.y0, y), b.y1 = std::max(b.y1, y);
-            const int nx[4] = {x - 1, x + 1, x, x}, ny[4] = {y, y, y - 1, y + 1};
-            for (int k = 0; k < 4; ++k) {
-                if (nx[k] < 0 || ny[k] < 0 || nx[k] >= width || ny[k] >= height) continue;
-                const size_t j = size_t(ny[k]) * width + nx[k];
-                if (labels[j] != -1 || grey[size_t(ny[k]) * stride + nx[k]] <= threshold) continue;
-                labels[j] = label;
-                stack.push_back(j);
-            }
+    for (double f : {0.5, 0.3, 0.7, 0.15}) {
+        const int threshold = lo + int(f * (hi - lo));
+        std::fill(labels.begin(), labels.end(), -1);
+        boxes.clear();
+        label_components(grey, width, height, stride, threshold, labels, boxes, stack);
+        std::vector<int> rings;
+        for (int i = 0; i < int(boxes.size()); ++i)
+            if (ring_shaped(labels, width, i, boxes[size_t(i)])) rings.push_back(i);
+        std::sort(rings.begin(), rings.end(),
+                  [&](int x, int y) { return boxes[size_t(x)].area > boxes[size_t(y)].area; });
+        for (int r : rings) {
+            LatencyMarkerDecode d = read_cells(grey, width, height, stride, boxes[size_t(r)]);
+            if (d.ok) return d;
+            if (!have_first) first = d, have_first = true;
         }
-        boxes.push_back(b);
-    }
-    // Rings, largest first; the first whose cells read cleanly wins.
-    std::vector<int> rings;
-    for (int i = 0; i < int(boxes.size()); ++i)
-        if (ring_shaped(labels, width, i, boxes[size_t(i)])) rings.push_back(i);
-    if (rings.empty()) {
-        fail.reason = "no marker: no guard pattern in the region";
-        return fail;
-    }
-    std::sort(rings.begin(), rings.end(),
-              [&](int a, int b) { return boxes[size_t(a)].area > boxes[size_t(b)].area; });
-    LatencyMarkerDecode first;
-    for (size_t r = 0; r < rings.size(); ++r) {
-        LatencyMarkerDecode d = read_cells(grey, width, height, stride, boxes[size_t(rings[r])]);
-        if (d.ok) return d;
-        if (r == 0) first = d;
     }
     return first;
 }
