@@ -23,6 +23,32 @@ std::string encode_png(const uint8_t* rgba, int width, int height) {
     return out;
 }
 
+std::string encode_jpeg(const uint8_t* pixels, int width, int height, int channels, int quality) {
+    std::string out;
+    if (!pixels || width <= 0 || height <= 0 || channels < 1 || channels > 4) return out;
+    auto append = [](void* ctx, void* data, int size) {
+        static_cast<std::string*>(ctx)->append(static_cast<const char*>(data), size_t(size));
+    };
+    if (!stbi_write_jpg_to_func(append, &out, width, height, channels, pixels,
+                                std::clamp(quality, 1, 100)))
+        out.clear();
+    return out;
+}
+
+Result<GreyImage> decode_image_grey(const std::string& bytes) {
+    int w = 0, h = 0, n = 0;
+    unsigned char* data = stbi_load_from_memory(
+        reinterpret_cast<const stbi_uc*>(bytes.data()),
+        int(std::min<size_t>(bytes.size(), size_t(INT32_MAX))), &w, &h, &n, 1);
+    if (!data) return make_error(std::string("cannot decode image: ") + stbi_failure_reason());
+    GreyImage img;
+    img.width = w;
+    img.height = h;
+    img.pixels.assign(data, data + size_t(w) * h);
+    stbi_image_free(data);
+    return img;
+}
+
 Status write_png(const ImageRGBA8& image, const std::filesystem::path& path) {
     if (image.empty() || image.pixels.size() != size_t(image.width) * image.height * 4)
         return make_error(path.string() + ": cannot write an empty or inconsistent image");

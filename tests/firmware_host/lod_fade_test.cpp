@@ -102,6 +102,7 @@ class RecordingRenderer final : public Renderer {
     }
     const char* lens_pass_name() const override { return r_->lens_pass_name(); }
     void set_chromatic_aberration(bool on) override { r_->set_chromatic_aberration(on); }
+    void set_latency_marker(const LatencyMarkerOverlay* o) override { r_->set_latency_marker(o); }
     bool chromatic_aberration() const override { return r_->chromatic_aberration(); }
     Status set_render_scale(double s) override { return r_->set_render_scale(s); }
     double render_scale() const override { return r_->render_scale(); }

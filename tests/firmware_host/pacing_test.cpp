@@ -69,6 +69,7 @@ class ScriptedRenderer final : public Renderer {
     Status set_lens_warp(int, int, const HeadsetProfile&) override { return Status::success(); }
     const char* lens_pass_name() const override { return "fused"; }
     void set_chromatic_aberration(bool on) override { chromatic_ = on; }
+    void set_latency_marker(const LatencyMarkerOverlay*) override {}
     bool chromatic_aberration() const override { return chromatic_; }
     Status set_render_scale(double scale) override {
         scale_ = scale;

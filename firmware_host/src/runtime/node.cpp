@@ -246,8 +246,20 @@ Status NodeRuntime::recentre() {
     return {};
 }
 
+void NodeRuntime::mark_warp(int64_t sample_ns) {
+    if (config_.latency_marker_cell_px <= 0) return;
+    marker_.payload = make_latency_marker_payload(std::max<int64_t>(sample_ns, 0), present_index_);
+    renderer_.set_latency_marker(&marker_);
+}
+
 Status NodeRuntime::start() {
     if (Status st = renderer_.upload(*scene_); !st.ok()) return st;
+    if (config_.latency_marker_cell_px > 0) {
+        const DisplayInfo info = display_.info();
+        marker_ = default_latency_marker_overlay(info.eye_width, info.eye_height,
+                                                 config_.latency_marker_cell_px);
+        renderer_.set_latency_marker(&marker_);  // the calibration's warps pay for it too
+    }
     if (pass_enabled())
         if (Status st = set_up_pass(config_.lens_pass != LensPassChoice::mesh); !st.ok()) return st;
     return tracker_->start();
@@ -482,6 +494,7 @@ Status NodeRuntime::warp_and_present(int64_t target, int64_t warp_est, FrameReco
     const bool chromatic = renderer_.chromatic_aberration();
     if (pass_enabled()) {
         const glm::dquat delta = glm::inverse(frame_pose_.orientation) * shown.orientation;
+        mark_warp(sample_ns);
         const auto t0 = std::chrono::steady_clock::now();
         Result<WarpStats> ws = renderer_.warp(delta, read_back ? &frame_ : nullptr);
         const auto t1 = std::chrono::steady_clock::now();
@@ -511,6 +524,13 @@ Status NodeRuntime::warp_and_present(int64_t target, int64_t warp_est, FrameReco
     r.predicted_photon_time_ns = predicted_for;
     r.photon_time_ns = pr->photon_time_ns;
     r.latency_ms = ns_to_ms(pr->photon_time_ns - sample_ns);
+    if (config_.latency_marker_cell_px > 0 && pass_enabled()) {
+        r.marker_row = marker_.y + 0.5 * latency_marker_size_px(marker_.cell_px);
+        r.marker_photon_time_ns = pr->vsync_ns + display_.row_photon_offset_ns(r.marker_row);
+    } else {
+        r.marker_photon_time_ns = 0;
+        r.marker_row = std::numeric_limits<double>::quiet_NaN();
+    }
     r.prediction_horizon_ms = ns_to_ms(predicted_for - sample_ns);
     r.shown_pose = shown;
     r.angular_speed_dps = rad_to_deg(glm::length(history_.angular_velocity()));

@@ -16,6 +16,28 @@ std::string fourcc_to_string(uint32_t f) {
     return s;
 }
 
+const char* camera_timestamp_name(CameraTimestamp t) {
+    switch (t) {
+        case CameraTimestamp::exposure_start:
+            return "start";
+        case CameraTimestamp::exposure_middle:
+            return "middle";
+        case CameraTimestamp::exposure_end:
+            return "end";
+    }
+    return "?";
+}
+
+int64_t exposure_middle_ns(const CameraFrame& f, double row) {
+    const double last_row = f.height > 0 ? double(f.height) - 1.0 : 0.0;
+    double row0_start = double(f.host_time_ns);
+    if (f.timestamp == CameraTimestamp::exposure_middle) row0_start -= 0.5 * double(f.exposure_ns);
+    if (f.timestamp == CameraTimestamp::exposure_end)
+        row0_start -= double(f.exposure_ns) + last_row * double(f.line_time_ns);
+    return int64_t(
+        std::llround(row0_start + row * double(f.line_time_ns) + 0.5 * double(f.exposure_ns)));
+}
+
 uint8_t sim_camera_pattern(uint32_t x, uint32_t y, uint64_t sequence) {
     return static_cast<uint8_t>((x + 2 * y + 4 * sequence) & 0xff);
 }

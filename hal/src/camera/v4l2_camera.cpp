@@ -180,6 +180,9 @@ class V4l2Camera final : public Camera {
         f.fourcc = fourcc_;
         f.bytes_per_line = bytes_per_line_;
         f.sequence = b.sequence;
+        f.timestamp = (b.flags & V4L2_BUF_FLAG_TSTAMP_SRC_MASK) == V4L2_BUF_FLAG_TSTAMP_SRC_SOE
+                          ? CameraTimestamp::exposure_start
+                          : CameraTimestamp::exposure_end;  // exposure and line time: unknown
         if ((b.flags & V4L2_BUF_FLAG_TIMESTAMP_MASK) == V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC &&
             (b.timestamp.tv_sec || b.timestamp.tv_usec)) {
             f.host_time_ns = static_cast<int64_t>(b.timestamp.tv_sec) * kNsPerSecond +

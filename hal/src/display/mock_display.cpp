@@ -57,6 +57,10 @@ class MockDisplay final : public Display {
                config_.persistence_ns / 2;
     }
 
+    int64_t row_photon_offset_ns(double row) const override {
+        return mock_display_row_scanout_ns(config_, row) + config_.persistence_ns / 2;
+    }
+
     Result<PresentResult> present(const StereoImage* image, int64_t target_vsync_ns) override {
         const int64_t now = clock_.now_ns();
         PresentResult r;
@@ -70,6 +74,7 @@ class MockDisplay final : public Display {
         last_vsync_ns_ = r.vsync_ns;
         r.on_time = r.vsync_ns == target_vsync_ns;
         r.photon_time_ns = r.vsync_ns + photon_offset_ns();
+        if (config_.watcher) config_.watcher->shown(r.vsync_ns, image);
         if (image && !config_.frames_dir.empty() &&
             r.frame_index % uint64_t(config_.frames_every) == 0) {
             char name[32];
@@ -111,6 +116,11 @@ Result<std::unique_ptr<Display>> create_mock_display(Clock& clock,
                               ec.message());
     }
     return std::unique_ptr<Display>(new MockDisplay(clock, config));
+}
+
+int64_t mock_display_row_scanout_ns(const MockDisplayConfig& config, double row) {
+    const double period = double(std::llround(1e9 / config.refresh_hz));  // as the display's
+    return int64_t(std::llround(config.scanout_fraction * period * (row / config.eye_height)));
 }
 
 Status check_persistence(const MockDisplayConfig& display) {

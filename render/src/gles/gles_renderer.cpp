@@ -22,6 +22,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstring>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -31,6 +32,7 @@
 #include "gles_scene.hpp"
 #include "gles_shaders.hpp"
 #include "hmdnode/render/renderer.hpp"
+#include "latency_overlay.hpp"
 #include "lens_pass.hpp"
 #include "scene_geometry.hpp"
 
@@ -67,6 +69,9 @@ class GlesRenderer final : public Renderer {
         return panel_width_ <= 0 ? "" : fused_ ? "fused" : "mesh";
     }
     void set_chromatic_aberration(bool on) override { chromatic_ = on; }
+    void set_latency_marker(const LatencyMarkerOverlay* overlay) override {
+        marker_ = overlay ? std::optional<LatencyMarkerOverlay>(*overlay) : std::nullopt;
+    }
     bool chromatic_aberration() const override {
         return panel_width_ > 0 && chromatic_ && (fused_ ? lens_chromatic_ : !mesh_mono_);
     }
@@ -126,6 +131,10 @@ class GlesRenderer final : public Renderer {
     GLint u_mono_reproject_ = -1, u_mono_sample_rect_ = -1;
     bool mesh_mono_ = false;
     bool fused_ = false, lens_chromatic_ = false, chromatic_ = true;
+    std::optional<LatencyMarkerOverlay> marker_;  // drawn by every warp (null: none)
+    // Clears the marker's rects into the bound panel framebuffer of an eye whose panel starts at
+    // x0 (latency_overlay.hpp; GL row 0 is the panel's top row, see read_back).
+    void draw_marker(int x0) const;
     struct FusedProgram {
         gles::Program program;
         GLint reproject = -1, sample_rect = -1, origin = -1;
@@ -592,6 +601,20 @@ Status GlesRenderer::set_warp(int panel_width, int panel_height, const Distortio
     return Status::success();
 }
 
+void GlesRenderer::draw_marker(int x0) const {
+    LatencyMarkerRect rects[kLatencyMarkerMaxRects];
+    const size_t n = gpu::latency_overlay_rects(*marker_, panel_width_, panel_height_, rects);
+    glEnable(GL_SCISSOR_TEST);
+    for (size_t i = 0; i < n; ++i) {
+        const LatencyMarkerRect& r = rects[i];
+        glScissor(x0 + r.x, r.y, r.width, r.height);
+        const float v = r.white ? 1.0f : 0.0f;
+        glClearColor(v, v, v, 1.0f);
+        glClear(GL_COLOR_BUFFER_BIT);
+    }
+    glDisable(GL_SCISSOR_TEST);
+}
+
 Result<WarpStats> GlesRenderer::warp(const glm::dquat& delta, StereoImage* out_panel) {
     if (Status s = ctx_->make_current(); !s) return s.error();
     if (panel_width_ <= 0) return make_error("renderer: warp() before set_warp()");
@@ -642,6 +665,12 @@ Result<WarpStats> GlesRenderer::warp(const glm::dquat& delta, StereoImage* out_p
     }
     glBindVertexArray(0);
     glBindTexture(GL_TEXTURE_2D, 0);
+    if (marker_) {
+        for (int e = 0; e < 2; ++e) {
+            glBindFramebuffer(GL_FRAMEBUFFER, target[e]);
+            draw_marker(x0[e]);
+        }
+    }
     const int64_t t1 = now_ns();
     glFinish();
     const int64_t t2 = now_ns();

@@ -53,6 +53,9 @@ class VulkanRenderer final : public Renderer {
         return !warp_ ? "" : warp_->fused ? "fused" : "mesh";
     }
     void set_chromatic_aberration(bool on) override { chromatic_ = on; }
+    void set_latency_marker(const LatencyMarkerOverlay* overlay) override {
+        marker_ = overlay ? std::optional<LatencyMarkerOverlay>(*overlay) : std::nullopt;
+    }
     bool chromatic_aberration() const override { return warp_ && warp_->chromatic && chromatic_; }
     Status set_render_scale(double scale) override {
         if (Status s = gpu::check_render_scale(scale); !s) return s;
@@ -103,6 +106,7 @@ class VulkanRenderer final : public Renderer {
     DistortionMesh warp_mesh_[2];
     std::optional<gpu::LensPassSetup> lens_setup_;  // the fused pass's, else the meshes' pass
     bool chromatic_ = true;
+    std::optional<LatencyMarkerOverlay> marker_;  // drawn by every warp (null: none)
     double scale_ = 1.0;                     // dynamic resolution of the frames begun from now on
     gpu::ScaledViewport frame_viewport_;     // of the open frame
     gpu::ScaledViewport rendered_viewport_;  // of the finished frame
@@ -312,7 +316,7 @@ Result<WarpStats> VulkanRenderer::warp(const glm::dquat& delta, StereoImage* out
             VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, 0, 0, nullptr, 0, nullptr, 1, &barrier);
     }
     vk::record_warp(warp_cmd_, *warp_, front, reproject, out_panel != nullptr,
-                    rendered_viewport_.sample_rect, chromatic_);
+                    rendered_viewport_.sample_rect, chromatic_, marker_ ? &*marker_ : nullptr);
     vkEndCommandBuffer(warp_cmd_);
     const VkFence fence = warp_fence_;
     if (Status st = submit(warp_cmd_, fence, "warp"); !st) return st.error();

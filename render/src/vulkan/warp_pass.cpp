@@ -7,6 +7,7 @@
 #include <span>
 #include <string>
 
+#include "latency_overlay.hpp"
 #include "pipeline_state.hpp"
 #include "render_target.hpp"
 #include "scene_geometry.hpp"
@@ -308,9 +309,23 @@ Result<WarpPass> create_lens_warp_pass(DeviceContext& ctx, const Image eyes[2], 
 }
 
 void record_warp(VkCommandBuffer cmd, const WarpPass& w, int slot, const glm::mat4 reproject[2],
-                 bool read_back, const glm::vec4& sample_rect, bool chromatic) {
+                 bool read_back, const glm::vec4& sample_rect, bool chromatic,
+                 const LatencyMarkerOverlay* marker) {
     const VkViewport viewport{0.0f, 0.0f, float(w.width), float(w.height), 0.0f, 1.0f};
     const VkRect2D area{{0, 0}, {w.width, w.height}};
+    // The marker's rects, black ones then white ones (each colour one clear; clears are ordered
+    // like draws within the pass).
+    VkClearRect clear_rects[2][kLatencyMarkerMaxRects];
+    uint32_t clear_count[2] = {0, 0};
+    if (marker) {
+        LatencyMarkerRect rects[kLatencyMarkerMaxRects];
+        const size_t n = gpu::latency_overlay_rects(*marker, int(w.width), int(w.height), rects);
+        for (size_t i = 0; i < n; ++i) {
+            const LatencyMarkerRect& r = rects[i];
+            clear_rects[r.white ? 1 : 0][clear_count[r.white ? 1 : 0]++] = {
+                {{r.x, r.y}, {uint32_t(r.width), uint32_t(r.height)}}, 0, 1};
+        }
+    }
     for (int e = 0; e < 2; ++e) {
         VkRenderPassBeginInfo begin{};
         begin.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
@@ -342,6 +357,15 @@ void record_warp(VkCommandBuffer cmd, const WarpPass& w, int slot, const glm::ma
             vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &zero);
             vkCmdBindIndexBuffer(cmd, w.indices[e].get(), 0, VK_INDEX_TYPE_UINT32);
             vkCmdDrawIndexed(cmd, w.index_count[e], 1, 0, 0, 0);
+        }
+        for (int white = 0; white < 2; ++white) {
+            if (clear_count[white] == 0) continue;
+            VkClearAttachment clear{};
+            clear.aspectMask = VK_IMAGE_ASPECT_COLOR_BIT;
+            clear.colorAttachment = 0;
+            const float v = white ? 1.0f : 0.0f;
+            clear.clearValue.color = {{v, v, v, 1.0f}};
+            vkCmdClearAttachments(cmd, 1, &clear, clear_count[white], clear_rects[white]);
         }
         vkCmdEndRenderPass(cmd);
     }

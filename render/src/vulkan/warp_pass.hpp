@@ -16,6 +16,7 @@
 #include <glm/glm.hpp>
 
 #include "hmdnode/render/lens.hpp"
+#include "hmdnode/render/renderer.hpp"
 #include "lens_pass.hpp"
 #include "vk_memory.hpp"
 
@@ -72,9 +73,11 @@ Result<WarpPass> create_lens_warp_pass(DeviceContext& ctx, const Image eyes[2], 
 // Records both eyes' passes reading slot `slot` and the read-back copy (when read_back).
 // reproject[e] maps eye e's head-aligned display directions into its eye buffer's clip space;
 // sample_rect as in WarpConstants; chromatic: the fused pass samples each channel through its
-// own lens (ignored by the mesh pass). The slot's eye buffers must be in
+// own lens (ignored by the mesh pass); marker: the latency marker cleared into each eye's panel
+// after its pass (latency_overlay.hpp), or null. The slot's eye buffers must be in
 // SHADER_READ_ONLY_OPTIMAL.
 void record_warp(VkCommandBuffer cmd, const WarpPass& pass, int slot, const glm::mat4 reproject[2],
-                 bool read_back, const glm::vec4& sample_rect, bool chromatic);
+                 bool read_back, const glm::vec4& sample_rect, bool chromatic,
+                 const LatencyMarkerOverlay* marker);
 
 }  // namespace hmdnode::vk

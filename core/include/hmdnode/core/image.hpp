@@ -34,6 +34,15 @@ inline std::string encode_png(const ImageRGBA8& image) {
 Status write_png(const ImageRGBA8& image, const std::filesystem::path& path);
 // Both eyes side by side, left eye on the left.
 ImageRGBA8 side_by_side(const StereoImage& stereo);
+// JPEG bytes (baseline, stb_image_write) of 8-bit pixels with 1 (grey), 3 (RGB) or 4 (RGBA, alpha
+// dropped) channels, tightly packed; quality 1..100. Empty on failure.
+std::string encode_jpeg(const uint8_t* pixels, int width, int height, int channels, int quality);
+// Decodes PNG/JPEG bytes in memory to 8-bit grey (luma). Errors: bytes stb cannot decode.
+struct GreyImage {
+    int width = 0, height = 0;
+    std::vector<uint8_t> pixels;  // width * height, rows top to bottom
+};
+Result<GreyImage> decode_image_grey(const std::string& bytes);
 // Reads any PNG/JPEG stb understands, converted to RGBA8.
 Result<ImageRGBA8> read_image(const std::filesystem::path& path);
 

@@ -120,6 +120,12 @@ struct NodeConfig {
     double warp_fov_margin = 0.1;  // the eye buffers cover this much more per side (fraction of
                                    // the panel's tangent span) so a late rotation finds pixels
     LensPassChoice lens_pass = LensPassChoice::automatic;
+    // The latency marker (core/latency_marker.hpp; docs/latency.md, "The observer"): > 0, the
+    // lens pass draws the shown sample's time and the present's index into both eyes' panel at
+    // default_latency_marker_overlay() with this many panel pixels per cell (`hmdnode latency
+    // --observer`); 0, off (the default: the panel is exactly the lens pass's). Needs the lens
+    // pass (distortion or the warp on).
+    int latency_marker_cell_px = 0;
     // Whether the cores are kept awake while the node runs on the system clock (cpu_wake.hpp):
     // PM QoS or idle-class spinning threads, so a renderer's worker threads do not pay a core's
     // wake-up in the middle of a warp. The assembly (make_node) holds it; the simulated clock
@@ -158,7 +164,12 @@ struct FrameRecord {
     int64_t predicted_photon_time_ns = 0;    // the time the shown pose was predicted for
     int64_t photon_time_ns = 0;              // actual photon time of the panel centre
     double latency_ms = 0.0;                 // photon_time - pose_sample_time
-    double prediction_horizon_ms = 0.0;      // predicted_photon_time - pose_sample_time
+    // With the latency marker on (NodeConfig::latency_marker_cell_px): the photon time of the
+    // marker's centre row (the rolling scan-out reaches it at its own time,
+    // Display::row_photon_offset_ns) and the row; 0 and NaN without the marker.
+    int64_t marker_photon_time_ns = 0;
+    double marker_row = std::numeric_limits<double>::quiet_NaN();
+    double prediction_horizon_ms = 0.0;  // predicted_photon_time - pose_sample_time
     double registration_error_deg = std::numeric_limits<double>::quiet_NaN();  // NaN: no truth
     double angular_speed_dps = 0.0;
     bool on_time = false;              // shown at target_vsync_ns
@@ -438,6 +449,9 @@ class NodeRuntime {
     bool read_back_once_ = false;
     int64_t last_new_vsync_ns_ = 0;  // the vsync the newest new frame was shown at
     uint64_t present_index_ = 0, render_index_ = 0;
+    LatencyMarkerOverlay marker_;  // the latency marker's place; its payload set per warp
+    // Sets the marker's payload (the sample's time, the next present's index) on the renderer.
+    void mark_warp(int64_t sample_ns);
     int64_t last_shown_vsync_ns_ = INT64_MIN;
     int pieces_since_rewarp_ = 1;  // pieces of the open frames rendered since the last re-warp
     // The frame being rendered in pieces, between which the finished one may be re-warped.

@@ -25,6 +25,12 @@ constexpr uint32_t kFourccGrey = make_fourcc('G', 'R', 'E', 'Y');
 // "YUYV"
 std::string fourcc_to_string(uint32_t fourcc);
 
+// What a frame's host_time_ns marks (V4L2: V4L2_BUF_FLAG_TSTAMP_SRC_SOE is the start of
+// exposure, V4L2_BUF_FLAG_TSTAMP_SRC_EOF, the default, the end of the frame, taken here as the
+// end of exposure of its last row).
+enum class CameraTimestamp { exposure_start, exposure_middle, exposure_end };
+const char* camera_timestamp_name(CameraTimestamp t);  // "start", "middle", "end"
+
 struct CameraFrame {
     uint32_t width = 0;
     uint32_t height = 0;
@@ -33,7 +39,17 @@ struct CameraFrame {
     std::vector<uint8_t> bytes;
     uint64_t sequence = 0;     // the driver's frame counter (gaps = frames it dropped)
     int64_t host_time_ns = 0;  // capture time on CLOCK_MONOTONIC (or the simulated clock)
+    // The exposure: how long each row gathered light (0: unknown), what host_time_ns marks, and
+    // for a rolling shutter the delay from one row's exposure to the next's (0: global shutter;
+    // row 0 first). Where the stamp is the start or middle it is row 0's, the end the last row's.
+    int64_t exposure_ns = 0;
+    CameraTimestamp timestamp = CameraTimestamp::exposure_end;
+    int64_t line_time_ns = 0;
 };
+
+// The middle of the exposure of row `row` (pixels from the top, a real number) of a frame on the
+// host clock, from its stamp, exposure and line time (camera_observer: the photons' time there).
+int64_t exposure_middle_ns(const CameraFrame& frame, double row);
 
 class Camera {
   public:

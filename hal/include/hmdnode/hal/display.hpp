@@ -47,6 +47,14 @@ class Display {
     virtual int64_t free_vsync_ns(int64_t t_ns) const = 0;
     // Time from a vsync to the photons of the panel centre.
     virtual int64_t photon_offset_ns() const = 0;
+    // Time from a vsync to the photons of panel row `row` (pixels from the top, a real number:
+    // pixel row r spans [r, r + 1)): its scan-out plus half the persistence, so row
+    // eye_height / 2 gives photon_offset_ns(). A display that does not model its scan-out gives
+    // the centre's figure for every row.
+    virtual int64_t row_photon_offset_ns(double row) const {
+        (void)row;
+        return photon_offset_ns();
+    }
 
     // Frame thread only. Presents a frame at the current time of the display's clock, meant for
     // target_vsync_ns. image may be null (timing only). A frame that arrives after its vsync's

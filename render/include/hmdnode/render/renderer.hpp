@@ -16,6 +16,7 @@
 #include <glm/gtc/quaternion.hpp>
 
 #include "hmdnode/core/image.hpp"
+#include "hmdnode/core/latency_marker.hpp"
 #include "hmdnode/core/result.hpp"
 #include "hmdnode/core/scanout_buffer.hpp"
 #include "hmdnode/core/scene.hpp"
@@ -74,6 +75,22 @@ struct WarpStats {
     int64_t gpu_wait_ns = 0;    // submit to fence signalled
     int64_t readback_ns = 0;    // copy of the panel image into the output (0 without one)
 };
+
+// The latency marker the lens pass draws (core/latency_marker.hpp; docs/latency.md, "The
+// observer"): after the lens pass, into the panel image of both eyes, top-left at (x, y) of each
+// eye's panel (rows top to bottom), cell_px panel pixels per cell (>= 1); the parts outside the
+// panel are clipped. Pure black and white: the same bytes on every backend and pass, and exactly
+// draw_latency_marker()'s.
+struct LatencyMarkerOverlay {
+    LatencyMarkerPayload payload;
+    int x = 0, y = 0;
+    int cell_px = 4;
+};
+
+// Where the node puts the marker on a panel of panel_width x panel_height per eye: centred
+// horizontally, its top a tenth of the panel down (inside the lens's visible area near its top
+// edge, where a camera looking through the lens sees it; docs/latency.md).
+LatencyMarkerOverlay default_latency_marker_overlay(int panel_width, int panel_height, int cell_px);
 
 class Renderer {
   public:
@@ -154,6 +171,10 @@ class Renderer {
     // times on the same eye buffers (a re-warp of the previous frame for a vsync that got no new
     // one). Waits for the GPU. Errors: no set_warp() yet, no render() yet, a lost device.
     virtual Result<WarpStats> warp(const glm::dquat& delta, StereoImage* out_panel) = 0;
+
+    // The latency marker every later warp() draws (null: none, the default; the panel is then
+    // exactly what the lens pass drew). Between warps only; allocates nothing.
+    virtual void set_latency_marker(const LatencyMarkerOverlay* overlay) = 0;
 
     // e.g. "llvmpipe (LLVM 15.0.6, 256 bits)".
     virtual std::string device_name() const = 0;

@@ -10,6 +10,16 @@
 
 namespace hmdnode {
 
+// Watches what the mock display shows (a simulated camera filming it: camera/panel_camera.hpp).
+// Called on the frame thread at each present, with the vsync the frame is shown at (it stays on
+// screen, repeated, until the next present's vsync) and its image (null: a timing-only present,
+// which shows black).
+class PanelWatcher {
+  public:
+    virtual ~PanelWatcher() = default;
+    virtual void shown(int64_t vsync_ns, const StereoImage* image) = 0;
+};
+
 struct MockDisplayConfig {
     int eye_width = 540;
     int eye_height = 600;
@@ -21,7 +31,13 @@ struct MockDisplayConfig {
     int64_t latch_margin_ns = 500'000;   // a frame must arrive this long before its vsync
     std::filesystem::path frames_dir;    // empty: no PNGs
     int frames_every = 1;                // write every Nth presented frame
+    PanelWatcher* watcher = nullptr;     // told of every present (null: none); must outlive it
 };
+
+// The time from a vsync to the scan-out of panel row `row` (pixels from the top, a real number):
+// rows are scanned top to bottom over scanout_fraction of a period; a row glows from then for the
+// persistence.
+int64_t mock_display_row_scanout_ns(const MockDisplayConfig& config, double row);
 
 // A panel lit longer than its refresh period is not a panel: the error gives both figures.
 Status check_persistence(const MockDisplayConfig& display);
