@@ -31,9 +31,10 @@ namespace {
 using Vec3 = Eigen::Vector3d;
 using Mat3 = Eigen::Matrix3d;
 using Quat = Eigen::Quaterniond;
-using Mat15 = Eigen::Matrix<double, 15, 15>;
-using Vec15 = Eigen::Matrix<double, 15, 1>;
-constexpr int kP = 0, kV = 3, kTh = 6, kBg = 9, kBa = 12;
+constexpr int kN = 18;  // error-state dimension
+using Mat15 = Eigen::Matrix<double, kN, kN>;
+using Vec15 = Eigen::Matrix<double, kN, 1>;
+constexpr int kP = 0, kV = 3, kTh = 6, kBg = 9, kBa = 12, kGr = 15;
 
 Vec3 eig(const glm::dvec3& v) {
     return {v.x, v.y, v.z};
@@ -76,6 +77,7 @@ struct State {
     Vec3 p = Vec3::Zero(), v = Vec3::Zero();  // the IMU's position and velocity, world
     Quat q = Quat::Identity();
     Vec3 bg = Vec3::Zero(), ba = Vec3::Zero();
+    Vec3 g = Vec3::Zero();  // gravity in the world (the light's world need not be level)
     Mat15 P = Mat15::Identity();
     Vec3 omega = Vec3::Zero();  // the last bias-corrected gyro, body
     Vec3 held = Vec3::Zero();   // the body origin while no position is tracked
@@ -97,8 +99,8 @@ Quat rotation_between(const Vec3& a, const Vec3& b) {
 
 // The position block of an orientation-only state: held, uncorrelated.
 void hold_position(State& x) {
-    x.P.block<6, 15>(kP, 0).setZero();
-    x.P.block<15, 6>(0, kP).setZero();
+    x.P.block<6, kN>(kP, 0).setZero();
+    x.P.block<kN, 6>(0, kP).setZero();
     x.P.block<6, 6>(kP, kP).setIdentity();
     x.v.setZero();
 }
@@ -159,7 +161,7 @@ struct PoseFilter::Impl {
     void propagate(State& x, const Sample& s, double dt) const;
     void gravity_update(State& x, const Sample& s) const;
     template <int M>
-    bool update(State& x, const Eigen::Matrix<double, M, 15>& H,
+    bool update(State& x, const Eigen::Matrix<double, M, kN>& H,
                 const Eigen::Matrix<double, M, 1>& y, const Eigen::Matrix<double, M, M>& R,
                 double gate, double* d2) const;
     void inject(State& x, const Vec15& dx) const;
@@ -183,7 +185,7 @@ void PoseFilter::Impl::propagate(State& x, const Sample& s, double dt) const {
     const Mat3 R = x.q.toRotationMatrix();
     const Quat dq = exp_q(w * dt);
     if (x.tracking) {
-        const Vec3 acc = R * a - cfg.gravity * up;
+        const Vec3 acc = R * a + x.g;
         x.p += x.v * dt + 0.5 * acc * dt * dt;
         x.v += acc * dt;
     }
@@ -194,12 +196,13 @@ void PoseFilter::Impl::propagate(State& x, const Sample& s, double dt) const {
         F.block<3, 3>(kP, kV) = Mat3::Identity() * dt;
         F.block<3, 3>(kV, kTh) = -R * skew(a) * dt;
         F.block<3, 3>(kV, kBa) = -R * dt;
+        F.block<3, 3>(kV, kGr) = Mat3::Identity() * dt;
     }
     F.block<3, 3>(kTh, kTh) = dq.toRotationMatrix().transpose();
     F.block<3, 3>(kTh, kBg) = -Mat3::Identity() * dt;
     x.P = (F * x.P * F.transpose()).eval();
     const auto sq = [](double v) { return v * v; };
-    double th_var = sq(cfg.gyro_noise) * dt;
+    double th_var = (sq(cfg.gyro_noise) + sq(cfg.gyro_rate_noise * w.norm())) * dt;
     double v_var = sq(cfg.accel_noise) * dt;
     if (s.flags.gyro_saturated) th_var += sq(cfg.saturated_gyro_sigma * dt);
     if (s.flags.accel_saturated) v_var += sq(cfg.saturated_accel_sigma * dt);
@@ -214,7 +217,7 @@ void PoseFilter::Impl::propagate(State& x, const Sample& s, double dt) const {
 // Sola §6.1-6.3 for an M-dimensional residual y = z - h(x) with Jacobian H: gated by y^T S^-1 y
 // (gate <= 0: no gate), Joseph-form covariance, injection and reset. False when gated.
 template <int M>
-bool PoseFilter::Impl::update(State& x, const Eigen::Matrix<double, M, 15>& H,
+bool PoseFilter::Impl::update(State& x, const Eigen::Matrix<double, M, kN>& H,
                               const Eigen::Matrix<double, M, 1>& y,
                               const Eigen::Matrix<double, M, M>& R, double gate, double* d2) const {
     const Eigen::Matrix<double, M, M> S = H * x.P * H.transpose() + R;
@@ -223,7 +226,7 @@ bool PoseFilter::Impl::update(State& x, const Eigen::Matrix<double, M, 15>& H,
     const double m2 = y.dot(llt.solve(y));
     if (d2) *d2 = m2;
     if (gate > 0 && !(m2 <= gate)) return false;
-    const Eigen::Matrix<double, 15, M> K = llt.solve(H * x.P).transpose();
+    const Eigen::Matrix<double, kN, M> K = llt.solve(H * x.P).transpose();
     const Vec15 dx = K * y;
     const Mat15 IKH = Mat15::Identity() - K * H;
     x.P = (IKH * x.P * IKH.transpose() + K * R * K.transpose()).eval();
@@ -240,6 +243,7 @@ void PoseFilter::Impl::inject(State& x, const Vec15& dx) const {
     x.q = (x.q * exp_q(dth)).normalized();
     x.bg += dx.segment<3>(kBg);
     if (cfg.estimate_accel_bias) x.ba += dx.segment<3>(kBa);
+    if (cfg.estimate_world_tilt) x.g += dx.segment<3>(kGr);
     Mat15 G = Mat15::Identity();
     G.block<3, 3>(kTh, kTh) -= skew(0.5 * dth);
     x.P = (G * x.P * G.transpose()).eval();
@@ -254,8 +258,9 @@ void PoseFilter::Impl::gravity_update(State& x, const Sample& s) const {
     if (std::abs(a.norm() - cfg.gravity) > cfg.accel_gate * cfg.gravity) return;
     const double r = x.omega.norm() / cfg.gravity_rate_scale;
     const double sigma = cfg.gravity_sigma * (1.0 + r * r);
-    const Vec3 h = x.q.toRotationMatrix().transpose() * (cfg.gravity * up);
-    Eigen::Matrix<double, 3, 15> H = Eigen::Matrix<double, 3, 15>::Zero();
+    // The world of an orientation-only state is gravity's own: g is not updated here (H_g = 0).
+    const Vec3 h = -(x.q.toRotationMatrix().transpose() * x.g);
+    Eigen::Matrix<double, 3, kN> H = Eigen::Matrix<double, 3, kN>::Zero();
     H.block<3, 3>(0, kTh) = skew(h);
     if (cfg.estimate_accel_bias) H.block<3, 3>(0, kBa) = Mat3::Identity();
     const Vec3 y = a - h;
@@ -274,8 +279,8 @@ void PoseFilter::Impl::initialise(State& x, const PoseMeasurement& m,
     // [dp; dtheta] = A [dz_p; dz_theta]: the IMU lies at z_p + R Exp(dtheta) l.
     Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Identity();
     A.block<3, 3>(0, 3) = -R * skew(lever);
-    x.P.block<9, 15>(0, 0).setZero();
-    x.P.block<15, 9>(0, 0).setZero();
+    x.P.block<9, kN>(0, 0).setZero();
+    x.P.block<kN, 9>(0, 0).setZero();
     const Eigen::Matrix<double, 6, 6> C = A * Rm * A.transpose();
     x.P.block<3, 3>(kP, kP) = C.block<3, 3>(0, 0);
     x.P.block<3, 3>(kP, kTh) = C.block<3, 3>(0, 3);
@@ -405,7 +410,7 @@ MeasurementResult PoseFilter::Impl::apply(const PoseMeasurement& m) {
     bool init = !x.tracking;
     if (!init) {
         const Mat3 R = x.q.toRotationMatrix();
-        Eigen::Matrix<double, 6, 15> H = Eigen::Matrix<double, 6, 15>::Zero();
+        Eigen::Matrix<double, 6, kN> H = Eigen::Matrix<double, 6, kN>::Zero();
         H.block<3, 3>(0, kP) = Mat3::Identity();
         H.block<3, 3>(0, kTh) = R * skew(lever);
         H.block<3, 3>(3, kTh) = Mat3::Identity();
@@ -531,8 +536,14 @@ void PoseFilter::add_imu(int64_t t, const glm::dvec3& gyro, const glm::dvec3& ac
                                  ? d.cfg.initial_accel_bias_sigma * d.cfg.initial_accel_bias_sigma
                                  : 0.0;
         x.P.setZero();
-        x.P.diagonal() << Vec3::Ones(), Vec3::Ones(), Vec3::Constant(0.01), Vec3::Constant(sq_bg),
-            Vec3::Constant(sq_ba);
+        x.P.diagonal().head<15>() << Vec3::Ones(), Vec3::Ones(), Vec3::Constant(0.01),
+            Vec3::Constant(sq_bg), Vec3::Constant(sq_ba);
+        x.g = -d.cfg.gravity * d.up;
+        if (d.cfg.estimate_world_tilt) {  // level within the stated tilt; |g| known to 0.1 %
+            const double st = d.cfg.world_tilt_sigma_rad * d.cfg.gravity, sv = 1e-3 * d.cfg.gravity;
+            const Mat3 uu = d.up * d.up.transpose();
+            x.P.block<3, 3>(kGr, kGr) = st * st * (Mat3::Identity() - uu) + sv * sv * uu;
+        }
         if (s.accel.norm() > 0.5 * d.cfg.gravity && !flags.accel_saturated)
             x.q = rotation_between(s.accel.normalized(), d.up);
         x.omega = s.gyro;
@@ -622,6 +633,10 @@ glm::dvec3 PoseFilter::gyro_bias() const {
 }
 glm::dvec3 PoseFilter::accel_bias() const {
     return impl_->count ? to_glm(impl_->at(impl_->count - 1).x.ba) : glm::dvec3(0.0);
+}
+glm::dvec3 PoseFilter::gravity() const {
+    return impl_->count ? to_glm(impl_->at(impl_->count - 1).x.g)
+                        : -impl_->cfg.gravity * to_glm(impl_->up);
 }
 const PoseFilterCounters& PoseFilter::counters() const {
     return impl_->counters;

@@ -53,11 +53,21 @@ struct PoseFilterConfig {
     glm::dvec3 world_up{0, 1, 0};  // unit; libsurvive's world is z up
     glm::dvec3 imu_position{0.0};  // the IMU's origin in the body frame, m
     // IMU white noise densities and bias random walks (continuous time).
-    double gyro_noise = 2e-4;               // rad/s/sqrt(Hz)
-    double accel_noise = 3e-3;              // m/s^2/sqrt(Hz)
-    double gyro_bias_walk = 1e-4;           // rad/s^2/sqrt(Hz)
-    double accel_bias_walk = 1e-3;          // m/s^3/sqrt(Hz)
-    bool estimate_accel_bias = true;        // false: the accel bias stays 0 (not a state)
+    double gyro_noise = 2e-4;  // rad/s/sqrt(Hz)
+    // What the IMU model lacks, as white noise: gyro scale and axis errors grow with the rate,
+    // accelerometer scale, axis, clipping and filtering errors with the motion. Set on the one
+    // real light + IMU recording at hand (docs/tracking.md §10): ten times less of either made the
+    // filter gate good solves in fast motion and lose the position there; the sensors' own white
+    // noise (the still Vive: 5e-5 rad/s and 8e-4 m/s^2 per sqrt(Hz)) is far below both.
+    double gyro_rate_noise = 0.02;    // rad/s/sqrt(Hz) per rad/s of |w|
+    double accel_noise = 0.2;         // m/s^2/sqrt(Hz)
+    double gyro_bias_walk = 1e-4;     // rad/s^2/sqrt(Hz)
+    double accel_bias_walk = 1e-3;    // m/s^3/sqrt(Hz)
+    bool estimate_accel_bias = true;  // false: the accel bias stays 0 (not a state)
+    // Gravity in the world as a state (Sola 2017 §5.3: the light's world, from the base stations,
+    // is level only to their accelerometers'): its direction within world_tilt_sigma_rad of -up.
+    bool estimate_world_tilt = true;
+    double world_tilt_sigma_rad = 0.05;
     double initial_gyro_bias_sigma = 0.03;  // rad/s
     double initial_accel_bias_sigma = 0.1;  // m/s^2
     double initial_velocity_sigma = 0.5;    // m/s, at (re-)initialisation
@@ -153,6 +163,7 @@ class PoseFilter {
     FilterPose predict(int64_t device_time_ns) const;
     glm::dvec3 gyro_bias() const;   // rad/s, body
     glm::dvec3 accel_bias() const;  // m/s^2, body
+    glm::dvec3 gravity() const;     // m/s^2, world (pointing down)
     const PoseFilterCounters& counters() const;
     const PoseFilterConfig& config() const;
 
