@@ -1,19 +1,20 @@
 // Error-state Kalman filter of light + IMU: J. Sola, "Quaternion kinematics for the error-state
 // Kalman filter", arXiv:1711.02508, 2017. Nominal state: IMU position p and velocity v (world),
-// orientation q (body-to-world), gyro bias bg and accelerometer bias ba (body); error state
-// [dp dv dtheta dbg dba] (15), dtheta the local (body-frame) angle error, q_true = q (x)
-// Exp(dtheta). Propagation: §5.3 (nominal kinematics, eq. 260 with the body-frame IMU readings) and
-// §5.4 (the discrete error-state transition F_x and the noise impulses Q_i, eqs. 269-270), noise as
-// continuous densities times dt. Update: §6.1 (K = P H^T S^-1, Joseph form), injection §6.2,
-// reset §6.3 (G = I - [dtheta/2]x on the angle block). Measurements: the body origin's position
-// p - R l (l the IMU's position in the body frame: the lever arm, so the accelerometer needs no
-// centripetal term) and orientation (residual Log(q^-1 z_q)), gated by the squared Mahalanobis
-// distance (chi-square, 6 dof); the accelerometer as gravity while no position is tracked.
-// Late measurements: a ring of the states after each IMU sample; the filter restarts from the one
-// before the measurement and propagates forward again.
-// Cost: one step is two 15x15 products (~7k multiply-adds); a pose update a 6x6 inverse and
-// 15x6 products; add_pose() re-propagates every IMU sample after the measurement. Memory: the
-// ring, history_samples x ~2 kB, allocated once.
+// orientation q (body-to-world), gyro bias bg and accelerometer bias ba (body), gravity g (world);
+// error state [dp dv dtheta dbg dba dg] (18), dtheta the local (body-frame) angle error,
+// q_true = q (x) Exp(dtheta). Propagation: §5.3 (nominal kinematics with the body-frame IMU
+// readings, gravity a state as there) and §5.4 (the discrete error-state transition F_x and the
+// noise impulses Q_i), noise as continuous densities times dt, the gyro's grown by a term
+// proportional to the rate (scale error). Update: §6.1 (K = P H^T S^-1, Joseph form), injection
+// §6.2, reset §6.3 (G = I - [dtheta/2]x on the angle block). Measurements: the body origin's
+// position p - R l (l the IMU's position in the body frame: the lever arm, so the accelerometer
+// needs no centripetal term) and orientation (residual Log(q^-1 z_q)), gated by the squared
+// Mahalanobis distance (chi-square, 6 dof); the accelerometer as gravity while no position is
+// tracked. Late measurements: a ring of the states after each IMU sample; the filter restarts from
+// the one before the measurement and propagates forward again.
+// Cost: one step is two 18x18 products (~12k multiply-adds); a pose update a 6x6 Cholesky and
+// 18x6 products; add_pose() re-propagates every IMU sample after the measurement. Memory: the
+// ring, history_samples x ~2.8 kB, allocated once.
 #include "hmdnode/hal/tracking/pose_filter.hpp"
 
 #include <algorithm>
@@ -32,8 +33,8 @@ using Vec3 = Eigen::Vector3d;
 using Mat3 = Eigen::Matrix3d;
 using Quat = Eigen::Quaterniond;
 constexpr int kN = 18;  // error-state dimension
-using Mat15 = Eigen::Matrix<double, kN, kN>;
-using Vec15 = Eigen::Matrix<double, kN, 1>;
+using MatN = Eigen::Matrix<double, kN, kN>;
+using VecN = Eigen::Matrix<double, kN, 1>;
 constexpr int kP = 0, kV = 3, kTh = 6, kBg = 9, kBa = 12, kGr = 15;
 
 Vec3 eig(const glm::dvec3& v) {
@@ -78,7 +79,7 @@ struct State {
     Quat q = Quat::Identity();
     Vec3 bg = Vec3::Zero(), ba = Vec3::Zero();
     Vec3 g = Vec3::Zero();  // gravity in the world (the light's world need not be level)
-    Mat15 P = Mat15::Identity();
+    MatN P = MatN::Identity();
     Vec3 omega = Vec3::Zero();  // the last bias-corrected gyro, body
     Vec3 held = Vec3::Zero();   // the body origin while no position is tracked
     bool tracking = false;      // position propagated and updated
@@ -164,7 +165,7 @@ struct PoseFilter::Impl {
     bool update(State& x, const Eigen::Matrix<double, M, kN>& H,
                 const Eigen::Matrix<double, M, 1>& y, const Eigen::Matrix<double, M, M>& R,
                 double gate, double* d2) const;
-    void inject(State& x, const Vec15& dx) const;
+    void inject(State& x, const VecN& dx) const;
     void initialise(State& x, const PoseMeasurement& m, const Eigen::Matrix<double, 6, 6>& R) const;
     void check_lost(State& x) const;
     void step(State& x, const Sample& s, double dt) const {
@@ -191,7 +192,7 @@ void PoseFilter::Impl::propagate(State& x, const Sample& s, double dt) const {
     }
     x.q = (x.q * dq).normalized();
     x.omega = w;
-    Mat15 F = Mat15::Identity();
+    MatN F = MatN::Identity();
     if (x.tracking) {
         F.block<3, 3>(kP, kV) = Mat3::Identity() * dt;
         F.block<3, 3>(kV, kTh) = -R * skew(a) * dt;
@@ -227,14 +228,14 @@ bool PoseFilter::Impl::update(State& x, const Eigen::Matrix<double, M, kN>& H,
     if (d2) *d2 = m2;
     if (gate > 0 && !(m2 <= gate)) return false;
     const Eigen::Matrix<double, kN, M> K = llt.solve(H * x.P).transpose();
-    const Vec15 dx = K * y;
-    const Mat15 IKH = Mat15::Identity() - K * H;
+    const VecN dx = K * y;
+    const MatN IKH = MatN::Identity() - K * H;
     x.P = (IKH * x.P * IKH.transpose() + K * R * K.transpose()).eval();
     inject(x, dx);
     return true;
 }
 
-void PoseFilter::Impl::inject(State& x, const Vec15& dx) const {
+void PoseFilter::Impl::inject(State& x, const VecN& dx) const {
     if (x.tracking) {
         x.p += dx.segment<3>(kP);
         x.v += dx.segment<3>(kV);
@@ -244,7 +245,7 @@ void PoseFilter::Impl::inject(State& x, const Vec15& dx) const {
     x.bg += dx.segment<3>(kBg);
     if (cfg.estimate_accel_bias) x.ba += dx.segment<3>(kBa);
     if (cfg.estimate_world_tilt) x.g += dx.segment<3>(kGr);
-    Mat15 G = Mat15::Identity();
+    MatN G = MatN::Identity();
     G.block<3, 3>(kTh, kTh) -= skew(0.5 * dth);
     x.P = (G * x.P * G.transpose()).eval();
     x.P = (0.5 * (x.P + x.P.transpose())).eval();

@@ -1,6 +1,6 @@
 // Light + IMU fusion: an error-state Kalman filter (Sola 2017) over position, velocity,
-// orientation, gyro bias and accelerometer bias, propagated by every IMU sample and updated by
-// optical pose solves (docs/tracking.md §10).
+// orientation, gyro bias, accelerometer bias and the world's gravity direction, propagated by
+// every IMU sample and updated by optical pose solves (docs/tracking.md §10).
 //
 // Frames. The body frame is the frame the poses are of (for a lighthouse device: its head frame,
 // `LighthouseSensors::model_from_head`); IMU samples come in its axes, as the report codecs give
@@ -16,11 +16,12 @@
 //
 // Position states: `none` (no light yet: orientation only, from gyro and gravity, yaw arbitrary;
 // position held at 0), `tracked` (a light update accepted recently, position sigma small: the only
-// state whose pose is good), `coasting` (position from the IMU alone, confidence falling), `lost`
+// state whose pose is good), `coasting` (position from the IMU alone, confidence falling; or an
+// initialisation no second solve has confirmed yet), `lost`
 // (too long without light, or too uncertain: position held, orientation only, until a
 // measurement re-initialises it).
 //
-// One thread. add_imu() is O(1) (a 15x15 covariance step); add_pose() costs one step per IMU
+// One thread. add_imu() is O(1) (an 18x18 covariance step); add_pose() costs one step per IMU
 // sample since the measurement's time. No allocation after construction.
 #pragma once
 
