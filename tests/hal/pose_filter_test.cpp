@@ -487,6 +487,11 @@ TEST(PoseFilter, OnTheIndexRecordingLibsurvivesPosesAt10HzPredictTheHeldOutOnes)
     }
     const glm::dvec3 l = rec.calibration.imu_position;
     std::printf("IMU lever arm in the head frame (%.4f %.4f %.4f) m\n", l.x, l.y, l.z);
+    // By hand from the CONFIG: imu.position (-0.05334, 0.03702, 0.05707) less head.position
+    // (0, 0, -0.01092), in the head axes (x = -x, y = y, z = -z of the device).
+    EXPECT_NEAR(l.x, 0.05334, 1e-5);
+    EXPECT_NEAR(l.y, 0.03702, 1e-5);
+    EXPECT_NEAR(l.z, -0.06799, 1e-5);
     struct Case {
         double rate_hz;
         bool accel_bias;
