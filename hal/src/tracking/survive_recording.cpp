@@ -367,13 +367,20 @@ Result<ImuCalibration> parse_imu_calibration_json(const std::string& text,
     c.gyro_scale = *gyro_scale;
     auto device_from_imu = frame(imu, w);
     if (!device_from_imu) return device_from_imu.error();
+    auto imu_origin = vec3(imu, "position", w, glm::dvec3(0.0));
+    if (!imu_origin) return imu_origin.error();
     glm::dmat3 device_from_head(1.0);
+    glm::dvec3 head_origin(0.0);
     if (j.contains("head") && j["head"].is_object()) {
         auto h = frame(j["head"], source + ": head");
         if (!h) return h.error();
         device_from_head = *h;
+        auto o = vec3(j["head"], "position", source + ": head", glm::dvec3(0.0));
+        if (!o) return o.error();
+        head_origin = *o;
     }
     c.head_from_imu = glm::transpose(device_from_head) * *device_from_imu;
+    c.imu_position = glm::transpose(device_from_head) * (*imu_origin - head_origin);
     return c;
 }
 

@@ -67,6 +67,7 @@ struct ImuCalibration {
     glm::dvec3 gyro_bias{0.0};  // rad/s
     glm::dvec3 gyro_scale{1.0};
     glm::dmat3 head_from_imu{1.0};  // IMU axes -> hmdnode head frame (x right, y up, z backward)
+    glm::dvec3 imu_position{0.0};   // the IMU's origin in the head frame (m): the lever arm
 };
 
 // Report codec of one device family. Reader thread only.
