@@ -28,8 +28,8 @@ struct LightRecording {
     std::vector<std::pair<int64_t, lighthouse::RigidPose>> reference;
 };
 
-inline lighthouse::RigidPose model_pose_from_head(const LighthouseSensors& s,
-                                                  const glm::dvec3& t, const glm::dquat& q) {
+inline lighthouse::RigidPose model_pose_from_head(const LighthouseSensors& s, const glm::dvec3& t,
+                                                  const glm::dquat& q) {
     // world = t + q * in_head(p) = t + q * M^T (p - o)
     const glm::dquat mt = glm::quat_cast(glm::transpose(s.model_from_head));
     const glm::dquat r = glm::normalize(q * mt);
@@ -38,8 +38,8 @@ inline lighthouse::RigidPose model_pose_from_head(const LighthouseSensors& s,
 
 inline std::unique_ptr<LightRecording> load_light_recording(const std::string& file,
                                                             const std::string& device) {
-    auto rec = read_survive_recording(std::string(HMDNODE_SOURCE_DIR) + "/data/traces/" + file,
-                                      device);
+    auto rec =
+        read_survive_recording(std::string(HMDNODE_SOURCE_DIR) + "/data/traces/" + file, device);
     EXPECT_TRUE(rec.ok()) << rec.error().message;
     if (!rec) return nullptr;
     auto r = std::make_unique<LightRecording>();

@@ -25,7 +25,8 @@ inline SensorLayout sphere_layout(size_t n = 32, double r = 0.07) {
     for (size_t i = 0; i < n; ++i) {
         const double y = 1 - 2 * (double(i) + 0.5) / double(n);
         const double rad = std::sqrt(1 - y * y);
-        const glm::dvec3 d(std::cos(golden * double(i)) * rad, y, std::sin(golden * double(i)) * rad);
+        const glm::dvec3 d(std::cos(golden * double(i)) * rad, y,
+                           std::sin(golden * double(i)) * rad);
         l.points.push_back(r * d);
         l.normals.push_back(d);
     }
@@ -63,7 +64,8 @@ inline BaseStationCalibration test_calibration(Generation g, double s) {
 // looking at the device near (0, 1.2, 0); calibrated.
 inline std::vector<PlacedBaseStation> four_stations(Generation g = Generation::lh2) {
     const glm::dvec3 target(0, 1.1, 0);
-    const glm::dvec3 at[4] = {{2.0, 2.2, 1.8}, {-2.1, 2.1, 1.7}, {1.9, 2.3, -2.0}, {-1.8, 2.0, -2.2}};
+    const glm::dvec3 at[4] = {
+        {2.0, 2.2, 1.8}, {-2.1, 2.1, 1.7}, {1.9, 2.3, -2.0}, {-1.8, 2.0, -2.2}};
     const uint8_t ch[4] = {1, 4, 9, 13};
     std::vector<PlacedBaseStation> out;
     for (int i = 0; i < (g == Generation::lh2 ? 4 : 2); ++i) {
@@ -78,7 +80,8 @@ inline std::vector<PlacedBaseStation> four_stations(Generation g = Generation::l
 }
 
 inline glm::dvec3 in_station(const PlacedBaseStation& s, const glm::dvec3& world) {
-    return glm::conjugate(s.world_from_station.orientation) * (world - s.world_from_station.position);
+    return glm::conjugate(s.world_from_station.orientation) *
+           (world - s.world_from_station.position);
 }
 
 // The events of one rotor turn: both planes of every sensor facing each station (normal within
@@ -87,8 +90,7 @@ inline glm::dvec3 in_station(const PlacedBaseStation& s, const glm::dvec3& world
 inline std::vector<LightEvent> events_for(const SensorLayout& l,
                                           const std::vector<PlacedBaseStation>& stations,
                                           const RigidPose& device, int64_t t_ns, double sigma = 0,
-                                          std::mt19937* rng = nullptr,
-                                          double max_incidence = 1.5) {
+                                          std::mt19937* rng = nullptr, double max_incidence = 1.5) {
     std::vector<LightEvent> out;
     std::normal_distribution<double> noise(0, sigma > 0 ? sigma : 1);
     for (const PlacedBaseStation& s : stations)
@@ -105,8 +107,8 @@ inline std::vector<LightEvent> events_for(const SensorLayout& l,
                 e.base_station = s.base_station;
                 e.sensor = uint8_t(i);
                 e.plane = uint8_t(p);
-                const PlaneCalibration c = s.calibration ? s.calibration->plane[size_t(p)]
-                                                         : PlaneCalibration{};
+                const PlaneCalibration c =
+                    s.calibration ? s.calibration->plane[size_t(p)] : PlaneCalibration{};
                 e.angle = s.generation == Generation::lh2 ? lh2_predict_angle(c, p, q)
                                                           : lh1_predict_angle(c, p, q);
                 if (sigma > 0 && rng) e.angle += noise(*rng);

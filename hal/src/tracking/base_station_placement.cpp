@@ -148,8 +148,8 @@ PlacementResult place_base_stations(const SensorLayout& layout,
     for (const auto& [k, mine] : per) {
         const Generation g = Generation(k.first);
         std::string why;
-        auto p = place_one(layout, out.world_from_device, mine, find_known(known, g, k.second), o,
-                           why);
+        auto p =
+            place_one(layout, out.world_from_device, mine, find_known(known, g, k.second), o, why);
         if (p)
             out.placed.push_back(*p);
         else

@@ -30,6 +30,7 @@ struct FitAngle {
     int station = 0;  // the caller's index
     int sensor = 0;
     int64_t device_time_ns = 0;
+    double dt_s = 0;  // its time - the fit's reference time (the velocity model's lever)
     enum class State : uint8_t { used, outlier, facing_away } state = State::used;
 };
 
@@ -40,6 +41,8 @@ struct FitResult {
     bool enough = false;  // enough angles and sensors, and all six degrees of freedom observable
     std::string why;      // when not
     RigidPose pose;
+    glm::dvec3 velocity{0.0}, angular_velocity{0.0};  // target frame; zero without the model
+    bool moving = false;                              // fitted with the velocity model
     double rms = 0;
     size_t used = 0, outliers = 0, facing_away = 0;
     int iterations = 0;
@@ -47,9 +50,10 @@ struct FitResult {
 };
 
 // Levenberg-Marquardt from `start`, then the k-sigma outlier rounds (SolverOptions); marks each
-// angle's state. Cost: O(angles) per iteration.
+// angle's state. `velocity`: also a constant linear and angular velocity over the angles' times
+// (dt_s), under a weak prior (SolverOptions::velocity_prior_*). Cost: O(angles) per iteration.
 FitResult fit_pose(std::vector<FitAngle>& angles, const RigidPose& start,
-                   const SolverOptions& options);
+                   const SolverOptions& options, bool velocity = false);
 
 // Perspective-n-point by orthogonal iteration (Lu, Hager & Mjolsness, "Fast and globally
 // convergent pose estimation from video images", IEEE PAMI 22(6), 2000): the transform taking

@@ -47,8 +47,7 @@ std::array<Matrix3d, 24> cube_rotations() {
     const Matrix3d ry = Eigen::AngleAxisd(M_PI / 2, Vector3d::UnitY()).toRotationMatrix();
     const Matrix3d rz = Eigen::AngleAxisd(M_PI / 2, Vector3d::UnitZ()).toRotationMatrix();
     // six directions for the x axis, four turns about it each
-    const Matrix3d faces[6] = {Matrix3d::Identity(), rz,      rz * rz, rz * rz * rz,
-                               ry,                   ry.transpose()};
+    const Matrix3d faces[6] = {Matrix3d::Identity(), rz, rz * rz, rz * rz * rz, ry, ry.transpose()};
     for (const Matrix3d& f : faces) {
         Matrix3d turn = Matrix3d::Identity();
         for (int i = 0; i < 4; ++i, turn = turn * rx) out[k++] = f * turn;
@@ -117,7 +116,8 @@ std::optional<RigidPose> pnp_orthogonal_iteration(std::span<const glm::dvec3> po
         if (behind > 0) continue;
         if (away < best_away || (away == best_away && e < best_e)) {
             const Eigen::Quaterniond qr(r);
-            best = RigidPose{{t.x(), t.y(), t.z()}, glm::normalize(glm::dquat(qr.w(), qr.x(), qr.y(), qr.z()))};
+            best = RigidPose{{t.x(), t.y(), t.z()},
+                             glm::normalize(glm::dquat(qr.w(), qr.x(), qr.y(), qr.z()))};
             best_away = away;
             best_e = e;
         }

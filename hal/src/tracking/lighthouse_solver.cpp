@@ -56,7 +56,22 @@ std::optional<RigidPose> seed_from(const SensorLayout& layout, const PlacedBaseS
 size_t seed_sensors(std::span<const AngleSample> mine) {
     std::map<int, int> planes;
     for (const AngleSample& a : mine) planes[a.sensor] |= 1 << (a.plane & 1);
-    return size_t(std::count_if(planes.begin(), planes.end(), [](auto& p) { return p.second == 3; }));
+    return size_t(
+        std::count_if(planes.begin(), planes.end(), [](auto& p) { return p.second == 3; }));
+}
+
+// The static fit; where it does not explain the angles to their noise (a moving device's hits
+// at different times of the window) and the options allow, the fit with the velocities from it.
+detail::FitResult fit_with_motion(std::vector<FitAngle>& fit, const RigidPose& start,
+                                  const SolverOptions& o) {
+    detail::FitResult r = detail::fit_pose(fit, start, o, false);
+    if (!o.model_velocity || !r.enough || r.rms <= o.velocity_above_rms_rad) return r;
+    const std::vector<FitAngle> keep = fit;
+    detail::FitResult m = detail::fit_pose(fit, r.pose, o, true);
+    m.iterations += r.iterations;
+    if (m.enough) return m;
+    fit = keep;
+    return r;
 }
 
 PoseSolve finish(PoseSolve out, const detail::FitResult& fit, const std::vector<FitAngle>& angles,
@@ -84,10 +99,16 @@ PoseSolve finish(PoseSolve out, const detail::FitResult& fit, const std::vector<
             stations.insert(a.station);
             t += double(a.device_time_ns - angles.front().device_time_ns);
         }
-    out.device_time_ns = angles.front().device_time_ns + int64_t(std::llround(t / double(fit.used)));
+    // With the velocity model the pose is at the reference time set before the fit.
+    if (!fit.moving)
+        out.device_time_ns =
+            angles.front().device_time_ns + int64_t(std::llround(t / double(fit.used)));
     out.base_stations = stations.size();
     out.covariance = fit.covariance;
     out.world_from_device = fit.pose;
+    out.moving = fit.moving;
+    out.velocity = fit.velocity;
+    out.angular_velocity = fit.angular_velocity;
     out.outcome = SolveOutcome::solved;
     return out;
 }
@@ -96,9 +117,12 @@ PoseSolve finish(PoseSolve out, const detail::FitResult& fit, const std::vector<
 
 const char* solve_outcome_name(SolveOutcome o) {
     switch (o) {
-        case SolveOutcome::solved: return "solved";
-        case SolveOutcome::not_enough_data: return "not enough data";
-        case SolveOutcome::no_fit: return "no fit";
+        case SolveOutcome::solved:
+            return "solved";
+        case SolveOutcome::not_enough_data:
+            return "not enough data";
+        case SolveOutcome::no_fit:
+            return "no fit";
     }
     return "?";
 }
@@ -112,8 +136,8 @@ std::vector<AngleSample> newest_angles(std::span<const LightEvent> window) {
     std::vector<AngleSample> out;
     out.reserve(newest.size());
     for (const auto& [k, e] : newest)
-        out.push_back({e->generation, e->base_station, e->sensor, e->plane, e->angle,
-                       e->device_time_ns});
+        out.push_back(
+            {e->generation, e->base_station, e->sensor, e->plane, e->angle, e->device_time_ns});
     return out;
 }
 
@@ -131,8 +155,8 @@ std::vector<AngleSample> median_angles(std::span<const LightEvent> window, size_
         std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
         std::nth_element(t.begin(), t.begin() + long(t.size() / 2), t.end());
         const LightEvent& e = *es.front();
-        out.push_back({e.generation, e.base_station, e.sensor, e.plane, v[v.size() / 2],
-                       t[t.size() / 2]});
+        out.push_back(
+            {e.generation, e.base_station, e.sensor, e.plane, v[v.size() / 2], t[t.size() / 2]});
     }
     return out;
 }
@@ -184,6 +208,16 @@ PoseSolve solve_device_pose(const SensorLayout& layout, std::span<const PlacedBa
         fit.push_back(f);
         per_station[size_t(it->second)].push_back(a);
     }
+    // The velocity model's reference time: the mean of the angles' times (the solve's time is
+    // the mean of those used; the two differ by the rejected few).
+    if (!fit.empty()) {
+        double mean = 0;
+        for (const FitAngle& f : fit) mean += double(f.device_time_ns - fit.front().device_time_ns);
+        const int64_t ref =
+            fit.front().device_time_ns + int64_t(std::llround(mean / double(fit.size())));
+        for (FitAngle& f : fit) f.dt_s = double(f.device_time_ns - ref) * 1e-9;
+        out.device_time_ns = ref;
+    }
     if (fit.size() < o.min_angles) {
         out.message = cat(fit.size(), " angles from placed base stations in the window (",
                           out.unplaced, " from base stations not placed, ", beyond_model,
@@ -191,14 +225,15 @@ PoseSolve solve_device_pose(const SensorLayout& layout, std::span<const PlacedBa
         return out;
     }
     if (warm_start) {
-        detail::FitResult r = detail::fit_pose(fit, *warm_start, o);
+        detail::FitResult r = fit_with_motion(fit, *warm_start, o);
         if (r.enough && r.rms <= o.max_warm_residual_rad) return finish(out, r, fit, o);
         out.iterations += r.iterations;
     }
     // Cold: seeds from the base stations with the most sensors on both planes, best first.
     std::vector<std::pair<size_t, size_t>> order;  // (sensors on both planes, station)
     for (size_t i = 0; i < stations.size(); ++i)
-        if (size_t n = seed_sensors(per_station[i]); n >= o.min_seed_sensors) order.push_back({n, i});
+        if (size_t n = seed_sensors(per_station[i]); n >= o.min_seed_sensors)
+            order.push_back({n, i});
     std::sort(order.rbegin(), order.rend());
     if (order.empty()) {
         out.message = cat("no placed base station sees ", o.min_seed_sensors,
@@ -211,7 +246,7 @@ PoseSolve solve_device_pose(const SensorLayout& layout, std::span<const PlacedBa
         const size_t s = order[k].second;
         auto seed = seed_from(layout, stations[s], per_station[s], o);
         if (!seed) continue;
-        detail::FitResult r = detail::fit_pose(fit, *seed, o);
+        detail::FitResult r = fit_with_motion(fit, *seed, o);
         PoseSolve p = finish(out, r, fit, o);
         if (p.ok() && p.residual_rms_rad <= o.max_warm_residual_rad) return p;
         if (!best || (p.ok() && (!best->ok() || p.residual_rms_rad < best->residual_rms_rad)))

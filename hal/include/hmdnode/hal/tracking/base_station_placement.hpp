@@ -31,17 +31,17 @@ namespace hmdnode::lighthouse {
 
 struct BaseStationPlacement {
     Generation generation = Generation::lh2;
-    uint8_t base_station = 0;  // lighthouse-2 channel or lighthouse-1 number (LightEvent's)
+    uint8_t base_station = 0;    // lighthouse-2 channel or lighthouse-1 number (LightEvent's)
     std::optional<uint32_t> id;  // its OOTX id, when its calibration was known
     RigidPose world_from_station;
-    double residual_rms_rad = 0;  // of the angles used (0: not known, e.g. a recording's pose)
+    double residual_rms_rad = 0;    // of the angles used (0: not known, e.g. a recording's pose)
     size_t used = 0, rejected = 0;  // angles in the fit, outliers left out
     int64_t device_time_ns = 0;     // median device time of the angles it was solved from
     int64_t solved_unix_s = 0;      // when solved (wall clock; set by the caller; 0: unknown)
 };
 
 struct PlacementOptions {
-    SolverOptions solver;               // outlier rule, facing rule, iterations
+    SolverOptions solver;                // outlier rule, facing rule, iterations
     size_t min_angles_per_station = 10;  // libsurvive places a candidate from 10 measurements
     size_t min_events_per_angle = 3;     // events behind each median angle
 };

@@ -44,7 +44,7 @@ struct SensorLayout {
 // A base station whose pose in the world is known (placed or stored).
 struct PlacedBaseStation {
     Generation generation = Generation::lh2;
-    uint8_t base_station = 0;  // as LightEvent's: lighthouse-2 channel, lighthouse-1 number
+    uint8_t base_station = 0;      // as LightEvent's: lighthouse-2 channel, lighthouse-1 number
     RigidPose world_from_station;  // the station's frame: x right, y up, looking along -z
     std::optional<BaseStationCalibration> calibration;  // none yet: the ideal planes
 };
@@ -58,12 +58,21 @@ struct SolverOptions {
     // A sensor is used for a base station only while the angle between its normal and the
     // direction to the station is below this (pi / 2: facing away is not seen).
     double max_incidence_rad = 1.5707963267948966;
-    double outlier_k = 4.0;           // reject |residual| > k * max(robust sigma, sigma_floor)
-    double sigma_floor_rad = 2e-4;    // the angles' noise floor (calibrated models: ~0.1 mrad)
-    int outlier_rounds = 3;           // re-solves after rejections
-    int max_iterations = 30;          // Levenberg-Marquardt steps per round
-    double max_residual_rad = 0.01;   // RMS above this after all rounds: no pose (no_fit)
+    double outlier_k = 4.0;                // reject |residual| > k * max(robust sigma, sigma_floor)
+    double sigma_floor_rad = 2e-4;         // the angles' noise floor (calibrated models: ~0.1 mrad)
+    int outlier_rounds = 3;                // re-solves after rejections
+    int max_iterations = 30;               // Levenberg-Marquardt steps per round
+    double max_residual_rad = 0.01;        // RMS above this after all rounds: no pose (no_fit)
     double max_warm_residual_rad = 0.003;  // a warm start worse than this is re-seeded cold
+    // Where the static fit's RMS exceeds velocity_above_rms_rad (the angles of a moving device
+    // are hit at different times of the window), solve a constant linear and angular velocity
+    // over the window's times with the pose (as libsurvive's mpfit-model-velocity), under a weak
+    // prior (the sigmas below). Not for a still device: there the velocities absorb the model's
+    // small per-base-station errors (measured: docs/tracking.md §10).
+    bool model_velocity = true;
+    double velocity_above_rms_rad = 4e-4;
+    double velocity_prior_m_s = 5.0;
+    double angular_velocity_prior_rad_s = 20.0;
 };
 
 enum class SolveOutcome : uint8_t {
@@ -76,10 +85,15 @@ const char* solve_outcome_name(SolveOutcome o);  // "solved", "not enough data",
 // One solve. The pose is only set when outcome == solved; never a pose otherwise.
 struct PoseSolve {
     SolveOutcome outcome = SolveOutcome::not_enough_data;
-    std::string message;  // why not, with the counts; empty when solved
+    std::string message;                         // why not, with the counts; empty when solved
     std::optional<RigidPose> world_from_device;  // the device's model frame in the world
-    int64_t device_time_ns = 0;  // mean device time of the angles used (of the window if none)
-    double residual_rms_rad = 0;  // of the angles used
+    // The time the pose is of: with model_velocity the mean device time of the window's angles
+    // from placed base stations (the velocity model's reference); without, of the angles used.
+    int64_t device_time_ns = 0;
+    bool moving = false;               // solved with the velocity model
+    glm::dvec3 velocity{0.0};          // m/s, world (when moving; else zero)
+    glm::dvec3 angular_velocity{0.0};  // rad/s, world axes
+    double residual_rms_rad = 0;       // of the angles used
     // Covariance of the pose error, row-major 6x6 over [position (m, world), rotation vector
     // (rad, world axes, applied on the left)]: s^2 (J^T J)^-1, s^2 = max(SSR / (used - 6),
     // sigma_floor^2).
@@ -113,14 +127,12 @@ std::vector<AngleSample> median_angles(std::span<const LightEvent> window, size_
 // The device's pose from a window of light events (e.g. the last one or two rotor turns; a
 // sensor beyond the layout is ignored and counted as not used). `warm_start`: the previous pose,
 // which skips the seed when it fits. Thread: any (pure).
-PoseSolve solve_device_pose(const SensorLayout& layout,
-                            std::span<const PlacedBaseStation> stations,
+PoseSolve solve_device_pose(const SensorLayout& layout, std::span<const PlacedBaseStation> stations,
                             std::span<const LightEvent> window,
                             const std::optional<RigidPose>& warm_start = std::nullopt,
                             const SolverOptions& options = {});
 // The same over angles already gathered.
-PoseSolve solve_device_pose(const SensorLayout& layout,
-                            std::span<const PlacedBaseStation> stations,
+PoseSolve solve_device_pose(const SensorLayout& layout, std::span<const PlacedBaseStation> stations,
                             std::span<const AngleSample> angles,
                             const std::optional<RigidPose>& warm_start = std::nullopt,
                             const SolverOptions& options = {});
