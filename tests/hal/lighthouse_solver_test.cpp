@@ -260,136 +260,7 @@ TEST(LighthouseSolver, NewestAnglesKeepTheLastHitPerSensorAndPlane) {
 namespace hmdnode {
 namespace {
 
-double pct(std::vector<double> v, double f) {
-    std::sort(v.begin(), v.end());
-    return v.empty() ? NAN : v[std::min(v.size() - 1, size_t(f * double(v.size())))];
-}
-
-struct Solved {
-    int64_t host_ns = 0;  // the solve's time on the recording's clock
-    RigidPose pose;
-    double rms = 0;      // ours, over the angles used
-    double ref_rms = 0;  // libsurvive's pose (at each angle's time) over the same window's
-                         // angles, its outliers left out by the same k-sigma rule
-    bool moving = false;
-};
-
-struct RecordingRun {
-    size_t solves = 0;
-    std::vector<Solved> solved;
-};
-
-// |measured - predicted| of libsurvive's pose at each angle's own time, by our calibrated model.
-double reference_rms(const test::LightRecording& r, std::span<const PlacedBaseStation> stations,
-                     std::span<const AngleSample> angles) {
-    std::vector<double> res;
-    for (const AngleSample& a : angles) {
-        const PlacedBaseStation* st = nullptr;
-        for (const PlacedBaseStation& s : stations)
-            if (s.generation == a.generation && s.base_station == a.base_station) st = &s;
-        RigidPose ref;
-        if (!st || !test::reference_at(r, a.device_time_ns + r.host_minus_device_ns, &ref))
-            continue;
-        const glm::dvec3 q =
-            test::in_station(*st, ref.position + ref.orientation * r.layout.points[a.sensor]);
-        const PlaneCalibration c =
-            st->calibration ? st->calibration->plane[a.plane & 1] : PlaneCalibration{};
-        const double p = a.generation == Generation::lh2 ? lh2_predict_angle(c, a.plane & 1, q)
-                                                         : lh1_predict_angle(c, a.plane & 1, q);
-        res.push_back(std::abs(std::remainder(a.angle - p, 2 * M_PI)));
-    }
-    if (res.empty()) return NAN;
-    const double limit = 4 * std::max(1.4826 * pct(res, 0.5), 2e-4);
-    double ss = 0;
-    size_t n = 0;
-    for (double x : res)
-        if (x <= limit) ss += x * x, ++n;
-    return std::sqrt(ss / double(n));
-}
-
-// Light-only solves every `window_ns` over the events of the last `window_ns` (one rotor turn,
-// or a lighthouse-1 cycle of both base stations' two axes), warm-started from the previous solve.
-// The base stations: libsurvive's LH_POSE lines, solved during the recording (look-ahead,
-// standing in for a stored setup); the calibrations as decoded from the recording (they arrive
-// before libsurvive's first pose).
-RecordingRun run_recording(const test::LightRecording& r, int64_t window_ns) {
-    RecordingRun out;
-    auto setup = recording_base_station_setup(r.rec, r.known, /*allow_look_ahead=*/true);
-    EXPECT_TRUE(setup.ok()) << setup.error().message;
-    if (!setup) return out;
-    const std::vector<PlacedBaseStation> stations = placed_stations(*setup, r.known);
-    std::vector<LightEvent> ev = r.events;
-    std::sort(ev.begin(), ev.end(), [](const LightEvent& a, const LightEvent& b) {
-        return a.device_time_ns < b.device_time_ns;
-    });
-    std::optional<RigidPose> warm;
-    int64_t warm_t = 0;
-    size_t lo = 0, hi = 0;
-    for (int64_t t = r.reference.front().first - r.host_minus_device_ns;
-         t <= ev.back().device_time_ns; t += window_ns) {
-        while (hi < ev.size() && ev[hi].device_time_ns <= t) ++hi;
-        while (lo < hi && ev[lo].device_time_ns <= t - window_ns) ++lo;
-        if (warm && t - warm_t > 100'000'000) warm.reset();
-        const std::vector<AngleSample> angles =
-            newest_angles(std::span<const LightEvent>(ev.data() + lo, hi - lo));
-        const PoseSolve s = solve_device_pose(r.layout, stations, angles, warm);
-        ++out.solves;
-        if (!s.ok()) continue;
-        EXPECT_TRUE(s.world_from_device);
-        warm = s.world_from_device;
-        warm_t = t;
-        out.solved.push_back({s.device_time_ns + r.host_minus_device_ns, *s.world_from_device,
-                              s.residual_rms_rad, reference_rms(r, stations, angles), s.moving});
-    }
-    return out;
-}
-
-struct Errors {
-    std::vector<double> pos_mm, rot_deg;
-    size_t compared = 0;
-};
-
-// Our solves against libsurvive's poses `offset_ns` later, after a constant world offset w and
-// lever arm d (ours = ref + w + R_ref d; least squares by alternation) when `align`.
-Errors compare(const test::LightRecording& r, const std::vector<Solved>& solved, int64_t offset_ns,
-               bool align, double t0_s = 0, double t1_s = 1e9) {
-    std::vector<std::pair<const Solved*, RigidPose>> pairs;
-    for (const Solved& s : solved) {
-        RigidPose ref;
-        if (s.host_ns < t0_s * 1e9 || s.host_ns > t1_s * 1e9 ||
-            !test::reference_at(r, s.host_ns + offset_ns, &ref))
-            continue;
-        pairs.push_back({&s, ref});
-    }
-    glm::dvec3 w(0.0), d(0.0);
-    for (int it = 0; align && it < 100 && !pairs.empty(); ++it) {
-        glm::dvec3 sw(0.0), sd(0.0);  // w, then d given the new w (Gauss-Seidel)
-        for (auto& [s, ref] : pairs) sw += s->pose.position - ref.position - ref.orientation * d;
-        w = sw / double(pairs.size());
-        for (auto& [s, ref] : pairs)
-            sd += glm::conjugate(ref.orientation) * (s->pose.position - ref.position - w);
-        d = sd / double(pairs.size());
-    }
-    Errors e;
-    for (auto& [s, ref] : pairs) {
-        e.pos_mm.push_back(
-            glm::length(s->pose.position - (ref.position + w + ref.orientation * d)) * 1e3);
-        e.rot_deg.push_back(angle_between(s->pose.orientation, ref.orientation) * 180 / M_PI);
-    }
-    e.compared = pairs.size();
-    return e;
-}
-
-// The time offset (1 ms steps in +-30 ms) that minimises the median position error.
-int64_t fit_offset(const test::LightRecording& r, const std::vector<Solved>& solved) {
-    int64_t best = 0;
-    double best_e = INFINITY;
-    for (int64_t off = -30; off <= 30; ++off) {
-        const double e = pct(compare(r, solved, off * 1'000'000, false).pos_mm, 0.5);
-        if (e < best_e) best_e = e, best = off * 1'000'000;
-    }
-    return best;
-}
+using namespace test;
 
 TEST(LighthouseSolverRecordings, LightOnlySolvesAtEachRotorTurnAgainstLibsurvivesPoses) {
     struct Case {
@@ -418,7 +289,9 @@ TEST(LighthouseSolverRecordings, LightOnlySolvesAtEachRotorTurnAgainstLibsurvive
         SCOPED_TRACE(std::string(c.file) + " " + c.device);
         auto r = test::load_light_recording(c.file, c.device);
         ASSERT_TRUE(r);
-        const RecordingRun run = run_recording(*r, c.window_ns);
+        auto setup = recording_base_station_setup(r->rec, r->known, /*allow_look_ahead=*/true);
+        ASSERT_TRUE(setup.ok()) << setup.error().message;
+        const RecordingRun run = run_recording(*r, placed_stations(*setup, r->known), c.window_ns);
         const int64_t offset = fit_offset(*r, run.solved);
         const Errors raw = compare(*r, run.solved, 0, false);
         const Errors fitted = compare(*r, run.solved, offset, true);

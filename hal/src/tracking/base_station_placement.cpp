@@ -96,7 +96,7 @@ std::optional<BaseStationPlacement> place_one(const SensorLayout& layout, const 
     }
     auto seed = detail::pnp_orthogonal_iteration(points, rays, normals, o.solver.max_incidence_rad);
     if (!seed) {
-        why = "the perspective-n-point seed found no pose with every sensor in front";
+        why = "the perspective-n-point seed found no pose";
         return std::nullopt;
     }
     SolverOptions so = o.solver;
@@ -144,7 +144,14 @@ PlacementResult place_base_stations(const SensorLayout& layout,
     }
     const std::vector<AngleSample> angles = median_angles(still_window, o.min_events_per_angle);
     std::map<std::pair<int, int>, std::vector<AngleSample>> per;
+    std::map<std::pair<int, int>, size_t> events;
+    for (const LightEvent& e : still_window) ++events[{int(e.generation), e.base_station}];
     for (const AngleSample& a : angles) per[{int(a.generation), a.base_station}].push_back(a);
+    for (const auto& [k, n] : events)
+        if (!per.count(k))
+            out.not_placed.push_back(cat(station_name(Generation(k.first), k.second), ": ", n,
+                                         " events, no sensor and plane seen ",
+                                         o.min_events_per_angle, " times"));
     for (const auto& [k, mine] : per) {
         const Generation g = Generation(k.first);
         std::string why;

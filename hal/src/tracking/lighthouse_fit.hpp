@@ -58,8 +58,10 @@ FitResult fit_pose(std::vector<FitAngle>& angles, const RigidPose& start,
 // Perspective-n-point by orthogonal iteration (Lu, Hager & Mjolsness, "Fast and globally
 // convergent pose estimation from video images", IEEE PAMI 22(6), 2000): the transform taking
 // `points` (source frame) onto the unit `rays` (camera frame), from 24 starts; the solution
-// with the fewest sensors facing away (normals, may be empty), then the least object-space
-// error, every point in front. Needs >= 3 points. Cost: O(24 * 50 * n).
+// with the fewest points behind the camera or facing away from it (normals, may be empty), then
+// the least object-space error. Up to three stray rays are left out (the one missed most, when
+// over 5x the median miss and 20 mrad) and the pose solved again. Needs >= 3 points.
+// Cost: O(24 * 50 * n) per try, <= 4 tries.
 std::optional<RigidPose> pnp_orthogonal_iteration(std::span<const glm::dvec3> points,
                                                   std::span<const glm::dvec3> rays,
                                                   std::span<const glm::dvec3> normals,

@@ -55,12 +55,9 @@ std::array<Matrix3d, 24> cube_rotations() {
     return out;
 }
 
-}  // namespace
-
-std::optional<RigidPose> pnp_orthogonal_iteration(std::span<const glm::dvec3> points,
-                                                  std::span<const glm::dvec3> rays,
-                                                  std::span<const glm::dvec3> normals,
-                                                  double max_incidence_rad) {
+std::optional<RigidPose> pnp_once(std::span<const glm::dvec3> points,
+                                  std::span<const glm::dvec3> rays,
+                                  std::span<const glm::dvec3> normals, double max_incidence_rad) {
     assert(points.size() == rays.size());
     assert(normals.empty() || normals.size() == points.size());
     const size_t n = points.size();
@@ -113,7 +110,7 @@ std::optional<RigidPose> pnp_orthogonal_iteration(std::span<const glm::dvec3> po
             if (x.dot(v[i]) <= 0) ++behind;
             if (!normals.empty() && (r * ev(normals[i])).dot(-x.normalized()) < cos_max) ++away;
         }
-        if (behind > 0) continue;
+        away += behind;  // (an outlying ray among them: the fit's outlier rule decides later)
         if (away < best_away || (away == best_away && e < best_e)) {
             const Eigen::Quaterniond qr(r);
             best = RigidPose{{t.x(), t.y(), t.z()},
@@ -123,6 +120,36 @@ std::optional<RigidPose> pnp_orthogonal_iteration(std::span<const glm::dvec3> po
         }
     }
     return best;
+}
+
+}  // namespace
+
+std::optional<RigidPose> pnp_orthogonal_iteration(std::span<const glm::dvec3> points,
+                                                  std::span<const glm::dvec3> rays,
+                                                  std::span<const glm::dvec3> normals,
+                                                  double max_incidence_rad) {
+    std::vector<glm::dvec3> p(points.begin(), points.end()), v(rays.begin(), rays.end()),
+        n(normals.begin(), normals.end());
+    // A stray ray (a reflection, a hit at the sweep's edge) pulls the whole solution: up to three
+    // times, the point whose ray it misses most (angle), when 5 times the median miss and over
+    // 20 mrad, is left out and the pose solved again.
+    for (int drop = 0;; ++drop) {
+        std::optional<RigidPose> pose = pnp_once(p, v, n, max_incidence_rad);
+        if (!pose || drop == 3 || p.size() <= 4) return pose;
+        std::vector<double> miss(p.size());
+        for (size_t i = 0; i < p.size(); ++i) {
+            const glm::dvec3 x = pose->orientation * p[i] + pose->position;
+            miss[i] =
+                std::acos(std::clamp(glm::dot(glm::normalize(x), glm::normalize(v[i])), -1.0, 1.0));
+        }
+        std::vector<double> sorted = miss;
+        std::nth_element(sorted.begin(), sorted.begin() + long(sorted.size() / 2), sorted.end());
+        const size_t worst = size_t(std::max_element(miss.begin(), miss.end()) - miss.begin());
+        if (miss[worst] <= std::max(5 * sorted[sorted.size() / 2], 0.02)) return pose;
+        p.erase(p.begin() + long(worst));
+        v.erase(v.begin() + long(worst));
+        if (!n.empty()) n.erase(n.begin() + long(worst));
+    }
 }
 
 }  // namespace hmdnode::lighthouse::detail

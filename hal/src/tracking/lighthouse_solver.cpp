@@ -254,7 +254,7 @@ PoseSolve solve_device_pose(const SensorLayout& layout, std::span<const PlacedBa
         out.iterations += r.iterations;
     }
     if (!best) {
-        out.message = "the perspective-n-point seed found no pose with every sensor in front";
+        out.message = "the perspective-n-point seed found no pose";
         return out;
     }
     return *best;
