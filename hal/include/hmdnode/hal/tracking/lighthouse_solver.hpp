@@ -8,10 +8,15 @@
 // in a time window, 8 angles required; poser_barycentric_svd.c / poser_epnp.c as the seed;
 // survive_reproject*.c the models); the code is this project's own.
 //
-// Pure functions over the caller's data: no I/O, no threads, no state between calls. Cost per
-// solve: O(n) per Gauss-Newton iteration (n angles, each model evaluated 4 times), <= 30
-// iterations per round, <= 4 rounds; a cold start adds the seed, 24 starts of <= 50 orthogonal
-// iterations of O(m) on the best base station's m sensors. Temporary memory O(n).
+// Pure functions over the caller's data: no I/O, no threads, no state between calls.
+// Cost per solve: O(n) per Levenberg-Marquardt iteration (n angles, each model evaluated 4
+// times, a 12x12 solve), <= 30 iterations per round, <= 4 rounds, twice when the velocity model
+// runs; a cold start adds the seed, 24 starts of <= 50 orthogonal iterations of O(m) on a base
+// station's m sensors, <= 4 tries, for <= 2 base stations. Temporary memory O(n).
+//
+// For the light + IMU filter: a solve gives the pose of the device's model frame in the world
+// at `device_time_ns` (device clock), its covariance, residual and counts (PoseSolve); a pose is
+// only there when `outcome == solved`.
 #pragma once
 
 #include <array>
