@@ -228,7 +228,9 @@ TEST(LighthouseSolver, AMovingDevicesAnglesAtTheirOwnTimesSolveWithItsVelocity) 
     still.model_velocity = false;
     const PoseSolve f = solve_device_pose(l, stations, events, std::nullopt, still);
     EXPECT_FALSE(f.moving);
-    if (f.ok()) EXPECT_GT(f.residual_rms_rad, 1e-3);
+    if (f.ok()) {
+        EXPECT_GT(f.residual_rms_rad, 1e-3);
+    }
 }
 
 TEST(LighthouseSolver, NewestAnglesKeepTheLastHitPerSensorAndPlane) {
@@ -321,7 +323,9 @@ TEST(LighthouseSolverRecordings, LightOnlySolvesAtEachRotorTurnAgainstLibsurvive
         // The raw angles support our poses at least as well as libsurvive's (interpolated to
         // each angle's time): the median residual is no larger than its.
         EXPECT_LE(pct(ours, 0.5), pct(theirs, 0.5) * 1.05);
-        if (ours_moving.size() > 50) EXPECT_LT(pct(ours_moving, 0.5), pct(theirs_moving, 0.5));
+        if (ours_moving.size() > 50) {
+            EXPECT_LT(pct(ours_moving, 0.5), pct(theirs_moving, 0.5));
+        }
     }
 }
 
