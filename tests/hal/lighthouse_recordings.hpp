@@ -1,7 +1,9 @@
 // The bundled libsurvive recordings for the solver and placement tests: the device's light
 // events through our decoder, its sensor layout, libsurvive's poses of the device turned into the
 // model frame (its POSE lines are of the head frame: LighthouseSensors::model_from_head), and
-// each event's recording (host) time.
+// each event's recording (host) time; and the runner both tests use: light-only solves at each
+// rotor turn, compared with libsurvive's poses (time offset and a constant offset + lever arm
+// fitted) and with the raw angles.
 #pragma once
 
 #include <gtest/gtest.h>
