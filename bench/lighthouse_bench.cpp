@@ -1,0 +1,230 @@
+// Lighthouse light cost per event, decode + solve on one thread, against the budget of
+// 50 us per light event (decoding + solving + fusion; fusion is not built here yet), beside the
+// accuracy of the light-only poses against libsurvive's own solved poses (POSE lines, libsurvive's
+// light + IMU fusion) and how well each explains the raw angles (RMS residual of the calibrated
+// model, libsurvive's pose interpolated to each angle's time). Per bundled recording:
+//  1. decode: the recording's W / Y / C lines through lighthouse::LightDecoder (the same per-line
+//     work a USB report's words cost);
+//  2. solve: a solve per rotor turn (20 ms; lighthouse 1: 34 ms, both base stations' two axes)
+//     over that window's newest angles, warm-started from the previous solve, with libsurvive's
+//     base-station poses (LH_POSE, solved during the recording: look-ahead standing in for a
+//     stored setup).
+// Thread CPU time of the fastest of `reps` runs.
+//
+// Usage: bench_lighthouse_bench [reps=3] [--write-docs]
+//   (--write-docs: also into docs/results/lighthouse-bench.md)
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "doc_table.hpp"
+#include "hmdnode/hal/codec/light_codec.hpp"
+#include "hmdnode/hal/tracking/base_station_placement.hpp"
+#include "hmdnode/hal/tracking/lighthouse_solver.hpp"
+#include "hmdnode/hal/tracking/survive_recording.hpp"
+
+using namespace hmdnode;
+using namespace hmdnode::lighthouse;
+
+namespace {
+
+std::string out;
+
+template <typename... Args>
+void appendf(const char* fmt, Args... args) {
+    char line[768];
+    std::snprintf(line, sizeof line, fmt, args...);
+    out += line;
+}
+
+struct Case {
+    const char* file;
+    const char* device;
+    int64_t window_ns;
+};
+
+// libsurvive's pose of the model frame (its POSE lines are of the head frame) at recording time t.
+bool reference_at(const SurviveRecording& rec, int64_t t, RigidPose* p) {
+    auto it = std::lower_bound(rec.poses.begin(), rec.poses.end(), t,
+                               [](const SurvivePose& a, int64_t v) { return a.host_time_ns < v; });
+    if (it == rec.poses.begin() || it == rec.poses.end()) return false;
+    const SurvivePose &b = *it, &a = *(it - 1);
+    if (b.host_time_ns - a.host_time_ns > 50'000'000) return false;
+    const double f = double(t - a.host_time_ns) / double(b.host_time_ns - a.host_time_ns);
+    const glm::dquat q = glm::slerp(a.orientation, b.orientation, f);
+    const glm::dquat mt = glm::quat_cast(glm::transpose(rec.sensors.model_from_head));
+    p->orientation = glm::normalize(q * mt);
+    p->position = glm::mix(a.position, b.position, f) - p->orientation * rec.sensors.head_origin;
+    return true;
+}
+
+double rms_of(const std::vector<double>& abs_res) {
+    if (abs_res.empty()) return NAN;
+    // libsurvive's residuals, its outliers left out by the solver's own rule (4 robust sigmas)
+    const double limit = 4 * std::max(1.4826 * bench::quantile(abs_res, 0.5), 2e-4);
+    double ss = 0;
+    size_t n = 0;
+    for (double x : abs_res)
+        if (x <= limit) ss += x * x, ++n;
+    return std::sqrt(ss / double(n));
+}
+
+bool bench_case(const Case& c, int reps) {
+    const std::string path = std::string(HMDNODE_SOURCE_DIR) + "/data/traces/" + c.file;
+    auto rec = read_survive_recording(path, c.device);
+    if (!rec) {
+        std::fprintf(stderr, "%s\n", rec.error().message.c_str());
+        return false;
+    }
+    // 1. decode
+    double decode_ms = INFINITY;
+    std::vector<LightEvent> events;
+    std::vector<BaseStationState> known;
+    for (int k = 0; k < reps; ++k) {
+        LightDecoder dec(survive_sensor_model(*rec));
+        const double t0 = bench::thread_cpu_ms();
+        Status st = replay_survive_light(*rec, dec);
+        const double t1 = bench::thread_cpu_ms();
+        if (!st.ok()) {
+            std::fprintf(stderr, "%s\n", st.error().message.c_str());
+            return false;
+        }
+        decode_ms = std::min(decode_ms, t1 - t0);
+        events.clear();
+        dec.take_events(events);
+        known = dec.base_stations();
+    }
+    auto setup = recording_base_station_setup(*rec, known, /*allow_look_ahead=*/true);
+    if (!setup) {
+        std::fprintf(stderr, "%s\n", setup.error().message.c_str());
+        return false;
+    }
+    const std::vector<PlacedBaseStation> stations = placed_stations(*setup, known);
+    const SensorLayout layout{rec->sensors.points, rec->sensors.normals};
+    std::sort(events.begin(), events.end(), [](const LightEvent& a, const LightEvent& b) {
+        return a.device_time_ns < b.device_time_ns;
+    });
+    // recording time - device time: the median over the events' W / C lines
+    std::map<uint32_t, int64_t> line_time;
+    for (const SurviveLightLine& l : rec->light)
+        if (l.kind == SurviveLightLine::Kind::sweep || l.kind == SurviveLightLine::Kind::pulse)
+            line_time.emplace(l.timecode, l.host_time_ns);
+    std::vector<double> offsets;
+    for (const LightEvent& e : events)
+        if (auto it = line_time.find(e.timecode); it != line_time.end())
+            offsets.push_back(double(it->second - e.device_time_ns));
+    const int64_t host_minus_device = int64_t(bench::quantile(offsets, 0.5));
+
+    // 2. solve, each window's angles gathered first (part of the cost)
+    double solve_ms = INFINITY;
+    std::vector<PoseSolve> solves;
+    std::vector<std::vector<AngleSample>> windows;
+    for (int k = 0; k < reps; ++k) {
+        solves.clear();
+        windows.clear();
+        std::optional<RigidPose> warm;
+        size_t lo = 0, hi = 0;
+        const double t0 = bench::thread_cpu_ms();
+        for (int64_t t = events.front().device_time_ns + c.window_ns;
+             t <= events.back().device_time_ns; t += c.window_ns) {
+            while (hi < events.size() && events[hi].device_time_ns <= t) ++hi;
+            while (lo < hi && events[lo].device_time_ns <= t - c.window_ns) ++lo;
+            windows.push_back(
+                newest_angles(std::span<const LightEvent>(events.data() + lo, hi - lo)));
+            solves.push_back(solve_device_pose(layout, stations, windows.back(), warm));
+            if (solves.back().ok())
+                warm = solves.back().world_from_device;
+            else if (solves.back().outcome == SolveOutcome::no_fit)
+                warm.reset();
+        }
+        solve_ms = std::min(solve_ms, bench::thread_cpu_ms() - t0);
+    }
+    // accuracy against libsurvive's poses; residuals of both
+    std::vector<double> pos_mm, rot_deg, ours, theirs_abs;
+    size_t solved = 0;
+    for (size_t i = 0; i < solves.size(); ++i) {
+        const PoseSolve& s = solves[i];
+        if (!s.ok()) continue;
+        ++solved;
+        RigidPose ref;
+        if (!reference_at(*rec, s.device_time_ns + host_minus_device, &ref)) continue;
+        pos_mm.push_back(glm::length(s.world_from_device->position - ref.position) * 1e3);
+        rot_deg.push_back(
+            2 *
+            std::acos(std::min(
+                1.0, std::abs(glm::dot(s.world_from_device->orientation, ref.orientation)))) *
+            180 / M_PI);
+        ours.push_back(s.residual_rms_rad * 1e3);
+        for (const AngleSample& a : windows[i]) {
+            RigidPose r;
+            const PlacedBaseStation* st = nullptr;
+            for (const PlacedBaseStation& p : stations)
+                if (p.generation == a.generation && p.base_station == a.base_station) st = &p;
+            if (!st || !reference_at(*rec, a.device_time_ns + host_minus_device, &r)) continue;
+            const glm::dvec3 w = r.position + r.orientation * layout.points[a.sensor];
+            const glm::dvec3 q = glm::conjugate(st->world_from_station.orientation) *
+                                 (w - st->world_from_station.position);
+            const PlaneCalibration cal =
+                st->calibration ? st->calibration->plane[a.plane & 1] : PlaneCalibration{};
+            const double p = a.generation == Generation::lh2
+                                 ? lh2_predict_angle(cal, a.plane & 1, q)
+                                 : lh1_predict_angle(cal, a.plane & 1, q);
+            theirs_abs.push_back(std::abs(std::remainder(a.angle - p, 2 * M_PI)));
+        }
+    }
+    const double n = double(events.size());
+    appendf(
+        "%-26s %-4s %7zu %6zu/%-6zu %7.2f %7.2f %7.2f   %6.2f %6.2f  %6.3f %6.3f  %6.3f %6.3f\n",
+        c.file, c.device, events.size(), solved, solves.size(), decode_ms * 1e3 / n,
+        solve_ms * 1e3 / n, (decode_ms + solve_ms) * 1e3 / n, bench::quantile(pos_mm, 0.5),
+        bench::quantile(pos_mm, 0.9), bench::quantile(rot_deg, 0.5), bench::quantile(rot_deg, 0.9),
+        bench::quantile(ours, 0.5), rms_of(theirs_abs) * 1e3);
+    return true;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    const bool write_docs = bench::wants_docs(argc, argv);
+    int reps = 3;
+    for (int i = 1; i < argc; ++i)
+        if (std::string(argv[i]) != "--write-docs") reps = std::max(1, std::atoi(argv[i]));
+    std::string command = "build/release/bench/bench_lighthouse_bench";
+    if (reps != 3) command += " " + std::to_string(reps);
+    if (write_docs) command += " --write-docs";
+    out = "Measured by `" + command + "` (" + bench::build_kind() + "; " + bench::machine_facts() +
+          "; one thread, thread CPU time, the fastest of " + std::to_string(reps) +
+          " runs):\n\n```\n";
+    const size_t table = out.size();
+    appendf("%-26s %-4s %7s %13s %7s %7s %7s   %13s  %13s  %13s\n", "recording", "dev", "events",
+            "solved/turns", "dec us", "sol us", "sum us", "pos p50/p90mm", "rot p50/p90deg",
+            "rms ours/lib");
+    appendf("%-26s %-4s %7s %13s %23s   %13s  %13s  %13s\n", "", "", "", "",
+            "per light event (50 budget)", "vs libsurvive", "vs libsurvive", "mrad");
+    const Case cases[] = {
+        {"compare-test-index.rec.gz", "T20", 20'000'000},
+        {"lh2_test_cal.rec.gz", "T20", 20'000'000},
+        {"lh1_test_cal.rec.gz", "HMD", 34'000'000},
+        {"lh1_test_cal.rec.gz", "T20", 34'000'000},
+    };
+    for (const Case& c : cases)
+        if (!bench_case(c, reps)) return 1;
+    const size_t table_end = out.size();
+    out += "```\n";
+    out +=
+        "pos/rot: the light-only solves against libsurvive's light + IMU poses at the solve's "
+        "time (no offset or alignment fitted; the tests fit them); rms: the calibrated model's "
+        "residual over the raw angles, of our poses and of libsurvive's (interpolated to each "
+        "angle's time, its outliers left out by the same rule).\n";
+    std::fputs(out.c_str(), stdout);
+    if (write_docs &&
+        !bench::write_result(
+            "lighthouse-bench", "Lighthouse decode + optical solve cost per light event", command,
+            "Settings: one thread.\n\n```\n" + out.substr(table, table_end - table) + "```\n"))
+        return 1;
+    return 0;
+}
