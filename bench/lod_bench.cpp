@@ -27,6 +27,7 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <span>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -332,6 +333,95 @@ std::string svg_plot(const std::vector<Row>& rows, const std::vector<std::string
     return s.str();
 }
 
+// FNV-1a over the bytes of every array of a primitive (and the material): the --hashes check that
+// a change to the engine left its outputs as they were.
+uint64_t primitive_hash(const Primitive& p) {
+    uint64_t h = 0xcbf29ce484222325ull;
+    auto add = [&](const void* data, size_t bytes) {
+        const auto* b = static_cast<const unsigned char*>(data);
+        for (size_t i = 0; i < bytes; ++i) h = (h ^ b[i]) * 0x100000001b3ull;
+        const uint64_t n = bytes;  // the length too, so that arrays cannot trade bytes
+        for (int i = 0; i < 8; ++i) h = (h ^ ((n >> (8 * i)) & 0xff)) * 0x100000001b3ull;
+    };
+    add(p.positions.data(), p.positions.size() * sizeof(glm::vec3));
+    add(p.normals.data(), p.normals.size() * sizeof(glm::vec3));
+    add(p.uv0.data(), p.uv0.size() * sizeof(glm::vec2));
+    add(p.uv1.data(), p.uv1.size() * sizeof(glm::vec2));
+    add(p.colors.data(), p.colors.size() * sizeof(glm::vec4));
+    add(p.light.data(), p.light.size() * sizeof(glm::vec3));
+    add(p.indices.data(), p.indices.size() * sizeof(uint32_t));
+    add(&p.material, sizeof p.material);
+    return h;
+}
+
+// The mesh of `input` (OBJ through load_obj, as the bundled meshes always were; PLY, OFF and glTF
+// through load_mesh_file: the first primitive of the first mesh), split when it asks for it;
+// false (and a message) when it cannot be read.
+bool load_input(const bench::LodInput& input, Primitive& in) {
+    if (input.file.extension() == ".obj") {
+        Result<Mesh> mesh = load_obj(input.file);
+        if (!mesh.ok()) {
+            std::fprintf(stderr, "bench_lod_bench: %s\n", mesh.error().message.c_str());
+            return false;
+        }
+        in = std::move(mesh->primitives[0]);
+    } else {
+        Result<Scene> scene = load_mesh_file(input.file);
+        if (!scene.ok()) {
+            std::fprintf(stderr, "bench_lod_bench: %s\n", scene.error().message.c_str());
+            return false;
+        }
+        if (scene->meshes.empty() || scene->meshes[0].primitives.empty()) {
+            std::fprintf(stderr, "bench_lod_bench: %s: no mesh\n", input.file.c_str());
+            return false;
+        }
+        in = std::move(scene->meshes[0].primitives[0]);
+    }
+    if (input.splits > 0) {  // positions and indices only: the split makes no attributes
+        Primitive base;
+        base.positions = std::move(in.positions);
+        base.indices = std::move(in.indices);
+        in = test::subdivided_flat(std::move(base), input.splits);
+    }
+    return true;
+}
+
+// --hashes: the hash of every algorithm's output on every input, each target on its own and the
+// three in one call (as hmdnode lod makes a chain), one line each; no timing, no measurement.
+int print_hashes(const std::vector<bench::LodInput>& files,
+                 const std::vector<std::string>& algorithms, std::span<const double> ratios) {
+    for (const bench::LodInput& input : files) {
+        Primitive in;
+        if (!load_input(input, in)) return 1;
+        std::vector<size_t> all;
+        for (double ratio : ratios)
+            all.push_back(
+                std::max<size_t>(1, size_t(std::llround(ratio * double(in.triangle_count())))));
+        for (const std::string& algo : algorithms) {
+            if (algo.rfind("meshopt_", 0) == 0) continue;
+            if (input.splits > 0 && algo != "qem" && algo != "curvature-qem") continue;
+            auto print = [&](const std::string& what, std::span<const size_t> targets) {
+                const Result<std::vector<SimplifiedLevel>> r = simplify(in, algo, targets);
+                if (!r.ok()) {
+                    std::printf("%s %s %s: %s\n", input.name.c_str(), algo.c_str(), what.c_str(),
+                                r.error().message.c_str());
+                    return;
+                }
+                for (size_t k = 0; k < r->size(); ++k)
+                    std::printf("%s %s %s level %zu: %zu triangles, hash %016llx\n",
+                                input.name.c_str(), algo.c_str(), what.c_str(), k,
+                                (*r)[k].primitive.triangle_count(),
+                                (unsigned long long)primitive_hash((*r)[k].primitive));
+                std::fflush(stdout);
+            };
+            for (size_t k = 0; k < all.size(); ++k)
+                print("target " + std::to_string(all[k]), std::span(&all[k], 1));
+            print("chain", all);
+        }
+    }
+    return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -341,6 +431,7 @@ int main(int argc, char** argv) {
     std::vector<fs::path> mesh_files;  // mesh paths given as arguments: instead of the bundled set
     std::string prefix = "lod_bench";
     std::vector<std::string> only;
+    bool hashes = false;
     // note: the quality figures keep the dense measurement they were always made with (300 000
     // samples per direction on every hardware thread), not hmdnode lod's one-per-triangle default.
     MeshDistanceOptions distance;
@@ -358,10 +449,12 @@ int main(int argc, char** argv) {
             distance.samples = size_t(std::stoull(argv[++i]));
         } else if (a == "--write-docs") {
             continue;
+        } else if (a == "--hashes") {
+            hashes = true;
         } else if (a == "--help" || a == "-h") {
             std::printf(
                 "usage: %s [MESH_DIR | MESH_FILE...] [--out PREFIX] [--only a,b] [--samples N] "
-                "[--write-docs]\n",
+                "[--write-docs] [--hashes]\n",
                 argv[0]);
             return 0;
         } else if (fs::is_directory(a)) {
@@ -380,6 +473,7 @@ int main(int argc, char** argv) {
             algorithms.push_back(a.name);
     for (const char* m : {"meshopt_simplify", "meshopt_simplifySloppy"})
         if (only.empty() || std::count(only.begin(), only.end(), m)) algorithms.push_back(m);
+    if (hashes) return print_hashes(files, algorithms, ratios);
 
     std::vector<Row> rows;
     std::vector<std::string> meshes;
@@ -403,35 +497,9 @@ int main(int argc, char** argv) {
     defaults.scratch = &scratch;
     for (const bench::LodInput& input : files) {
         const std::string& name = input.name;
-        // note: OBJ through load_obj, as the bundled meshes always were; PLY, OFF and glTF through
-        // load_mesh_file (the first primitive of the first mesh).
         Primitive in;
-        if (input.file.extension() == ".obj") {
-            Result<Mesh> mesh = load_obj(input.file);
-            if (!mesh.ok()) {
-                std::fprintf(stderr, "bench_lod_bench: %s\n", mesh.error().message.c_str());
-                return 1;
-            }
-            in = std::move(mesh->primitives[0]);
-        } else {
-            Result<Scene> scene = load_mesh_file(input.file);
-            if (!scene.ok()) {
-                std::fprintf(stderr, "bench_lod_bench: %s\n", scene.error().message.c_str());
-                return 1;
-            }
-            if (scene->meshes.empty() || scene->meshes[0].primitives.empty()) {
-                std::fprintf(stderr, "bench_lod_bench: %s: no mesh\n", input.file.c_str());
-                return 1;
-            }
-            in = std::move(scene->meshes[0].primitives[0]);
-        }
+        if (!load_input(input, in)) return 1;
         meshes.push_back(name);
-        if (input.splits > 0) {  // positions and indices only: the split makes no attributes
-            Primitive base;
-            base.positions = std::move(in.positions);
-            base.indices = std::move(in.indices);
-            in = test::subdivided_flat(std::move(base), input.splits);
-        }
         const size_t count = in.triangle_count();
         std::fprintf(stderr, "%s: %zu triangles, %zu vertices\n", name.c_str(), count,
                      in.positions.size());
