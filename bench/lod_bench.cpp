@@ -10,7 +10,11 @@
 // its page faults (docs/simplification.md, "Measurements behind the engine's choices").
 //
 // Usage: bench_lod_bench [MESH_DIR | MESH_FILE...] [--out PREFIX] [--only a,b] [--samples N]
-//                        [--write-docs]
+//                        [--write-docs] [--hashes] [--profile [--runs N]]
+//   --hashes prints a hash of every algorithm's output per mesh and target (and of the chain of
+//   the three targets in one call) and nothing else: outputs before and after an engine change
+//   compare by it. --profile prints qem's time per collapse phase by phase beside
+//   meshopt_simplify and the measurement (print_profile()) and nothing else.
 //   MESH_DIR defaults to HMDNODE_SOURCE_DIR/data/meshes; writes PREFIX.json and
 //   PREFIX.svg (default ./lod_bench) and a markdown table on stdout, then the target line;
 //   --write-docs also writes the tables to docs/results/lod-bench.md (every algorithm) and
@@ -27,6 +31,7 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <optional>
 #include <span>
 #include <sstream>
 #include <string>
@@ -422,6 +427,92 @@ int print_hashes(const std::vector<bench::LodInput>& files,
     return 0;
 }
 
+// --profile: where the time goes, phase by phase, beside meshopt_simplify: qem on one thread
+// (SimplifyOptions::profile; one SimplifyScratch for its calls), each target on its own, the
+// median of `runs` runs of each phase; meshopt_simplify as a whole (meshoptimizer exposes no
+// phases; 0.18 has no attribute-aware variant), median of `runs`; and the measurement of qem's
+// level at hmdnode lod's defaults (prepare: level 0's BVH and samples; measure: the level), one
+// thread. Times per collapse: qem's collapses for qem and the measurement, the faces removed / 2
+// for meshopt_simplify (a collapse removes two faces of a closed mesh). Wall time: print-only, for
+// a quiet machine.
+int print_profile(const std::vector<bench::LodInput>& files, std::span<const double> ratios,
+                  int runs) {
+    using Field = double SimplifyProfile::*;
+    const std::pair<const char*, Field> phases[] = {{"setup", &SimplifyProfile::setup_ms},
+                                                    {"adjacency", &SimplifyProfile::adjacency_ms},
+                                                    {"candidates", &SimplifyProfile::candidates_ms},
+                                                    {"sort", &SimplifyProfile::sort_ms},
+                                                    {"apply", &SimplifyProfile::apply_ms},
+                                                    {"attributes", &SimplifyProfile::attributes_ms},
+                                                    {"snapshots", &SimplifyProfile::snapshots_ms},
+                                                    {"other", &SimplifyProfile::other_ms}};
+    std::string out;
+    appendf(out,
+            "Profile (ns per collapse, medians of %d runs; qem on one thread, meshopt_simplify as "
+            "a whole; measurement of qem's level at hmdnode lod's defaults, one thread):\n\n",
+            runs);
+    appendf(out, "| mesh | target | qem collapses |");
+    for (const auto& ph : phases) appendf(out, " %s |", ph.first);
+    appendf(out,
+            " qem total | meshopt_simplify | qem / meshopt | measure: prepare | measure: level "
+            "|\n|---|---|---|");
+    for (size_t i = 0; i < std::size(phases) + 5; ++i) appendf(out, "---|");
+    appendf(out, "\n");
+    SimplifyScratch scratch;
+    for (const bench::LodInput& input : files) {
+        Primitive in;
+        if (!load_input(input, in)) return 1;
+        std::fprintf(stderr, "%s: %zu triangles\n", input.name.c_str(), in.triangle_count());
+        for (double ratio : ratios) {
+            const size_t target =
+                std::max<size_t>(1, size_t(std::llround(ratio * double(in.triangle_count()))));
+            const size_t targets[] = {target};
+            SimplifyOptions o;
+            o.threads = 1;
+            o.scratch = &scratch;
+            SimplifyProfile profile;
+            o.profile = &profile;
+            std::vector<std::vector<double>> t(std::size(phases) + 1);
+            Primitive level;
+            for (int r = 0; r < runs; ++r) {
+                Result<std::vector<SimplifiedLevel>> res = simplify(in, "qem", targets, o);
+                if (!res.ok()) {
+                    std::fprintf(stderr, "bench_lod_bench: %s\n", res.error().message.c_str());
+                    return 1;
+                }
+                level = std::move((*res)[0].primitive);
+                for (size_t k = 0; k < std::size(phases); ++k)
+                    t[k].push_back(profile.*phases[k].second);
+                t.back().push_back(profile.total_ms);
+            }
+            const double collapses = double(std::max<size_t>(1, profile.collapses));
+            std::vector<uint32_t> dst(in.indices.size());
+            float result_error = 0.0f;
+            std::vector<double> mo, prep, meas;
+            size_t mo_faces = 0;
+            for (int r = 0; r < runs; ++r)
+                mo.push_back(time_ms(
+                    [&] { mo_faces = run_meshopt_simplify(in, target, dst, result_error) / 3; }));
+            for (int r = 0; r < runs; ++r) {
+                std::optional<MeshDistanceReference> ref;
+                prep.push_back(time_ms([&] { ref.emplace(view_of(in)); }));
+                meas.push_back(time_ms([&] { (void)ref->measure(view_of(level)); }));
+            }
+            const double mo_collapses = std::max(1.0, double(in.triangle_count() - mo_faces) / 2.0);
+            const double ns = 1e6;  // ms to ns
+            appendf(out, "| %s | %.0f %% (%zu) | %zu |", input.name.c_str(), ratio * 100, target,
+                    profile.collapses);
+            for (size_t k = 0; k < std::size(phases); ++k)
+                appendf(out, " %.1f |", median(t[k]) * ns / collapses);
+            const double q = median(t.back()) * ns / collapses, m = median(mo) * ns / mo_collapses;
+            appendf(out, " %.1f | %.1f | %.2f | %.1f | %.1f |\n", q, m, m > 0 ? q / m : 0.0,
+                    median(prep) * ns / collapses, median(meas) * ns / collapses);
+        }
+    }
+    std::fputs(out.c_str(), stdout);
+    return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -432,6 +523,7 @@ int main(int argc, char** argv) {
     std::string prefix = "lod_bench";
     std::vector<std::string> only;
     bool hashes = false;
+    int profile_runs = 0, runs_arg = 0;  // --profile and its --runs
     // note: the quality figures keep the dense measurement they were always made with (300 000
     // samples per direction on every hardware thread), not hmdnode lod's one-per-triangle default.
     MeshDistanceOptions distance;
@@ -451,10 +543,14 @@ int main(int argc, char** argv) {
             continue;
         } else if (a == "--hashes") {
             hashes = true;
+        } else if (a == "--profile") {
+            profile_runs = 5;
+        } else if (a == "--runs" && i + 1 < argc) {
+            runs_arg = std::max(1, std::atoi(argv[++i]));
         } else if (a == "--help" || a == "-h") {
             std::printf(
                 "usage: %s [MESH_DIR | MESH_FILE...] [--out PREFIX] [--only a,b] [--samples N] "
-                "[--write-docs] [--hashes]\n",
+                "[--write-docs] [--hashes] [--profile [--runs N]]\n",
                 argv[0]);
             return 0;
         } else if (fs::is_directory(a)) {
@@ -474,6 +570,8 @@ int main(int argc, char** argv) {
     for (const char* m : {"meshopt_simplify", "meshopt_simplifySloppy"})
         if (only.empty() || std::count(only.begin(), only.end(), m)) algorithms.push_back(m);
     if (hashes) return print_hashes(files, algorithms, ratios);
+    if (profile_runs > 0)
+        return print_profile(files, ratios, runs_arg > 0 ? runs_arg : profile_runs);
 
     std::vector<Row> rows;
     std::vector<std::string> meshes;

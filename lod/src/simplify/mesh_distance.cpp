@@ -1,38 +1,45 @@
 // Surface-to-surface distance by the Metro method (Cignoni, Rocchini & Scopigno, "Metro: measuring
-// error on simplified surfaces", CGF 1998, section 3): sample one surface densely, area-weighted,
-// and take each sample's exact distance to the nearest point of the other surface; the maximum
-// over the samples is a lower bound of the one-sided Hausdorff distance, the area-weighted average
+// error on simplified surfaces", CGF 1998, section 3): sample one surface, area-weighted, and take
+// each sample's exact distance to the nearest point of the other surface; the maximum over the
+// points measured is a lower bound of the one-sided Hausdorff distance, the area-weighted average
 // the mean error.
 //
-// Sampling: triangle i gets N * area_i / total_area samples, rounded on the running sum (at least
-// one when its area is non-zero), placed by a randomly rotated R2 low-discrepancy sequence
-// (M. Roberts, "The unreasonable effectiveness of quasirandom sequences", web article, 2018) folded
-// into the triangle, so the samples are stratified and reproducible for a seed. Each sample weighs
-// area_i / samples_i. The mean's standard error is the weighted mean's,
-// sqrt(sum w_i^2 (d_i - mean)^2) / sum w_i, as if the samples were independent; stratification only
-// makes the true error smaller. N defaults to an eighth of the sampled mesh's triangle count (at
-// least 1024).
+// Sampling: N samples spread over the triangles in proportion to their area, rounded on the
+// running sum (a small triangle may get none: systematic sampling in triangle order), placed in
+// each triangle by a randomly rotated R2 low-discrepancy sequence (M. Roberts, "The unreasonable
+// effectiveness of quasirandom sequences", web article, 2018), so the samples are stratified and
+// reproducible for a seed. Each sample weighs total_area / N. The mean's standard error is the
+// weighted mean's, sqrt(sum w_i^2 (d_i - mean)^2) / sum w_i, as if the samples were independent;
+// stratification only makes the true error smaller. N defaults to an eighth of the sampled mesh's
+// triangle count (at least 1024).
 //
 // Upper bound of the Hausdorff distance (branch and bound, as in Tang, Lee & Kim, "Interactive
 // Hausdorff distance computation for general polygonal models", SIGGRAPH 2009, with the bound of
-// the Lipschitz argument): the distance to a surface is 1-Lipschitz, so on a triangle whose
-// corners are at distances d_0..d_2 and whose points are all within r of a corner (r the corner
-// covering radius: the circumradius, or less for an obtuse triangle), every point is at most
-// max d_k + r away. Every vertex of the sampled mesh is measured, which bounds every triangle;
-// the triangles with the largest bounds are split 1:4 at their edge midpoints (3 queries, each
-// child's r is half its parent's) best first, until the largest bound is the largest sampled
-// distance (the Hausdorff distance is then exact) or the refinement's query budget is spent.
-// The midpoints count for the maximum (the lower bound) too.
+// the Lipschitz argument), without a query per vertex:
+// - every vertex v gets an upper bound u(v) = dist(v, tau) of its distance, tau a triangle of the
+//   other mesh: the nearest triangle of a sample on a triangle around it (propagated across
+//   triangles without samples), improved by a local descent over the triangles around tau's
+//   corners (point-triangle distances, no search). Only where u(v) exceeds the largest distance
+//   measured so far is v queried exactly, largest u first: a vertex with u(v) <= that maximum
+//   cannot hold the maximum, so the maximum over the vertices is still exact;
+// - a triangle's bound is the smaller of max_k u(p_k) + r (d is 1-Lipschitz and every point is
+//   within r of a corner, r the corner covering radius) and max_k dist(p_k, tau) for a triangle
+//   tau of the other mesh (the distance to one triangle is convex: largest at a corner), tau its
+//   samples' and its corners' triangles;
+// - every triangle enters a max-heap with its cheap bound; the top is first tightened (the convex
+//   bounds), then split 1:4 at its edge midpoints (3 queries, each child's r half its parent's),
+//   until the top is the largest distance measured (the Hausdorff distance is then exact) or the
+//   refinement's query budget is spent; the top is the bound. The midpoints count for the lower
+//   bound too.
 //
-// Nearest point: Embree 3 BVH over the target triangles, rtcPointQuery with a
-// closest-point-on-triangle callback (C. Ericson, "Real-Time Collision Detection", Morgan Kaufmann
-// 2005, 5.1.5) that shrinks the query radius; each query starts with the radius of its
-// predecessor's nearest triangle (the samples are in triangle order, so that is near), which prunes
-// most of the tree from the start.
-// Cost: O(T log T) to build a BVH (level 0's once per MeshDistanceReference), O(log T) per query
-// typically; time O((N + V + R) log T) with R refinement queries, memory O(N + T + R).
-// If Embree cannot make a device the queries fall back to a brute-force loop (O(N T)), which is
-// only fit for small meshes.
+// Nearest point: a BVH over the target's triangles (Morton order, split at the octree planes,
+// float boxes; built in O(T) after a radix sort), depth first, nearer child first, from a hint
+// triangle whose distance is the starting radius (the previous query's nearest: the queries run in
+// triangle order, so it is near), closest point on a triangle by C. Ericson, "Real-Time Collision
+// Detection", Morgan Kaufmann 2005, 5.1.5, in double precision.
+// Cost: O(T) per BVH (level 0's once per MeshDistanceReference), O(log T) per query typically;
+// time O((N + Q + R) log T + T) with Q the vertices queried (few: the descent settles most) and R
+// refinement queries, memory O(N + T + R).
 #include "hmdnode/lod/mesh_distance.hpp"
 
 #include <algorithm>
