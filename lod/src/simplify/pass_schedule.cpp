@@ -402,9 +402,12 @@ size_t PassSchedule::boundary_pass(uint32_t pass, std::span<const size_t> target
 }
 
 // One collapse of a pass on this thread (outside a split's regions); false when refused.
-bool PassSchedule::apply_in_pass(const CollapseCandidate& c, uint32_t pass,
-                                 std::span<const size_t> targets,
-                                 std::vector<SimplifiedLevel>& levels, size_t& ti) {
+// note: inlined into its callers (a call per collapse costs about 50 instructions).
+[[gnu::always_inline]] inline bool PassSchedule::apply_in_pass(const CollapseCandidate& c,
+                                                               uint32_t pass,
+                                                               std::span<const size_t> targets,
+                                                               std::vector<SimplifiedLevel>& levels,
+                                                               size_t& ti) {
     const size_t removed = try_collapse_in_pass(workers_[0], c);
     if (removed == 0) return false;
     live_faces_ -= removed;
