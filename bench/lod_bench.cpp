@@ -10,7 +10,11 @@
 // its page faults (docs/simplification.md, "Measurements behind the engine's choices").
 //
 // Usage: bench_lod_bench [MESH_DIR | MESH_FILE...] [--out PREFIX] [--only a,b] [--samples N]
-//                        [--write-docs]
+//                        [--write-docs] [--hashes] [--profile [--runs N]]
+//   --hashes prints a hash of every algorithm's output per mesh and target (and of the chain of
+//   the three targets in one call) and nothing else: outputs before and after an engine change
+//   compare by it. --profile prints qem's time per collapse phase by phase beside
+//   meshopt_simplify and the measurement (print_profile()) and nothing else.
 //   MESH_DIR defaults to HMDNODE_SOURCE_DIR/data/meshes; writes PREFIX.json and
 //   PREFIX.svg (default ./lod_bench) and a markdown table on stdout, then the target line;
 //   --write-docs also writes the tables to docs/results/lod-bench.md (every algorithm) and
@@ -27,6 +31,8 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <optional>
+#include <span>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -332,6 +338,181 @@ std::string svg_plot(const std::vector<Row>& rows, const std::vector<std::string
     return s.str();
 }
 
+// FNV-1a over the bytes of every array of a primitive (and the material): the --hashes check that
+// a change to the engine left its outputs as they were.
+uint64_t primitive_hash(const Primitive& p) {
+    uint64_t h = 0xcbf29ce484222325ull;
+    auto add = [&](const void* data, size_t bytes) {
+        const auto* b = static_cast<const unsigned char*>(data);
+        for (size_t i = 0; i < bytes; ++i) h = (h ^ b[i]) * 0x100000001b3ull;
+        const uint64_t n = bytes;  // the length too, so that arrays cannot trade bytes
+        for (int i = 0; i < 8; ++i) h = (h ^ ((n >> (8 * i)) & 0xff)) * 0x100000001b3ull;
+    };
+    add(p.positions.data(), p.positions.size() * sizeof(glm::vec3));
+    add(p.normals.data(), p.normals.size() * sizeof(glm::vec3));
+    add(p.uv0.data(), p.uv0.size() * sizeof(glm::vec2));
+    add(p.uv1.data(), p.uv1.size() * sizeof(glm::vec2));
+    add(p.colors.data(), p.colors.size() * sizeof(glm::vec4));
+    add(p.light.data(), p.light.size() * sizeof(glm::vec3));
+    add(p.indices.data(), p.indices.size() * sizeof(uint32_t));
+    add(&p.material, sizeof p.material);
+    return h;
+}
+
+// The mesh of `input` (OBJ through load_obj, as the bundled meshes always were; PLY, OFF and glTF
+// through load_mesh_file: the first primitive of the first mesh), split when it asks for it;
+// false (and a message) when it cannot be read.
+bool load_input(const bench::LodInput& input, Primitive& in) {
+    if (input.file.extension() == ".obj") {
+        Result<Mesh> mesh = load_obj(input.file);
+        if (!mesh.ok()) {
+            std::fprintf(stderr, "bench_lod_bench: %s\n", mesh.error().message.c_str());
+            return false;
+        }
+        in = std::move(mesh->primitives[0]);
+    } else {
+        Result<Scene> scene = load_mesh_file(input.file);
+        if (!scene.ok()) {
+            std::fprintf(stderr, "bench_lod_bench: %s\n", scene.error().message.c_str());
+            return false;
+        }
+        if (scene->meshes.empty() || scene->meshes[0].primitives.empty()) {
+            std::fprintf(stderr, "bench_lod_bench: %s: no mesh\n", input.file.c_str());
+            return false;
+        }
+        in = std::move(scene->meshes[0].primitives[0]);
+    }
+    if (input.splits > 0) {  // positions and indices only: the split makes no attributes
+        Primitive base;
+        base.positions = std::move(in.positions);
+        base.indices = std::move(in.indices);
+        in = test::subdivided_flat(std::move(base), input.splits);
+    }
+    return true;
+}
+
+// --hashes: the hash of every algorithm's output on every input, each target on its own and the
+// three in one call (as hmdnode lod makes a chain), one line each; no timing, no measurement.
+int print_hashes(const std::vector<bench::LodInput>& files,
+                 const std::vector<std::string>& algorithms, std::span<const double> ratios) {
+    for (const bench::LodInput& input : files) {
+        Primitive in;
+        if (!load_input(input, in)) return 1;
+        std::vector<size_t> all;
+        for (double ratio : ratios)
+            all.push_back(
+                std::max<size_t>(1, size_t(std::llround(ratio * double(in.triangle_count())))));
+        for (const std::string& algo : algorithms) {
+            if (algo.rfind("meshopt_", 0) == 0) continue;
+            if (input.splits > 0 && algo != "qem" && algo != "curvature-qem") continue;
+            auto print = [&](const std::string& what, std::span<const size_t> targets) {
+                const Result<std::vector<SimplifiedLevel>> r = simplify(in, algo, targets);
+                if (!r.ok()) {
+                    std::printf("%s %s %s: %s\n", input.name.c_str(), algo.c_str(), what.c_str(),
+                                r.error().message.c_str());
+                    return;
+                }
+                for (size_t k = 0; k < r->size(); ++k)
+                    std::printf("%s %s %s level %zu: %zu triangles, hash %016llx\n",
+                                input.name.c_str(), algo.c_str(), what.c_str(), k,
+                                (*r)[k].primitive.triangle_count(),
+                                (unsigned long long)primitive_hash((*r)[k].primitive));
+                std::fflush(stdout);
+            };
+            for (size_t k = 0; k < all.size(); ++k)
+                print("target " + std::to_string(all[k]), std::span(&all[k], 1));
+            print("chain", all);
+        }
+    }
+    return 0;
+}
+
+// --profile: where the time goes, phase by phase, beside meshopt_simplify: qem on one thread
+// (SimplifyOptions::profile; one SimplifyScratch for its calls), each target on its own, the
+// median of `runs` runs of each phase; meshopt_simplify as a whole (meshoptimizer exposes no
+// phases; 0.18 has no attribute-aware variant), median of `runs`; and the measurement of qem's
+// level at hmdnode lod's defaults (prepare: level 0's BVH and samples; measure: the level), one
+// thread. Times per collapse: qem's collapses for qem and the measurement, the faces removed / 2
+// for meshopt_simplify (a collapse removes two faces of a closed mesh). Wall time: print-only, for
+// a quiet machine.
+int print_profile(const std::vector<bench::LodInput>& files, std::span<const double> ratios,
+                  int runs) {
+    using Field = double SimplifyProfile::*;
+    const std::pair<const char*, Field> phases[] = {{"setup", &SimplifyProfile::setup_ms},
+                                                    {"adjacency", &SimplifyProfile::adjacency_ms},
+                                                    {"candidates", &SimplifyProfile::candidates_ms},
+                                                    {"sort", &SimplifyProfile::sort_ms},
+                                                    {"apply", &SimplifyProfile::apply_ms},
+                                                    {"attributes", &SimplifyProfile::attributes_ms},
+                                                    {"snapshots", &SimplifyProfile::snapshots_ms},
+                                                    {"other", &SimplifyProfile::other_ms}};
+    std::string out;
+    appendf(out,
+            "Profile (ns per collapse, medians of %d runs; qem on one thread, meshopt_simplify as "
+            "a whole; measurement of qem's level at hmdnode lod's defaults, one thread):\n\n",
+            runs);
+    appendf(out, "| mesh | target | qem collapses |");
+    for (const auto& ph : phases) appendf(out, " %s |", ph.first);
+    appendf(out,
+            " qem total | meshopt_simplify | qem / meshopt | measure: prepare | measure: level "
+            "|\n|---|---|---|");
+    for (size_t i = 0; i < std::size(phases) + 5; ++i) appendf(out, "---|");
+    appendf(out, "\n");
+    SimplifyScratch scratch;
+    for (const bench::LodInput& input : files) {
+        Primitive in;
+        if (!load_input(input, in)) return 1;
+        std::fprintf(stderr, "%s: %zu triangles\n", input.name.c_str(), in.triangle_count());
+        for (double ratio : ratios) {
+            const size_t target =
+                std::max<size_t>(1, size_t(std::llround(ratio * double(in.triangle_count()))));
+            const size_t targets[] = {target};
+            SimplifyOptions o;
+            o.threads = 1;
+            o.scratch = &scratch;
+            SimplifyProfile profile;
+            o.profile = &profile;
+            std::vector<std::vector<double>> t(std::size(phases) + 1);
+            Primitive level;
+            for (int r = 0; r < runs; ++r) {
+                Result<std::vector<SimplifiedLevel>> res = simplify(in, "qem", targets, o);
+                if (!res.ok()) {
+                    std::fprintf(stderr, "bench_lod_bench: %s\n", res.error().message.c_str());
+                    return 1;
+                }
+                level = std::move((*res)[0].primitive);
+                for (size_t k = 0; k < std::size(phases); ++k)
+                    t[k].push_back(profile.*phases[k].second);
+                t.back().push_back(profile.total_ms);
+            }
+            const double collapses = double(std::max<size_t>(1, profile.collapses));
+            std::vector<uint32_t> dst(in.indices.size());
+            float result_error = 0.0f;
+            std::vector<double> mo, prep, meas;
+            size_t mo_faces = 0;
+            for (int r = 0; r < runs; ++r)
+                mo.push_back(time_ms(
+                    [&] { mo_faces = run_meshopt_simplify(in, target, dst, result_error) / 3; }));
+            for (int r = 0; r < runs; ++r) {
+                std::optional<MeshDistanceReference> ref;
+                prep.push_back(time_ms([&] { ref.emplace(view_of(in)); }));
+                meas.push_back(time_ms([&] { (void)ref->measure(view_of(level)); }));
+            }
+            const double mo_collapses = std::max(1.0, double(in.triangle_count() - mo_faces) / 2.0);
+            const double ns = 1e6;  // ms to ns
+            appendf(out, "| %s | %.0f %% (%zu) | %zu |", input.name.c_str(), ratio * 100, target,
+                    profile.collapses);
+            for (size_t k = 0; k < std::size(phases); ++k)
+                appendf(out, " %.1f |", median(t[k]) * ns / collapses);
+            const double q = median(t.back()) * ns / collapses, m = median(mo) * ns / mo_collapses;
+            appendf(out, " %.1f | %.1f | %.2f | %.1f | %.1f |\n", q, m, m > 0 ? q / m : 0.0,
+                    median(prep) * ns / collapses, median(meas) * ns / collapses);
+        }
+    }
+    std::fputs(out.c_str(), stdout);
+    return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -341,6 +522,8 @@ int main(int argc, char** argv) {
     std::vector<fs::path> mesh_files;  // mesh paths given as arguments: instead of the bundled set
     std::string prefix = "lod_bench";
     std::vector<std::string> only;
+    bool hashes = false;
+    int profile_runs = 0, runs_arg = 0;  // --profile and its --runs
     // note: the quality figures keep the dense measurement they were always made with (300 000
     // samples per direction on every hardware thread), not hmdnode lod's one-per-triangle default.
     MeshDistanceOptions distance;
@@ -358,10 +541,16 @@ int main(int argc, char** argv) {
             distance.samples = size_t(std::stoull(argv[++i]));
         } else if (a == "--write-docs") {
             continue;
+        } else if (a == "--hashes") {
+            hashes = true;
+        } else if (a == "--profile") {
+            profile_runs = 5;
+        } else if (a == "--runs" && i + 1 < argc) {
+            runs_arg = std::max(1, std::atoi(argv[++i]));
         } else if (a == "--help" || a == "-h") {
             std::printf(
                 "usage: %s [MESH_DIR | MESH_FILE...] [--out PREFIX] [--only a,b] [--samples N] "
-                "[--write-docs]\n",
+                "[--write-docs] [--hashes] [--profile [--runs N]]\n",
                 argv[0]);
             return 0;
         } else if (fs::is_directory(a)) {
@@ -380,6 +569,9 @@ int main(int argc, char** argv) {
             algorithms.push_back(a.name);
     for (const char* m : {"meshopt_simplify", "meshopt_simplifySloppy"})
         if (only.empty() || std::count(only.begin(), only.end(), m)) algorithms.push_back(m);
+    if (hashes) return print_hashes(files, algorithms, ratios);
+    if (profile_runs > 0)
+        return print_profile(files, ratios, runs_arg > 0 ? runs_arg : profile_runs);
 
     std::vector<Row> rows;
     std::vector<std::string> meshes;
@@ -403,35 +595,9 @@ int main(int argc, char** argv) {
     defaults.scratch = &scratch;
     for (const bench::LodInput& input : files) {
         const std::string& name = input.name;
-        // note: OBJ through load_obj, as the bundled meshes always were; PLY, OFF and glTF through
-        // load_mesh_file (the first primitive of the first mesh).
         Primitive in;
-        if (input.file.extension() == ".obj") {
-            Result<Mesh> mesh = load_obj(input.file);
-            if (!mesh.ok()) {
-                std::fprintf(stderr, "bench_lod_bench: %s\n", mesh.error().message.c_str());
-                return 1;
-            }
-            in = std::move(mesh->primitives[0]);
-        } else {
-            Result<Scene> scene = load_mesh_file(input.file);
-            if (!scene.ok()) {
-                std::fprintf(stderr, "bench_lod_bench: %s\n", scene.error().message.c_str());
-                return 1;
-            }
-            if (scene->meshes.empty() || scene->meshes[0].primitives.empty()) {
-                std::fprintf(stderr, "bench_lod_bench: %s: no mesh\n", input.file.c_str());
-                return 1;
-            }
-            in = std::move(scene->meshes[0].primitives[0]);
-        }
+        if (!load_input(input, in)) return 1;
         meshes.push_back(name);
-        if (input.splits > 0) {  // positions and indices only: the split makes no attributes
-            Primitive base;
-            base.positions = std::move(in.positions);
-            base.indices = std::move(in.indices);
-            in = test::subdivided_flat(std::move(base), input.splits);
-        }
         const size_t count = in.triangle_count();
         std::fprintf(stderr, "%s: %zu triangles, %zu vertices\n", name.c_str(), count,
                      in.positions.size());

@@ -4,7 +4,7 @@
 // 1) as hmdnode lod does; then level 0 is prepared once (MeshDistanceReference: BVH and samples)
 // and each level measured at hmdnode lod's defaults (mesh_distance.hpp). Times are the calling
 // thread's CPU time (CLOCK_THREAD_CPUTIME_ID: this machine is shared, CPU time is what the work
-// costs), medians of 5 runs. Target: measuring costs at most 3x simplifying.
+// costs), medians of 5 runs. Target: measuring costs at most 1x simplifying.
 //
 // --big N: also the bunny split 1:4 N times (N = 2: 1.1 M faces, 3: 4.4 M), written as a binary
 // PLY to a scratch directory and put through `hmdnode lod` at its defaults under /usr/bin/time -v:

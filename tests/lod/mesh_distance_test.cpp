@@ -1,6 +1,8 @@
 #include "hmdnode/lod/mesh_distance.hpp"
+#include "hmdnode/lod/simplify.hpp"
 #include "lod/test_meshes.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <utility>
@@ -237,6 +239,95 @@ TEST(MeshDistanceBounds, AReferenceMeasuresLikeTheOneCall) {
         EXPECT_EQ(x.hausdorff, y.hausdorff);
         EXPECT_EQ(x.hausdorff_upper, y.hausdorff_upper);
         EXPECT_EQ(x.mean, y.mean);
+    }
+}
+
+// The icosphere with every vertex moved along its radius by a hash of its index (up to +-amp):
+// a bumpy closed surface where no distance has a closed form.
+Primitive bumpy_sphere(int levels, float amp) {
+    Primitive p = icosphere(levels);
+    for (size_t i = 0; i < p.positions.size(); ++i) {
+        uint32_t h = uint32_t(i) * 2654435761u;
+        h ^= h >> 15, h *= 2246822519u, h ^= h >> 13;
+        p.positions[i] *= 1.0f + amp * (float(h % 2001) / 1000.0f - 1.0f);
+    }
+    return p;
+}
+
+// Brute force over every triangle of `to`: the distance from p to the surface.
+double brute_distance(const glm::dvec3& p, const Primitive& to) {
+    double best = 1e300;
+    for (size_t i = 0; i < to.indices.size(); i += 3) {
+        const glm::dvec3 a(to.positions[to.indices[i]]), b(to.positions[to.indices[i + 1]]),
+            c(to.positions[to.indices[i + 2]]);
+        // The nearest point: inside the triangle's plane projection, else on an edge.
+        const glm::dvec3 n = glm::cross(b - a, c - a);
+        const double n2 = glm::dot(n, n);
+        if (n2 > 0.0) {
+            const glm::dvec3 q = p - n * (glm::dot(p - a, n) / n2);
+            const double u = glm::dot(glm::cross(b - q, c - q), n),
+                         v = glm::dot(glm::cross(c - q, a - q), n),
+                         w = glm::dot(glm::cross(a - q, b - q), n);
+            if (u >= 0 && v >= 0 && w >= 0) {
+                best = std::min(best, glm::length(p - q));
+                continue;
+            }
+        }
+        for (auto [s0, s1] : {std::pair{a, b}, std::pair{b, c}, std::pair{c, a}}) {
+            const glm::dvec3 d = s1 - s0;
+            const double len2 = glm::dot(d, d);
+            const double t = len2 > 0 ? std::clamp(glm::dot(p - s0, d) / len2, 0.0, 1.0) : 0.0;
+            best = std::min(best, glm::length(p - (s0 + t * d)));
+        }
+    }
+    return best;
+}
+
+// The one-sided Hausdorff distance from `from` to `to` to within `slack`: the largest brute-force
+// distance over a grid of n x n points per triangle of `from` (each point of a triangle is within
+// its grid cell's covering radius of a grid point, and the distance is 1-Lipschitz, so the true
+// value lies in [max, max + largest cell radius]).
+std::pair<double, double> brute_hausdorff(const Primitive& from, const Primitive& to, int n) {
+    double max = 0.0, slack = 0.0;
+    for (size_t i = 0; i < from.indices.size(); i += 3) {
+        const glm::dvec3 a(from.positions[from.indices[i]]), b(from.positions[from.indices[i + 1]]),
+            c(from.positions[from.indices[i + 2]]);
+        slack = std::max(
+            slack, corner_covering_radius(a, a + (b - a) / double(n), a + (c - a) / double(n)));
+        for (int u = 0; u <= n; ++u)
+            for (int v = 0; u + v <= n; ++v)
+                max = std::max(
+                    max,
+                    brute_distance(a + (b - a) * (double(u) / n) + (c - a) * (double(v) / n), to));
+    }
+    return {max, slack};
+}
+
+TEST(MeshDistanceBounds, BracketHoldsAgainstABruteForceReference) {
+    // A bumpy sphere against qem's levels of it and against a smooth coarse sphere: the default
+    // measurement's upper bound is at least the brute-force Hausdorff distance (a grid of 66
+    // points per triangle, every triangle of the other mesh), both ways; its lower bound at most
+    // that plus the grid's slack, and close to it (within 10 %: the maximum is found).
+    const Primitive bumpy = bumpy_sphere(2, 0.05f);
+    std::vector<Primitive> others;
+    const size_t targets[] = {160, 40, 12};
+    const Result<std::vector<SimplifiedLevel>> levels = simplify(bumpy, "qem", targets);
+    ASSERT_TRUE(levels.ok());
+    for (const SimplifiedLevel& l : *levels) others.push_back(l.primitive);
+    others.push_back(icosphere(1));
+    for (const Primitive& b : others) {
+        const MeshDistance d = measure_mesh_distance(bumpy, b);
+        const auto [fwd, fwd_slack] = brute_hausdorff(bumpy, b, 10);
+        const auto [bwd, bwd_slack] = brute_hausdorff(b, bumpy, 10);
+        const double truth = std::max(fwd, bwd), slack = std::max(fwd_slack, bwd_slack);
+        SCOPED_TRACE(testing::Message()
+                     << b.triangle_count() << " triangles: brute force " << truth << " (+" << slack
+                     << "), bracket " << d.hausdorff << ".." << d.hausdorff_upper);
+        EXPECT_GE(d.forward.max_upper, fwd - 1e-9);
+        EXPECT_GE(d.backward.max_upper, bwd - 1e-9);
+        EXPECT_GE(d.hausdorff_upper, truth - 1e-9);
+        EXPECT_LE(d.hausdorff, truth + slack + 1e-9);
+        EXPECT_GE(d.hausdorff, 0.9 * truth);
     }
 }
 

@@ -143,6 +143,8 @@ void EngineCore::apply_blend(const PendingBlend& b) {
 
 void EngineCore::flush_attributes(Worker& w) {
     const size_t n = w.blends.size();
+    if (n == 0) return;
+    const Phase phase(*this, &SimplifyProfile::attributes_ms);
     for (size_t i = 0; i < n; ++i) {
         if (prefetch_ && i + 8 < n) {
             const PendingBlend& ahead = w.blends[i + 8];
@@ -201,6 +203,8 @@ Result<std::vector<SimplifiedLevel>> EngineCore::end(std::span<const size_t> tar
     }
     if (options_.progress) options_.progress(1.0);
     if (options_.stats) *options_.stats = SimplifyStats{passes_, collapses_};
+    if (options_.profile)
+        options_.profile->collapses = collapses_, options_.profile->passes = passes_;
 
     if (log_) {
         ProgressiveMesh& pm = *log_;
@@ -233,6 +237,7 @@ Result<std::vector<SimplifiedLevel>> EngineCore::end(std::span<const size_t> tar
 }
 
 SimplifiedLevel EngineCore::snapshot() {
+    const Phase phase(*this, &SimplifyProfile::snapshots_ms);
     flush();
 #ifndef NDEBUG
     check_invariants();

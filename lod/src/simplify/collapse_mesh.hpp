@@ -16,6 +16,7 @@
 
 #include <array>
 #include <cassert>
+#include <chrono>
 #include <cstdint>
 #include <optional>
 #include <span>
@@ -46,12 +47,44 @@ class EngineCore {
     // helper thread.
     EngineCore(const SimplifyOptions& options, CollapseCost& cost, ProgressiveMesh* log,
                bool flat_lists, bool helper)
-        : options_(options), cost_(cost), log_(log), flat_(flat_lists), two_way_(helper) {}
+        : options_(options),
+          cost_(cost),
+          log_(log),
+          flat_(flat_lists),
+          two_way_(helper),
+          profile_(helper ? nullptr : options.profile) {}
     virtual ~EngineCore() = default;
     EngineCore(const EngineCore&) = delete;
     EngineCore& operator=(const EngineCore&) = delete;
 
   protected:
+    // A phase of the profile (SimplifyProfile): from construction to destruction, charged to
+    // `field` less the phases timed inside it; reads the clock only when the call has a profile
+    // (profile_: none with a helper thread, whose phases would overlap).
+    class Phase {
+      public:
+        Phase(EngineCore& e, double SimplifyProfile::*field)
+            : e_(e.profile_ ? &e : nullptr), field_(field) {
+            if (e_) nested0_ = e_->profile_nested_ms_, t0_ = std::chrono::steady_clock::now();
+        }
+        ~Phase() {
+            if (!e_) return;
+            const double ms =
+                std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0_)
+                    .count();
+            e_->profile_->*field_ += ms - (e_->profile_nested_ms_ - nested0_);
+            e_->profile_nested_ms_ = nested0_ + ms;  // the enclosing phase's nested time
+        }
+        Phase(const Phase&) = delete;
+        Phase& operator=(const Phase&) = delete;
+
+      private:
+        EngineCore* e_;
+        double SimplifyProfile::*field_;
+        double nested0_ = 0.0;
+        std::chrono::steady_clock::time_point t0_;
+    };
+
     // One edge of a position as gather_edges() finds it: the other endpoint q, its face count and
     // the wedges at both ends in its first two faces.
     struct EdgeGroup {
@@ -239,6 +272,10 @@ class EngineCore {
     std::array<Worker, 2> workers_;
     // Runs the two halves of a split (on two threads where the caller allowed a helper).
     TwoWay two_way_;
+    // The call's profile where its phases are timed (see Phase), and the time of the phases timed
+    // inside the open ones.
+    SimplifyProfile* profile_ = nullptr;
+    double profile_nested_ms_ = 0.0;
     // The pass schedule's two regions: positions from region_start_ on are region 1 (0: no cut).
     uint32_t region_start_ = 0;
     // Whether the walks prefetch. note: under kSplitFaces the work stays on one core and its

@@ -1,41 +1,46 @@
 // Surface-to-surface distance by the Metro method (Cignoni, Rocchini & Scopigno, "Metro: measuring
-// error on simplified surfaces", CGF 1998, section 3): sample one surface densely, area-weighted,
-// and take each sample's exact distance to the nearest point of the other surface; the maximum
-// over the samples is a lower bound of the one-sided Hausdorff distance, the area-weighted average
+// error on simplified surfaces", CGF 1998, section 3): sample one surface, area-weighted, and take
+// each sample's exact distance to the nearest point of the other surface; the maximum over the
+// points measured is a lower bound of the one-sided Hausdorff distance, the area-weighted average
 // the mean error.
 //
-// Sampling: triangle i gets N * area_i / total_area samples, rounded on the running sum (at least
-// one when its area is non-zero), placed by a randomly rotated R2 low-discrepancy sequence
-// (M. Roberts, "The unreasonable effectiveness of quasirandom sequences", web article, 2018) folded
-// into the triangle, so the samples are stratified and reproducible for a seed. Each sample weighs
-// area_i / samples_i. The mean's standard error is the weighted mean's,
-// sqrt(sum w_i^2 (d_i - mean)^2) / sum w_i, as if the samples were independent; stratification only
-// makes the true error smaller. N defaults to an eighth of the sampled mesh's triangle count (at
-// least 1024).
+// Sampling: N samples spread over the triangles in proportion to their area, rounded on the
+// running sum (a small triangle may get none: systematic sampling in triangle order), placed in
+// each triangle by a randomly rotated R2 low-discrepancy sequence (M. Roberts, "The unreasonable
+// effectiveness of quasirandom sequences", web article, 2018), so the samples are stratified and
+// reproducible for a seed. Each sample weighs total_area / N. The mean's standard error is the
+// weighted mean's, sqrt(sum w_i^2 (d_i - mean)^2) / sum w_i, as if the samples were independent;
+// stratification only makes the true error smaller. N defaults to an eighth of the sampled mesh's
+// triangle count (at least 1024).
 //
 // Upper bound of the Hausdorff distance (branch and bound, as in Tang, Lee & Kim, "Interactive
 // Hausdorff distance computation for general polygonal models", SIGGRAPH 2009, with the bound of
-// the Lipschitz argument): the distance to a surface is 1-Lipschitz, so on a triangle whose
-// corners are at distances d_0..d_2 and whose points are all within r of a corner (r the corner
-// covering radius: the circumradius, or less for an obtuse triangle), every point is at most
-// max d_k + r away. Every vertex of the sampled mesh is measured, which bounds every triangle;
-// the triangles with the largest bounds are split 1:4 at their edge midpoints (3 queries, each
-// child's r is half its parent's) best first, until the largest bound is the largest sampled
-// distance (the Hausdorff distance is then exact) or the refinement's query budget is spent.
-// The midpoints count for the maximum (the lower bound) too.
+// the Lipschitz argument), without a query per vertex:
+// - every vertex v gets an upper bound u(v) = dist(v, tau) of its distance, tau a triangle of the
+//   other mesh: the nearest triangle of a sample on a triangle around it (propagated across
+//   triangles without samples), improved by a local descent over the triangles around tau's
+//   corners (point-triangle distances, no search). Only where u(v) exceeds the largest distance
+//   measured so far is v queried exactly, largest u first: a vertex with u(v) <= that maximum
+//   cannot hold the maximum, so the maximum over the vertices is still exact;
+// - a triangle's bound is the smaller of max_k u(p_k) + r (d is 1-Lipschitz and every point is
+//   within r of a corner, r the corner covering radius) and max_k dist(p_k, tau) for a triangle
+//   tau of the other mesh (the distance to one triangle is convex: largest at a corner), tau its
+//   samples' and its corners' triangles;
+// - every triangle enters a max-heap with its cheap bound; the top is first tightened (the convex
+//   bounds), then split 1:4 at its edge midpoints (3 queries, each child's r half its parent's),
+//   until the top is the largest distance measured (the Hausdorff distance is then exact) or the
+//   refinement's query budget is spent; the top is the bound. The midpoints count for the lower
+//   bound too.
 //
-// Nearest point: Embree 3 BVH over the target triangles, rtcPointQuery with a
-// closest-point-on-triangle callback (C. Ericson, "Real-Time Collision Detection", Morgan Kaufmann
-// 2005, 5.1.5) that shrinks the query radius; each query starts with the radius of its
-// predecessor's nearest triangle (the samples are in triangle order, so that is near), which prunes
-// most of the tree from the start.
-// Cost: O(T log T) to build a BVH (level 0's once per MeshDistanceReference), O(log T) per query
-// typically; time O((N + V + R) log T) with R refinement queries, memory O(N + T + R).
-// If Embree cannot make a device the queries fall back to a brute-force loop (O(N T)), which is
-// only fit for small meshes.
+// Nearest point: a BVH over the target's triangles (Morton order, split at the octree planes,
+// float boxes; built in O(T) after a radix sort), depth first, nearer child first, from a hint
+// triangle whose distance is the starting radius (the previous query's nearest: the queries run in
+// triangle order, so it is near), closest point on a triangle by C. Ericson, "Real-Time Collision
+// Detection", Morgan Kaufmann 2005, 5.1.5, in double precision.
+// Cost: O(T) per BVH (level 0's once per MeshDistanceReference), O(log T) per query typically;
+// time O((N + Q + R) log T + T) with Q the vertices queried (few: the descent settles most) and R
+// refinement queries, memory O(N + T + R).
 #include "hmdnode/lod/mesh_distance.hpp"
-
-#include <embree3/rtcore.h>
 
 #include <algorithm>
 #include <atomic>
@@ -125,6 +130,7 @@ struct SampleSet {
     std::vector<Sample> samples;
     std::vector<uint32_t> vertices;  // referenced, in first-use order
     std::vector<float> radii;        // per triangle, its corner covering radius (rounded up)
+    std::vector<uint32_t> first;     // triangle t's samples: [first[t], first[t + 1])
 };
 
 SampleSet sample_surface(const TriangleMeshView& m, size_t n, uint32_t seed) {
@@ -142,6 +148,7 @@ SampleSet sample_surface(const TriangleMeshView& m, size_t n, uint32_t seed) {
     std::vector<double> areas(tris);
     double total = 0.0;
     for (size_t t = 0; t < tris; ++t) total += areas[t] = triangle_area(m, t);
+    out.first.assign(tris + 1, 0);
     if (!(total > 0.0)) return out;
     out.samples.reserve(n + tris);
     // R2 sequence constants (1/g, 1/g^2 with g the plastic number).
@@ -149,16 +156,17 @@ SampleSet sample_surface(const TriangleMeshView& m, size_t n, uint32_t seed) {
     double cumulative = 0.0;
     size_t emitted_before = 0;
     for (size_t t = 0; t < tris; ++t) {
+        out.first[t] = uint32_t(out.samples.size());
         if (!(areas[t] > 0.0)) continue;
         cumulative += areas[t];
         const size_t upto = size_t(std::llround(cumulative / total * double(n)));
         size_t k = upto > emitted_before ? upto - emitted_before : 0;
         emitted_before = std::max(emitted_before, upto);
-        k = std::max<size_t>(k, 1);
+        if (k == 0) continue;
         uint64_t state = (uint64_t(seed) << 32) ^ uint64_t(t) * 0xD1B54A32D192ED03ull;
         const double r0 = unit(state), s0 = unit(state);
         const dvec3 a = vertex(m, t, 0), b = vertex(m, t, 1), c = vertex(m, t, 2);
-        const float w = float(areas[t] / double(k));
+        const float w = float(total / double(n));  // each sample stands for an equal area
         for (size_t j = 0; j < k; ++j) {
             double u = std::fmod(r0 + a1 * double(j + 1), 1.0);
             double v = std::fmod(s0 + a2 * double(j + 1), 1.0);
@@ -166,147 +174,216 @@ SampleSet sample_surface(const TriangleMeshView& m, size_t n, uint32_t seed) {
             out.samples.push_back({glm::vec3(a + u * (b - a) + v * (c - a)), w});
         }
     }
+    out.first[tris] = uint32_t(out.samples.size());
     return out;
 }
 
-// An owned copy of a mesh with its BVH (or none: brute force).
+// An owned copy of a mesh with its BVH: nodes of float boxes (they hold the float corners exactly,
+// so a box's distance, taken in double, never exceeds a triangle's in it) over the triangles in
+// the Morton order of their centroids, each node splitting its range in half, leaves of at most 4
+// triangles (O(T) to build after a radix sort); the triangles are stored in that order.
 struct Surface {
     std::vector<glm::vec3> positions;
     std::vector<uint32_t> indices;
-    // Per triangle, for the queries: its corners and its unit normal (zero when degenerate), so a
-    // candidate whose plane is farther than the best distance found is dropped with one dot
-    // product.
+    // Per triangle in leaf order, for the queries: its corners and its unit normal (zero when
+    // degenerate), so a candidate whose plane is farther than the best distance found is dropped
+    // with one dot product.
     struct Packed {
         dvec3 a, b, c, n;
     };
     std::vector<Packed> packed;
-    RTCDevice device = nullptr;
-    RTCScene scene = nullptr;
+    // count == 0: an inner node, children at first and first + 1; else triangles [first, +count).
+    struct Node {
+        glm::vec3 lo;
+        uint32_t first;
+        glm::vec3 hi;
+        uint32_t count;
+    };
+    std::vector<Node> nodes;
+    // The triangles (in leaf order) around each vertex: fan[fan_start[v] .. fan_start[v + 1]); and
+    // each triangle's vertices, corners[3 i + k]. For the local descent (descend()).
+    std::vector<uint32_t> fan_start, fan, corners;
 
     explicit Surface(TriangleMeshView m)
         : positions(m.positions.begin(), m.positions.end()),
           indices(m.indices.begin(), m.indices.begin() + m.indices.size() / 3 * 3) {
         const size_t tris = indices.size() / 3;
+        if (tris == 0) return;
+        std::vector<uint32_t> code;
+        const std::vector<uint32_t> order = morton_order(code);
+        nodes.reserve(2 * (tris / 2 + 1));
+        nodes.push_back({});
+        // (node, begin, end) still to build: split where the highest bit of the Morton code that
+        // differs in the range changes (a plane of the octree), in the middle where all codes are
+        // equal, so the depth is at most 30 + log2(T); the boxes are filled in afterwards,
+        // children before parents.
+        struct Todo {
+            uint32_t node, begin, end;
+        };
+        std::vector<Todo> todo{{0, 0, uint32_t(tris)}};
+        while (!todo.empty()) {
+            const Todo w = todo.back();
+            todo.pop_back();
+            Node& n = nodes[w.node];
+            if (w.end - w.begin <= 4) {
+                n.first = w.begin, n.count = w.end - w.begin;
+                continue;
+            }
+            uint32_t mid = w.begin + (w.end - w.begin) / 2;
+            if (const uint32_t x = code[w.begin] ^ code[w.end - 1]; x != 0) {
+                const uint32_t bit = 1u << (31 - __builtin_clz(x));
+                mid = uint32_t(std::partition_point(code.begin() + w.begin, code.begin() + w.end,
+                                                    [&](uint32_t c) { return !(c & bit); }) -
+                               code.begin());
+            }
+            n.first = uint32_t(nodes.size()), n.count = 0;
+            todo.push_back({n.first, w.begin, mid});
+            todo.push_back({n.first + 1, mid, w.end});
+            nodes.push_back({}), nodes.push_back({});
+        }
         packed.resize(tris);
-        for (size_t t = 0; t < tris; ++t) {
-            Packed& q = packed[t];
+        corners.resize(3 * tris);
+        fan_start.assign(positions.size() + 1, 0);
+        for (size_t i = 0; i < tris; ++i)
+            for (int k = 0; k < 3; ++k) {
+                corners[3 * i + k] = indices[3 * order[i] + k];
+                ++fan_start[corners[3 * i + k] + 1];
+            }
+        for (size_t v = 0; v < positions.size(); ++v) fan_start[v + 1] += fan_start[v];
+        fan.resize(3 * tris);
+        {
+            std::vector<uint32_t> at(fan_start.begin(), fan_start.end() - 1);
+            for (size_t i = 0; i < 3 * tris; ++i) fan[at[corners[i]]++] = uint32_t(i / 3);
+        }
+        for (size_t i = 0; i < tris; ++i) {
+            Packed& q = packed[i];
+            const uint32_t t = order[i];
             q.a = vertex(view(), t, 0), q.b = vertex(view(), t, 1), q.c = vertex(view(), t, 2);
             const dvec3 n = glm::cross(q.b - q.a, q.c - q.a);
             const double len = glm::length(n);
             q.n = len > 0.0 ? n / len : dvec3(0.0);
         }
-        if (tris == 0) return;
-        device = rtcNewDevice("threads=1");
-        if (!device) return;
-        scene = rtcNewScene(device);
-        rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_LOW);
-        RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-        auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0,
-                                                               RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-                                                               positions.size()));
-        auto* ib = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
-            geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), tris));
-        if (vb && ib) {
-            for (size_t i = 0; i < positions.size(); ++i) {
-                vb[3 * i + 0] = positions[i].x;
-                vb[3 * i + 1] = positions[i].y;
-                vb[3 * i + 2] = positions[i].z;
+        for (size_t i = nodes.size(); i-- > 0;) {
+            Node& n = nodes[i];
+            if (n.count > 0) {
+                n.lo = glm::vec3(INFINITY), n.hi = glm::vec3(-INFINITY);
+                for (uint32_t k = n.first; k < n.first + n.count; ++k)
+                    for (int c = 0; c < 3; ++c) {
+                        const glm::vec3& v = positions[indices[3 * order[k] + c]];
+                        n.lo = glm::min(n.lo, v), n.hi = glm::max(n.hi, v);
+                    }
+            } else {
+                n.lo = glm::min(nodes[n.first].lo, nodes[n.first + 1].lo);
+                n.hi = glm::max(nodes[n.first].hi, nodes[n.first + 1].hi);
             }
-            std::copy(indices.begin(), indices.end(), ib);
-            rtcCommitGeometry(geom);
-            rtcAttachGeometry(scene, geom);
-            rtcReleaseGeometry(geom);
-            rtcCommitScene(scene);
-        } else {
-            rtcReleaseGeometry(geom);
-            rtcReleaseScene(scene);
-            scene = nullptr;
         }
     }
-    ~Surface() {
-        if (scene) rtcReleaseScene(scene);
-        if (device) rtcReleaseDevice(device);
+    // The triangles sorted by the Morton code (10 bits an axis) of their centroids in the
+    // centroids' bounding box: an LSD radix sort, 3 passes of 10 bits. `sorted` gets the codes
+    // in that order.
+    std::vector<uint32_t> morton_order(std::vector<uint32_t>& sorted) const {
+        const size_t tris = indices.size() / 3;
+        std::vector<glm::vec3> centre(tris);
+        glm::vec3 lo(INFINITY), hi(-INFINITY);
+        for (size_t t = 0; t < tris; ++t) {
+            centre[t] = (positions[indices[3 * t]] + positions[indices[3 * t + 1]] +
+                         positions[indices[3 * t + 2]]) *
+                        (1.0f / 3.0f);
+            lo = glm::min(lo, centre[t]), hi = glm::max(hi, centre[t]);
+        }
+        const glm::vec3 scale = 1023.0f / glm::max(hi - lo, glm::vec3(1e-30f));
+        auto spread = [](uint32_t x) {  // 10 bits to every third bit
+            x = (x | (x << 16)) & 0x030000FFu;
+            x = (x | (x << 8)) & 0x0300F00Fu;
+            x = (x | (x << 4)) & 0x030C30C3u;
+            return (x | (x << 2)) & 0x09249249u;
+        };
+        std::vector<uint32_t> code(tris), order(tris), tmp(tris);
+        for (size_t t = 0; t < tris; ++t) {
+            const glm::vec3 q = glm::clamp((centre[t] - lo) * scale, 0.0f, 1023.0f);
+            code[t] =
+                spread(uint32_t(q.x)) | (spread(uint32_t(q.y)) << 1) | (spread(uint32_t(q.z)) << 2);
+            order[t] = uint32_t(t);
+        }
+        for (int shift = 0; shift < 30; shift += 10) {
+            std::vector<uint32_t> count(1025, 0);
+            for (uint32_t t : order) ++count[((code[t] >> shift) & 1023) + 1];
+            for (size_t i = 1; i < count.size(); ++i) count[i] += count[i - 1];
+            for (uint32_t t : order) tmp[count[(code[t] >> shift) & 1023]++] = t;
+            order.swap(tmp);
+        }
+        sorted.resize(tris);
+        for (size_t i = 0; i < tris; ++i) sorted[i] = code[order[i]];
+        return order;
     }
-    Surface(const Surface&) = delete;
-    Surface& operator=(const Surface&) = delete;
     TriangleMeshView view() const { return {positions, indices}; }
     size_t triangles() const { return indices.size() / 3; }
 };
 
 constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
 
-struct QueryState {
-    const Surface* surface;
-    dvec3 p;
-    double best2;
-    uint32_t best;
-    // Squared distance to triangle t, or `best2` when its plane alone is already farther.
-    double to(size_t t) const {
-        const Surface::Packed& q = surface->packed[t];
-        const double h = glm::dot(p - q.a, q.n);
-        if (h * h >= best2) return best2;
-        const dvec3 c = closest_on_triangle(p, q.a, q.b, q.c);
-        return glm::dot(c - p, c - p);
-    }
-};
-
-float query_radius(double d2) {
-    // note: Embree's radius and query point are float; inflate so that the true nearest triangle
-    // is never culled by rounding.
-    return std::nextafter(float(std::sqrt(d2) * (1.0 + 1e-6)), INFINITY);
+// Squared distance from p to a node's box.
+[[gnu::always_inline]] inline double box_distance2(const Surface::Node& n, const dvec3& p) {
+    const dvec3 d = glm::max(dvec3(n.lo) - p, glm::max(dvec3(0.0), p - dvec3(n.hi)));
+    return glm::dot(d, d);
 }
 
-bool point_query_callback(RTCPointQueryFunctionArguments* args) {
-    auto* q = static_cast<QueryState*>(args->userPtr);
-    const size_t t = args->primID;
-    const double d2 = q->to(t);
-    if (d2 < q->best2) {
-        q->best2 = d2;
-        q->best = uint32_t(t);
-        args->query->radius = query_radius(d2);
-        return true;
-    }
-    return false;
-}
-
-// Nearest-point queries on one surface, from one thread: each starts from the last one's nearest
-// triangle.
+// Nearest-point queries on one surface, from one thread: each starts from a hint triangle (by
+// default the last query's nearest), whose distance is the radius the tree is searched within;
+// nearer children first, a box no nearer than the best distance found is skipped.
 class Querier {
   public:
     explicit Querier(const Surface& s) : s_(s) {}
     size_t queries = 0;
 
-    double distance(const dvec3& p) {
+    double distance(const dvec3& p) { return distance(p, hint_); }
+    double distance(const dvec3& p, uint32_t hint) {
         ++queries;
-        QueryState st{&s_, p, std::numeric_limits<double>::infinity(), kNone};
-        if (hint_ != kNone) {
-            st.best2 = st.to(hint_);
-            st.best = hint_;
-        }
-        if (s_.scene) {
-            RTCPointQuery query;
-            query.x = float(p.x);
-            query.y = float(p.y);
-            query.z = float(p.z);
-            query.time = 0.0f;
-            query.radius = std::isfinite(st.best2) ? query_radius(st.best2)
-                                                   : std::numeric_limits<float>::infinity();
-            RTCPointQueryContext context;
-            rtcInitPointQueryContext(&context);
-            rtcPointQuery(s_.scene, &query, &context, point_query_callback, &st);
-        } else {  // no device: every triangle
-            for (size_t t = 0; t < s_.triangles(); ++t) {
-                const double d2 = st.to(t);
-                if (d2 < st.best2) st.best2 = d2, st.best = uint32_t(t);
+        double best2 = std::numeric_limits<double>::infinity();
+        uint32_t best = kNone;
+        if (hint != kNone) best2 = to(hint, p, best2), best = hint;
+        struct Entry {
+            uint32_t node;
+            double d2;
+        };
+        Entry stack[96];  // the depth is at most 30 + log2(T)
+        int top = 0;
+        stack[top++] = {0, box_distance2(s_.nodes[0], p)};
+        while (top > 0) {
+            const Entry e = stack[--top];
+            if (e.d2 >= best2) continue;
+            const Surface::Node& n = s_.nodes[e.node];
+            if (n.count > 0) {
+                for (uint32_t t = n.first; t < n.first + n.count; ++t) {
+                    const double d2 = to(t, p, best2);
+                    if (d2 < best2) best2 = d2, best = t;
+                }
+                continue;
             }
+            const double d0 = box_distance2(s_.nodes[n.first], p);
+            const double d1 = box_distance2(s_.nodes[n.first + 1], p);
+            const bool near0 = d0 <= d1;
+            const Entry near{n.first + (near0 ? 0u : 1u), near0 ? d0 : d1};
+            const Entry far{n.first + (near0 ? 1u : 0u), near0 ? d1 : d0};
+            assert(top + 2 <= 96);
+            if (far.d2 < best2) stack[top++] = far;
+            if (near.d2 < best2) stack[top++] = near;
         }
-        hint_ = st.best;
-        return std::sqrt(st.best2);
+        hint_ = best;
+        return std::sqrt(best2);
     }
     // The nearest triangle of the last query (kNone when `to` has none).
     uint32_t nearest() const { return hint_; }
 
   private:
+    // Squared distance from p to triangle t, or `best2` when its plane alone is already farther.
+    double to(uint32_t t, const dvec3& p, double best2) const {
+        const Surface::Packed& q = s_.packed[t];
+        const double h = glm::dot(p - q.a, q.n);
+        if (h * h >= best2) return best2;
+        const dvec3 c = closest_on_triangle(p, q.a, q.b, q.c);
+        return glm::dot(c - p, c - p);
+    }
     const Surface& s_;
     uint32_t hint_ = kNone;
 };
@@ -338,11 +415,13 @@ size_t parallel_queries(size_t n, const Surface& to, unsigned threads, F&& fn) {
     return total;
 }
 
-// A piece of a sampled triangle in the refinement: its corners, their distances and nearest
-// triangles of `to`, the corner covering radius r, and its bound `upper`, the smaller of
-//   max d_k + r                    (1-Lipschitz: every point is within r of a corner), and
-//   min_j max_k dist(p_k, T_j)     (T_j a corner's nearest triangle: the distance to one triangle
-//                                  is convex, so on the cell it is largest at a corner).
+// A piece of a sampled triangle in the refinement: its corners, upper bounds d_k of their
+// distances with the triangles t_k of `to` they are measured to (d_k = dist(p_k, t_k): exact when
+// t_k is the nearest), the corner covering radius r, and its bound `upper`, the smaller of
+//   max d_k + r                    (1-Lipschitz: every point is within r of a corner),
+//   min_j max_k dist(p_k, T_j)     (T_j any triangle of `to`, here the t_k: the distance to one
+//                                  triangle is convex, so on the cell it is largest at a corner),
+// and the bound it had before (a cell inherits its parent's, and a triangle its samples').
 struct Cell {
     dvec3 p[3];
     double d[3];
@@ -357,8 +436,33 @@ double distance_to(const Surface& s, const dvec3& p, uint32_t t) {
     return glm::length(c - p);
 }
 
+// Local descent from triangle `tau` at distance `e` from p: while a triangle around one of the
+// current one's corners is nearer, move to the nearest of them (at most 8 steps). The result is
+// still only an upper bound of p's distance (a local minimum), e and tau updated.
+void descend(const Surface& s, const dvec3& p, uint32_t& tau, double& e) {
+    for (int step = 0; step < 8; ++step) {
+        uint32_t best = tau;
+        for (int k = 0; k < 3; ++k) {
+            const uint32_t v = s.corners[3 * size_t(tau) + k];
+            for (uint32_t f = s.fan_start[v]; f < s.fan_start[v + 1]; ++f) {
+                const uint32_t t = s.fan[f];
+                if (t == tau) continue;
+                const Surface::Packed& q = s.packed[t];
+                const double h = glm::dot(p - q.a, q.n);
+                if (h * h >= e * e) continue;  // its plane alone is farther
+                const dvec3 c = closest_on_triangle(p, q.a, q.b, q.c);
+                const double d2 = glm::dot(c - p, c - p);
+                if (d2 < e * e) e = std::sqrt(d2), best = t;
+            }
+        }
+        if (best == tau) return;
+        tau = best;
+    }
+}
+
+// Tightens c.upper (set by the caller: a bound it already has, or infinity).
 void bound_cell(Cell& c, const Surface& to, double lower) {
-    c.upper = std::max({c.d[0], c.d[1], c.d[2]}) + c.r;
+    c.upper = std::min(c.upper, std::max({c.d[0], c.d[1], c.d[2]}) + c.r);
     if (c.upper <= lower) return;  // settled already
     for (int j = 0; j < 3; ++j) {
         const uint32_t t = c.t[j];
@@ -370,12 +474,23 @@ void bound_cell(Cell& c, const Surface& to, double lower) {
     }
 }
 
-// The upper bound of the one-sided Hausdorff distance from `from` (its vertex distances `vd` and
-// nearest triangles `vt`) to `to`, refining the cells with the largest bounds with at most
-// `budget` queries; raises `lower` with the midpoints measured.
+// What the refinement starts from: per vertex of `from` an upper bound of its distance, vd[v] =
+// dist(v, vt[v]) (exact where it was queried), and per triangle the convex bound from its
+// samples' nearest triangles (infinity when it has none).
+struct VertexBounds {
+    std::vector<double> vd;
+    std::vector<uint32_t> vt;
+    std::vector<double> convex;
+};
+
+// The upper bound of the one-sided Hausdorff distance from `from` to `to`, best first: every
+// triangle enters a max-heap with its cheap bound (its samples' convex bound, the Lipschitz bound
+// of its corners' bounds); an entry at the top is first tightened (bound_cell: point-triangle
+// distances, no query), and a tight one at the top is split 1:4 (3 queries), while `budget`
+// lasts; what is left at the top is the bound. Raises `lower` with the midpoints measured.
 double hausdorff_upper_bound(const TriangleMeshView& from, const std::vector<float>& radii,
-                             const std::vector<double>& vd, const std::vector<uint32_t>& vt,
-                             const Surface& to, Querier& q, size_t budget, double& lower) {
+                             const VertexBounds& vb, const Surface& to, Querier& q, size_t budget,
+                             double& lower) {
     const size_t tris = from.indices.size() / 3;
     if (tris == 0) return lower;
     auto cell_of = [&](size_t t) {
@@ -383,82 +498,189 @@ double hausdorff_upper_bound(const TriangleMeshView& from, const std::vector<flo
         for (int k = 0; k < 3; ++k) {
             const uint32_t v = from.indices[t * 3 + k];
             c.p[k] = vertex(from, t, k);
-            c.d[k] = vd[v];
-            c.t[k] = vt[v];
+            c.d[k] = vb.vd[v];
+            c.t[k] = vb.vt[v];
         }
         c.r = radii[t];
-        bound_cell(c, to, lower);
+        c.upper = std::min(vb.convex[t], std::max({c.d[0], c.d[1], c.d[2]}) + c.r);
         return c;
     };
-    std::vector<std::pair<double, uint32_t>> bounds;
-    for (size_t t = 0; t < tris; ++t) {
-        const Cell c = cell_of(t);
-        if (c.upper > lower) bounds.push_back({c.upper, uint32_t(t)});
-    }
-    // Only the top budget / 3 triangles can be split; the rest keep their bound.
-    const size_t keep = std::min(bounds.size(), budget / 3);
-    auto larger = [](const auto& x, const auto& y) { return x.first > y.first; };
-    std::nth_element(bounds.begin(), bounds.begin() + ptrdiff_t(keep), bounds.end(), larger);
-    double rest = 0.0;
-    for (size_t i = keep; i < bounds.size(); ++i) rest = std::max(rest, bounds[i].first);
-    auto lower_cell = [](const Cell& x, const Cell& y) { return x.upper < y.upper; };
-    std::vector<Cell> heap;
-    heap.reserve(keep + budget);
-    for (size_t i = 0; i < keep; ++i) heap.push_back(cell_of(bounds[i].second));
-    std::make_heap(heap.begin(), heap.end(), lower_cell);
+    // id < tris: triangle id (its cell made again by cell_of); else pieces[id - tris].
+    struct Entry {
+        double upper;
+        uint32_t id;
+        bool tight;
+    };
+    auto below = [](const Entry& x, const Entry& y) { return x.upper < y.upper; };
+    std::vector<Entry> heap;
+    for (size_t t = 0; t < tris; ++t)
+        if (const double u = cell_of(t).upper; u > lower) heap.push_back({u, uint32_t(t), false});
+    std::make_heap(heap.begin(), heap.end(), below);
+    std::vector<Cell> pieces;
     size_t spent = 0;
-    while (!heap.empty() && spent + 3 <= budget) {
-        const Cell c = heap.front();
-        if (c.upper <= std::max(lower, rest)) break;
-        std::pop_heap(heap.begin(), heap.end(), lower_cell);
+    while (!heap.empty() && heap.front().upper > lower) {
+        std::pop_heap(heap.begin(), heap.end(), below);
+        const Entry e = heap.back();
         heap.pop_back();
+        Cell c = e.id < tris ? cell_of(e.id) : pieces[e.id - tris];
+        c.upper = e.upper;
+        if (!e.tight) {
+            bound_cell(c, to, lower);
+            if (c.upper <= lower) continue;  // settled
+            if (e.id < tris) {
+                heap.push_back({c.upper, e.id, true});
+            } else {
+                pieces[e.id - tris] = c;
+                heap.push_back({c.upper, e.id, true});
+            }
+            std::push_heap(heap.begin(), heap.end(), below);
+            continue;
+        }
+        if (spent + 3 > budget) {  // out of queries: it stays as it is
+            heap.push_back(e);
+            std::push_heap(heap.begin(), heap.end(), below);
+            break;
+        }
         const dvec3 m[3] = {0.5 * (c.p[0] + c.p[1]), 0.5 * (c.p[1] + c.p[2]),
                             0.5 * (c.p[2] + c.p[0])};
         double dm[3];
         uint32_t tm[3];
         for (int k = 0; k < 3; ++k) {
-            dm[k] = q.distance(m[k]);
+            dm[k] = q.distance(m[k], c.t[k]);
             tm[k] = q.nearest();
             lower = std::max(lower, dm[k]);
         }
         spent += 3;
         const double r = 0.5 * c.r;  // the children are similar to the parent, half its size
+        const double u = c.upper;    // each child lies in its parent
         Cell children[4] = {
-            {{c.p[0], m[0], m[2]}, {c.d[0], dm[0], dm[2]}, {c.t[0], tm[0], tm[2]}, r, 0.0},
-            {{m[0], c.p[1], m[1]}, {dm[0], c.d[1], dm[1]}, {tm[0], c.t[1], tm[1]}, r, 0.0},
-            {{m[2], m[1], c.p[2]}, {dm[2], dm[1], c.d[2]}, {tm[2], tm[1], c.t[2]}, r, 0.0},
-            {{m[0], m[1], m[2]}, {dm[0], dm[1], dm[2]}, {tm[0], tm[1], tm[2]}, r, 0.0}};
+            {{c.p[0], m[0], m[2]}, {c.d[0], dm[0], dm[2]}, {c.t[0], tm[0], tm[2]}, r, u},
+            {{m[0], c.p[1], m[1]}, {dm[0], c.d[1], dm[1]}, {tm[0], c.t[1], tm[1]}, r, u},
+            {{m[2], m[1], c.p[2]}, {dm[2], dm[1], c.d[2]}, {tm[2], tm[1], c.t[2]}, r, u},
+            {{m[0], m[1], m[2]}, {dm[0], dm[1], dm[2]}, {tm[0], tm[1], tm[2]}, r, u}};
         for (Cell& child : children) {
             bound_cell(child, to, lower);
             if (child.upper <= lower) continue;  // settled
-            heap.push_back(child);
-            std::push_heap(heap.begin(), heap.end(), lower_cell);
+            heap.push_back({child.upper, uint32_t(tris + pieces.size()), true});
+            pieces.push_back(child);
+            std::push_heap(heap.begin(), heap.end(), below);
         }
     }
-    double upper = std::max(lower, rest);
-    if (!heap.empty()) upper = std::max(upper, heap.front().upper);
-    return upper;
+    // note: untightened entries below the top are bounded by it.
+    return heap.empty() ? lower : std::max(lower, heap.front().upper);
 }
 
-// Distances from every sample and vertex of `from` to the surface `to`.
+// The vertex bounds from the samples' nearest triangles `nearest` (each triangle's samples'
+// distinct ones: 3 point-triangle distances each, no query), then an exact query for each vertex
+// whose bound exceeds the largest distance measured (`lower`, raised by them), largest bound
+// first: a vertex whose bound is at most `lower` cannot hold the maximum.
+VertexBounds bound_vertices(const TriangleMeshView& from, const SampleSet& set,
+                            const std::vector<uint32_t>& nearest, const Surface& to, Querier& q,
+                            double& lower) {
+    const size_t tris = from.indices.size() / 3;
+    VertexBounds vb;
+    vb.vd.assign(from.positions.size(), std::numeric_limits<double>::infinity());
+    vb.vt.assign(from.positions.size(), kNone);
+    vb.convex.assign(tris, std::numeric_limits<double>::infinity());
+    auto try_candidate = [&](size_t t, uint32_t tau) {
+        double m = 0.0;
+        for (int k = 0; k < 3; ++k) {
+            const uint32_t v = from.indices[t * 3 + k];
+            const double e = distance_to(to, vertex(from, t, k), tau);
+            if (e < vb.vd[v]) vb.vd[v] = e, vb.vt[v] = tau;
+            m = std::max(m, e);
+        }
+        vb.convex[t] = std::min(vb.convex[t], m);
+    };
+    std::vector<char> open_tri(tris, 1);  // no candidate of its own yet
+    for (size_t t = 0; t < tris; ++t) {
+        const uint32_t begin = set.first.empty() ? 0 : set.first[t];
+        const uint32_t end = set.first.empty() ? 0 : set.first[t + 1];
+        for (uint32_t i = begin; i < end; ++i) {
+            const uint32_t tau = nearest[i];
+            if (tau == kNone || (i > begin && tau == nearest[i - 1])) continue;
+            try_candidate(t, tau);
+            open_tri[t] = 0;
+        }
+    }
+    // A vertex without a candidate takes one from a corner of a triangle around it (one
+    // distance each), sweeping forwards and backwards until none is left or nothing changes.
+    for (bool changed = true; changed;) {
+        changed = false;
+        for (int sweep = 0; sweep < 2; ++sweep)
+            for (size_t i = 0; i < tris; ++i) {
+                const size_t t = sweep == 0 ? i : tris - 1 - i;
+                if (!open_tri[t]) continue;
+                uint32_t tau = kNone;
+                bool missing = false;
+                for (int k = 0; k < 3; ++k) {
+                    const uint32_t c = vb.vt[from.indices[t * 3 + k]];
+                    if (c == kNone)
+                        missing = true;
+                    else if (tau == kNone)
+                        tau = c;
+                }
+                if (tau == kNone) continue;
+                open_tri[t] = 0, changed = true;
+                if (!missing) continue;
+                for (int k = 0; k < 3; ++k) {
+                    const uint32_t v = from.indices[t * 3 + k];
+                    if (vb.vt[v] != kNone) continue;
+                    vb.vd[v] = distance_to(to, vertex(from, t, k), tau);
+                    vb.vt[v] = tau;
+                }
+            }
+    }
+    // Each vertex whose bound exceeds `lower`, in first-use order (neighbours follow each other):
+    // the triangle its predecessor ended on as one more candidate, then the local descent.
+    uint32_t previous = kNone;
+    for (uint32_t v : set.vertices) {
+        if (vb.vd[v] <= lower) continue;
+        const dvec3 p(from.positions[v]);
+        if (previous != kNone && previous != vb.vt[v])
+            if (const double e = distance_to(to, p, previous); e < vb.vd[v])
+                vb.vd[v] = e, vb.vt[v] = previous;
+        if (vb.vt[v] != kNone) descend(to, p, vb.vt[v], vb.vd[v]), previous = vb.vt[v];
+    }
+    // Then an exact query for those still above `lower`, largest bound first.
+    std::vector<std::pair<double, uint32_t>> open;
+    for (uint32_t v : set.vertices)
+        if (vb.vd[v] > lower) open.push_back({vb.vd[v], v});
+    std::sort(open.begin(), open.end(), [](const auto& x, const auto& y) {
+        return x.first > y.first || (x.first == y.first && x.second < y.second);
+    });
+    for (const auto& [bound, v] : open) {
+        if (bound <= lower) break;
+        vb.vd[v] = q.distance(dvec3(from.positions[v]), vb.vt[v]);
+        vb.vt[v] = q.nearest();
+        lower = std::max(lower, vb.vd[v]);
+    }
+    return vb;
+}
+
+// Distances from the samples of `from` to the surface `to`, and the bracket of the Hausdorff
+// distance from its vertices and triangles.
 OneSidedDistance measure_one_side(const TriangleMeshView& from, const SampleSet& set,
                                   const Surface& to, unsigned threads, size_t refine_budget) {
     OneSidedDistance out;
     out.samples = set.samples.size();
     if (to.triangles() == 0 || set.vertices.empty()) return out;
 
-    // The area samples: max, mean, rms and the sums of the standard error.
+    // The area samples: max, mean, rms and the sums of the standard error; and each one's nearest
+    // triangle.
     struct Partial {
         double max = 0.0, w = 0.0, wd = 0.0, wdd = 0.0, w2 = 0.0, w2d = 0.0, w2dd = 0.0;
     };
     const unsigned workers = std::max(1u, threads);
     std::vector<Partial> partial(workers);
+    std::vector<uint32_t> nearest(set.samples.size(), kNone);
     out.queries += parallel_queries(set.samples.size(), to, workers,
                                     [&](size_t begin, size_t end, Querier& q, unsigned w) {
                                         Partial& acc = partial[w];
                                         for (size_t i = begin; i < end; ++i) {
                                             const Sample& s = set.samples[i];
                                             const double d = q.distance(dvec3(s.p));
+                                            nearest[i] = q.nearest();
                                             const double wt = s.weight;
                                             acc.max = std::max(acc.max, d);
                                             acc.w += wt;
@@ -475,21 +697,10 @@ OneSidedDistance measure_one_side(const TriangleMeshView& from, const SampleSet&
         total.w += p.w, total.wd += p.wd, total.wdd += p.wdd;
         total.w2 += p.w2, total.w2d += p.w2d, total.w2dd += p.w2dd;
     }
-    // The vertices: for the maximum and, with the corner covering radii, its upper bound.
-    std::vector<double> vd(from.positions.size(), 0.0);
-    std::vector<uint32_t> vt(from.positions.size(), kNone);
-    out.queries += parallel_queries(set.vertices.size(), to, workers,
-                                    [&](size_t begin, size_t end, Querier& q, unsigned) {
-                                        for (size_t i = begin; i < end; ++i) {
-                                            const uint32_t v = set.vertices[i];
-                                            vd[v] = q.distance(dvec3(from.positions[v]));
-                                            vt[v] = q.nearest();
-                                        }
-                                    });
     double lower = total.max;
-    for (uint32_t v : set.vertices) lower = std::max(lower, vd[v]);
     Querier q(to);
-    out.max_upper = hausdorff_upper_bound(from, set.radii, vd, vt, to, q, refine_budget, lower);
+    const VertexBounds vb = bound_vertices(from, set, nearest, to, q, lower);
+    out.max_upper = hausdorff_upper_bound(from, set.radii, vb, to, q, refine_budget, lower);
     out.queries += q.queries;
     out.max = lower;
     if (total.w > 0.0) {

@@ -49,19 +49,26 @@ namespace hmdnode::lod_detail {
 Result<std::vector<SimplifiedLevel>> PassSchedule::run(const Primitive& in,
                                                        std::span<const size_t> targets) {
     prefetch_ = in.indices.size() / 3 >= kSplitFaces;
-    build(in);
-    remap_.resize(m_.positions.size());
-    for (uint32_t p = 0; p < uint32_t(remap_.size()); ++p) remap_[p] = p;
-    wedge_remap_.resize(m_.wedge_position.size());
-    for (uint32_t w = 0; w < uint32_t(wedge_remap_.size()); ++w) wedge_remap_[w] = w;
-    for (uint32_t f = 0; f < uint32_t(m_.face_alive.size()); ++f) {
-        if (m_.face_alive[f]) live_list_.push_back(f);
-    }
-    rebuild_adjacency();
     std::vector<SimplifiedLevel> levels;
     size_t ti = 0;
-    begin(targets, levels, ti);
+    {
+        const Phase phase(*this, &SimplifyProfile::setup_ms);
+        build(in);
+        remap_.resize(m_.positions.size());
+        for (uint32_t p = 0; p < uint32_t(remap_.size()); ++p) remap_[p] = p;
+        wedge_remap_.resize(m_.wedge_position.size());
+        for (uint32_t w = 0; w < uint32_t(wedge_remap_.size()); ++w) wedge_remap_[w] = w;
+        for (uint32_t f = 0; f < uint32_t(m_.face_alive.size()); ++f) {
+            if (m_.face_alive[f]) live_list_.push_back(f);
+        }
+        {
+            const Phase adjacency(*this, &SimplifyProfile::adjacency_ms);
+            rebuild_adjacency();
+        }
+        begin(targets, levels, ti);
+    }
     run_passes(targets, levels, ti);
+    const Phase phase(*this, &SimplifyProfile::other_ms);
     return end(targets, levels, ti);
 }
 
@@ -241,7 +248,10 @@ void PassSchedule::run_passes(std::span<const size_t> targets, std::vector<Simpl
     // note: at most one candidate per half-edge (more than 3F/2 edges with open borders); pages
     // never written are never touched.
     candidates_.reserve(adj_.size() + 16);
-    collect_candidates();
+    {
+        const Phase phase(*this, &SimplifyProfile::candidates_ms);
+        collect_candidates();
+    }
     while (ti < targets.size()) {
         if (pass > 0) {
             // note: the attribute placements and the dropping of stale candidates (the helper)
@@ -249,13 +259,16 @@ void PassSchedule::run_passes(std::span<const size_t> targets, std::vector<Simpl
             touched_pass_ = pass;
             auto prepare = [this](int h) {
                 if (h == 0) {
+                    const Phase phase(*this, &SimplifyProfile::adjacency_ms);
                     rebuild_adjacency();
                 } else {
                     for (Worker& w : workers_) flush_attributes(w);
+                    const Phase phase(*this, &SimplifyProfile::candidates_ms);
                     drop_touched_candidates();
                 }
             };
             two_way_.run(prepare);
+            const Phase phase(*this, &SimplifyProfile::candidates_ms);
             refresh_candidates();
         }
         const size_t n = candidates_.size();
@@ -263,7 +276,12 @@ void PassSchedule::run_passes(std::span<const size_t> targets, std::vector<Simpl
         // note: the region classes ride in the top two bits of the candidate index.
         const bool classes = region_start_ > 0 && n < (size_t(1) << 30);
         const size_t goal = (live_faces_ - targets[ti] + 1) / 2;
-        const double limit = sort_candidates(classes, goal);
+        double limit;
+        {
+            const Phase phase(*this, &SimplifyProfile::sort_ms);
+            limit = sort_candidates(classes, goal);
+        }
+        const Phase apply(*this, &SimplifyProfile::apply_ms);
         ++pass;
         passes_ = pass;
         // A pass goes past its limit until it has made an eighth of the collapses the target
@@ -280,7 +298,10 @@ void PassSchedule::run_passes(std::span<const size_t> targets, std::vector<Simpl
         }
         double skipped = std::numeric_limits<double>::infinity();
         for (size_t i = 0; i < n && ti < targets.size(); ++i) {
-            if (i == sorted_) sort_rest();
+            if (i == sorted_) {
+                const Phase phase(*this, &SimplifyProfile::sort_ms);
+                sort_rest();
+            }
             prefetch_ahead(order_.data(), i, n);
             const CollapseCandidate c = candidate_at(i).unpack();
             if (c.cost > limit && done >= min_done) break;
@@ -381,9 +402,12 @@ size_t PassSchedule::boundary_pass(uint32_t pass, std::span<const size_t> target
 }
 
 // One collapse of a pass on this thread (outside a split's regions); false when refused.
-bool PassSchedule::apply_in_pass(const CollapseCandidate& c, uint32_t pass,
-                                 std::span<const size_t> targets,
-                                 std::vector<SimplifiedLevel>& levels, size_t& ti) {
+// note: inlined into its callers (a call per collapse costs about 50 instructions).
+[[gnu::always_inline]] inline bool PassSchedule::apply_in_pass(const CollapseCandidate& c,
+                                                               uint32_t pass,
+                                                               std::span<const size_t> targets,
+                                                               std::vector<SimplifiedLevel>& levels,
+                                                               size_t& ti) {
     const size_t removed = try_collapse_in_pass(workers_[0], c);
     if (removed == 0) return false;
     live_faces_ -= removed;

@@ -6,6 +6,7 @@
 // Cost: O(V + F) for the checks, then the algorithm's.
 #include "hmdnode/lod/simplify.hpp"
 
+#include <chrono>
 #include <cmath>
 #include <string>
 
@@ -170,6 +171,20 @@ Result<std::vector<SimplifiedLevel>> simplify(const Primitive& in, std::string_v
     if (Status s = lod_detail::check_simplify_arguments(in, algorithm, target_triangles); !s) {
         return s.error();
     }
+    std::chrono::steady_clock::time_point t0;
+    if (options.profile)
+        *options.profile = SimplifyProfile{}, t0 = std::chrono::steady_clock::now();
+    // note: the phases the engine timed; the rest of the call is other_ms.
+    auto finish_profile = [&] {
+        SimplifyProfile* p = options.profile;
+        if (!p) return;
+        p->total_ms =
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                .count();
+        const double timed = p->setup_ms + p->adjacency_ms + p->candidates_ms + p->sort_ms +
+                             p->apply_ms + p->attributes_ms + p->snapshots_ms + p->other_ms;
+        p->other_ms += std::max(0.0, p->total_ms - timed);
+    };
     for (const Entry& e : table()) {
         if (e.info.name != algorithm) continue;
         Result<std::vector<SimplifiedLevel>> levels = make_error("");
@@ -184,6 +199,7 @@ Result<std::vector<SimplifiedLevel>> simplify(const Primitive& in, std::string_v
         }
         if (!levels) return levels;
         if (Status s = lod_detail::carry_light_to_levels(in, *levels); !s) return s.error();
+        finish_profile();
         return levels;
     }
     return make_error("unknown simplification algorithm '" + std::string(algorithm) + "'");

@@ -2,8 +2,8 @@
 // RMS surface distance (with the mean's standard error) from area-weighted surface samples, exact
 // nearest-point queries on a BVH (the Metro method, Cignoni, Rocchini & Scopigno 1998) and a
 // best-first refinement that bounds the Hausdorff distance from above (distance to a surface is
-// 1-Lipschitz). Implementation: lod/src/simplify/mesh_distance.cpp; the bounds:
-// docs/lod-generation.md.
+// 1-Lipschitz), with a query only for the vertices that could hold the maximum. Implementation:
+// lod/src/simplify/mesh_distance.cpp; the bounds: docs/lod-generation.md.
 //
 // Thread: any; the measurement uses `threads` threads (default one: the caller's) and returns when
 // they are done.
@@ -22,8 +22,9 @@ namespace hmdnode {
 
 struct MeshDistanceOptions {
     // Area samples per direction, spread over the sampled mesh's triangles in proportion to their
-    // area, at least one per triangle of non-zero area; 0 = an eighth of the sampled mesh's
-    // triangle count, at least 1024. Every vertex is measured too (for the maximum and its bound).
+    // area (a triangle smaller than total_area / samples may get none); 0 = an eighth of the
+    // sampled mesh's triangle count, at least 1024. Every vertex is bounded too, and queried
+    // where its bound could hold the maximum (so the maximum over the vertices is exact).
     size_t samples = 0;
     // Extra queries per direction spent tightening the Hausdorff bracket (best-first subdivision
     // of the triangles whose upper bound is largest); 0 = max(768, T / 16), T the larger triangle

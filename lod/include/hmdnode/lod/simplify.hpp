@@ -63,6 +63,31 @@ struct SimplifyStats {
     size_t collapses = 0;  // edge-collapse algorithms: collapses applied; 0 for the others
 };
 
+// Where one simplify() call's time went, phase by phase, in milliseconds of steady_clock (wall)
+// time: filled when SimplifyOptions::profile points at one. qem and curvature-qem (the pass
+// schedule) fill every phase when they run on the calling thread alone (threads <= 1, or an input
+// below the helper's size); otherwise, and for the other algorithms, only total_ms, collapses and
+// passes. Each phase is charged its own time, less that of the phases timed inside it (a snapshot
+// taken in the middle of the collapses counts as a snapshot, not as applying). The timers read
+// the clock only when there is a profile.
+struct SimplifyProfile {
+    double setup_ms = 0.0;       // the engine's mesh: welding, classification, quadrics
+    double adjacency_ms = 0.0;   // the flat lists of faces around each position, once per pass
+    double candidates_ms = 0.0;  // evaluating candidates (every edge, then the touched ones'
+                                 // edges each pass) and dropping the stale ones
+    double sort_ms = 0.0;        // the radix sort of the candidates, per pass
+    double apply_ms = 0.0;       // the collapses in cost order with their checks (fold guard,
+                                 // link condition, seams, borders) and the weights of their
+                                 // attribute blends, less what follows
+    double attributes_ms = 0.0;  // attribute interpolation: the blends the collapses left
+                                 // pending, applied after the pass or before a snapshot
+    double snapshots_ms = 0.0;   // copying out each level (compact_primitive)
+    double other_ms = 0.0;       // the rest of the call: the end, the baked light, the checks
+    double total_ms = 0.0;       // the whole call
+    size_t collapses = 0;        // as SimplifyStats
+    size_t passes = 0;
+};
+
 struct SimplifyOptions {
     // Open borders (edges with one face) keep their vertices where they are.
     bool lock_borders = false;
@@ -86,6 +111,9 @@ struct SimplifyOptions {
     // Filled, when not null, by the edge-collapse algorithms (the figures of the last primitive
     // simplified).
     SimplifyStats* stats = nullptr;
+    // Filled, when not null, with where the call's time went (see SimplifyProfile); no clock is
+    // read without one.
+    SimplifyProfile* profile = nullptr;
 };
 
 struct SimplifiedLevel {
