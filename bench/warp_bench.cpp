@@ -3,7 +3,10 @@
 // same run: the fused pass (the lens model per pixel; with and without chromatic-aberration
 // correction), the distortion-mesh pass at the mesh the node would choose (the coarsest within
 // 0.5 px of the model), and the floor (three bilinear samples per pixel, no lens model: the mesh
-// pass over one cell). Target: the fused pass <= 1.15x its floor. Every pass of a configuration
+// pass over one cell), and the fused pass with the latency marker drawn (Renderer::
+// set_latency_marker, docs/latency.md, "The overlay") beside it without (the fused row: off is the
+// pass itself, nothing drawn). Targets: the fused pass <= 1.15x its floor; the marker adds <= 0.1
+// ms (on lavapipe at 360x400 per eye). Every pass of a configuration
 // runs on one renderer, in alternating blocks of warps (see below), so machine drift hits all
 // alike; medians and 99th percentiles; the renderer is HMDNODE_RENDERER's (vulkan by default).
 //
@@ -50,8 +53,8 @@ int main(int argc, char** argv) {
     const Config configs[] = {{"generic", 360, 400},       {"valve-index", 360, 400},
                               {"generic", 540, 600},       {"valve-index", 540, 600},
                               {"valve-index", 1440, 1600}, {"none", 360, 400}};
-    enum Pass { fused, fused_no_ca, mesh_pass, floor_pass, kPasses };
-    const char* pass_names[kPasses] = {"fused", "fused, no CA", "mesh", "floor"};
+    enum Pass { fused, fused_marker, fused_no_ca, mesh_pass, floor_pass, kPasses };
+    const char* pass_names[kPasses] = {"fused", "fused + marker", "fused, no CA", "mesh", "floor"};
     struct Bench {
         Config config;
         int mesh_cells = 0;
@@ -61,6 +64,7 @@ int main(int argc, char** argv) {
         StereoViews views;
         std::vector<DrawItem> items;
         std::vector<double> warp_ms[kPasses], scene_ms;
+        LatencyMarkerOverlay marker;  // the node's place for it, 4 px cells
     };
     std::vector<Bench> benches;
     std::string device, backend;
@@ -94,6 +98,7 @@ int main(int argc, char** argv) {
         backend = b.renderer->backend_name();
         if (Status s = b.renderer->upload(*scene); !s.ok()) return 1;
         b.profile = profile;
+        b.marker = default_latency_marker_overlay(c.w, c.h, 4);
         b.mesh[0] = mesh[0], b.mesh[1] = mesh[1], b.one[0] = one[0], b.one[1] = one[1];
         StereoRig rig = StereoRig::typical();
         rig.eye[0] = mesh_render_fov(mesh[0], 0.1);
@@ -117,11 +122,13 @@ int main(int argc, char** argv) {
     auto set_up = [&](Bench& b, int p) -> Status {
         const Config& c = b.config;
         Renderer& r = *b.renderer;
-        Status s = p == fused || p == fused_no_ca ? r.set_lens_warp(c.w, c.h, b.profile)
-                   : p == mesh_pass               ? r.set_warp(c.w, c.h, b.mesh[0], b.mesh[1])
-                                                  : r.set_warp(c.w, c.h, b.one[0], b.one[1]);
+        Status s = p == fused || p == fused_marker || p == fused_no_ca
+                       ? r.set_lens_warp(c.w, c.h, b.profile)
+                   : p == mesh_pass ? r.set_warp(c.w, c.h, b.mesh[0], b.mesh[1])
+                                    : r.set_warp(c.w, c.h, b.one[0], b.one[1]);
         if (!s.ok()) return s;
         if (p == fused_no_ca) r.set_chromatic_aberration(false);
+        r.set_latency_marker(p == fused_marker ? &b.marker : nullptr);
         return r.render(b.views, b.items, nullptr).ok() ? Status::success()
                                                         : make_error("render failed");
     };
@@ -138,6 +145,7 @@ int main(int argc, char** argv) {
                     const glm::dquat delta =
                         glm::angleAxis(deg_to_rad(0.5 * (j % 5)), glm::dvec3(0.0, 1.0, 0.0));
                     const int64_t t0 = now_ns();
+                    if (p == fused_marker) b.marker.payload = make_latency_marker_payload(t0, j);
                     if (!b.renderer->warp(delta, nullptr).ok()) return 1;
                     if (j >= 2) b.warp_ms[p].push_back(double(now_ns() - t0) * 1e-6);
                 }
@@ -153,7 +161,7 @@ int main(int argc, char** argv) {
                   "warps per pass; floor = three bilinear samples per pixel, no lens model\n",
                   blocks, block);
     out += line;
-    std::snprintf(line, sizeof line, "%-12s %10s %5s | %-13s %8s %8s %8s %8s\n", "profile", "eye",
+    std::snprintf(line, sizeof line, "%-12s %10s %5s | %-14s %8s %8s %8s %8s\n", "profile", "eye",
                   "mesh", "pass", "p50", "p99", "x floor", "target");
     out += line;
     for (const Bench& b : benches) {
@@ -163,13 +171,19 @@ int main(int argc, char** argv) {
         const double floor_p50 = quantile(b.warp_ms[floor_pass], 0.5);
         for (int p = 0; p < kPasses; ++p) {
             const double p50 = quantile(b.warp_ms[p], 0.5);
-            std::snprintf(line, sizeof line, "%-12s %10s %5d | %-13s %8.2f %8.2f %8.2f %8s\n",
+            std::snprintf(line, sizeof line, "%-12s %10s %5d | %-14s %8.2f %8.2f %8.2f %8s\n",
                           p == 0 ? c.profile : "", p == 0 ? eye : "", b.mesh_cells, pass_names[p],
                           p50, quantile(b.warp_ms[p], 0.99), p50 / floor_p50,
                           p == fused ? "<= 1.15" : "");
             out += line;
         }
-        std::snprintf(line, sizeof line, "%-12s %10s %5s | %-13s %8.2f\n", "", "", "",
+        // The marker side by side: on minus off (the fused row), per stereo frame.
+        std::snprintf(line, sizeof line, "%-12s %10s %5s | %-14s %+8.3f %8s %8s %8s\n", "", "", "",
+                      "(marker adds)",
+                      quantile(b.warp_ms[fused_marker], 0.5) - quantile(b.warp_ms[fused], 0.5), "",
+                      "", "<= +0.1");
+        out += line;
+        std::snprintf(line, sizeof line, "%-12s %10s %5s | %-14s %8.2f\n", "", "", "",
                       "(scene render)", quantile(b.scene_ms, 0.5));
         out += line;
     }
@@ -177,7 +191,8 @@ int main(int argc, char** argv) {
     out +=
         "mesh: the coarsest mesh within 0.5 px of the lens model at that size (what the node "
         "chooses); none = the rotational warp alone (one sample per pixel in every pass); scene "
-        "= the demo room at its coarsest levels, same run\n";
+        "= the demo room at its coarsest levels, same run; marker = the latency marker (14x14 "
+        "cells of 4 px) into both eyes, off in every other row\n";
     std::fputs(out.c_str(), stdout);
     if (write_docs &&
         !bench::write_result("warp-bench", "The late warp + lens pass beside its floor",

@@ -1,6 +1,6 @@
-// The camera observer (camera_observer.hpp): decode, unwrap the sample's time, match the
-// present, pick the vsync whose lit interval the exposure caught. Cost: per frame one marker
-// decode over the frame, a binary search of the presents.
+// The camera observer (camera_observer.hpp): decode (YUYV: its luma), unwrap the sample's time,
+// match the present, pick the vsync whose lit interval the exposure caught. Cost: per frame one
+// marker decode over the frame, a binary search of the presents.
 #include "hmdnode/firmware_host/camera_observer.hpp"
 
 #include <algorithm>
@@ -52,31 +52,58 @@ void match(ObservedFrame& f, const LatencyMarkerPayload& p,
 
 }  // namespace
 
-ObserverResult observe_camera_frames(const std::vector<CameraFrame>& frames,
-                                     const std::vector<FrameRecord>& presents, int64_t period_ns) {
+CameraSighting sight_camera_frame(const CameraFrame& cf) {
+    CameraSighting s;
+    s.camera_sequence = cf.sequence;
+    s.capture_ns = exposure_middle_ns(cf, 0.5 * double(cf.height));
+    const bool grey = cf.fourcc == kFourccGrey, yuyv = cf.fourcc == kFourccYuyv;
+    const uint32_t min_stride = yuyv ? cf.width * 2 : cf.width;
+    if ((!grey && !yuyv) || cf.bytes_per_line < min_stride ||
+        cf.bytes.size() < size_t(cf.bytes_per_line) * cf.height) {
+        s.reason = "not a GREY or YUYV frame";
+        return s;
+    }
+    const uint8_t* pixels = cf.bytes.data();
+    int stride = int(cf.bytes_per_line);
+    std::vector<uint8_t> luma;
+    if (yuyv) {  // Y0 U Y1 V: every other byte is a pixel's luma
+        luma.resize(size_t(cf.width) * cf.height);
+        for (uint32_t y = 0; y < cf.height; ++y)
+            for (uint32_t x = 0; x < cf.width; ++x)
+                luma[size_t(y) * cf.width + x] = cf.bytes[size_t(y) * cf.bytes_per_line + 2 * x];
+        pixels = luma.data();
+        stride = int(cf.width);
+    }
+    const LatencyMarkerDecode d =
+        decode_latency_marker(pixels, int(cf.width), int(cf.height), stride);
+    if (!d.ok) {
+        s.reason = d.reason;
+        return s;
+    }
+    s.decoded = true;
+    s.payload = d.payload;
+    s.capture_ns = exposure_middle_ns(cf, d.y - 0.5);
+    return s;
+}
+
+ObserverResult match_camera_sightings(const std::vector<CameraSighting>& sightings,
+                                      const std::vector<FrameRecord>& presents, int64_t period_ns) {
     ObserverResult out;
-    out.frames.reserve(frames.size());
+    out.frames.reserve(sightings.size());
     std::vector<double> observed, node, diff;
     bool have_last = false;
     uint64_t last = 0;
-    for (const CameraFrame& cf : frames) {
+    for (const CameraSighting& s : sightings) {
         ObservedFrame f;
-        f.camera_sequence = cf.sequence;
+        f.camera_sequence = s.camera_sequence;
+        f.capture_ns = s.capture_ns;
         ++out.summary.frames;
-        if (cf.fourcc != kFourccGrey || cf.bytes.size() < size_t(cf.bytes_per_line) * cf.height ||
-            cf.bytes_per_line < cf.width) {
-            f.reason = "not a GREY frame";
+        if (!s.decoded) {
+            f.reason = s.reason;
         } else {
-            const LatencyMarkerDecode d = decode_latency_marker(
-                cf.bytes.data(), int(cf.width), int(cf.height), int(cf.bytes_per_line));
-            if (!d.ok) {
-                f.reason = d.reason;
-            } else {
-                f.decoded = true;
-                f.capture_ns = exposure_middle_ns(cf, d.y - 0.5);
-                f.sample_time_ns = unwrap_sample_ns(d.payload.sample_time_us, f.capture_ns);
-                match(f, d.payload, presents, period_ns);
-            }
+            f.decoded = true;
+            f.sample_time_ns = unwrap_sample_ns(s.payload.sample_time_us, f.capture_ns);
+            match(f, s.payload, presents, period_ns);
         }
         if (!f.decoded) {
             ++out.summary.undecoded;
@@ -100,6 +127,14 @@ ObserverResult observe_camera_frames(const std::vector<CameraFrame>& frames,
     out.summary.node_ms = percentiles(std::move(node));
     out.summary.difference_ms = percentiles(std::move(diff));
     return out;
+}
+
+ObserverResult observe_camera_frames(const std::vector<CameraFrame>& frames,
+                                     const std::vector<FrameRecord>& presents, int64_t period_ns) {
+    std::vector<CameraSighting> sightings;
+    sightings.reserve(frames.size());
+    for (const CameraFrame& cf : frames) sightings.push_back(sight_camera_frame(cf));
+    return match_camera_sightings(sightings, presents, period_ns);
 }
 
 }  // namespace hmdnode

@@ -8,7 +8,10 @@ namespace hmdnode {
 
 ReadBack read_back_rule(const DisplaySpec& display, const NodeConfig& node, bool zero_copy) {
     if (!node.read_back) return ReadBack::none;
-    // The mock display writes only every frames_every-th present; it reads no other pixels.
+    // The mock display writes only every frames_every-th present; it reads no other pixels,
+    // except for a watcher (a camera filming the panel), which sees every present.
+    if (display.type == "mock" && (display.mock.watcher || display.mock_watcher))
+        return ReadBack::every_present;
     if (display.type == "mock")
         return display.mock.frames_dir.empty() ? ReadBack::none : ReadBack::written_presents;
     // Zero-copy scan-out: the warp's output is the scanned-out buffer. Without a warp pass the

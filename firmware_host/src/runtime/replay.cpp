@@ -244,6 +244,7 @@ Result<NodeSpec> replay_node_spec(const ReplayOptions& opt, std::shared_ptr<cons
     ns.tracker = spec;
     ns.eye_tracker = eye_spec;
     ns.display.mock = opt.display;
+    ns.display.mock_watcher = opt.display_watcher;
     ns.renderer.config = opt.renderer;
     ns.node = opt.node;
     return ns;

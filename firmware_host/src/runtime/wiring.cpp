@@ -122,6 +122,11 @@ Result<std::unique_ptr<Display>> make_display(const DisplaySpec& spec, Clock& cl
     if (spec.type == "mock") {
         MockDisplayConfig dc = spec.mock;
         dc.vsync_epoch_ns = clock.now_ns();
+        if (spec.mock_watcher) {
+            Result<PanelWatcher*> w = spec.mock_watcher(clock, dc);
+            if (!w.ok()) return w.error();
+            dc.watcher = *w;
+        }
         return create_mock_display(clock, dc);
     }
     if (spec.type == "kms") {

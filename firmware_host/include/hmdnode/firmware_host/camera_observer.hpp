@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "hmdnode/core/latency_marker.hpp"
 #include "hmdnode/firmware_host/node.hpp"
 #include "hmdnode/firmware_host/replay.hpp"
 #include "hmdnode/hal/camera.hpp"
@@ -47,8 +48,26 @@ struct ObserverResult {
     ObserverSummary summary;
 };
 
-// Decodes and matches GREY frames (others are reported undecoded) against the node's presents
-// (in present order, with the marker on) of a display whose period is period_ns.
+// One camera frame decoded, before it is matched: all a capture thread keeps of a frame (the
+// pixels go as soon as the marker is read).
+struct CameraSighting {
+    uint64_t camera_sequence = 0;
+    bool decoded = false;
+    std::string reason;  // why not decoded
+    LatencyMarkerPayload payload;
+    // The middle of the exposure at the marker's camera row (undecoded: at the frame's middle row).
+    int64_t capture_ns = 0;
+};
+
+// Decodes one frame: GREY, or YUYV (its luma); any other format is reported undecoded.
+CameraSighting sight_camera_frame(const CameraFrame& frame);
+
+// Matches sightings (in capture order) against the node's presents (in present order, with the
+// marker on) of a display whose period is period_ns.
+ObserverResult match_camera_sightings(const std::vector<CameraSighting>& sightings,
+                                      const std::vector<FrameRecord>& presents, int64_t period_ns);
+
+// sight_camera_frame on each frame, then match_camera_sightings.
 ObserverResult observe_camera_frames(const std::vector<CameraFrame>& frames,
                                      const std::vector<FrameRecord>& presents, int64_t period_ns);
 

@@ -36,8 +36,9 @@ enum class ReadBack {
     written_presents,  // the mock display writing frames: every frames_every-th present only
 };
 
-// The one read-back rule: none when node.read_back is off; the mock display: the presents it
-// writes (none without display.frames_dir); kms with zero-copy scan-out (the warp draws into the
+// The one read-back rule: none when node.read_back is off; the mock display: every present when
+// it has a watcher (mock.watcher or mock_watcher), else the presents it writes (none without
+// display.frames_dir); kms with zero-copy scan-out (the warp draws into the
 // scanned-out buffer): none while a warp pass runs (warp or distortion), else every present (the
 // frames are copied); any other display: every present.
 ReadBack read_back_rule(const DisplaySpec& display, const NodeConfig& node, bool zero_copy);

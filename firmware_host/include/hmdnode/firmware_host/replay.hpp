@@ -50,6 +50,10 @@ struct ReplayOptions {
     // Move a 6DoF trace so that its first position is the node's default head position.
     bool recentre = false;
     std::function<void(const FrameRecord&)> on_frame;  // progress (optional)
+    // The mock display's watcher, made when the node's clock and panel are (DisplaySpec::
+    // mock_watcher: a simulated camera filming the panel); the panel image is then read back at
+    // every present.
+    std::function<Result<PanelWatcher*>(Clock&, const MockDisplayConfig&)> display_watcher;
 };
 
 // NaN where there were no values (a capture's registration error: no truth).

@@ -144,12 +144,16 @@ struct DisplaySpec {
     std::string type = "mock";
     MockDisplayConfig mock;  // the mock panel's size, rate and frames; persistence (all types)
     KmsDisplayConfig kms;    // kms: device, connector, mode; vk-display: connector names it
+    // mock: made by make_display once the clock and the panel (its vsync epoch set) are known, the
+    // watcher the display tells of every present (a simulated camera filming it: `hmdnode latency
+    // --observer camera --camera sim`); it must outlive the display. Empty: mock.watcher as given.
+    std::function<Result<PanelWatcher*>(Clock&, const MockDisplayConfig&)> mock_watcher;
 };
 inline constexpr const char* kDisplayTypeNames = "mock, kms, vk-display";
 // One of kDisplayTypeNames.
 bool is_display_type(std::string_view type);
 Status check_display_spec(const DisplaySpec& spec, const WiringKeys& keys);
-// Vsync epoch: the clock's now.
+// Vsync epoch: the clock's now; a mock display's watcher from spec.mock_watcher where set.
 Result<std::unique_ptr<Display>> make_display(const DisplaySpec& spec, Clock& clock,
                                               const WiringKeys& keys);
 
