@@ -232,7 +232,7 @@ TEST(TrackingEvalCmd, ReferenceGlitchesAndAnUnobservableOffsetAreReported) {
         eval_summary("--reference " + ref.string() + " --estimate " + est.string(), dir / "g.json");
     EXPECT_EQ(s["reference_glitches"]["excursions"].get<int>(), 1);
     EXPECT_EQ(s["reference_glitches"]["samples_left_out"].get<int>(), 5);
-    EXPECT_LT(s["error_deg"]["max"].get<double>(), 0.01);
+    EXPECT_LT(s["error_deg"]["max"].get<double>(), 0.05);  // the noise: 0.5 mrad at most
     auto r = tool("tracking eval --reference " + ref.string() + " --estimate " + est.string());
     EXPECT_NE(r.output.find("warning: --reference " + ref.string() +
                             ": 2 step(s) the estimate's gyro does not see"),
