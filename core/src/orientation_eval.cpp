@@ -196,6 +196,28 @@ ReferenceGlitches find_glitches(const Trace& reference, const Trace& estimate,
     return g;
 }
 
+// The offset's scale (orientation_eval.hpp, top): the rms error at the fit (w, b) over the
+// reference's rms rotation rate over 50 ms spans, into r.
+void offset_scale(const std::vector<glm::dquat>& ref, const std::vector<glm::dquat>& est,
+                  const std::vector<int64_t>& times, const glm::dquat& w, const glm::dquat& b,
+                  OrientationEval* r) {
+    double e2 = 0, w2 = 0;
+    size_t nw = 0;
+    for (size_t i = 0, j = 0; i < ref.size(); ++i) {
+        const double e = angle_rad(ref[i], w * est[i] * b);
+        e2 += e * e;
+        while (j < ref.size() && times[j] < times[i] + 50 * kNsPerMs) ++j;
+        if (j >= ref.size()) continue;
+        const double rate = angle_rad(ref[i], ref[j]) / ns_to_s(times[j] - times[i]);
+        w2 += rate * rate;
+        ++nw;
+    }
+    const double rms_e = std::sqrt(e2 / double(ref.size()));
+    const double rms_w = nw ? std::sqrt(w2 / double(nw)) : 0.0;
+    r->reference_rate_rms_deg_s = rms_w * kRadToDeg;
+    r->time_offset_sigma_ms = rms_w > 0 ? rms_e / rms_w * 1e3 : INFINITY;
+}
+
 }  // namespace
 
 std::optional<std::string> trace_time_base(const Trace& trace) {
@@ -275,24 +297,7 @@ Result<OrientationEval> evaluate_orientation(const Trace& reference, const Trace
         AlignmentFit fit(ref, est);
         glm::dquat w0, b0;
         fit.global(w0, b0);
-        // Observability: the error at this fit over the reference's rotation rate.
-        double e2 = 0, w2 = 0;
-        size_t nw = 0;
-        for (size_t i = 0, j = 0; i < ref.size(); ++i) {
-            const double e = angle_rad(ref[i], w0 * est[i] * b0);
-            e2 += e * e;
-            while (j < ref.size() && times[j] < times[i] + 50 * kNsPerMs) ++j;
-            if (j >= ref.size()) continue;
-            const double rate = angle_rad(ref[i], ref[j]) / ns_to_s(times[j] - times[i]);
-            w2 += rate * rate;
-            ++nw;
-        }
-        const double rms_e = std::sqrt(e2 / double(ref.size()));
-        const double rms_w = nw ? std::sqrt(w2 / double(nw)) : 0.0;
-        r.reference_rate_rms_deg_s = rms_w * kRadToDeg;
-        const double sigma_s = rms_w > 0 ? rms_e / rms_w : INFINITY;
-        r.time_offset_sigma_ms = sigma_s * 1e3;
-
+        offset_scale(ref, est, times, w0, b0, &r);
         auto cost_at = [&](int64_t off, int rounds) {
             estimate_at(times, off, &est);
             return fit.local(w0, b0, rounds);

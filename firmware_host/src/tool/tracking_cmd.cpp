@@ -127,40 +127,30 @@ std::string offset_at_limit_warning(double offset_ms, double range_ms) {
     return b;
 }
 
-void run_eval(EvalArgs args) {
-    if (args.time_offset == "auto") {
-        args.options.fit_time_offset = true;
-    } else {
-        char* end = nullptr;
-        const double ms = std::strtod(args.time_offset.c_str(), &end);
-        if (args.time_offset.empty() || *end != '\0' || !std::isfinite(ms))
-            return errors.usage("--time-offset \"" + args.time_offset +
-                                "\" is neither auto nor milliseconds");
-        args.options.time_offset_s = ms * 1e-3;
+// Time bases (the traces' `time_base` comments): traces whose time 0 differ pair unrelated
+// instants, so they are refused (false: the error is set); a trace without one cannot be checked
+// (a note).
+bool check_time_bases(const EvalArgs& args, const Trace& ref, const Trace& est) {
+    const auto ref_base = trace_time_base(ref), est_base = trace_time_base(est);
+    if (ref_base && est_base && *ref_base != *est_base) {
+        errors.fail("--reference " + args.reference + " is on the time base \"" + *ref_base +
+                    "\" and --estimate " + args.estimate + " on \"" + *est_base +
+                    "\": their times do not share a zero, so comparing them would pair "
+                    "unrelated instants (record both from the same input: `record "
+                    "--backend rec` writes the estimate and --reference-out on the "
+                    "recording's TIME)");
+        return false;
     }
-    if (!errors.check_outputs({{"--report", args.report}, {"--plot", args.plot}})) return;
-    auto ref = read_trace_csv(args.reference);
-    if (!ref) return errors.fail("--reference " + ref.error().message);
-    auto est = read_trace_csv(args.estimate);
-    if (!est) return errors.fail("--estimate " + est.error().message);
-    // Time bases (the traces' `time_base` comments): traces whose time 0 differ pair unrelated
-    // instants, so they are refused; a trace without one cannot be checked (a note).
-    const auto ref_base = trace_time_base(*ref), est_base = trace_time_base(*est);
-    if (ref_base && est_base && *ref_base != *est_base)
-        return errors.fail("--reference " + args.reference + " is on the time base \"" + *ref_base +
-                           "\" and --estimate " + args.estimate + " on \"" + *est_base +
-                           "\": their times do not share a zero, so comparing them would pair "
-                           "unrelated instants (record both from the same input: `record "
-                           "--backend rec` writes the estimate and --reference-out on the "
-                           "recording's TIME)");
     if (!ref_base || !est_base)
         errors.note(std::string(!ref_base ? "--reference " + args.reference
                                           : "--estimate " + args.estimate) +
                     " has no time_base comment: that the two traces share a timeline is assumed, "
                     "not checked");
-    auto e = evaluate_orientation(*ref, *est, args.options);
-    if (!e) return errors.fail(e.error().message);
-    const ReferenceGlitches& g = e->glitches;
+    return true;
+}
+
+// The warnings of the reference's glitch check.
+void warn_reference_glitches(const EvalArgs& args, const ReferenceGlitches& g) {
     if (g.steps > 0) {
         char b[600];
         std::snprintf(b, sizeof b,
@@ -183,6 +173,29 @@ void run_eval(EvalArgs args) {
                       args.options.glitch_max_excursion_s, ns_to_s(g.unreturned_at_ns.front()));
         errors.warning(b);
     }
+}
+
+void run_eval(EvalArgs args) {
+    if (args.time_offset == "auto") {
+        args.options.fit_time_offset = true;
+    } else {
+        char* end = nullptr;
+        const double ms = std::strtod(args.time_offset.c_str(), &end);
+        if (args.time_offset.empty() || *end != '\0' || !std::isfinite(ms))
+            return errors.usage("--time-offset \"" + args.time_offset +
+                                "\" is neither auto nor milliseconds");
+        args.options.time_offset_s = ms * 1e-3;
+    }
+    if (!errors.check_outputs({{"--report", args.report}, {"--plot", args.plot}})) return;
+    auto ref = read_trace_csv(args.reference);
+    if (!ref) return errors.fail("--reference " + ref.error().message);
+    auto est = read_trace_csv(args.estimate);
+    if (!est) return errors.fail("--estimate " + est.error().message);
+    if (!check_time_bases(args, *ref, *est)) return;
+    auto e = evaluate_orientation(*ref, *est, args.options);
+    if (!e) return errors.fail(e.error().message);
+    const ReferenceGlitches& g = e->glitches;
+    warn_reference_glitches(args, g);
     // The same alignment and offset, the reference samples in the disturbed intervals left out.
     const Saturation sat = saturation_of(*est);
     std::vector<double> err_ex, tilt_ex, heading_ex;
