@@ -132,7 +132,102 @@ class AlignmentFit {
     const std::vector<glm::dquat>& est_;
 };
 
+double angle_rad(const glm::dquat& a, const glm::dquat& b) {
+    return 2.0 * std::acos(std::min(1.0, std::abs(glm::dot(a, b))));
+}
+
+// The reference's glitches (orientation_eval.hpp, top) among the reference samples `idx` (in time
+// order, each inside the estimate's span at `offset_ns`); left_out[i] set for those left out.
+ReferenceGlitches find_glitches(const Trace& reference, const Trace& estimate,
+                                const std::vector<size_t>& idx, int64_t offset_ns,
+                                const OrientationEvalOptions& o, std::vector<char>* left_out) {
+    ReferenceGlitches g;
+    if (idx.size() < 3) return g;
+    auto ref_q = [&](size_t k) { return glm::normalize(reference.samples[idx[k]].orientation); };
+    auto time = [&](size_t k) { return reference.samples[idx[k]].time_ns; };
+    auto est_q = [&](size_t k) {
+        return glm::normalize(estimate.pose_at(time(k) - offset_ns).orientation);
+    };
+    // The reference's rotation from sample a to b less the estimate's, degrees.
+    auto excess = [&](size_t a, size_t b) {
+        return (angle_rad(ref_q(a), ref_q(b)) - angle_rad(est_q(a), est_q(b))) * kRadToDeg;
+    };
+    std::vector<double> ex(idx.size() - 1);
+    for (size_t k = 0; k + 1 < idx.size(); ++k) ex[k] = excess(k, k + 1);
+    std::vector<double> sorted = ex;
+    std::sort(sorted.begin(), sorted.end());
+    const double med = percentile_sorted(sorted, 0.5);
+    std::vector<double> dev(ex.size());
+    for (size_t k = 0; k < ex.size(); ++k) dev[k] = std::abs(ex[k] - med);
+    std::sort(dev.begin(), dev.end());
+    const double sigma = 1.4826 * percentile_sorted(dev, 0.5);
+    g.threshold_deg = std::max(o.glitch_min_step_deg, med + 20.0 * sigma);
+    const int64_t max_ns = int64_t(std::llround(o.glitch_max_excursion_s * 1e9));
+    for (size_t k = 0; k < ex.size(); ++k) {
+        if (!(ex[k] > g.threshold_deg)) continue;
+        ++g.steps;
+        if (ex[k] > g.worst_step_deg) {
+            const double dt = ns_to_s(time(k + 1) - time(k));
+            g.worst_step_deg = ex[k];
+            g.worst_at_ns = time(k);
+            g.worst_reference_rate_deg_s = angle_rad(ref_q(k), ref_q(k + 1)) * kRadToDeg / dt;
+            g.worst_estimate_rate_deg_s = angle_rad(est_q(k), est_q(k + 1)) * kRadToDeg / dt;
+        }
+        // A later step after which the reference agrees with the estimate across both: an
+        // excursion, samples k+1..m left out.
+        bool closed = false;
+        for (size_t m = k + 1; m < ex.size() && time(m + 1) - time(k) <= max_ns; ++m) {
+            if (!(ex[m] > g.threshold_deg) || !(excess(k, m + 1) <= g.threshold_deg)) continue;
+            for (size_t j = k + 1; j <= m; ++j) (*left_out)[idx[j]] = 1;
+            g.samples_left_out += m - k;
+            ++g.excursions;
+            ++g.steps;
+            for (size_t j = k + 1; j <= m; ++j)  // steps inside the excursion, counted
+                if (j < m && ex[j] > g.threshold_deg) ++g.steps;
+            k = m;
+            closed = true;
+            break;
+        }
+        if (!closed) {
+            ++g.unreturned_steps;
+            g.unreturned_at_ns.push_back(time(k));
+        }
+    }
+    return g;
+}
+
+// The offset's scale (orientation_eval.hpp, top): the rms error at the fit (w, b) over the
+// reference's rms rotation rate over 50 ms spans, into r.
+void offset_scale(const std::vector<glm::dquat>& ref, const std::vector<glm::dquat>& est,
+                  const std::vector<int64_t>& times, const glm::dquat& w, const glm::dquat& b,
+                  OrientationEval* r) {
+    double e2 = 0, w2 = 0;
+    size_t nw = 0;
+    for (size_t i = 0, j = 0; i < ref.size(); ++i) {
+        const double e = angle_rad(ref[i], w * est[i] * b);
+        e2 += e * e;
+        while (j < ref.size() && times[j] < times[i] + 50 * kNsPerMs) ++j;
+        if (j >= ref.size()) continue;
+        const double rate = angle_rad(ref[i], ref[j]) / ns_to_s(times[j] - times[i]);
+        w2 += rate * rate;
+        ++nw;
+    }
+    const double rms_e = std::sqrt(e2 / double(ref.size()));
+    const double rms_w = nw ? std::sqrt(w2 / double(nw)) : 0.0;
+    r->reference_rate_rms_deg_s = rms_w * kRadToDeg;
+    r->time_offset_sigma_ms = rms_w > 0 ? rms_e / rms_w * 1e3 : INFINITY;
+}
+
 }  // namespace
+
+std::optional<std::string> trace_time_base(const Trace& trace) {
+    for (const std::string& c : trace.comments) {
+        const size_t at = c.find_first_not_of(' ');
+        if (at != std::string::npos && c.compare(at, 10, "time_base ") == 0)
+            return c.substr(at + 10);
+    }
+    return std::nullopt;
+}
 
 Result<OrientationEval> evaluate_orientation(const Trace& reference, const Trace& estimate,
                                              const OrientationEvalOptions& options) {
@@ -149,16 +244,21 @@ Result<OrientationEval> evaluate_orientation(const Trace& reference, const Trace
                           ? r.window_start_ns + int64_t(std::llround(options.duration_s * 1e9))
                           : reference.end_ns();
     // Reference samples in the window whose estimate, `margin` either side, is inside its span.
+    // Reference samples left out as glitches (found at the given offset, 0 when it is fitted).
+    std::vector<char> left_out(reference.samples.size(), 0);
     auto collect = [&](int64_t offset_ns, int64_t margin_ns, std::vector<int64_t>* times,
-                       std::vector<glm::dquat>* ref) {
+                       std::vector<glm::dquat>* ref, std::vector<size_t>* indices = nullptr) {
         times->clear();
         ref->clear();
-        for (const TraceSample& s : reference.samples) {
-            if (s.time_ns < r.window_start_ns || s.time_ns > r.window_end_ns) continue;
+        for (size_t i = 0; i < reference.samples.size(); ++i) {
+            const TraceSample& s = reference.samples[i];
+            if (s.time_ns < r.window_start_ns || s.time_ns > r.window_end_ns || left_out[i])
+                continue;
             const int64_t t = s.time_ns - offset_ns;
             if (t - margin_ns < estimate.start_ns() || t + margin_ns > estimate.end_ns()) continue;
             times->push_back(s.time_ns);
             ref->push_back(glm::normalize(s.orientation));
+            if (indices) indices->push_back(i);
         }
     };
     auto estimate_at = [&](const std::vector<int64_t>& times, int64_t offset_ns,
@@ -180,6 +280,11 @@ Result<OrientationEval> evaluate_orientation(const Trace& reference, const Trace
     std::vector<int64_t> times;
     std::vector<glm::dquat> ref, est;
     int64_t offset_ns = int64_t(std::llround(options.time_offset_s * 1e9));
+    if (options.leave_out_reference_glitches) {
+        std::vector<size_t> idx;
+        collect(offset_ns, 0, &times, &ref, &idx);
+        r.glitches = find_glitches(reference, estimate, idx, offset_ns, options, &left_out);
+    }
     if (options.fit_time_offset) {
         // The time offset: a grid of 1 ms steps over +-max_time_offset_s (each offset's W, B a few
         // rounds from the zero offset's fit: the alignment hardly depends on the offset), then a
@@ -192,6 +297,7 @@ Result<OrientationEval> evaluate_orientation(const Trace& reference, const Trace
         AlignmentFit fit(ref, est);
         glm::dquat w0, b0;
         fit.global(w0, b0);
+        offset_scale(ref, est, times, w0, b0, &r);
         auto cost_at = [&](int64_t off, int rounds) {
             estimate_at(times, off, &est);
             return fit.local(w0, b0, rounds);
@@ -199,13 +305,18 @@ Result<OrientationEval> evaluate_orientation(const Trace& reference, const Trace
         constexpr int64_t kStep = 1'000'000;
         int64_t best = 0;
         double best_cost = INFINITY;
+        double worst_cost = 0;
         for (int64_t off = -(range_ns / kStep) * kStep; off <= range_ns; off += kStep) {
             const double c = cost_at(off, 3);
+            worst_cost = std::max(worst_cost, c);
             if (c < best_cost) {
                 best_cost = c;
                 best = off;
             }
         }
+        // Flat: over the whole range the cost does not double (the offset moves the error less
+        // than the error's own floor).
+        r.time_offset_observable = worst_cost > 2.0 * best_cost;
         const int64_t edge = (range_ns / kStep) * kStep;
         double lo = double(std::max(best - kStep, -edge)),
                hi = double(std::min(best + kStep, edge));
@@ -229,6 +340,11 @@ Result<OrientationEval> evaluate_orientation(const Trace& reference, const Trace
         }
         offset_ns = std::llround((lo + hi) / 2.0);
         r.time_offset_at_range_limit = std::llabs(best) >= edge;
+        if (!r.time_offset_observable) {  // noise: the given offset (0) instead
+            r.unobservable_fit_ms = double(offset_ns) * 1e-6;
+            offset_ns = int64_t(std::llround(options.time_offset_s * 1e9));
+            r.time_offset_at_range_limit = false;
+        }
     }
     r.time_offset_ns = offset_ns;
     collect(offset_ns, 0, &times, &ref);

@@ -318,9 +318,13 @@ glm::dquat quat_from_yaw_pitch_roll(double yaw, double pitch, double roll) {
 // options (step 2), and what the rows so far leave for the next one and the account (step 3).
 class TableImporter {
   public:
-    TableImporter(const std::vector<Line>& lines, const std::string& source,
+    TableImporter(const std::vector<Line>& lines, bool last_unterminated, const std::string& source,
                   const TraceImportOptions& options, TraceImportReport& rep)
-        : lines_(lines), source_(source), options_(options), rep_(rep) {}
+        : lines_(lines),
+          last_unterminated_(last_unterminated),
+          source_(source),
+          options_(options),
+          rep_(rep) {}
 
     Result<Trace> run() {
         if (Status s = find_table(); !s.ok()) return s.error();
@@ -373,7 +377,7 @@ class TableImporter {
             for (size_t i = data_at_; i-- > 0;) {
                 if (trace_text::is_blank(lines_[i].text)) continue;
                 if (!last_nonblank) last_nonblank = i;
-                split_fields(strip_hash(lines_[i].text), sep_, fields_);
+                split_names(lines_[i].text, n);
                 if (fields_.size() == n) {
                     names_at = i;
                     break;
@@ -388,16 +392,34 @@ class TableImporter {
         return {};
     }
 
+    // Splits a header line ('#' removed) into fields_: by the rows' separator, or, when that does
+    // not give `n` fields, by another separator that does (a header separated by spaces over
+    // comma-separated rows); the other separator's name, "" when the rows' own served.
+    std::string split_names(std::string_view line, size_t n) {
+        split_fields(strip_hash(line), sep_, fields_);
+        if (fields_.size() == n) return {};
+        for (const Separator& s : kAutoSeparators) {
+            if (s.c == sep_.c && s.whitespace == sep_.whitespace) continue;
+            split_fields(strip_hash(line), s, fields_);
+            if (fields_.size() == n && !all_numeric(fields_)) return s.name;
+        }
+        split_fields(strip_hash(line), sep_, fields_);
+        return {};
+    }
+
     void read_column_names(std::optional<size_t> names_at) {
         split_fields(lines_[data_at_].text, sep_, fields_);
         n_fields_ = fields_.size();
         if (names_at) {
-            split_fields(strip_hash(lines_[*names_at].text), sep_, fields_);
+            const std::string other = split_names(lines_[*names_at].text, n_fields_);
             if (fields_.size() == n_fields_) {
                 for (std::string_view f : fields_) names_.push_back(make_name(f));
-                rep_.notes.push_back("column names from line " +
-                                     std::to_string(lines_[*names_at].number) +
-                                     "; data from line " + std::to_string(lines_[data_at_].number));
+                rep_.notes.push_back(
+                    "column names from line " + std::to_string(lines_[*names_at].number) +
+                    (other.empty()
+                         ? ""
+                         : " (separated by " + other + ", the rows by " + sep_.name + ")") +
+                    "; data from line " + std::to_string(lines_[data_at_].number));
             } else {
                 rep_.notes.push_back("line " + std::to_string(lines_[*names_at].number) + " has " +
                                      std::to_string(fields_.size()) + " fields but rows have " +
@@ -465,6 +487,7 @@ class TableImporter {
             unit_how = "assumed: the column name gives no unit";
         }
         ns_per_ = *ns_per;
+        unit_given_ = unit_how == "as given";
         rep_.notes.push_back("time: " + time_col_.label + ", " + unit_name(ns_per_) + " (" +
                              unit_how + ")");
         return {};
@@ -619,13 +642,11 @@ class TableImporter {
                 continue;
             }
             split_fields(line.text, sep_, fields_);
+            const bool cut_candidate = li == last_content && li != data_at_;
             if (fields_.size() != n_fields_) {
-                if (li == last_content && fields_.size() < n_fields_ && li != data_at_) {
-                    rep_.truncated_last_row_dropped = true;
-                    rep_.notes.push_back("the last row (line " + std::to_string(line.number) +
-                                         ") has " + std::to_string(fields_.size()) + " of " +
-                                         std::to_string(n_fields_) +
-                                         " fields (a cut-off recording): dropped");
+                if (cut_candidate && fields_.size() < n_fields_) {
+                    drop_cut_last_row(line, "it has " + std::to_string(fields_.size()) + " of " +
+                                                std::to_string(n_fields_) + " fields");
                     continue;
                 }
                 return make_error(
@@ -634,7 +655,16 @@ class TableImporter {
                     std::to_string(lines_[data_at_].number) + ", the first data row)");
             }
             ++rep_.rows_read;
-            if (Status s = read_row(line, trace); !s.ok()) return s;
+            if (Status s = read_row(line, trace); !s.ok()) {
+                // A last row without a line ending that does not read: the recorder stopped in
+                // the middle of one of its fields.
+                if (!(cut_candidate && last_unterminated_)) return s;
+                --rep_.rows_read;
+                std::string why = s.error().message;
+                const std::string at = where(source_, line.number);
+                if (why.rfind(at, 0) == 0) why.erase(0, at.size());
+                drop_cut_last_row(line, "it has no line ending and " + why);
+            }
         }
         if (trace.samples.empty()) return make_error(source_ + ": no data rows");
         rep_.samples_written = trace.samples.size();
@@ -643,6 +673,15 @@ class TableImporter {
             rep_.time_offset_ns = std::abs(off) < 9.2e18L ? int64_t(off) : 0;
         }
         return {};
+    }
+
+    void drop_cut_last_row(const Line& line, const std::string& why) {
+        rep_.truncated_last_row_dropped = true;
+        const std::string m = where(source_, line.number) +
+                              "the last row is cut short (a recording stopped mid-row: " + why +
+                              "); dropped";
+        rep_.notes.push_back(m);
+        rep_.warnings.push_back(m);
     }
 
     // One row of n_fields_ fields (in fields_): its sample, repaired, appended unless dropped.
@@ -785,6 +824,7 @@ class TableImporter {
         // Angular speed of this step: a jump no head makes (a wrong order, a glitch).
         const double speed =
             rad_to_deg(angle_between_rad(q, prev.orientation)) / ns_to_s(t_ns - prev.time_ns);
+        max_speed_seen_ = std::max(max_speed_seen_, speed);
         if (speed > options_.max_angular_speed_deg_s) {
             ++rep_.fast_rotations;
             if (on_fast_ == "refuse")
@@ -846,6 +886,54 @@ class TableImporter {
                                  (rep_.fast_rotations_dropped ? ": dropped" : ": kept (reported)"));
     }
 
+    // A rate above 2 kHz (a head tracker logs at 1 kHz at most) with steps above the angular speed
+    // limit: a wrong time unit, the result merely implausible (a 60 Hz log in 100 ns ticks read as
+    // ns: 6 kHz and 100 times the speed). Refused, naming the units that give a plausible rate
+    // (10 Hz..2 kHz) and speed; a warning instead when the unit was given (--time-unit,
+    // --time-scale). A rate above 2 kHz alone is a warning.
+    Status check_rate_and_speed(const TraceStats& st) {
+        constexpr double kMaxRateHz = 2000.0, kMinRateHz = 10.0;
+        const double rate = 1e9 / double(st.median_interval_ns);
+        if (!(rate > kMaxRateHz)) return {};
+        const double limit = options_.max_angular_speed_deg_s;
+        const bool fast_turns = max_speed_seen_ > limit;
+        std::string likely;
+        for (const auto& [name, per] : std::initializer_list<std::pair<const char*, long double>>{
+                 {"--time-unit s", 1e9L},
+                 {"--time-unit ms", 1e6L},
+                 {"--time-unit us", 1e3L},
+                 {"--time-unit ns", 1.0L},
+                 {"--time-scale 1e-7 (100 ns ticks: .NET DateTime/TimeSpan, Windows FILETIME)",
+                  100.0L},
+                 {"--time-scale 2.0833333e-8 (48 MHz ticks)", 1e9L / 48e6L}}) {
+            const double f = double(per / ns_per_);
+            if (per == ns_per_ || !(rate / f >= kMinRateHz && rate / f <= kMaxRateHz) ||
+                !(max_speed_seen_ / f <= limit))
+                continue;
+            likely += std::string(likely.empty() ? "" : "; ") + "with " + name + ": " +
+                      fmt("%.4g Hz", rate / f) + ", the fastest step " +
+                      fmt("%.0f deg/s", max_speed_seen_ / f);
+        }
+        const std::string what = source_ + ": " + time_col_.label + " read as " +
+                                 unit_name(ns_per_) + " gives a median rate of " +
+                                 fmt("%.4g Hz", rate) + " (above the 2 kHz a head tracker logs at)";
+        if (!fast_turns) {
+            rep_.warnings.push_back(what + ": check the time unit" +
+                                    (likely.empty() ? "" : " (" + likely + ")"));
+            return {};
+        }
+        const std::string m =
+            what + " and steps up to " + fmt("%.0f deg/s", max_speed_seen_) + " (" +
+            std::to_string(rep_.fast_rotations) + " above " + fmt("%g", limit) +
+            " deg/s): both implausible, the time unit is likely wrong" +
+            (likely.empty() ? std::string("; check the time unit") : "; " + likely);
+        if (unit_given_) {
+            rep_.warnings.push_back(m + " (kept: the unit was given)");
+            return {};
+        }
+        return make_error(m + "; give the unit with --time-unit or --time-scale");
+    }
+
     // A median interval or a duration no head tracker has: an error naming the likely time unit.
     Status check_time_plausible(const Trace& trace) {
         if (trace.samples.size() < 2) return {};
@@ -880,6 +968,7 @@ class TableImporter {
                 " s, implausible for a head tracker (median 10 us to 10 s, at most a day)" +
                 (likely.empty() ? std::string("; check the time unit") : likely));
         }
+        if (Status s = check_rate_and_speed(st); !s.ok()) return s;
         if (st.median_interval_ns < 100 * kNsPerUs || st.median_interval_ns > kNsPerSecond)
             rep_.notes.push_back("the median interval " +
                                  fmt("%.6g", ns_to_s(st.median_interval_ns)) +
@@ -893,6 +982,13 @@ class TableImporter {
         trace.comments.push_back(
             "time: source " + time_col_.label + " in " + unit_name(ns_per_) +
             (options_.rebase_time ? ", rebased to 0 at source time " + t0_text_ : ""));
+        // What time 0 is (docs/trace-format.md): `hmdnode tracking eval` refuses two traces
+        // whose time bases differ.
+        trace.comments.push_back(options_.rebase_time
+                                     ? "time_base first_sample import " + src_name +
+                                           " (0 = its first row)"
+                                     : "time_base source " + src_name + " " + time_col_.label +
+                                           " (" + unit_name(ns_per_) + ")");
         trace.comments.push_back(
             "fixes: " + std::to_string(rep_.sign_flips_fixed) + " sign flips, " +
             std::to_string(rep_.duplicate_times_dropped) + " repeated times dropped, " +
@@ -901,6 +997,7 @@ class TableImporter {
     }
 
     const std::vector<Line>& lines_;
+    bool last_unterminated_;  // the text does not end in a line ending
     const std::string& source_;
     const TraceImportOptions& options_;
     TraceImportReport& rep_;
@@ -914,6 +1011,7 @@ class TableImporter {
     // Step 2.
     Column time_col_;
     long double ns_per_ = 1e9L;
+    bool unit_given_ = false;  // --time-unit or --time-scale
     std::optional<glm::dquat> frame_change_;
     bool mirror_z_ = false;  // a left-handed source: the reflection z -> -z
     std::string on_fast_;
@@ -924,6 +1022,7 @@ class TableImporter {
     size_t prev_line_ = 0;
     std::string prev_time_text_;
     double worst_norm_ = 1.0;
+    double max_speed_seen_ = 0.0;  // deg/s, the fastest step, kept or dropped
 };
 
 }  // namespace
@@ -934,7 +1033,8 @@ Result<Trace> import_trace_text(const std::string& text, const std::string& sour
     TraceImportReport& rep = out_report ? *out_report : local;
     rep = TraceImportReport{};
     const std::vector<Line> lines = trace_text::split_lines(text);
-    return TableImporter(lines, source, options, rep).run();
+    const bool unterminated = !text.empty() && text.back() != '\n';
+    return TableImporter(lines, unterminated, source, options, rep).run();
 }
 
 Result<Trace> import_trace_table(const std::filesystem::path& path,

@@ -158,6 +158,112 @@ TEST(OrientationEval, AKnownTimeOffsetIsRecoveredWithTheRotations) {
     EXPECT_TRUE(r->time_offset_at_range_limit);
 }
 
+// The reference with an excursion the estimate does not see (a pose solver's glitch: 30 deg for
+// 20 ms, 10 samples at 500 Hz, the gyro reading the motion only) is found, left out and counted;
+// kept, it reads as a 30 deg error. A step that does not come back is counted, nothing left out.
+TEST(OrientationEval, ReferenceGlitchesTheGyroDoesNotSeeAreLeftOutAndCounted) {
+    auto build = [](Trace* ref, Trace* est, int glitch_from, int glitch_to) {
+        for (int i = 0; i < 10000; ++i) {  // 10 s at 1 kHz
+            TraceSample s;
+            s.time_ns = int64_t(i) * 1'000'000 + 1'000'000'000;
+            s.orientation = motion(i * 1e-3);
+            est->samples.push_back(s);
+        }
+        for (int i = 10; i < 4990; ++i) {  // 500 Hz
+            TraceSample r;
+            r.time_ns = int64_t(i) * 2'000'000 + 1'000'000'000;
+            glm::dquat q = motion(i * 2e-3);
+            if (i >= glitch_from && i < glitch_to)
+                q = glm::angleAxis(30 * kDeg, glm::dvec3(1, 0, 0)) * q;
+            r.orientation = kWorld * q * kBody;
+            ref->samples.push_back(r);
+        }
+    };
+    Trace ref, est;
+    build(&ref, &est, 2000, 2010);
+    auto r = evaluate_orientation(ref, est);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_EQ(r->glitches.steps, 2u);
+    EXPECT_EQ(r->glitches.excursions, 1u);
+    EXPECT_EQ(r->glitches.samples_left_out, 10u);
+    EXPECT_EQ(r->glitches.unreturned_steps, 0u);
+    EXPECT_EQ(r->samples, ref.samples.size() - 10);
+    EXPECT_EQ(r->glitches.worst_at_ns, int64_t(1999) * 2'000'000 + 1'000'000'000);
+    EXPECT_GT(r->glitches.worst_reference_rate_deg_s, 10000.0);  // 30 deg in 2 ms
+    EXPECT_LT(r->glitches.worst_estimate_rate_deg_s, 100.0);
+    EXPECT_LT(r->error.max, 1e-3);
+    EXPECT_LT(angle_between(r->world_alignment, kWorld), 1e-6);
+    OrientationEvalOptions keep;
+    keep.leave_out_reference_glitches = false;
+    auto k = evaluate_orientation(ref, est, keep);
+    ASSERT_TRUE(k.ok());
+    EXPECT_EQ(k->glitches.steps, 0u);
+    EXPECT_GT(k->error.max, 29.0);
+    // A jump that stays: counted, not left out.
+    Trace ref2, est2;
+    build(&ref2, &est2, 3000, 100000);
+    auto s = evaluate_orientation(ref2, est2);
+    ASSERT_TRUE(s.ok());
+    EXPECT_EQ(s->glitches.unreturned_steps, 1u);
+    EXPECT_EQ(s->glitches.samples_left_out, 0u);
+    ASSERT_EQ(s->glitches.unreturned_at_ns.size(), 1u);
+    EXPECT_EQ(s->glitches.unreturned_at_ns[0], int64_t(2999) * 2'000'000 + 1'000'000'000);
+}
+
+// A still device: no motion tells a time offset, so the search's result (noise, at its edge) is
+// not used and the result says why; with motion the same reference noise leaves it observable.
+TEST(OrientationEval, AnOffsetAStillDeviceCannotShowIsNotFitted) {
+    for (bool moving : {false, true}) {
+        Trace ref, est;
+        uint64_t seed = 12345;
+        auto noise = [&] {  // uniform in [-1, 1]
+            seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+            return double(seed >> 11) / double(1ull << 52) - 1.0;
+        };
+        for (int i = 0; i < 6000; ++i) {  // 6 s at 1 kHz; still: a gyro bias drifts its heading
+            TraceSample s;
+            s.time_ns = int64_t(i) * 1'000'000 + 1'000'000'000;
+            const glm::dquat m = moving ? motion(i * 1e-3) : glm::dquat(1, 0, 0, 0);
+            s.orientation =
+                glm::angleAxis(moving ? 0.0 : 0.002 * i * 1e-3, glm::dvec3(0, 1, 0)) * m;
+            est.samples.push_back(s);
+        }
+        for (int i = 300; i < 2700; ++i) {  // 500 Hz, 0.6 .. 5.4 s, 0.05 deg of noise
+            TraceSample r;
+            r.time_ns = int64_t(i) * 2'000'000 + 1'000'000'000;
+            const glm::dquat m = moving ? motion(i * 2e-3) : glm::dquat(1, 0, 0, 0);
+            const glm::dvec3 n(noise(), noise(), noise());
+            r.orientation = kWorld * m * kBody * glm::angleAxis(0.05 * kDeg, glm::normalize(n));
+            ref.samples.push_back(r);
+        }
+        OrientationEvalOptions fit;
+        fit.fit_time_offset = true;
+        auto r = evaluate_orientation(ref, est, fit);
+        ASSERT_TRUE(r.ok()) << r.error().message;
+        EXPECT_EQ(r->glitches.steps, 0u) << moving;
+        std::printf(
+            "%s: observable %d, sigma %.1f ms, rate %.2f deg/s, fit %.3f ms, used %.3f ms\n",
+            moving ? "moving" : "still", int(r->time_offset_observable), r->time_offset_sigma_ms,
+            r->reference_rate_rms_deg_s, r->unobservable_fit_ms, double(r->time_offset_ns) * 1e-6);
+        EXPECT_EQ(r->time_offset_observable, moving);
+        EXPECT_FALSE(r->time_offset_at_range_limit);
+        if (moving) {
+            EXPECT_NEAR(double(r->time_offset_ns) * 1e-6, 0.0, 1.0);
+        } else {
+            EXPECT_EQ(r->time_offset_ns, 0);
+            EXPECT_GT(r->time_offset_sigma_ms, 50.0);
+        }
+    }
+}
+
+TEST(OrientationEval, TheTimeBaseIsTheTraceComment) {
+    Trace t;
+    EXPECT_FALSE(trace_time_base(t).has_value());
+    t.comments = {"saturated_ns 1 2 3", " time_base first_sample capture x.pcap (0 = its first)"};
+    ASSERT_TRUE(trace_time_base(t).has_value());
+    EXPECT_EQ(*trace_time_base(t), "first_sample capture x.pcap (0 = its first)");
+}
+
 TEST(OrientationEval, PercentilesAreNearestRank) {
     std::vector<double> v;
     for (int i = 100; i >= 1; --i) v.push_back(i);

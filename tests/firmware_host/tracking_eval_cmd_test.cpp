@@ -9,12 +9,15 @@
 // and the plot's shape, and the usage errors.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
 #include <vector>
 
+#include <glm/glm.hpp>
+#include <glm/gtc/quaternion.hpp>
 #include <nlohmann/json.hpp>
 
 #include "firmware_host/command_run.hpp"
@@ -58,7 +61,8 @@ TEST(TrackingEvalCmd, IndexRecordingFusedAgainstItsLighthousePoses) {
                           fused.string() + " --reference-out " + lh.string());
     ASSERT_EQ(rec.code, 0) << rec.output;
     EXPECT_NE(rec.output.find("factory calibration      applied"), std::string::npos) << rec.output;
-    EXPECT_NE(rec.output.find("4680 lighthouse poses at their IMU sample's instant"),
+    EXPECT_NE(rec.output.find("4680 lighthouse poses from POSE lines of T20 at their IMU sample's "
+                              "instant (4680 sharing its TIME, 0 after it)"),
               std::string::npos)
         << rec.output;
     auto est = read_trace_csv(fused);
@@ -148,6 +152,114 @@ TEST(TrackingEvalCmd, IndexRecordingFusedAgainstItsLighthousePoses) {
     const std::string svg = slurp(plot);
     EXPECT_EQ(svg.rfind("<svg", 0), 0u);
     EXPECT_NE(svg.find("<polyline"), std::string::npos);
+}
+
+// Synthetic traces: a head turning (or still), the reference at 500 Hz with constant world and
+// body rotations, the estimate at 1 kHz; `time_base` comments as the tools write them.
+void write_pair(const fs::path& ref, const fs::path& est, const std::string& ref_base,
+                const std::string& est_base, bool moving, bool glitch) {
+    Trace r, e;
+    const glm::dquat w = glm::angleAxis(1.0, glm::normalize(glm::dvec3(1, 2, 3)));
+    auto head = [&](double t) {
+        return moving ? glm::angleAxis(0.8 * std::sin(0.7 * t), glm::dvec3(0, 1, 0)) *
+                            glm::angleAxis(0.4 * std::sin(1.3 * t), glm::dvec3(1, 0, 0))
+                      : glm::dquat(1, 0, 0, 0);
+    };
+    for (int i = 0; i < 6000; ++i) {
+        TraceSample s;
+        s.time_ns = int64_t(i) * 1'000'000;
+        s.orientation = head(i * 1e-3);
+        e.samples.push_back(s);
+    }
+    uint64_t seed = 7;
+    for (int i = 100; i < 2900; ++i) {
+        TraceSample s;
+        s.time_ns = int64_t(i) * 2'000'000;
+        seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+        const double n = double(seed >> 11) / double(1ull << 53) - 0.5;
+        s.orientation = w * head(i * 2e-3) * glm::angleAxis(0.001 * n, glm::dvec3(0, 0, 1));
+        if (glitch && i >= 1500 && i < 1505)  // 5 samples 40 deg off: 20,000 deg/s, gyro unmoved
+            s.orientation = glm::angleAxis(0.7, glm::dvec3(1, 0, 0)) * s.orientation;
+        r.samples.push_back(s);
+    }
+    if (!ref_base.empty()) r.comments.push_back("time_base " + ref_base);
+    if (!est_base.empty()) e.comments.push_back("time_base " + est_base);
+    ASSERT_TRUE(write_trace_csv(r, ref).ok());
+    ASSERT_TRUE(write_trace_csv(e, est).ok());
+}
+
+// The capture path's times start at 0, the .rec path's are the recording's TIME: traces whose
+// time bases differ are refused (exit 1, naming both inputs and their bases, no report); one
+// without a time base is evaluated with a note.
+TEST(TrackingEvalCmd, TracesOnDifferentTimeBasesAreRefused) {
+    const fs::path dir = test::fresh_temp_dir("hmdnode_tracking_eval_bases");
+    const fs::path ref = dir / "ref.csv", est = dir / "est.csv", rep = dir / "r.json";
+    write_pair(ref, est, "recording_time libsurvive x.rec (its TIME)",
+               "first_sample capture y.pcap (0 = its first pose)", true, false);
+    auto r = tool("tracking eval --reference " + ref.string() + " --estimate " + est.string() +
+                  " --report " + rep.string());
+    EXPECT_EQ(r.code, 1) << r.output;
+    EXPECT_NE(r.output.find("--reference " + ref.string() +
+                            " is on the time base \"recording_time libsurvive x.rec (its TIME)\" "
+                            "and --estimate " +
+                            est.string() +
+                            " on \"first_sample capture y.pcap (0 = its first "
+                            "pose)\": their times do not share a zero"),
+              std::string::npos)
+        << r.output;
+    EXPECT_FALSE(fs::exists(rep));
+    write_pair(ref, est, "recording_time libsurvive x.rec (its TIME)",
+               "recording_time libsurvive x.rec (its TIME)", true, false);
+    r = tool("tracking eval --reference " + ref.string() + " --estimate " + est.string());
+    EXPECT_EQ(r.code, 0) << r.output;
+    EXPECT_EQ(r.output.find("note:"), std::string::npos) << r.output;
+    write_pair(ref, est, "recording_time libsurvive x.rec (its TIME)", "", true, false);
+    r = tool("tracking eval --reference " + ref.string() + " --estimate " + est.string());
+    EXPECT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("note: --estimate " + est.string() + " has no time_base comment"),
+              std::string::npos)
+        << r.output;
+}
+
+// A reference excursion the estimate's gyro does not see is left out with a warning that counts
+// it; a still device's offset is not fitted, and the warning says why instead of advising a wider
+// search.
+TEST(TrackingEvalCmd, ReferenceGlitchesAndAnUnobservableOffsetAreReported) {
+    const fs::path dir = test::fresh_temp_dir("hmdnode_tracking_eval_glitch");
+    const fs::path ref = dir / "ref.csv", est = dir / "est.csv";
+    write_pair(ref, est, "", "", true, true);
+    const nlohmann::json s =
+        eval_summary("--reference " + ref.string() + " --estimate " + est.string(), dir / "g.json");
+    EXPECT_EQ(s["reference_glitches"]["excursions"].get<int>(), 1);
+    EXPECT_EQ(s["reference_glitches"]["samples_left_out"].get<int>(), 5);
+    EXPECT_LT(s["error_deg"]["max"].get<double>(), 0.05);  // the noise: 0.5 mrad at most
+    auto r = tool("tracking eval --reference " + ref.string() + " --estimate " + est.string());
+    EXPECT_NE(r.output.find("warning: --reference " + ref.string() +
+                            ": 2 step(s) the estimate's gyro does not see"),
+              std::string::npos)
+        << r.output;
+    EXPECT_NE(r.output.find("1 excursion(s) the reference returns from: 5 reference samples left "
+                            "out"),
+              std::string::npos)
+        << r.output;
+    r = tool("tracking eval --reference " + ref.string() + " --estimate " + est.string() +
+             " --keep-reference-glitches");
+    EXPECT_EQ(r.output.find("step(s)"), std::string::npos) << r.output;
+    // Still: no offset can be observed.
+    write_pair(ref, est, "", "", false, false);
+    const nlohmann::json st = eval_summary(
+        "--reference " + ref.string() + " --estimate " + est.string() + " --time-offset auto",
+        dir / "s.json");
+    EXPECT_FALSE(st["time_offset_observable"].get<bool>());
+    EXPECT_FALSE(st["time_offset_fitted"].get<bool>());
+    EXPECT_EQ(st["time_offset_ms"].get<double>(), 0.0);
+    r = tool("tracking eval --reference " + ref.string() + " --estimate " + est.string() +
+             " --time-offset auto");
+    EXPECT_NE(r.output.find("warning: not enough motion to observe a time offset"),
+              std::string::npos)
+        << r.output;
+    EXPECT_NE(r.output.find("a wider search cannot help"), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("--max-time-offset widens it"), std::string::npos) << r.output;
 }
 
 TEST(TrackingEvalCmd, BadInputIsRefused) {

@@ -1,12 +1,16 @@
 // The libsurvive recording reader on the bundled Index recording (line counts, the CONFIG's factory
 // calibration and axes), the calibration applied by the Index codec to the recording's samples
 // replayed as report 0x20, and bad input: a malformed line is an error naming the file and line,
-// a cut last line is skipped with a warning, an absent device names those present.
+// a cut last line is skipped with a warning, an absent device names those present. Recordings the
+// bundled one does not show, by hand-made lines: a controller's IMU stream without sequence
+// numbers at 247 Hz with its IMU_SCALES ranges, and libsurvive's replay output (EXTERNAL_POSE).
 #include <gtest/gtest.h>
 
 #include <array>
 #include <cmath>
+#include <memory>
 #include <string>
+#include <vector>
 
 #include "hmdnode/hal/codec/vive_imu.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
@@ -139,6 +143,128 @@ TEST(SurviveRecording, ACutLastLineIsSkippedWithAWarning) {
                                   ") is cut short"),
               std::string::npos)
         << r->warnings[0];
+}
+
+// A controller's IMU line (device KN0): SEQ as given (0: a controller through its radio).
+std::string kn_line(double t, uint32_t tick, int gx, int seq, bool magnetometer = true) {
+    return std::to_string(t) + " KN0 i 3 " + std::to_string(tick) + " 0 0 4096.000000 " +
+           std::to_string(gx) + ".000000 0 0" + (magnetometer ? " 0 0 0" : "") + " " +
+           std::to_string(seq) + "\n";
+}
+
+// Decodes every report of the recording's backend through a fresh Vive/Index codec.
+std::vector<DeviceSample> decode_all(std::shared_ptr<const SurviveRecording> rec) {
+    auto backend = create_survive_backend(rec);
+    auto ids = backend->enumerate(DeviceFilter{vive::kVendorId, vive::kIndexProductId, ""});
+    EXPECT_TRUE(ids.ok() && ids->size() == 1);
+    auto t = backend->open(ids->front());
+    EXPECT_TRUE(t.ok());
+    auto codec = make_vive_codec(vive::kIndexProductId);
+    codec->configure(**t);
+    std::vector<DeviceSample> got;
+    while (!(*t)->finished()) {
+        auto in = (*t)->read_input(0);
+        EXPECT_TRUE(in.ok() && in->has_value());
+        std::array<DeviceSample, ReportCodec::kMaxSamplesPerReport> out;
+        const size_t n = codec->decode((*in)->bytes, out);
+        got.insert(got.end(), out.begin(), out.begin() + long(n));
+    }
+    return got;
+}
+
+// A controller: sequence number 0 on every line at 247 Hz (194,332 ticks apart), the IMU_SCALES
+// line libsurvive writes from the device's feature report 0x01, and the older 12-field lines.
+TEST(SurviveRecording, AControllersStreamWithoutSequenceNumbersAndItsImuScales) {
+    std::string text = "0.01 KN0 IMU_SCALES 3 2\r\n";
+    const uint32_t step = 194'332;  // 48 MHz / 247 Hz
+    for (int k = 0; k < 40; ++k)
+        text += kn_line(0.1 + k * 0.00405, 1'000'000u + uint32_t(k) * step, 100, 0, k % 2 == 0);
+    text += kn_line(0.1 + 40 * 0.00405, 1'000'000u + 39 * step, 100, 0);  // a repeat: same tick
+    auto r = parse_survive_recording(text, "kn.rec", "KN0");
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    ASSERT_EQ(r->imu.size(), 41u);
+    EXPECT_TRUE(r->imu_sequence_numbered);
+    EXPECT_EQ(r->imu[39].sequence, 39);
+    EXPECT_EQ(r->imu[40].sequence, 39);  // the repeated tick: the same sample
+    ASSERT_TRUE(r->imu_scales.has_value());
+    EXPECT_EQ((*r->imu_scales)[0], 3);
+    EXPECT_EQ((*r->imu_scales)[1], 2);
+    ASSERT_EQ(r->notes.size(), 2u);
+    EXPECT_NE(r->notes[0].find("kn.rec:1: IMU_SCALES 3 2: gyro range 2000 deg/s, accelerometer "
+                               "range 8 g"),
+              std::string::npos)
+        << r->notes[0];
+    EXPECT_NE(r->notes[1].find("all carry sequence number 0"), std::string::npos) << r->notes[1];
+    auto rec = std::make_shared<const SurviveRecording>(*r);
+    const std::vector<DeviceSample> got = decode_all(rec);
+    // Every sample once (the first one held until the second confirms it: 4 ms per step).
+    ASSERT_EQ(got.size(), 40u);
+    for (size_t k = 1; k < got.size(); ++k)
+        EXPECT_NEAR(double(got[k].device_time_ns - got[k - 1].device_time_ns), step * 1000.0 / 48,
+                    1.0)
+            << k;
+    // The ranges of IMU_SCALES 3 2: 100 counts of 2000 deg/s, 4096 of 8 g (magnitudes: the axes
+    // are the Index's).
+    EXPECT_NEAR(glm::length(*got[5].gyro), 100 * 2000.0 / 32768 * M_PI / 180, 1e-12);
+    EXPECT_NEAR(glm::length(*got[5].accel), 4096 * 8 * 9.80665 / 32768, 1e-9);
+    // Without the line: the Index's defaults (500 deg/s, 4 g).
+    auto d = parse_survive_recording(text.substr(text.find('\n') + 1), "kn.rec", "KN0");
+    ASSERT_TRUE(d.ok());
+    EXPECT_FALSE(d->imu_scales.has_value());
+    const std::vector<DeviceSample> def = decode_all(std::make_shared<const SurviveRecording>(*d));
+    ASSERT_EQ(def.size(), 40u);
+    EXPECT_NEAR(glm::length(*def[5].gyro), 100 * 500.0 / 32768 * M_PI / 180, 1e-12);
+    // A mode libsurvive does not know is a warning naming the line; a bad one an error.
+    auto w = parse_survive_recording("0.01 KN0 IMU_SCALES 4 2\n" + kn_line(0.1, 1, 1, 0), "w.rec",
+                                     "KN0");
+    ASSERT_TRUE(w.ok());
+    EXPECT_FALSE(w->imu_scales.has_value());
+    ASSERT_EQ(w->warnings.size(), 1u);
+    EXPECT_NE(w->warnings[0].find("w.rec:1: IMU_SCALES 4 2"), std::string::npos) << w->warnings[0];
+    auto b =
+        parse_survive_recording("0.01 KN0 IMU_SCALES 3\n" + kn_line(0.1, 1, 1, 0), "b.rec", "KN0");
+    ASSERT_FALSE(b.ok());
+    EXPECT_NE(b.error().message.find("b.rec:1: an IMU_SCALES line has 5 fields"), std::string::npos)
+        << b.error().message;
+}
+
+// libsurvive's replay output: the device's solved poses as EXTERNAL_POSE lines named replay_DEV
+// (its playback re-emits POSE lines so), other names beside them.
+TEST(SurviveRecording, ExternalPoseLinesAreTheDevicesPosesWhenItHasNoPoseLine) {
+    const std::string text =
+        kConfig + imu_line(0.200, 1000, -7166, 1) +
+        "0.2005 replay_T20 EXTERNAL_POSE 0.1 0.2 0.3 1 0 0 0\n"
+        "0.2006 previous_LH0 EXTERNAL_POSE 1 2 3 0 1 0 0\n" +
+        imu_line(0.201, 49000, -7170, 2) +
+        "0.2015 replay_T20 EXTERNAL_POSE 0.1 0.2 0.4 0.7071068 0.7071068 0 0\n";
+    auto r = parse_survive_recording(text, "x.rec", "T20");
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_TRUE(r->poses.empty());
+    ASSERT_EQ(r->external_poses.size(), 2u);
+    std::string what;
+    const std::vector<SurvivePose>* p = survive_device_poses(*r, &what);
+    ASSERT_NE(p, nullptr);
+    EXPECT_EQ(what, "EXTERNAL_POSE lines named replay_T20");
+    ASSERT_EQ(p->size(), 2u);
+    EXPECT_EQ((*p)[1].host_time_ns, 201'500'000);
+    EXPECT_DOUBLE_EQ((*p)[1].position.z, 0.4);
+    EXPECT_NEAR((*p)[1].orientation.x, std::sqrt(0.5), 1e-7);
+    // POSE lines come first; with neither, the names present are listed.
+    auto none = parse_survive_recording(
+        kConfig + imu_line(0.2, 1, 1, 1) + "0.3 T20-raw-obs EXTERNAL_POSE 0 0 0 1 0 0 0\n", "n.rec",
+        "T20");
+    ASSERT_TRUE(none.ok());
+    EXPECT_EQ(survive_device_poses(*none, &what), nullptr);
+    EXPECT_EQ(what,
+              "no POSE line of T20 and no EXTERNAL_POSE line named replay_T20 or T20 "
+              "(EXTERNAL_POSE names: T20-raw-obs (1))");
+    auto bad = parse_survive_recording(
+        kConfig + imu_line(0.2, 1, 1, 1) + "0.3 replay_T20 EXTERNAL_POSE 0 0 0 1 0 0\n", "b.rec",
+        "T20");
+    ASSERT_FALSE(bad.ok());
+    EXPECT_NE(bad.error().message.find("b.rec:3: an EXTERNAL_POSE line has 10 fields"),
+              std::string::npos)
+        << bad.error().message;
 }
 
 TEST(SurviveRecording, AnAbsentDeviceNamesTheDevicesPresent) {

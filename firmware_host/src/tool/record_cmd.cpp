@@ -15,6 +15,7 @@
 // reports are stamped with the host's realtime clock at arrival, as usbmon does). A capture or a
 // recording runs on a simulated clock advanced in 10 ms steps: deterministic, as fast as it
 // decodes.
+#include <algorithm>
 #include <atomic>
 #include <csignal>
 #include <cstdio>
@@ -181,37 +182,74 @@ TrackerRecording record_tracker(DeviceTracker& tracker, Clock& clock, int64_t st
     return rec;
 }
 
-// Writes the CSV (atomically) and the pcap, prints the figures of a tracker-path recording.
+// An output written beside the trace (--reference-out): with it, or not at all.
+struct ExtraOutput {
+    std::string option, path;
+    Trace trace;
+};
+
+// Writes the CSV, the pcap and `extra` (each atomically, all or none: an output already written is
+// removed when a later one fails, and none is written when `refused` says why the recording is
+// refused or the trace has fewer than 2 rows), prints the figures of a tracker-path recording.
+// `time_base` goes into the trace as the comment `time_base ...` (docs/trace-format.md): what its
+// time 0 is, so `hmdnode tracking eval` can tell traces on different timelines apart.
 void finish_tracker_recording(const RecordArgs& args, const std::string& label,
                               const std::string& via, TrackerRecording& rec,
-                              const DeviceTrackerStatus& st, const UsbmonPcapWriter* pcap) {
+                              const DeviceTrackerStatus& st, const UsbmonPcapWriter* pcap,
+                              const std::string& time_base, std::vector<ExtraOutput> extra = {},
+                              const std::string& refused = "") {
     bool ok = true;
-    if (pcap && !args.capture.empty()) {
-        Status w = write_file_atomically(args.capture, pcap->bytes());
-        if (!w.ok()) {
-            errors.fail(w.error().message);
-            ok = false;
-        }
+    std::vector<std::pair<std::string, std::string>> files;  // path, bytes
+    if (!refused.empty()) {
+        errors.fail(refused);
+        ok = false;
     }
-    if (!args.out.empty()) {
+    if (ok && !args.out.empty()) {
         if (rec.trace.samples.size() < 2) {
             char seconds[32];
             std::snprintf(seconds, sizeof seconds, "%.3f", rec.seconds);
             errors.fail("only " + std::to_string(rec.trace.samples.size()) + " pose sample(s) in " +
-                        seconds + " s: " + args.out + " not written");
+                        seconds + " s: " + args.out + " not written" +
+                        (extra.empty() ? "" : " (nor " + extra.front().path + ")"));
             ok = false;
         } else {
             rec.trace.comments.push_back("recorded by hmdnode record from " + label + " via " +
                                          via +
                                          " (codec, clock sync and IMU fusion of "
                                          "hmdnode's device tracker)");
-            Status w = write_trace_csv(rec.trace, args.out);
+            rec.trace.comments.push_back("time_base " + time_base);
+            extra.insert(extra.begin(), ExtraOutput{"--out", args.out, std::move(rec.trace)});
+        }
+    } else if (!ok) {
+        extra.clear();
+    }
+    if (ok)
+        for (ExtraOutput& e : extra) {
+            if (e.option != "--out") e.trace.comments.push_back("time_base " + time_base);
+            Result<std::string> text = format_trace_csv(e.trace);
+            if (!text.ok()) {
+                errors.fail(e.option + " " + e.path + ": " + text.error().message);
+                ok = false;
+                break;
+            }
+            files.emplace_back(e.path, std::move(*text));
+        }
+    if (ok && pcap && !args.capture.empty()) {
+        files.emplace(files.begin(), args.capture, pcap->bytes());
+    }
+    std::vector<std::string> written;
+    if (ok)
+        for (const auto& [path, bytes] : files) {
+            Status w = write_file_atomically(path, bytes);
             if (!w.ok()) {
                 errors.fail(w.error().message);
                 ok = false;
+                std::error_code ec;
+                for (const std::string& p : written) std::filesystem::remove(p, ec);
+                break;
             }
+            written.push_back(path);
         }
-    }
     const double s = rec.seconds;
     std::printf("recorded %s via %s for %.3f s\n", label.c_str(), via.c_str(), s);
     std::printf("  %-24s %llu (%.1f per s)\n", "input reports",
@@ -283,33 +321,67 @@ void run_record_capture(const RecordArgs& args, const DeviceFilter& filter) {
     finish_tracker_recording(args,
                              format_vid_pid(filter.vendor_id, filter.product_id) + " (" +
                                  make_codec_for(filter.vendor_id, filter.product_id)->name() + ")",
-                             "capture " + args.from, rec, st, nullptr);
+                             "capture " + args.from, rec, st, nullptr,
+                             "first_sample capture " +
+                                 std::filesystem::path(args.from).filename().string() +
+                                 " (0 = its first pose)");
 }
 
-// --reference-out: a libsurvive recording's lighthouse-solved poses (POSE lines) as a trace
-// (libsurvive's world, z up, and its object frame: `hmdnode tracking eval` fits both rotations).
-// libsurvive emits a POSE right after the IMU sample whose TIME it carries (every POSE of the
-// bundled recording shares its TIME with an `i` line), its state predicted to that sample's
-// instant; with `imu_row_time` (TIME of an IMU line -> the fused row of that sample) a pose gets
-// that row's time: the instant the sample was taken by the device clock, on the fused trace's
-// timeline, free of the USB arrival jitter and delay in TIME. Without it, the pose's TIME. Poses
-// whose time does not increase, or (with the map) that follow no IMU line, are skipped and counted.
-Status write_survive_reference(const SurviveRecording& rec, const std::string& path,
-                               const std::unordered_map<int64_t, int64_t>* imu_row_time,
-                               size_t* skipped, size_t* unmatched) {
+// --reference-out: a libsurvive recording's lighthouse-solved poses as a trace (libsurvive's world,
+// z up, and its object frame: `hmdnode tracking eval` fits both rotations): the device's POSE
+// lines, or without them its EXTERNAL_POSE lines (libsurvive's replay output;
+// survive_device_poses). libsurvive emits a headset's POSE right after the IMU sample whose TIME it
+// carries (every POSE of the bundled Index recording shares its TIME with an `i` line), its state
+// predicted to that sample's instant; with `imu_row_time` (TIME of an IMU line -> the fused row of
+// that sample) such a pose gets that row's time: the instant the sample was taken by the device
+// clock, on the fused trace's timeline, free of the USB arrival jitter and delay in TIME. A pose
+// that shares no IMU line's TIME (a controller's or a tracker's follow its light, an
+// EXTERNAL_POSE a replay's clock) gets the row time interpolated linearly in TIME between the IMU
+// lines logged before and after it (monotonic: both timelines rise), or after the last one that
+// line's row time plus the TIME since; the line before must lie within 50 ms, else the pose is
+// skipped and counted. Without the map, the pose's TIME. Poses whose time does not increase are
+// skipped and counted.
+struct ReferenceCounts {
+    std::string what;  // which lines (survive_device_poses)
+    size_t written = 0, exact = 0, before = 0, skipped = 0, unmatched = 0;
+};
+
+Result<Trace> survive_reference(const SurviveRecording& rec,
+                                const std::unordered_map<int64_t, int64_t>* imu_row_time,
+                                const std::string& path, ReferenceCounts* n) {
+    const std::vector<SurvivePose>* poses = survive_device_poses(rec, &n->what);
+    if (!poses)
+        return make_error(rec.device + ": " + n->what + ": --reference-out " + path +
+                          " not written");
+    std::vector<std::pair<int64_t, int64_t>> by_time;  // (TIME, row time), sorted
+    if (imu_row_time) {
+        by_time.assign(imu_row_time->begin(), imu_row_time->end());
+        std::sort(by_time.begin(), by_time.end());
+    }
+    constexpr int64_t kMaxBeforeNs = 50 * kNsPerMs;
     Trace t;
-    for (const SurvivePose& p : rec.poses) {
+    for (const SurvivePose& p : *poses) {
         int64_t time = p.host_time_ns;
         if (imu_row_time) {
-            auto it = imu_row_time->find(p.host_time_ns);
-            if (it == imu_row_time->end()) {
-                ++*unmatched;
+            auto it = std::upper_bound(
+                by_time.begin(), by_time.end(),
+                std::make_pair(p.host_time_ns, std::numeric_limits<int64_t>::max()));
+            if (it == by_time.begin() || p.host_time_ns - std::prev(it)->first > kMaxBeforeNs) {
+                ++n->unmatched;
                 continue;
             }
-            time = it->second;
+            const auto next = it;
+            --it;
+            time = it->second + (p.host_time_ns - it->first);
+            if (it->first != p.host_time_ns && next != by_time.end() &&
+                next->first - it->first <= kMaxBeforeNs)
+                time = it->second + int64_t(std::llround(double(next->second - it->second) *
+                                                         double(p.host_time_ns - it->first) /
+                                                         double(next->first - it->first)));
+            ++(it->first == p.host_time_ns ? n->exact : n->before);
         }
         if (!t.samples.empty() && time <= t.samples.back().time_ns) {
-            ++*skipped;
+            ++n->skipped;
             continue;
         }
         TraceSample s;
@@ -320,16 +392,19 @@ Status write_survive_reference(const SurviveRecording& rec, const std::string& p
         s.position = p.position;
         t.samples.push_back(s);
     }
+    n->written = t.samples.size();
     if (t.samples.size() < 2)
         return make_error(rec.device + ": " + std::to_string(t.samples.size()) +
-                          " lighthouse pose(s) (POSE lines) in the recording: --reference-out " +
-                          path + " not written");
+                          " lighthouse pose(s) usable of " + std::to_string(poses->size()) + " " +
+                          n->what + " (" + std::to_string(n->unmatched) +
+                          " with no IMU sample in the 50 ms before): --reference-out " + path +
+                          " not written");
     t.comments.push_back(
-        "lighthouse-solved poses (libsurvive POSE lines) of " + rec.device +
-        ", libsurvive's world frame (z up), time = " +
+        "lighthouse-solved poses (libsurvive " + n->what + "), libsurvive's world frame (z up), " +
+        "time = " +
         (imu_row_time ? "the instant of the IMU sample each follows, on the fused trace's timeline"
                       : "the recording's TIME"));
-    return write_trace_csv(t, path);
+    return t;
 }
 
 // The recording's IMU samples with an axis at full scale, as trace comments
@@ -360,6 +435,29 @@ void add_saturation_comments(const SurviveRecording& rec,
         ++count;
     }
     flush();
+}
+
+// Why a recording's device gave fewer than 2 trace rows, from what its IMU lines gave.
+std::string no_samples_cause(const SurviveRecording& rec, const DeviceTrackerStatus& st,
+                             const TrackerRecording& out) {
+    const CodecCounters& c = st.codec;
+    std::string s = rec.device + ": " + std::to_string(out.trace.samples.size()) +
+                    " trace row(s) from " + std::to_string(rec.imu.size()) + " IMU lines (" +
+                    std::to_string(c.reports) + " reports decoded, " + std::to_string(c.samples) +
+                    " samples, " + std::to_string(c.stale_first_dropped) +
+                    " first samples dropped as stale, " + std::to_string(c.malformed) +
+                    " malformed): ";
+    bool ticks_move = false;
+    for (size_t k = 1; k < rec.imu.size(); ++k) ticks_move |= rec.imu[k].ticks != rec.imu[0].ticks;
+    if (rec.imu.size() < 2) return s + "a device needs at least 2 IMU lines";
+    if (!ticks_move) return s + "every IMU line has the same TICK: no sample follows another";
+    if (c.samples == 0 && c.stale_first_dropped > 0)
+        return s + "each first sample was taken for a stale report (its next is more than 8 " +
+               "sequence steps, or more than 10 ms of TICK per step, away)";
+    if (c.samples == 0) return s + "no line carries a new sample (its SEQ repeats the one before)";
+    if (out.before_fusion == out.delivered)
+        return s + "the fusion never aligned to gravity (no accelerometer reading near 1 g)";
+    return s + "the recording ends before a second sample";
 }
 
 // --backend rec --from FILE.rec[.gz] --device NAME: a libsurvive recording's IMU samples through
@@ -402,28 +500,51 @@ void run_record_survive(const RecordArgs& args) {
             "--fusion gyro: the gyro integrated with the still-window bias, no gravity correction");
     out.seconds = ns_to_s(clock.now_ns() - start);
     const DeviceTrackerStatus st = (*tracker)->status();
-    finish_tracker_recording(
-        args,
-        rec->device + " (Valve Index IMU" + (rec->model.empty() ? "" : ", " + rec->model) + ")",
-        "libsurvive recording " + args.from, out, st, nullptr);
+    // Fewer than 2 rows: why, from what the IMU lines gave.
+    std::string refused;
+    if (out.trace.samples.size() < 2) {
+        refused = no_samples_cause(*rec, st, out) + ": " + args.out + " not written";
+        out.failure.clear();
+    }
+    std::vector<ExtraOutput> extra;
+    ReferenceCounts counts;
+    if (refused.empty() && !args.reference_out.empty()) {
+        Result<Trace> ref = survive_reference(
+            *rec, args.reference_time == "imu" ? &out.row_time_of_arrival : nullptr,
+            args.reference_out, &counts);
+        if (ref.ok())
+            extra.push_back({"--reference-out", args.reference_out, std::move(*ref)});
+        else
+            refused = ref.error().message + " (nor --out " + args.out + ")";
+    }
+    for (const std::string& n : rec->notes) std::printf("  note: %s\n", n.c_str());
+    finish_tracker_recording(args,
+                             rec->device + " (Vive/Index-family IMU" +
+                                 (rec->model.empty() ? "" : ", " + rec->model) + ")",
+                             "libsurvive recording " + args.from, out, st, nullptr,
+                             "recording_time libsurvive " +
+                                 std::filesystem::path(args.from).filename().string() +
+                                 " (its TIME, seconds on the recording host's clock)",
+                             std::move(extra), refused);
     std::printf("  %-24s %s\n", "factory calibration",
                 rec->has_config ? "applied (CONFIG imu: acc_bias, acc_scale, gyro_bias, axes)"
                                 : "none (no CONFIG line)");
-    if (exit_code() != 0) return;  // the fused trace was not written: neither is the reference
-    if (!args.reference_out.empty()) {
-        size_t skipped = 0, unmatched = 0;
-        Status w = write_survive_reference(
-            *rec, args.reference_out,
-            args.reference_time == "imu" ? &out.row_time_of_arrival : nullptr, &skipped,
-            &unmatched);
-        if (!w.ok()) return errors.fail(w.error().message);
-        std::printf(
-            "  %-24s %s (%zu lighthouse poses at %s; %zu with a repeated time, %zu following no "
-            "IMU sample, skipped)\n",
-            "reference", args.reference_out.c_str(), rec->poses.size() - skipped - unmatched,
-            args.reference_time == "imu" ? "their IMU sample's instant" : "their TIME", skipped,
-            unmatched);
-    }
+    std::printf("  %-24s %s\n", "IMU ranges",
+                rec->imu_scales ? ("IMU_SCALES: " + std::to_string(250 << (*rec->imu_scales)[0]) +
+                                   " deg/s, " + std::to_string(2 << (*rec->imu_scales)[1]) + " g")
+                                      .c_str()
+                                : "the Index's defaults, 500 deg/s and 4 g (no IMU_SCALES line)");
+    if (exit_code() != 0 || args.reference_out.empty()) return;
+    std::printf(
+        "  %-24s %s (%zu lighthouse poses from %s at %s; %zu with a repeated time, %zu with no "
+        "IMU sample in the 50 ms before, skipped)\n",
+        "reference", args.reference_out.c_str(), counts.written, counts.what.c_str(),
+        args.reference_time == "imu"
+            ? ("their IMU sample's instant (" + std::to_string(counts.exact) +
+               " sharing its TIME, " + std::to_string(counts.before) + " after it)")
+                  .c_str()
+            : "their TIME",
+        counts.skipped, counts.unmatched);
 }
 
 void run_record(const RecordArgs& args) {
@@ -495,7 +616,12 @@ void run_record(const RecordArgs& args) {
     TrackerRecording rec = record_tracker(tracker, clock, start, end, std::nullopt,
                                           /*keep_arrivals=*/false, /*need_pose=*/!args.out.empty());
     const DeviceTrackerStatus st = tracker.status();
-    finish_tracker_recording(args, label, via, rec, st, pcap.get());
+    // Time 0 is the recording's start on this host's clock: no other trace shares it.
+    const std::string time_base =
+        "record_start " + backend_name + " " + args.device +
+        (args.sim_clock ? std::string(" (simulated clock)")
+                        : " at " + std::to_string(start + rt_offset) + " ns realtime");
+    finish_tracker_recording(args, label, via, rec, st, pcap.get(), time_base);
 }
 
 void add_record_command(CLI::App& app) {

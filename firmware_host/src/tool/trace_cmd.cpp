@@ -63,6 +63,7 @@ void run_import(const ImportArgs& args) {
     }
     Status written = write_trace_csv(*trace, args.to);
     if (!written.ok()) return import_errors.fail(written.error().message);
+    for (const std::string& w : report.warnings) import_errors.warning(w);
     const TraceStats st = compute_trace_stats(*trace);
     std::printf("imported %s -> %s\n", args.from.c_str(), args.to.c_str());
     print_row("rows read", std::to_string(report.rows_read));

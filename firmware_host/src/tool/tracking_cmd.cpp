@@ -127,6 +127,54 @@ std::string offset_at_limit_warning(double offset_ms, double range_ms) {
     return b;
 }
 
+// Time bases (the traces' `time_base` comments): traces whose time 0 differ pair unrelated
+// instants, so they are refused (false: the error is set); a trace without one cannot be checked
+// (a note).
+bool check_time_bases(const EvalArgs& args, const Trace& ref, const Trace& est) {
+    const auto ref_base = trace_time_base(ref), est_base = trace_time_base(est);
+    if (ref_base && est_base && *ref_base != *est_base) {
+        errors.fail("--reference " + args.reference + " is on the time base \"" + *ref_base +
+                    "\" and --estimate " + args.estimate + " on \"" + *est_base +
+                    "\": their times do not share a zero, so comparing them would pair "
+                    "unrelated instants (record both from the same input: `record "
+                    "--backend rec` writes the estimate and --reference-out on the "
+                    "recording's TIME)");
+        return false;
+    }
+    if (!ref_base || !est_base)
+        errors.note(std::string(!ref_base ? "--reference " + args.reference
+                                          : "--estimate " + args.estimate) +
+                    " has no time_base comment: that the two traces share a timeline is assumed, "
+                    "not checked");
+    return true;
+}
+
+// The warnings of the reference's glitch check.
+void warn_reference_glitches(const EvalArgs& args, const ReferenceGlitches& g) {
+    if (g.steps > 0) {
+        char b[600];
+        std::snprintf(b, sizeof b,
+                      "--reference %s: %zu step(s) the estimate's gyro does not see (threshold "
+                      "%.2f deg a step; the worst %.2f deg at %.3f s: the reference turns %.0f "
+                      "deg/s, the estimate %.1f deg/s); %zu excursion(s) the reference returns "
+                      "from: %zu reference samples left out",
+                      args.reference.c_str(), g.steps, g.threshold_deg, g.worst_step_deg,
+                      ns_to_s(g.worst_at_ns), g.worst_reference_rate_deg_s,
+                      g.worst_estimate_rate_deg_s, g.excursions, g.samples_left_out);
+        errors.warning(b);
+    }
+    if (g.unreturned_steps > 0) {
+        char b[400];
+        std::snprintf(b, sizeof b,
+                      "--reference %s: %zu step(s) the reference does not come back from within "
+                      "%.1f s (the first at %.3f s): its alignment changes there and nothing is "
+                      "left out; evaluate the windows either side (--start, --duration)",
+                      args.reference.c_str(), g.unreturned_steps,
+                      args.options.glitch_max_excursion_s, ns_to_s(g.unreturned_at_ns.front()));
+        errors.warning(b);
+    }
+}
+
 void run_eval(EvalArgs args) {
     if (args.time_offset == "auto") {
         args.options.fit_time_offset = true;
@@ -143,8 +191,11 @@ void run_eval(EvalArgs args) {
     if (!ref) return errors.fail("--reference " + ref.error().message);
     auto est = read_trace_csv(args.estimate);
     if (!est) return errors.fail("--estimate " + est.error().message);
+    if (!check_time_bases(args, *ref, *est)) return;
     auto e = evaluate_orientation(*ref, *est, args.options);
     if (!e) return errors.fail(e.error().message);
+    const ReferenceGlitches& g = e->glitches;
+    warn_reference_glitches(args, g);
     // The same alignment and offset, the reference samples in the disturbed intervals left out.
     const Saturation sat = saturation_of(*est);
     std::vector<double> err_ex, tilt_ex, heading_ex;
@@ -170,7 +221,7 @@ void run_eval(EvalArgs args) {
           {"heading_error_deg", percentiles(e->heading)},
           {"samples", e->samples},
           {"time_offset_ms", std::round(double(e->time_offset_ns) * 1e-3) / 1e3},
-          {"time_offset_fitted", args.options.fit_time_offset}}}};
+          {"time_offset_fitted", args.options.fit_time_offset && e->time_offset_observable}}}};
     if (!sat.intervals.empty())
         report["summary"]["excluding_saturation"] = {
             {"error_deg", percentiles(error_percentiles(err_ex))},
@@ -180,9 +231,34 @@ void run_eval(EvalArgs args) {
             {"excluded_samples", e->samples - err_ex.size()},
             {"saturated_imu_samples", sat.samples},
             {"intervals", sat.intervals.size()}};
-    if (e->time_offset_at_range_limit)
+    report["summary"]["reference_glitches"] = {{"steps", g.steps},
+                                               {"excursions", g.excursions},
+                                               {"samples_left_out", g.samples_left_out},
+                                               {"unreturned_steps", g.unreturned_steps},
+                                               {"threshold_deg", g.threshold_deg},
+                                               {"worst_step_deg", g.worst_step_deg}};
+    if (args.options.fit_time_offset) {
+        report["summary"]["time_offset_observable"] = e->time_offset_observable;
+        report["summary"]["time_offset_sigma_ms"] = std::round(e->time_offset_sigma_ms * 1e3) / 1e3;
+        report["summary"]["reference_rate_rms_deg_s"] =
+            std::round(e->reference_rate_rms_deg_s * 1e3) / 1e3;
+    }
+    if (args.options.fit_time_offset && !e->time_offset_observable) {
+        char b[500];
+        std::snprintf(b, sizeof b,
+                      "not enough motion to observe a time offset: over +-%.0f ms the fit's "
+                      "error hardly changes (the reference turns %.2f deg/s rms over 50 ms; the "
+                      "offset is known to about %.0f ms only); the search's %.3f ms is noise and "
+                      "is not used (offset %.3f ms); a wider search cannot help: give "
+                      "--time-offset MS, or a window with motion",
+                      args.options.max_time_offset_s * 1e3, e->reference_rate_rms_deg_s,
+                      e->time_offset_sigma_ms, e->unobservable_fit_ms,
+                      double(e->time_offset_ns) * 1e-6);
+        errors.warning(b);
+    } else if (e->time_offset_at_range_limit) {
         errors.warning(offset_at_limit_warning(double(e->time_offset_ns) * 1e-6,
                                                args.options.max_time_offset_s * 1e3));
+    }
     if (!args.report.empty()) {
         Status st = write_file_atomically(args.report, report.dump(2) + "\n");
         if (!st.ok()) return errors.fail(st.error().message);
@@ -215,7 +291,12 @@ void run_eval(EvalArgs args) {
     }
     std::printf("  time offset: %.3f ms (%s; estimate time + offset = reference time)\n",
                 double(e->time_offset_ns) * 1e-6,
-                args.options.fit_time_offset ? "fitted" : "given");
+                !args.options.fit_time_offset ? "given"
+                : e->time_offset_observable   ? "fitted"
+                                              : "not observable: not fitted");
+    if (g.steps > 0)
+        std::printf("  reference glitches: %zu steps, %zu excursions, %zu samples left out\n",
+                    g.steps, g.excursions, g.samples_left_out);
     auto angle = [](const glm::dquat& q) {
         return 2.0 * std::acos(std::min(1.0, std::abs(q.w))) * 180.0 / 3.14159265358979323846;
     };
@@ -254,6 +335,10 @@ void add_tracking_command(CLI::App& app) {
                      "Search range of --time-offset auto, +- seconds")
         ->check(CLI::PositiveNumber)
         ->capture_default_str();
+    eval->add_flag(
+        "--keep-reference-glitches",
+        [args](int64_t) { args->options.leave_out_reference_glitches = false; },
+        "Keep the reference's excursions the estimate's gyro does not see (left out by default)");
     eval->callback([args] { run_eval(*args); });
 }
 

@@ -50,7 +50,7 @@ void copy_imu_samples(const Samples& in, std::span<DeviceSample> out) {
 // before (its tick and sequence jump to the next report's), which would show as a phantom gap of
 // ~100 samples and poison the clock estimate. So the first sample after an open is held until the
 // next report: it is emitted only when the next sample follows it (1..8 sequence steps, device
-// time 0 < dt <= 2 ms per step); otherwise it is dropped and counted, and the decoder restarts on
+// time 0 < dt <= 10 ms per step); otherwise it is dropped and counted, and the decoder restarts on
 // that next report (whose newest slot is then held the same way).
 class ViveCodec final : public ReportCodec {
   public:
@@ -194,10 +194,13 @@ class ViveCodec final : public ReportCodec {
         return 0;
     }
 
+    // Up to 10 ms of device time per sequence step: a headset's IMU runs at ~1 kHz, a controller's
+    // or a tracker's at ~250 Hz (4 ms; a 2 ms bound took every first sample of theirs for stale
+    // and dropped them all). A stale report is ~100 samples off: the step bound catches it.
     static bool follows(const vive::ImuSample& a, const vive::ImuSample& b) {
         const uint64_t steps = b.sequence - a.sequence;
         const int64_t dt = b.device_time_ns - a.device_time_ns;
-        return steps >= 1 && steps <= 8 && dt > 0 && dt <= int64_t(steps) * 2'000'000;
+        return steps >= 1 && steps <= 8 && dt > 0 && dt <= int64_t(steps) * 10'000'000;
     }
 
     vive::Variant variant_;

@@ -176,6 +176,32 @@ std::string parse_lh_pose(const std::vector<std::string_view>& t, int64_t time_n
     return {};
 }
 
+// IMU_SCALES GYRO ACC (libsurvive's survive_default_set_imu_scale_modes: gyro 250, 500, 1000, 2000
+// deg/s, accel 2, 4, 8, 16 g; a mode above 3 leaves that range as it was, as libsurvive does).
+std::string parse_imu_scales(const std::vector<std::string_view>& t, const std::string& source,
+                             uint32_t line_no, SurviveRecording* rec) {
+    if (t.size() != 5)
+        return "an IMU_SCALES line has 5 fields (TIME DEV IMU_SCALES GYRO ACC), this one " +
+               std::to_string(t.size());
+    double g = 0, a = 0;
+    if (std::string e = whole_field(t[3], "IMU_SCALES GYRO", 0, 255, &g); !e.empty()) return e;
+    if (std::string e = whole_field(t[4], "IMU_SCALES ACC", 0, 255, &a); !e.empty()) return e;
+    const std::string where = source + ":" + std::to_string(line_no) + ": ";
+    if (g > 3 || a > 3) {
+        rec->warnings.push_back(where + "IMU_SCALES " + std::string(t[3]) + " " +
+                                std::string(t[4]) +
+                                ": a mode above 3 is not a range libsurvive knows; the ranges "
+                                "stay as they were");
+        return {};
+    }
+    rec->imu_scales = std::array<uint8_t, 2>{uint8_t(g), uint8_t(a)};
+    char b[160];
+    std::snprintf(b, sizeof b, "IMU_SCALES %d %d: gyro range %d deg/s, accelerometer range %d g",
+                  int(g), int(a), 250 << int(g), 2 << int(a));
+    rec->notes.push_back(where + b);
+    return {};
+}
+
 bool is_light_kind(std::string_view k) {
     return k == "W" || k == "B" || k == "Y" || k == "C" || k == "A";
 }
@@ -192,9 +218,11 @@ std::string parse_line(const std::vector<std::string_view>& t, std::string_view 
     if (kind == "LH_POSE") return parse_lh_pose(t, time_ns, rec);
     if (is_light_kind(kind)) return parse_light_line(t, time_ns, line_no, rec);
     if (kind == "i") {
-        if (t.size() != 15)
+        // 15 fields; 12 from older recorders without the magnetometer (libsurvive's playback
+        // reads both).
+        if (t.size() != 15 && t.size() != 12)
             return "an IMU line (i) has 15 fields (TIME DEV i MASK TICK ax ay az gx gy gz mx my mz "
-                   "SEQ), this one " +
+                   "SEQ) or 12 (without mx my mz), this one " +
                    std::to_string(t.size());
         SurviveImuLine s;
         s.host_time_ns = time_ns;
@@ -209,10 +237,28 @@ std::string parse_line(const std::vector<std::string_view>& t, std::string_view 
                        "\" is not a 16-bit raw count";
             (k < 3 ? s.accel[size_t(k)] : s.gyro[size_t(k - 3)]) = int16_t(v);
         }
-        if (!to_whole(t[14], 0, 255, &v))
-            return "SEQ \"" + std::string(t[14]) + "\" is not an 8-bit sequence number";
+        if (!to_whole(t.back(), 0, 255, &v))
+            return "SEQ \"" + std::string(t.back()) + "\" is not an 8-bit sequence number";
         s.sequence = uint8_t(v);
         rec->imu.push_back(s);
+        return {};
+    }
+    if (kind == "IMU_SCALES") return parse_imu_scales(t, source, line_no, rec);
+    if (kind == "EXTERNAL_POSE") {
+        if (t.size() != 10)
+            return "an EXTERNAL_POSE line has 10 fields (TIME NAME EXTERNAL_POSE x y z qw qx qy "
+                   "qz), this one " +
+                   std::to_string(t.size());
+        glm::dvec3 position;
+        glm::dquat rotation;
+        if (std::string e = parse_pose_fields(t, "EXTERNAL_POSE", &position, &rotation); !e.empty())
+            return e;
+        auto it = std::find_if(rec->external_poses.begin(), rec->external_poses.end(),
+                               [&](const SurviveNamedPoses& n) { return n.name == t[1]; });
+        if (it == rec->external_poses.end())
+            it = rec->external_poses.insert(rec->external_poses.end(),
+                                            SurviveNamedPoses{std::string(t[1]), {}});
+        it->poses.push_back({time_ns, position, rotation});
         return {};
     }
     if (kind == "POSE") {
@@ -282,6 +328,28 @@ Result<glm::dmat3> frame(const nlohmann::json& o, const std::string& where) {
     return glm::dmat3(glm::cross(yn, zn), yn, zn);
 }
 
+// IMU lines that carry no sequence number (every SEQ the same, e.g. 0: a controller's samples
+// through its radio) are numbered in the order of their ticks: a new tick is the next sample, a
+// repeated one a repeat. Without it the codec takes every line after the first for a repeat.
+void number_imu_lines(const std::string& source, SurviveRecording* rec) {
+    std::vector<SurviveImuLine>& imu = rec->imu;
+    if (imu.size() < 2) return;
+    for (const SurviveImuLine& s : imu)
+        if (s.sequence != imu.front().sequence) return;
+    const int carried = imu.front().sequence;
+    uint8_t seq = 0;
+    for (size_t k = 1; k < imu.size(); ++k) {
+        if (imu[k].ticks != imu[k - 1].ticks) ++seq;
+        imu[k].sequence = seq;
+    }
+    imu.front().sequence = 0;
+    rec->imu_sequence_numbered = true;
+    rec->notes.push_back(source + ": the " + std::to_string(imu.size()) + " IMU lines of " +
+                         rec->device + " all carry sequence number " + std::to_string(carried) +
+                         " (no sample counter): numbered in the order of their ticks, the time "
+                         "from the tick");
+}
+
 class SurviveTransport final : public Transport {
   public:
     SurviveTransport(std::shared_ptr<const SurviveRecording> rec, DeviceId id)
@@ -301,9 +369,16 @@ class SurviveTransport final : public Transport {
         ++cursor_;
         return std::optional<InputReport>(std::move(r));
     }
+    // Feature report 0x01 (the IMU ranges) from the recording's IMU_SCALES line, as the device
+    // answered it to libsurvive; without one, none (the codec keeps the Index's defaults).
     Result<std::vector<uint8_t>> get_feature(uint8_t report_id, size_t) override {
+        if (report_id == vive::kRangeReportId && rec_->imu_scales)
+            return std::vector<uint8_t>{vive::kRangeReportId, (*rec_->imu_scales)[0],
+                                        (*rec_->imu_scales)[1]};
         return make_error("libsurvive recording: no feature report " + std::to_string(report_id) +
-                          " (the IMU ranges are the Index's defaults)");
+                          (report_id == vive::kRangeReportId
+                               ? " (no IMU_SCALES line: the IMU ranges are the Index's defaults)"
+                               : ""));
     }
     Status set_feature(std::span<const uint8_t>) override { return {}; }
     Status write_output(std::span<const uint8_t>) override { return {}; }
@@ -400,9 +475,12 @@ Result<SurviveRecording> parse_survive_recording(const std::string& text, const 
         ++line_no;
         ++rec.lines;
         const auto t = tokens(line, 16);
-        const bool lh_pose = t.size() >= 3 && t[2] == "LH_POSE";
-        const bool read_kind = t.size() >= 3 && (t[2] == "i" || t[2] == "POSE" ||
-                                                 t[2] == "CONFIG" || is_light_kind(t[2]));
+        // LH_POSE and EXTERNAL_POSE lines are read whatever their device field (a base station's
+        // number, a pose's name).
+        const bool lh_pose = t.size() >= 3 && (t[2] == "LH_POSE" || t[2] == "EXTERNAL_POSE");
+        const bool read_kind =
+            t.size() >= 3 && (t[2] == "i" || t[2] == "POSE" || t[2] == "CONFIG" ||
+                              t[2] == "IMU_SCALES" || is_light_kind(t[2]));
         if (read_kind &&
             std::find(rec.devices.begin(), rec.devices.end(), t[1]) == rec.devices.end())
             rec.devices.emplace_back(t[1]);
@@ -420,6 +498,7 @@ Result<SurviveRecording> parse_survive_recording(const std::string& text, const 
         }
         return make_error(where + err);
     }
+    number_imu_lines(source, &rec);
     if (rec.imu.empty()) {
         std::string held;
         for (const std::string& d : rec.devices) held += (held.empty() ? "" : ", ") + d;
@@ -490,6 +569,28 @@ Status replay_survive_light(const SurviveRecording& rec, lighthouse::LightDecode
     }
     decoder.finish();
     return {};
+}
+
+const std::vector<SurvivePose>* survive_device_poses(const SurviveRecording& rec,
+                                                     std::string* what) {
+    if (!rec.poses.empty()) {
+        *what = "POSE lines of " + rec.device;
+        return &rec.poses;
+    }
+    for (const std::string& name : {"replay_" + rec.device, rec.device})
+        for (const SurviveNamedPoses& n : rec.external_poses)
+            if (n.name == name) {
+                *what = "EXTERNAL_POSE lines named " + name;
+                return &n.poses;
+            }
+    std::string names;
+    for (const SurviveNamedPoses& n : rec.external_poses)
+        names += (names.empty() ? "" : ", ") + n.name + " (" + std::to_string(n.poses.size()) + ")";
+    *what = "no POSE line of " + rec.device + " and no EXTERNAL_POSE line named replay_" +
+            rec.device + " or " + rec.device +
+            (names.empty() ? std::string(" (no EXTERNAL_POSE line at all)")
+                           : " (EXTERNAL_POSE names: " + names + ")");
+    return nullptr;
 }
 
 std::unique_ptr<TransportBackend> create_survive_backend(

@@ -120,12 +120,16 @@ struct TraceImportReport {
     int64_t longest_gap_ns = 0;
     size_t header_lines_skipped = 0;
     std::vector<std::string> notes;  // human-readable account of the above
+    // What may be wrong with the result (printed as warnings): a cut last row dropped, a time unit
+    // given explicitly that gives an implausible rate and rotation speed, a rate above 2 kHz.
+    std::vector<std::string> warnings;
 
     std::string separator;                   // the one used: "comma", "tab", "semicolon", ...
     size_t duplicate_times_conflicting = 0;  // of the dropped duplicates, those whose pose differed
     size_t repeated_orientations = 0;        // identical to the previous sample (kept: new time)
     size_t comment_lines_skipped = 0;        // '#' lines after the data began
-    bool truncated_last_row_dropped = false;  // the last row had too few fields
+    bool truncated_last_row_dropped = false;  // the last row was cut short (too few fields, or no
+                                              // line ending and a field that does not read)
     int64_t time_offset_ns = 0;               // source time of the first sample (subtracted when
                                               // rebasing; 0 when not rebased)
     size_t fast_rotations = 0;          // steps above max_angular_speed_deg_s (reported or dropped)

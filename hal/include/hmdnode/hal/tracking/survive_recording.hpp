@@ -7,9 +7,16 @@
 // on the recording host's clock). What is read (libsurvive documents it nowhere formally; this is
 // what its recorder writes):
 //   TIME DEV i MASK TICK ax ay az gx gy gz mx my mz SEQ   raw IMU counts, 48 MHz tick, sequence
+//   TIME DEV i MASK TICK ax ay az gx gy gz SEQ             the same, older recorders (no
+//   magnetometer) TIME DEV IMU_SCALES GYRO ACC                            the IMU's range codes
+//   (feature report
+//                                                           0x01: 250 << GYRO deg/s, 2 << ACC g)
 //   TIME DEV CONFIG {json}                                  the device's factory configuration
 //   TIME DEV POSE x y z qw qx qy qz                          lighthouse-solved pose (libsurvive's
 //                                                           world, z up; the object's frame)
+//   TIME NAME EXTERNAL_POSE x y z qw qx qy qz                a pose named NAME (libsurvive's replay
+//                                                           writes a device's POSE lines back as
+//                                                           replay_DEV; any name is read)
 //   TIME DEV W CHANNEL SENSOR TIMECODE FLAG                 lighthouse-2 sweep hit (SENSOR: the
 //                                                           model's index; FLAG: a half tick)
 //   TIME DEV B CHANNEL SENSOR TIMECODE PLANE ANGLE          libsurvive's angle of that hit (rad)
@@ -82,10 +89,23 @@ struct SurviveBaseStationPose {
     std::optional<uint32_t> id;          // its OOTX id, when the line carries it
 };
 
+// The EXTERNAL_POSE lines of one name, in file order.
+struct SurviveNamedPoses {
+    std::string name;
+    std::vector<SurvivePose> poses;
+};
+
 struct SurviveRecording {
     std::string device;  // e.g. "T20"
     std::vector<SurviveImuLine> imu;
-    std::vector<SurvivePose> poses;
+    std::vector<SurvivePose> poses;                 // the device's POSE lines
+    std::vector<SurviveNamedPoses> external_poses;  // every EXTERNAL_POSE line, by name
+    // IMU_SCALES of the device (libsurvive's range modes: gyro 250 << g deg/s, accel 2 << a g),
+    // when the recording has one with modes 0..3 (what libsurvive applies); else the defaults.
+    std::optional<std::array<uint8_t, 2>> imu_scales;
+    // The IMU lines carry no sequence number (every SEQ the same: a controller's, through its
+    // radio): they were numbered in the order of their ticks (SurviveImuLine::sequence).
+    bool imu_sequence_numbered = false;
     std::vector<SurviveLightLine> light;
     std::vector<SurviveBaseStationPose> base_station_poses;  // every LH_POSE line
     LighthouseSensors sensors;  // CONFIG's lighthouse_config (empty when none)
@@ -96,7 +116,15 @@ struct SurviveRecording {
     uint64_t other_lines = 0;          // lines of other kinds or devices, skipped
     std::vector<std::string> devices;  // every device name with lines of a kind read, in order
     std::vector<std::string> warnings;
+    std::vector<std::string> notes;  // what the reader did that is not a fault (numbering, scales)
 };
+
+// The device's lighthouse-solved poses as a reference: its POSE lines; when it has none, the
+// EXTERNAL_POSE lines named replay_DEV (libsurvive's replay of its POSE lines), else named DEV.
+// `what` says which ("POSE lines of T20", "EXTERNAL_POSE lines named replay_T20"); null with no
+// such line, and `what` then lists the EXTERNAL_POSE names the recording holds.
+const std::vector<SurvivePose>* survive_device_poses(const SurviveRecording& rec,
+                                                     std::string* what);
 
 // Reads `device`'s lines of a recording (gzip'd or not). A device with no IMU line is an error
 // naming the devices the file holds.
