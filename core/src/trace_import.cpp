@@ -17,6 +17,20 @@
 namespace hmdnode {
 namespace {
 
+// The usual time units of a foreign log, as the option that selects each and its length in ns:
+// what the plausibility checks try when a column's unit gives no head tracker's rate.
+struct TimeUnitChoice {
+    const char* option;
+    long double ns_per_unit;
+};
+constexpr TimeUnitChoice kTimeUnitChoices[] = {
+    {"--time-unit s", 1e9L},
+    {"--time-unit ms", 1e6L},
+    {"--time-unit us", 1e3L},
+    {"--time-unit ns", 1.0L},
+    {"--time-scale 1e-7 (100 ns ticks: .NET DateTime/TimeSpan, Windows FILETIME)", 100.0L},
+    {"--time-scale 2.0833333e-8 (48 MHz ticks)", 1e9L / 48e6L}};
+
 using trace_text::in_quotes;
 using trace_text::Line;
 using trace_text::trim;
@@ -898,14 +912,7 @@ class TableImporter {
         const double limit = options_.max_angular_speed_deg_s;
         const bool fast_turns = max_speed_seen_ > limit;
         std::string likely;
-        for (const auto& [name, per] : std::initializer_list<std::pair<const char*, long double>>{
-                 {"--time-unit s", 1e9L},
-                 {"--time-unit ms", 1e6L},
-                 {"--time-unit us", 1e3L},
-                 {"--time-unit ns", 1.0L},
-                 {"--time-scale 1e-7 (100 ns ticks: .NET DateTime/TimeSpan, Windows FILETIME)",
-                  100.0L},
-                 {"--time-scale 2.0833333e-8 (48 MHz ticks)", 1e9L / 48e6L}}) {
+        for (const auto& [name, per] : kTimeUnitChoices) {
             const double f = double(per / ns_per_);
             if (per == ns_per_ || !(rate / f >= kMinRateHz && rate / f <= kMaxRateHz) ||
                 !(max_speed_seen_ / f <= limit))
@@ -945,15 +952,7 @@ class TableImporter {
             // to ~10 Hz), among the usual ones.
             const long double median_units = (long double)(st.median_interval_ns) / ns_per_;
             std::string likely;
-            for (const auto& [name, per] :
-                 std::initializer_list<std::pair<const char*, long double>>{
-                     {"--time-unit s", 1e9L},
-                     {"--time-unit ms", 1e6L},
-                     {"--time-unit us", 1e3L},
-                     {"--time-unit ns", 1.0L},
-                     {"--time-scale 1e-7 (100 ns ticks: .NET DateTime/TimeSpan, Windows FILETIME)",
-                      100.0L},
-                     {"--time-scale 2.0833333e-8 (48 MHz ticks)", 1e9L / 48e6L}}) {
+            for (const auto& [name, per] : kTimeUnitChoices) {
                 const long double m = median_units * per;
                 if (per != ns_per_ && m >= 5e5L && m <= 1e8L) {
                     likely = std::string("; with ") + name + " the median interval would be " +
