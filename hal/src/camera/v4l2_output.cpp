@@ -95,10 +95,10 @@ class V4l2Output final : public VideoOutput {
         return true;
     }
 
-    Result<bool> drain(int timeout_ms) override {
+    Result<bool> wait_in_flight(size_t at_most, int timeout_ms) override {
         const int64_t deadline = v4l2_detail::monotonic_now_ns() + int64_t(timeout_ms) * kNsPerMs;
-        while (in_flight() > 0) {
-            if (!streaming_) return make_error(device_ + ": drain() before start()");
+        while (in_flight() > at_most) {
+            if (!streaming_) return make_error(device_ + ": wait_in_flight() before start()");
             int left = -1;
             if (timeout_ms >= 0) {
                 const int64_t rest = deadline - v4l2_detail::monotonic_now_ns();

@@ -58,9 +58,11 @@ class VideoOutput {
     // false when none came free in time. Errors: a frame of the wrong size, no free buffer
     // before start(), the device failed or was removed.
     virtual Result<bool> write(std::span<const uint8_t> frame, uint64_t tag, int timeout_ms) = 0;
-    // Waits up to timeout_ms (-1: forever) until the driver has shown every frame written; true
-    // when it has. Errors: the device failed or was removed.
-    virtual Result<bool> drain(int timeout_ms) = 0;
+    // Waits up to timeout_ms (-1: forever) until at most `at_most` frames written are not yet
+    // shown; true when so. A driver may keep its newest frame until the next one comes (vivid
+    // does: the frame stays on its output), so "all but the last" is at_most = 1. Errors: the
+    // device failed or was removed.
+    virtual Result<bool> wait_in_flight(size_t at_most, int timeout_ms) = 0;
     // The frames the driver finished since the last call, in the order it finished them.
     virtual std::vector<ShownFrame> take_shown() = 0;
     // Frames written and not yet shown.
