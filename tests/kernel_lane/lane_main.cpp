@@ -1164,13 +1164,21 @@ void loopback_run(Renderer& r, const DisplayInfo& info) {
     cam->stop();
     out->stop();
     const double stream_s = ns_to_s(now_ns() - t0);
+    // The output's own account: every frame but the last it keeps, shown in the order written.
+    const std::vector<ShownFrame> shown = out->take_shown();
+    bool in_order = shown.size() + 1 >= size_t(kLoopIds);
+    for (size_t i = 0; i < shown.size(); ++i) in_order = in_order && shown[i].tag == i;
+    if (error.empty() && !in_order)
+        error = "the output returned " + std::to_string(shown.size()) +
+                " frames shown, not ids 0.." + std::to_string(kLoopIds - 2) + " in order";
     check(error.empty(), "vivid loopback: panels written to the HDMI output, its input captured",
           error.empty()
-              ? std::to_string(kLoopIds) + " output frames, " + std::to_string(cap.frames.size()) +
+              ? std::to_string(kLoopIds) + " output frames (" + std::to_string(shown.size()) +
+                    " returned shown, in the order written), " + std::to_string(cap.frames.size()) +
                     " captured" + fmt(", %.1f s", stream_s)
               : error);
     if (!error.empty()) return;
-    loop_report(cap.frames, payloads, out->take_shown());
+    loop_report(cap.frames, payloads, shown);
 }
 
 void kms_lane(const char* scene_path, const std::string& runs) {
