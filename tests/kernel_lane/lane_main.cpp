@@ -1034,13 +1034,14 @@ std::string loop_stream(VideoOutput& out, const std::vector<std::vector<uint8_t>
 }
 
 void loop_report(const std::vector<CameraFrame>& frames,
+                 const std::vector<std::vector<uint8_t>>& written,
                  const std::vector<LatencyMarkerPayload>& payloads,
                  const std::vector<ShownFrame>& shown) {
     // Per frame: the id decoded, -1 undecoded, -2 a payload never presented.
     std::vector<int> ids(frames.size(), -1);
     std::vector<std::string> reasons(frames.size());
     std::vector<uint8_t> luma;
-    int invented = 0;
+    int invented = 0, decoded = 0, exact = 0;
     std::string invented_detail;
     for (size_t i = 0; i < frames.size(); ++i) {
         const CameraFrame& f = frames[i];
@@ -1069,6 +1070,9 @@ void loop_report(const std::vector<CameraFrame>& frames,
             continue;
         }
         ids[i] = id;
+        // vivid copies the output's lines unscaled: the frame is the one written, byte for byte.
+        exact += f.bytes == written[size_t(id)];
+        ++decoded;
     }
     int first = -1, last = -1;
     for (size_t i = 0; i < ids.size(); ++i)
@@ -1128,6 +1132,9 @@ void loop_report(const std::vector<CameraFrame>& frames,
     check(invented == 0 && back_steps == 0 && undecoded_between == 0 && distinct >= 2,
           "vivid loopback: decoded marker ids were presented, in order, none undecoded between",
           detail);
+    check(decoded > 0 && exact == decoded,
+          "vivid loopback: each decoded frame is the frame written with its id, byte for byte",
+          std::to_string(exact) + " of " + std::to_string(decoded) + " decoded frames equal");
     std::printf(
         "[%7.3f s] info vivid loopback counts: %d of %d ids seen (first %d, last %d); %d repeats, "
         "%d skipped between, %d missed before the first and %d after the last; %" PRIu64
@@ -1178,7 +1185,7 @@ void loopback_run(Renderer& r, const DisplayInfo& info) {
                     " captured" + fmt(", %.1f s", stream_s)
               : error);
     if (!error.empty()) return;
-    loop_report(cap.frames, payloads, shown);
+    loop_report(cap.frames, frames, payloads, shown);
 }
 
 void kms_lane(const char* scene_path, const std::string& runs) {
