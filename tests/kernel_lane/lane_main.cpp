@@ -27,8 +27,8 @@
 //      YUYV to vivid's HDMI output (/dev/video1) through our V4L2 output backend; vivid loops
 //      it back to its HDMI input (/dev/video0, input 1), our V4L2 capture backend takes the
 //      frames on the driver's schedule, and the marker decoder reads them: the ids decoded are
-//      ones presented, in order, none undecoded between the first and the last; repeats,
-//      skips and capture drops are printed.
+//      ones presented, in order, none undecoded between the first and the last, each frame
+//      the one written byte for byte; repeats, skips and capture drops are printed.
 // argv[2] (optional) picks the renderers of the KMS runs: "gles" (the default: one GLES renderer on
 // GBM, its frames through the dumb-buffer copy, then zero-copy), "vulkan" (the Vulkan renderer's
 // frames through the dumb-buffer copy, with the live run) or "both".
@@ -874,10 +874,11 @@ void gbm_run(KmsDisplay& disp, SystemClock& clock, Renderer& r, LaneScene& ls) {
 // own. Each captured frame is decoded afterwards with the project's marker decoder (on its luma,
 // as the camera observer does). Checked: every decoded payload is one presented (none invented),
 // the ids never go back, no frame between the first and the last decoded marker fails to decode,
-// at least two ids came through. Printed: ids seen, repeats, skips, capture drops and the stamps'
-// offsets -- not checked: vivid's capture and output run on their own schedules and, under TCG,
-// its stamps can be hundreds of ms off.
-// Each warp costs about 0.7 s under TCG (llvmpipe): 20 ids keep the step to about 15 s.
+// at least two ids came through, each decoded frame is the one written with its id byte for byte,
+// and the output returned every frame but its last shown, in order. Printed: ids seen, repeats,
+// skips, capture drops and the stamps' offsets -- not checked: vivid's capture and output run on
+// their own schedules and, under TCG, its stamps can be hundreds of ms off. A marked warp costs
+// 0.3-0.8 s under TCG (llvmpipe): 20 ids keep the step to about 10-15 s.
 constexpr int kLoopIds = 20;
 // The HDMI link's frame: the smallest standard DV timing vivid offers at 4:3 (640x480p59.94);
 // the panel (both eyes side by side) sits at its centre on black.
