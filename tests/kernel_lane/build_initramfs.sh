@@ -32,10 +32,14 @@ esac
 cp "$busybox" "$root/bin/busybox"
 for a in sh mount insmod poweroff echo cat chroot; do ln -s busybox "$root/bin/$a"; done
 
-# Modules in load order, each once (tests/kernel_lane/lib.sh); vivid with one capture device.
+# Modules in load order, each once (tests/kernel_lane/lib.sh). vivid: one instance with a video
+# capture node (/dev/video0: input 0 a webcam, input 1 HDMI; input_types has two bits an input, 00
+# webcam, 11 HDMI) and a video output node (/dev/video1: one HDMI output), which vivid loops back
+# to its HDMI input when both have the same size and format (the lane's loopback, lane_main.cpp 8).
 . "$(dirname "$0")/lib.sh"
 kernel_lane_modules "$root" "$kver" hid-generic uhid vivid bochs virtio_pci 9pnet_virtio 9p
-sed -i 's/^vivid\.ko$/vivid.ko n_devs=1 node_types=0x1 num_inputs=1 input_types=0x0/' "$root/modules/load.list"
+vivid_args="n_devs=1 node_types=0x101 num_inputs=2 input_types=0xc num_outputs=1 output_types=0x1"
+sed -i "s/^vivid\\.ko\$/vivid.ko $vivid_args vid_cap_nr=0 vid_out_nr=1/" "$root/modules/load.list"
 
 # note: the share is mounted over directories of a read-only filesystem; proc, sys, dev and run are
 # mounted on the host's own mount points inside it (mounting does not write to it). Not /tmp: the

@@ -21,7 +21,14 @@
 //      kms_swrast: bochs-drm has no 3D driver) warps the demo room into its ring of GBM buffer
 //      objects, which the display attached as framebuffers once; 300 flips of the buffer the warp
 //      just drew (no CPU copy), the scanned-out buffer read back through the kernel (GETFB2 +
-//      map) equal to the same frame read back from GL.
+//      map) equal to the same frame read back from GL;
+//   8. the latency marker through a real V4L2 driver: the same renderer's warp draws panels
+//      carrying the marker for 20 consecutive ids (each equal to the CPU reference), written as
+//      YUYV to vivid's HDMI output (/dev/video1) through our V4L2 output backend; vivid loops
+//      it back to its HDMI input (/dev/video0, input 1), our V4L2 capture backend takes the
+//      frames on the driver's schedule, and the marker decoder reads them: the ids decoded are
+//      ones presented, in order, none undecoded between the first and the last, each frame
+//      the one written byte for byte; repeats, skips and capture drops are printed.
 // argv[2] (optional) picks the renderers of the KMS runs: "gles" (the default: one GLES renderer on
 // GBM, its frames through the dumb-buffer copy, then zero-copy), "vulkan" (the Vulkan renderer's
 // frames through the dumb-buffer copy, with the live run) or "both".
@@ -45,9 +52,12 @@
 #include <vector>
 
 #include "hmdnode/core/gltf.hpp"
+#include "hmdnode/core/latency_marker.hpp"
 #include "hmdnode/core/percentile.hpp"
 #include "hmdnode/core/stereo.hpp"
 #include "hmdnode/hal/camera.hpp"
+#include "hmdnode/hal/camera/v4l2_output.hpp"
+#include "hmdnode/hal/camera/yuyv.hpp"
 #include "hmdnode/hal/codec/reference_protocol.hpp"
 #include "hmdnode/hal/display/kms_display.hpp"
 #include "hmdnode/hal/sim/sim_reference_device.hpp"
@@ -855,6 +865,330 @@ void gbm_run(KmsDisplay& disp, SystemClock& clock, Renderer& r, LaneScene& ls) {
                  disp.last_flip().sequence, error);
 }
 
+// 8. The latency marker through a real V4L2 driver (issue 36, docs/latency.md, "The kernel lane's
+// loopback"): the GLES renderer's warp draws the panel with the latency marker for kLoopIds
+// consecutive ids (the renderer's set_latency_marker, as the observed replay does; each panel
+// checked against the unmarked warp with draw_latency_marker applied, the CPU reference), each
+// panel goes as YUYV into vivid's HDMI output (/dev/video1), and vivid's loopback returns it on
+// its HDMI input (/dev/video0, input 1), captured on the driver's own schedule by a thread of its
+// own. Each captured frame is decoded afterwards with the project's marker decoder (on its luma,
+// as the camera observer does). Checked: every decoded payload is one presented (none invented),
+// the ids never go back, no frame between the first and the last decoded marker fails to decode,
+// at least two ids came through, each decoded frame is the one written with its id byte for byte,
+// and the output returned every frame but its last shown, in order. Printed: ids seen, repeats,
+// skips, capture drops and the stamps' offsets -- not checked: vivid's capture and output run on
+// their own schedules and, under TCG, its stamps can be hundreds of ms off. A marked warp costs
+// 0.3-0.8 s under TCG (llvmpipe): 20 ids keep the step to about 10-15 s.
+constexpr int kLoopIds = 20;
+// The HDMI link's frame: the smallest standard DV timing vivid offers at 4:3 (640x480p59.94);
+// the panel (both eyes side by side) sits at its centre on black.
+constexpr uint32_t kLoopWidth = 640, kLoopHeight = 480;
+constexpr int kLoopMaxCaptures = 240;  // bound on the capture frames kept (4 s at 60 Hz)
+constexpr int kLoopCellPx = 4;         // marker cells of 4 panel pixels
+
+// The capture thread: every frame of the HDMI input until told to stop or the bound.
+struct LoopCapture {
+    std::vector<CameraFrame> frames;
+    std::string error;  // read after the thread ends; `failed` says so before
+    std::atomic<bool> stop{false}, failed{false};
+    std::atomic<int> count{0};
+    void run(Camera& cam) {
+        while (!stop && int(frames.size()) < kLoopMaxCaptures) {
+            auto f = cam.next_frame(200);
+            if (!f.ok()) {
+                error = f.error().message;
+                failed = true;
+                return;
+            }
+            if (!f->has_value()) continue;
+            frames.push_back(std::move(**f));
+            ++count;
+        }
+    }
+};
+
+// Waits until `pred` holds or `timeout_ms` passes, polling every ms.
+template <typename Pred>
+bool loop_wait_for(Pred&& pred, int timeout_ms) {
+    const int64_t until = now_ns() + int64_t(timeout_ms) * kNsPerMs;
+    while (!pred()) {
+        if (now_ns() > until) return false;
+        usleep(1000);
+    }
+    return true;
+}
+
+// The marked panels as YUYV frames of the link, each checked against the CPU reference.
+bool loop_panels(Renderer& r, const DisplayInfo& info, std::vector<std::vector<uint8_t>>* frames,
+                 std::vector<LatencyMarkerPayload>* payloads) {
+    LatencyMarkerOverlay o =
+        default_latency_marker_overlay(info.eye_width, info.eye_height, kLoopCellPx);
+    const glm::dquat still(1, 0, 0, 0);
+    std::string error;
+    std::vector<double> warp_ms, readback_ms;
+    StereoImage plain, marked;
+    r.set_latency_marker(nullptr);
+    auto first = r.warp(still, &plain);
+    if (!first.ok()) error = "unmarked warp: " + first.error().message;
+    int equal = 0;
+    const uint32_t x0 = (kLoopWidth - 2 * uint32_t(info.eye_width)) / 2 & ~1u;
+    const uint32_t y0 = (kLoopHeight - uint32_t(info.eye_height)) / 2;
+    for (int k = 0; k < kLoopIds && error.empty(); ++k) {
+        o.payload = make_latency_marker_payload(now_ns(), uint64_t(k));
+        r.set_latency_marker(&o);
+        const int64_t t0 = now_ns();
+        auto w = r.warp(still, &marked);
+        warp_ms.push_back(ns_to_ms(now_ns() - t0));
+        if (!w.ok()) {
+            error = "marked warp " + std::to_string(k) + ": " + w.error().message;
+            break;
+        }
+        readback_ms.push_back(ns_to_ms(w->readback_ns));
+        bool same = true;
+        for (int e = 0; e < 2; ++e) {
+            ImageRGBA8 want = plain.eye[e];
+            draw_latency_marker(want, o.payload, o.x, o.y, o.cell_px);
+            same = same && want.pixels == marked.eye[e].pixels;
+        }
+        equal += same;
+        payloads->push_back(o.payload);
+        std::vector<uint8_t> frame(size_t(kLoopWidth) * 2 * kLoopHeight);
+        const YuyvFrameView view{frame, kLoopWidth, kLoopHeight, kLoopWidth * 2};
+        fill_yuyv_black(view);
+        write_rgba_to_yuyv(side_by_side(marked), int(x0), int(y0), view);
+        frames->push_back(std::move(frame));
+    }
+    r.set_latency_marker(nullptr);
+    check(error.empty() && equal == kLoopIds,
+          "GLES warp panels with the latency marker equal the CPU reference",
+          error.empty()
+              ? std::to_string(equal) + "/" + std::to_string(kLoopIds) + " panels of ids 0.." +
+                    std::to_string(kLoopIds - 1) + fmt(" (cell %.0f px)", kLoopCellPx) +
+                    fmt(", warp median %.0f ms", percentile(warp_ms, 0.5)) +
+                    fmt(" (read-back %.0f ms)", percentile(readback_ms, 0.5))
+              : error);
+    return error.empty() && equal == kLoopIds;
+}
+
+// The loopback's output and capture devices, configured for the link.
+bool loop_devices(std::unique_ptr<VideoOutput>* out, std::unique_ptr<Camera>* cam) {
+    V4l2OutputConfig oc;
+    oc.device = "/dev/video1";
+    oc.width = kLoopWidth;
+    oc.height = kLoopHeight;
+    oc.fourcc = kFourccYuyv;
+    oc.buffers = 32;  // half a second of frames queued: the writer never lets the output run dry
+    oc.dv_timings = true;
+    auto o = open_v4l2_output(oc);
+    check(o.ok(), "V4L2 output open + S_DV_TIMINGS + S_FMT + REQBUFS (vivid HDMI output)",
+          o.ok() ? (*o)->name() + " " + std::to_string((*o)->width()) + "x" +
+                       std::to_string((*o)->height()) + " " + fourcc_to_string((*o)->fourcc()) +
+                       ", " + std::to_string((*o)->buffers()) + " buffers"
+                 : o.error().message);
+    V4l2OutputConfig not_output = oc;
+    not_output.device = "/dev/video0";
+    auto n = open_v4l2_output(not_output);
+    check(!n.ok() && n.error().message.find("is not a video output device") != std::string::npos,
+          "a capture device opened as an output is a clear error",
+          n.ok() ? "opened?" : n.error().message);
+    V4l2CameraConfig cc;
+    cc.device = "/dev/video0";
+    cc.width = kLoopWidth;
+    cc.height = kLoopHeight;
+    cc.fourcc = kFourccYuyv;
+    cc.buffers = 16;
+    cc.input = 1;  // vivid's HDMI input (input 0 is the webcam the camera check streams)
+    cc.controls = {{"Loop Video", 1}, {"OSD Text Mode", 2}};  // loop back; no text drawn over it
+    cc.dv_timings = true;
+    auto c = open_v4l2_camera(cc);
+    check(c.ok(),
+          "V4L2 capture of the HDMI input (S_INPUT 1, Loop Video, S_DV_TIMINGS, S_FMT, REQBUFS)",
+          c.ok() ? (*c)->name() + " " + std::to_string((*c)->width()) + "x" +
+                       std::to_string((*c)->height()) + " " + fourcc_to_string((*c)->fourcc())
+                 : c.error().message);
+    if (!o.ok() || !c.ok()) return false;
+    *out = std::move(*o);
+    *cam = std::move(*c);
+    return true;
+}
+
+// Writes every panel and waits until the output has shown all but the last (vivid keeps its
+// newest output frame until the next comes: it stays on the link) and the capture has taken
+// kLoopAfter frames more, which see the last panel.
+constexpr int kLoopAfter = 5;
+std::string loop_stream(VideoOutput& out, const std::vector<std::vector<uint8_t>>& frames,
+                        LoopCapture& cap) {
+    if (Status s = out.start(); !s.ok()) return s.error().message;
+    for (int k = 0; k < kLoopIds; ++k) {
+        auto w = out.write(frames[size_t(k)], uint64_t(k), 3000);
+        if (!w.ok()) return "write " + std::to_string(k) + ": " + w.error().message;
+        if (!*w) return "write " + std::to_string(k) + ": no output buffer came back within 3 s";
+        if (cap.failed) return "the capture failed";
+    }
+    auto d = out.wait_in_flight(1, 5000);
+    if (!d.ok()) return "output: " + d.error().message;
+    if (!*d) return "the output did not show all but its last frame within 5 s";
+    const int seen = cap.count;
+    if (!loop_wait_for([&] { return cap.count >= seen + kLoopAfter || cap.failed; }, 3000))
+        return "the capture took no frames after the output's last";
+    return cap.failed ? "the capture failed" : "";
+}
+
+void loop_report(const std::vector<CameraFrame>& frames,
+                 const std::vector<std::vector<uint8_t>>& written,
+                 const std::vector<LatencyMarkerPayload>& payloads,
+                 const std::vector<ShownFrame>& shown) {
+    // Per frame: the id decoded, -1 undecoded, -2 a payload never presented.
+    std::vector<int> ids(frames.size(), -1);
+    std::vector<std::string> reasons(frames.size());
+    std::vector<uint8_t> luma;
+    int invented = 0, decoded = 0, exact = 0;
+    std::string invented_detail;
+    for (size_t i = 0; i < frames.size(); ++i) {
+        const CameraFrame& f = frames[i];
+        if (f.fourcc != kFourccYuyv || f.bytes.size() < size_t(f.bytes_per_line) * f.height ||
+            f.bytes_per_line < 2 * f.width) {
+            reasons[i] = "not a whole YUYV frame";
+            continue;
+        }
+        luma.resize(size_t(f.width) * f.height);  // Y0 U Y1 V: every other byte, as the observer
+        for (uint32_t y = 0; y < f.height; ++y)
+            for (uint32_t x = 0; x < f.width; ++x)
+                luma[size_t(y) * f.width + x] = f.bytes[size_t(y) * f.bytes_per_line + 2 * x];
+        const LatencyMarkerDecode d =
+            decode_latency_marker(luma.data(), int(f.width), int(f.height), int(f.width));
+        if (!d.ok) {
+            reasons[i] = d.reason;
+            continue;
+        }
+        const int id = d.payload.present_sequence;
+        if (id >= int(payloads.size()) || payloads[size_t(id)] != d.payload) {
+            ids[i] = -2;
+            if (invented++ == 0)
+                invented_detail = "frame " + std::to_string(f.sequence) + " decoded sequence " +
+                                  std::to_string(id) + ", sample " +
+                                  std::to_string(d.payload.sample_time_us) + " us";
+            continue;
+        }
+        ids[i] = id;
+        // vivid copies the output's lines unscaled: the frame is the one written, byte for byte.
+        exact += f.bytes == written[size_t(id)];
+        ++decoded;
+    }
+    int first = -1, last = -1;
+    for (size_t i = 0; i < ids.size(); ++i)
+        if (ids[i] >= 0) {
+            if (first < 0) first = int(i);
+            last = int(i);
+        }
+    int undecoded_between = 0, back_steps = 0, repeats = 0, distinct = 0;
+    std::string between_detail;
+    std::vector<bool> seen(payloads.size(), false);
+    int prev = -1;
+    for (int i = std::max(first, 0); first >= 0 && i <= last; ++i) {
+        if (ids[size_t(i)] == -1 && undecoded_between++ == 0)
+            between_detail =
+                "frame " + std::to_string(frames[size_t(i)].sequence) + ": " + reasons[size_t(i)];
+        if (ids[size_t(i)] < 0) continue;
+        const int id = ids[size_t(i)];
+        if (prev >= 0 && id < prev) ++back_steps;
+        if (id == prev) ++repeats;
+        if (!seen[size_t(id)]) ++distinct;
+        seen[size_t(id)] = true;
+        prev = id;
+    }
+    const int first_id = first >= 0 ? ids[size_t(first)] : -1;
+    const int last_id = last >= 0 ? ids[size_t(last)] : -1;
+    int skipped = 0;
+    for (int id = first_id; first_id >= 0 && id <= last_id; ++id) skipped += !seen[size_t(id)];
+    uint64_t drops = 0;
+    for (size_t i = 1; i < frames.size(); ++i)
+        if (frames[i].sequence > frames[i - 1].sequence + 1)
+            drops += frames[i].sequence - frames[i - 1].sequence - 1;
+    // The capture's stamp minus the output's stamp, for the first capture of each id.
+    std::vector<double> offsets_ms;
+    bool driver_stamps = !shown.empty();
+    std::vector<bool> counted(payloads.size(), false);
+    for (size_t i = 0; i < ids.size(); ++i) {
+        if (ids[i] < 0 || counted[size_t(ids[i])]) continue;
+        counted[size_t(ids[i])] = true;
+        for (const ShownFrame& s : shown)
+            if (s.tag == uint64_t(ids[i])) {
+                offsets_ms.push_back(ns_to_ms(frames[i].host_time_ns - s.host_time_ns));
+                driver_stamps = driver_stamps && s.driver_stamp;
+                break;
+            }
+    }
+    std::string detail = std::to_string(last >= 0 ? last - first + 1 : 0) +
+                         " frames from the first decoded marker to the last, " +
+                         std::to_string(distinct) + " distinct ids";
+    if (invented) detail += "; " + std::to_string(invented) + " invented: " + invented_detail;
+    if (back_steps) detail += "; the id went back " + std::to_string(back_steps) + " times";
+    if (undecoded_between)
+        detail +=
+            "; " + std::to_string(undecoded_between) + " undecoded between: " + between_detail;
+    if (first < 0)
+        detail += "; nothing decoded (first frame: " +
+                  (reasons.empty() ? std::string("no frames") : reasons[0]) + ")";
+    check(invented == 0 && back_steps == 0 && undecoded_between == 0 && distinct >= 2,
+          "vivid loopback: decoded marker ids were presented, in order, none undecoded between",
+          detail);
+    check(decoded > 0 && exact == decoded,
+          "vivid loopback: each decoded frame is the frame written with its id, byte for byte",
+          std::to_string(exact) + " of " + std::to_string(decoded) + " decoded frames equal");
+    std::printf(
+        "[%7.3f s] info vivid loopback counts: %d of %d ids seen (first %d, last %d); %d repeats, "
+        "%d skipped between, %d missed before the first and %d after the last; %" PRIu64
+        " capture frames dropped (sequence gaps) of %zu captured, %d undecoded before the first "
+        "marker and %d after the last; capture stamp - output stamp of the same id median %.1f "
+        "ms, range %.1f..%.1f ms (%s; vivid's own schedules: not checked)\n",
+        ns_to_s(now_ns() - g_t0), distinct, kLoopIds, first_id, last_id, repeats, skipped,
+        std::max(first_id, 0), last_id >= 0 ? kLoopIds - 1 - last_id : kLoopIds, drops,
+        frames.size(), std::max(first, 0),
+        last >= 0 ? int(frames.size()) - 1 - last : int(frames.size()), percentile(offsets_ms, 0.5),
+        percentile(offsets_ms, 0.0), percentile(offsets_ms, 1.0),
+        driver_stamps ? "both the driver's stamps" : "output stamps at dequeue");
+    std::fflush(stdout);
+}
+
+void loopback_run(Renderer& r, const DisplayInfo& info) {
+    std::vector<std::vector<uint8_t>> frames;
+    std::vector<LatencyMarkerPayload> payloads;
+    if (!loop_panels(r, info, &frames, &payloads)) return;
+    std::unique_ptr<VideoOutput> out;
+    std::unique_ptr<Camera> cam;
+    if (!loop_devices(&out, &cam)) return;
+    if (Status s = cam->start(); !s.ok()) {
+        check(false, "V4L2 STREAMON (HDMI input)", s.error().message);
+        return;
+    }
+    LoopCapture cap;
+    std::thread capture([&] { cap.run(*cam); });
+    const int64_t t0 = now_ns();
+    std::string error = loop_stream(*out, frames, cap);
+    cap.stop = true;
+    capture.join();
+    if (!cap.error.empty()) error += (error.empty() ? "capture: " : "; capture: ") + cap.error;
+    cam->stop();
+    out->stop();
+    const double stream_s = ns_to_s(now_ns() - t0);
+    // The output's own account: every frame but the last it keeps, shown in the order written.
+    const std::vector<ShownFrame> shown = out->take_shown();
+    bool in_order = shown.size() + 1 >= size_t(kLoopIds);
+    for (size_t i = 0; i < shown.size(); ++i) in_order = in_order && shown[i].tag == i;
+    if (error.empty() && !in_order)
+        error = "the output returned " + std::to_string(shown.size()) +
+                " frames shown, not ids 0.." + std::to_string(kLoopIds - 2) + " in order";
+    check(error.empty(), "vivid loopback: panels written to the HDMI output, its input captured",
+          error.empty()
+              ? std::to_string(kLoopIds) + " output frames (" + std::to_string(shown.size()) +
+                    " returned shown, in the order written), " + std::to_string(cap.frames.size()) +
+                    " captured" + fmt(", %.1f s", stream_s)
+              : error);
+    if (!error.empty()) return;
+    loop_report(cap.frames, frames, payloads, shown);
+}
+
 void kms_lane(const char* scene_path, const std::string& runs) {
     for (int i = 0; i < 100 && access("/dev/dri/card0", F_OK) != 0; ++i) usleep(50'000);
     auto conns = list_kms_connectors();
@@ -924,6 +1258,7 @@ void kms_lane(const char* scene_path, const std::string& runs) {
     if (!ls.upload(**renderer, *scene).ok()) return;
     dumb_run(disp, clock, **renderer, ls, 0);
     gbm_run(disp, clock, **renderer, ls);
+    loopback_run(**renderer, info);
 }
 
 }  // namespace
@@ -941,7 +1276,7 @@ int main(int argc, char** argv) {
     }
     std::printf(
         "hmdnode kernel lane: uhid -> hidraw -> hidapi, vivid -> V4L2, bochs-display -> "
-        "KMS, the renderer -> KMS\n");
+        "KMS, the renderer -> KMS, the renderer -> V4L2 output -> vivid loopback -> V4L2\n");
     hid_lane();
     camera_lane();
     kms_lane(argv[1], runs);

@@ -1,12 +1,13 @@
 // The V4L2 camera backend: memory-mapped streaming I/O (V4L2 API, "Streaming I/O (Memory
-// Mapping)"): VIDIOC_QUERYCAP -> S_FMT -> REQBUFS(MMAP) -> QUERYBUF + mmap -> QBUF all ->
-// STREAMON; each frame is poll + DQBUF, copied out, and QBUF'd back at once so the driver never
-// runs out of buffers. Timestamps: a buffer flagged V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC carries the
-// capture time on CLOCK_MONOTONIC -- the host clock of hmdnode -- and is used as is; any other
-// timestamp source is replaced by the dequeue time (and said by timestamps_from_driver()).
-// Cost: one copy of each frame (bytesused); memory the driver's buffers (mapped) + one frame.
-// Departs from libv4l2: plain ioctls on the kernel's device -- no format emulation, so the
-// device must offer the requested fourcc (the error lists what it offers).
+// Mapping)"): VIDIOC_QUERYCAP -> [S_INPUT, S_CTRL by name, S_DV_TIMINGS: V4l2CameraConfig] ->
+// S_FMT -> REQBUFS(MMAP) -> QUERYBUF + mmap -> QBUF all -> STREAMON; each frame is poll + DQBUF,
+// copied out, and QBUF'd back at once so the driver never runs out of buffers. Timestamps: a buffer
+// flagged V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC carries the capture time on CLOCK_MONOTONIC -- the host
+// clock of hmdnode -- and is used as is; any other timestamp source is replaced by the dequeue time
+// (and said by timestamps_from_driver()). Cost: one copy of each frame (bytesused); memory the
+// driver's buffers (mapped) + one frame. Departs from libv4l2: plain ioctls on the kernel's device
+// -- no format emulation, so the device must offer the requested fourcc (the error lists what it
+// offers).
 #include <fcntl.h>
 #include <linux/videodev2.h>
 #include <poll.h>
@@ -20,42 +21,15 @@
 #include <vector>
 
 #include "hmdnode/hal/camera.hpp"
+#include "v4l2_common.hpp"
 
 namespace hmdnode {
 namespace {
 
-int xioctl(int fd, unsigned long request, void* arg) {
-    int r;
-    do r = ioctl(fd, request, arg);
-    while (r == -1 && errno == EINTR);
-    return r;
-}
-
-std::string errno_text(int e) {
-    const char* name = e == ENOENT   ? "ENOENT"
-                       : e == EBUSY  ? "EBUSY"
-                       : e == EACCES ? "EACCES"
-                       : e == ENODEV ? "ENODEV"
-                       : e == ENOTTY ? "ENOTTY"
-                       : e == EINVAL ? "EINVAL"
-                                     : nullptr;
-    return std::string(std::strerror(e)) + (name ? std::string(" (") + name + ")" : "");
-}
-
-std::string explain(const std::string& device, const std::string& what, int e) {
-    std::string m = device + ": " + what + ": " + errno_text(e);
-    if (e == ENOENT) m += " -- no such device; is the camera plugged in (ls /dev/video*)?";
-    if (e == EBUSY) m += " -- the device is busy: another program is streaming from it";
-    if (e == EACCES) m += " -- no permission; add the user to the \"video\" group";
-    if (e == ENODEV) m += " -- the device was removed";
-    return m;
-}
-
-int64_t monotonic_now_ns() {
-    timespec ts{};
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return static_cast<int64_t>(ts.tv_sec) * kNsPerSecond + ts.tv_nsec;
-}
+using v4l2_detail::errno_text;
+using v4l2_detail::explain;
+using v4l2_detail::monotonic_now_ns;
+using v4l2_detail::xioctl;
 
 class V4l2Camera final : public Camera {
   public:
@@ -81,6 +55,18 @@ class V4l2Camera final : public Camera {
         if (!(caps & V4L2_CAP_STREAMING))
             return make_error(device_ + ": \"" + reinterpret_cast<const char*>(cap.card) +
                               "\" does not support streaming I/O");
+
+        if (config.input >= 0) {
+            int input = config.input;
+            if (xioctl(fd_, VIDIOC_S_INPUT, &input) == -1)
+                return make_error(
+                    explain(device_, "VIDIOC_S_INPUT " + std::to_string(config.input), errno));
+        }
+        if (Status s = v4l2_detail::set_controls(fd_, device_, config.controls); !s.ok()) return s;
+        if (config.dv_timings)
+            if (Status s = v4l2_detail::set_dv_timings(fd_, device_, config.width, config.height);
+                !s.ok())
+                return s;
 
         v4l2_format fmt{};
         fmt.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;

@@ -7,6 +7,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "hmdnode/core/result.hpp"
@@ -73,11 +74,19 @@ struct V4l2CameraConfig {
     uint32_t height = 480;
     uint32_t fourcc = kFourccYuyv;
     uint32_t buffers = 4;  // mmap buffers requested (the driver may give more)
+    int input = -1;        // >= 0: select this input first (VIDIOC_S_INPUT), e.g. an HDMI one
+    // Controls set by name before the format (VIDIOC_QUERYCTRL, S_CTRL), e.g. vivid's
+    // {"Loop Video", 1}.
+    std::vector<std::pair<std::string, int32_t>> controls;
+    // An HDMI input: first set the device's standard DV timing of width x height, progressive
+    // (VIDIOC_ENUM_DV_TIMINGS, S_DV_TIMINGS), so that the frame is the signal's size.
+    bool dv_timings = false;
 };
 
-// Opens and configures a V4L2 capture device (VIDIOC_QUERYCAP, S_FMT, REQBUFS mmap, QBUF).
-// Errors name the device: missing (ENOENT), busy (EBUSY: another program streams from it),
-// no permission (EACCES: the "video" group), not a capture device.
+// Opens and configures a V4L2 capture device (VIDIOC_QUERYCAP, [S_INPUT, S_CTRL, S_DV_TIMINGS],
+// S_FMT, REQBUFS mmap, QBUF). Errors name the device and the ioctl: missing (ENOENT), busy
+// (EBUSY: another program streams from it), no permission (EACCES: the "video" group), not a
+// capture device, no such input or control, no DV timing of the size.
 Result<std::unique_ptr<Camera>> open_v4l2_camera(const V4l2CameraConfig& config);
 
 struct SimCameraConfig {

@@ -1,0 +1,37 @@
+// What the V4L2 camera and output backends share (private to hal): ioctl with EINTR retried,
+// errors that name the device, the ioctl and the errno, and the two set-up steps both sides of an
+// HDMI link take -- a standard DV timing of the frame's size and controls set by name.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "hmdnode/core/result.hpp"
+
+namespace hmdnode::v4l2_detail {
+
+// ioctl(fd, request, arg), retried on EINTR.
+int xioctl(int fd, unsigned long request, void* arg);
+
+// "No such file or directory (ENOENT)".
+std::string errno_text(int e);
+
+// "DEVICE: WHAT: errno text" and, for the errors a user can fix, what to do.
+std::string explain(const std::string& device, const std::string& what, int e);
+
+// CLOCK_MONOTONIC now, ns.
+int64_t monotonic_now_ns();
+
+// The first of the device's standard DV timings (VIDIOC_ENUM_DV_TIMINGS) that is width x height,
+// progressive, set with VIDIOC_S_DV_TIMINGS (on the current input or output). Errors name the
+// device and list the progressive sizes it offers.
+Status set_dv_timings(int fd, const std::string& device, uint32_t width, uint32_t height);
+
+// Sets each control found by its name (VIDIOC_QUERYCTRL with V4L2_CTRL_FLAG_NEXT_CTRL) to its
+// value (VIDIOC_S_CTRL). Errors name the device and the control.
+Status set_controls(int fd, const std::string& device,
+                    const std::vector<std::pair<std::string, int32_t>>& controls);
+
+}  // namespace hmdnode::v4l2_detail
