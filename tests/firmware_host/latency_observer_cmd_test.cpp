@@ -162,4 +162,49 @@ TEST(LatencyObserverCmd, AMissingCameraDeviceFailsNamingIt) {
     EXPECT_FALSE(fs::exists(report));
 }
 
+// A real panel (--display kms or vk-display): the options that go with it and those that do not.
+TEST(LatencyObserverCmd, BadDisplayOptionsExitTwoNamingTheOption) {
+    const fs::path dir = hmdnode::test::fresh_temp_dir("hmdnode_latency_display_bad");
+    const fs::path report = dir / "r.json";
+    const std::string sim = kTool + " latency --scene " + kScene + kPanel +
+                            " --frame-cost-ms 4 --duration 0.5 --report " + report.string();
+    const std::string real = kTool + " latency --scene " + kScene +
+                             " --clock real --quiet --duration 0.5 --report " + report.string();
+    const std::vector<std::pair<std::string, std::string>> cases = {
+        {sim + " --display hdmi", "--display \"hdmi\""},
+        {sim + " --display-device /dev/dri/card0", "--display-device goes with --display kms"},
+        {sim + " --display-mode 2880x1600@90", "--display-mode goes with --display kms"},
+        {sim + " --display kms", "give --clock real"},
+        {real + " --display kms --eye-width 360", "--eye-width: with --display kms"},
+        {real + " --display kms --refresh 120", "--refresh: with --display kms"},
+        {real + " --display kms --observer camera", "--camera sim films the mock display only"},
+        {real + " --display vk-display --display-device /dev/dri/card0",
+         "--display-device goes with --display kms"},
+        {real + " --display kms --display-persistence-ms -1", "--display-persistence-ms"},
+    };
+    for (const auto& [cmd, named] : cases) {
+        const CommandRun r = run(cmd);
+        EXPECT_EQ(r.code, 2) << cmd << ": " << r.output;
+        EXPECT_NE(r.output.find("hmdnode latency: "), std::string::npos) << r.output;
+        EXPECT_NE(r.output.find(named), std::string::npos) << cmd << ": " << r.output;
+        EXPECT_FALSE(fs::exists(report)) << cmd;
+    }
+}
+
+// A real panel that cannot be opened: exit 1 naming the device, nothing written; the flash
+// calibration alike.
+TEST(LatencyObserverCmd, AMissingDisplayDeviceFailsNamingIt) {
+    const fs::path dir = hmdnode::test::fresh_temp_dir("hmdnode_latency_display_missing");
+    const fs::path report = dir / "r.json";
+    const std::string device = (dir / "card-none").string();
+    const CommandRun r =
+        run(kTool + " latency --scene " + kScene +
+            " --clock real --duration 0.5 --quiet --modes none --display kms --display-device " +
+            device + " --report " + report.string());
+    EXPECT_EQ(r.code, 1) << r.output;
+    EXPECT_NE(r.output.find(device), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("nothing written"), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(report));
+}
+
 }  // namespace

@@ -156,6 +156,15 @@ Status check_replay_options(const ReplayOptions& opt) {
             return make_error("report " + st.error().message);
     if (Status st = check_persistence(opt.display); !st.ok())
         return make_error("display persistence " + st.error().message);
+    if (!is_display_type(opt.display_type))
+        return make_error("display type \"" + opt.display_type + "\" is not one of " +
+                          kDisplayTypeNames);
+    if (opt.display_type != "mock" && opt.simulated_clock)
+        return make_error("display " + opt.display_type +
+                          " is a real panel: it runs on the real clock, not the simulated one");
+    if (opt.display_type != "mock" && opt.display_watcher)
+        return make_error("display " + opt.display_type +
+                          ": a simulated camera films the mock display only");
     const SimTrackerConfig& t = opt.tracker;
     if (!(t.resample_hz >= 0.0 && t.resample_hz <= kMaxResampleHz))
         return make_error("tracker resample rate " + std::to_string(t.resample_hz) +
@@ -243,7 +252,9 @@ Result<NodeSpec> replay_node_spec(const ReplayOptions& opt, std::shared_ptr<cons
     ns.clock = clock_kind;
     ns.tracker = spec;
     ns.eye_tracker = eye_spec;
+    ns.display.type = opt.display_type;
     ns.display.mock = opt.display;
+    ns.display.kms = opt.real_display;
     ns.display.mock_watcher = opt.display_watcher;
     ns.renderer.config = opt.renderer;
     ns.node = opt.node;
@@ -342,7 +353,8 @@ void summarize_replay(const ReplayOptions& opt, AssembledNode& parts, const Repl
                       const TruthFn& truth, std::chrono::steady_clock::time_point wall0,
                       ReplayResult* result) {
     const NodeRuntime& node = parts.runtime();
-    result->period_ns = parts.display().info().period_ns;
+    result->display = parts.display().info();
+    result->period_ns = result->display.period_ns;
     result->vsyncs =
         vsync_series(result->frames, result->period_ns, truth, opt.node.registration_distance_m);
     result->summary = summarize_vsyncs(result->frames, result->vsyncs);
@@ -490,6 +502,20 @@ nlohmann::json replay_summary_json(const ReplaySummary& s) {
             {"wall_s", s.wall_s}};
 }
 
+// The report's "display": the mock panel as configured, or what a real one said of itself.
+nlohmann::json replay_display_json(const ReplayOptions& opt, const DisplayInfo& info) {
+    if (opt.display_type == "mock")
+        return {{"type", "mock"},
+                {"eye_width", opt.display.eye_width},
+                {"eye_height", opt.display.eye_height},
+                {"refresh_hz", opt.display.refresh_hz},
+                {"persistence_ms", ns_to_ms(opt.display.persistence_ns)},
+                {"scanout_fraction", opt.display.scanout_fraction}};
+    return {{"type", opt.display_type},      {"name", info.name},
+            {"eye_width", info.eye_width},   {"eye_height", info.eye_height},
+            {"refresh_hz", info.refresh_hz}, {"persistence_ms", ns_to_ms(info.persistence_ns)}};
+}
+
 nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& r) {
     using nlohmann::json;
     json frames = json::array();
@@ -541,12 +567,7 @@ nlohmann::json replay_report_json(const ReplayOptions& opt, const ReplayResult& 
             {"clock", opt.simulated_clock ? "sim" : "real"},
             {"renderer", r.device_name},
             {"renderer_backend", r.renderer_backend},
-            {"display",
-             {{"eye_width", opt.display.eye_width},
-              {"eye_height", opt.display.eye_height},
-              {"refresh_hz", opt.display.refresh_hz},
-              {"persistence_ms", ns_to_ms(opt.display.persistence_ns)},
-              {"scanout_fraction", opt.display.scanout_fraction}}},
+            {"display", replay_display_json(opt, r.display)},
             {"ipd_m", opt.node.rig.ipd_m},
             {"prediction", opt.node.predict},
             {"warp", opt.node.warp},

@@ -52,7 +52,11 @@ struct CameraArgs {
 // naming the option (CLI11's own checks exit with codes of 100 and up).
 struct LatencyArgs {
     std::string scene, profile = "step", trace, start, duration = "10", clock = "real";
-    std::string eye_width = "540", eye_height = "600", refresh = "90", tracker_hz = "1000";
+    // Empty: not given (540, 600, 90 on the mock display; a real panel's mode sets them).
+    std::string eye_width, eye_height, refresh, tracker_hz = "1000";
+    // The display presented to (ReplayOptions::display_type) and, for a real panel, which.
+    std::string display = "mock", display_device, display_connector, display_mode,
+                display_persistence_ms;
     std::string mesh = "0";
     std::string modes = "all", report, plot, frame_cost_ms, warp_cost_ms;
     bool quiet = false;
@@ -103,20 +107,61 @@ std::string check_option_words(const LatencyArgs& a, const std::vector<std::stri
     return {};
 }
 
+// The display options, against the others: the first problem, or empty. A real panel (kms,
+// vk-display) runs on the real clock, sets the size and rate by its mode, and is filmed by a
+// camera device: the simulated camera films the mock display alone.
+std::string check_display_words(const LatencyArgs& a) {
+    const bool real = a.display != "mock";
+    if (real && a.display != "kms" && a.display != "vk-display")
+        return "--display \"" + a.display + "\": give mock, kms or vk-display";
+    const std::pair<const char*, const std::string*> panel_options[] = {
+        {"--display-device", &a.display_device},
+        {"--display-connector", &a.display_connector},
+        {"--display-mode", &a.display_mode},
+        {"--display-persistence-ms", &a.display_persistence_ms}};
+    for (const auto& [flag, value] : panel_options)
+        if (!value->empty() && !real)
+            return std::string(flag) + " goes with --display kms or vk-display";
+    if (!real) return {};
+    if (a.display == "vk-display" && !a.display_device.empty())
+        return "--display-device goes with --display kms (vk-display picks its panel by "
+               "--display-connector)";
+    if (a.clock != "real") return "--display " + a.display + " is a real panel: give --clock real";
+    const std::pair<const char*, const std::string*> mock_options[] = {
+        {"--eye-width", &a.eye_width}, {"--eye-height", &a.eye_height}, {"--refresh", &a.refresh}};
+    for (const auto& [flag, value] : mock_options)
+        if (!value->empty())
+            return std::string(flag) + ": with --display " + a.display +
+                   " the panel's mode sets it (--display-mode WxH@HZ)";
+    if (!a.cam.observer.empty() && (a.cam.camera.empty() || a.cam.camera == "sim"))
+        return "--camera sim films the mock display only: give a camera device (--camera "
+               "/dev/videoN) with --display " +
+               a.display;
+    return {};
+}
+
 // The numeric options, checked and parsed.
 struct LatencyNumbers {
     double duration = 0, start = 0, eye_w = 0, eye_h = 0, refresh = 0, tracker_hz = 0;
     double frame_cost = -1, warp_cost = 0.5, mesh = 0;
+    double display_persistence_ms = -1;  // -1: not given (the display's default)
 };
+
+std::string or_default(const std::string& given, const std::string& fallback) {
+    return given.empty() ? fallback : given;
+}
 
 // Parses the numeric options into `n`: the first problem, or empty.
 std::string parse_numbers(const LatencyArgs& a, LatencyNumbers* n) {
     std::string err;
     if (!parse_number("--duration", a.duration, 0.1, 3600, &n->duration, &err) ||
         (!a.start.empty() && !parse_number("--start", a.start, 0, 1e6, &n->start, &err)) ||
-        !parse_number("--eye-width", a.eye_width, 1, 16384, &n->eye_w, &err) ||
-        !parse_number("--eye-height", a.eye_height, 1, 16384, &n->eye_h, &err) ||
-        !parse_number("--refresh", a.refresh, 1, 1000, &n->refresh, &err) ||
+        !parse_number("--eye-width", or_default(a.eye_width, "540"), 1, 16384, &n->eye_w, &err) ||
+        !parse_number("--eye-height", or_default(a.eye_height, "600"), 1, 16384, &n->eye_h, &err) ||
+        !parse_number("--refresh", or_default(a.refresh, "90"), 1, 1000, &n->refresh, &err) ||
+        (!a.display_persistence_ms.empty() &&
+         !parse_number("--display-persistence-ms", a.display_persistence_ms, 0, 100,
+                       &n->display_persistence_ms, &err)) ||
         !parse_number("--tracker-hz", a.tracker_hz, 0, 100000, &n->tracker_hz, &err) ||
         !parse_number("--mesh", a.mesh, 0, 512, &n->mesh, &err) ||
         (!a.frame_cost_ms.empty() &&
@@ -341,6 +386,12 @@ ReplayOptions base_replay_options(const LatencyArgs& a, const LatencyNumbers& n,
     base.display.eye_width = int(n.eye_w);
     base.display.eye_height = int(n.eye_h);
     base.display.refresh_hz = n.refresh;
+    base.display_type = a.display;
+    base.real_display.device = a.display_device;
+    base.real_display.connector = a.display_connector;
+    base.real_display.mode = a.display_mode;
+    if (n.display_persistence_ms >= 0)
+        base.real_display.persistence_ns = ms_to_ns(n.display_persistence_ms);
     base.node.mesh_cols = base.node.mesh_rows = int(n.mesh);
     if (n.frame_cost >= 0) {
         FrameCostModel m;
@@ -358,6 +409,7 @@ struct LatencyRuns {
     std::vector<ObservedReplay> observed;  // per mode, with the observer (its replay left empty)
     std::string renderer;
     int used_mesh = 0;
+    DisplayInfo display;  // what the panel said of itself (the last mode's)
 };
 
 // One mode's replay: plain, filmed by the simulated camera, or watched by `device`.
@@ -392,6 +444,7 @@ Result<LatencyRuns> run_modes(const LatencyArgs& a, const std::vector<LatencyMod
         Result<ReplayResult> r = run_mode(o, obs, device, &runs);
         if (!r.ok()) return make_error("mode " + mode.name + ": " + r.error().message);
         runs.renderer = r->device_name;
+        runs.display = r->display;
         runs.used_mesh = r->mesh_cols;
         // The simulated clock's cost model is calibrated once, by the first mode, and given to
         // the others: the modes then differ only in what they do, not in a noisy calibration.
@@ -431,10 +484,13 @@ nlohmann::json report_options(const LatencyArgs& a, const LatencyNumbers& n,
             {"start_s", n.start},
             {"duration_s", n.duration},
             {"clock", a.clock},
+            {"display", a.display},
             {"eye_width", int(n.eye_w)},
             {"eye_height", int(n.eye_h)},
             {"refresh_hz", n.refresh},
-            {"persistence_ms", ns_to_ms(base.display.persistence_ns)},
+            {"persistence_ms",
+             ns_to_ms(base.display_type == "mock" ? base.display.persistence_ns
+                                                  : base.real_display.persistence_ns)},
             {"tracker_hz", n.tracker_hz},
             {"tracker_latency_ms", ns_to_ms(base.tracker.latency_ns)},
             {"frame_cost_ms", n.frame_cost >= 0 ? nlohmann::json(n.frame_cost) : nlohmann::json()},
@@ -488,8 +544,18 @@ void run_flash_calibration(const LatencyArgs& a, const ReplayOptions& base,
         sim_camera = std::move(*made);
         dc.watcher = sim_camera.get();
     }
-    Result<std::unique_ptr<Display>> display = create_mock_display(*clock, dc);
-    if (!display.ok()) return errors.usage(display.error().message);
+    DisplaySpec spec;
+    spec.type = base.display_type;
+    spec.mock = dc;
+    spec.kms = base.real_display;
+    Result<std::unique_ptr<Display>> display =
+        make_display(spec, *clock, WiringKeys::command_line());
+    if (!display.ok()) {
+        if (spec.type == "mock") return errors.usage(display.error().message);
+        return errors.fail("--display " + spec.type + ": " + display.error().message +
+                           "; nothing written");
+    }
+    const DisplayInfo panel = (*display)->info();
     FlashCalibrationOptions fo;
     fo.flashes = obs.flashes;
     Camera& camera = device ? *device : static_cast<Camera&>(*sim_camera);
@@ -501,7 +567,7 @@ void run_flash_calibration(const LatencyArgs& a, const ReplayOptions& base,
     if (!c.ok()) return errors.fail(c.error().message + "; nothing written");
     std::printf(
         "hmdnode latency: flash calibration, camera %s, %dx%d per eye at %g Hz, %s clock\n%s",
-        camera.name().c_str(), dc.eye_width, dc.eye_height, dc.refresh_hz, a.clock.c_str(),
+        camera.name().c_str(), panel.eye_width, panel.eye_height, panel.refresh_hz, a.clock.c_str(),
         flash_calibration_table(*c).c_str());
     if (!a.report.empty()) {
         nlohmann::json j = flash_calibration_json(*c);
@@ -526,6 +592,7 @@ void print_observed(const LatencyRuns& runs) {
 void run_latency(const LatencyArgs& a, const std::vector<std::string>& extras) {
     if (std::string e = check_option_words(a, extras); !e.empty()) return errors.usage(e);
     if (std::string e = check_camera_words(a); !e.empty()) return errors.usage(e);
+    if (std::string e = check_display_words(a); !e.empty()) return errors.usage(e);
     if (!errors.check_outputs({{"--report", a.report}, {"--plot", a.plot}})) return;
     LatencyNumbers n;
     if (std::string e = parse_numbers(a, &n); !e.empty()) return errors.usage(e);
@@ -554,6 +621,11 @@ void run_latency(const LatencyArgs& a, const std::vector<std::string>& extras) {
     Result<LatencyRuns> runs = run_modes(a, *modes, base, obs, device.get());
     if (!runs.ok()) return errors.fail(runs.error().message + "; nothing written");
 
+    if (a.display != "mock") {  // the panel's mode, not the options' defaults
+        n.eye_w = runs->display.eye_width;
+        n.eye_h = runs->display.eye_height;
+        n.refresh = runs->display.refresh_hz;
+    }
     const std::string title = latency_title(a, n, *motion, runs->used_mesh);
     const std::string subtitle = "renderer " + runs->renderer;
     std::printf("%s, %s\n%s", title.c_str(), subtitle.c_str(),
@@ -586,9 +658,27 @@ void add_latency_command(CLI::App& app) {
     c->add_option("--clock", args->clock,
                   "real: the system clock (measured costs); sim: the deterministic simulated clock")
         ->capture_default_str();
-    c->add_option("--eye-width", args->eye_width, "Pixels per eye")->capture_default_str();
-    c->add_option("--eye-height", args->eye_height, "Pixels per eye")->capture_default_str();
-    c->add_option("--refresh", args->refresh, "Display refresh rate (Hz)")->capture_default_str();
+    c->add_option("--eye-width", args->eye_width,
+                  "The mock display's pixels per eye (default 540)");
+    c->add_option("--eye-height", args->eye_height,
+                  "The mock display's pixels per eye (default 600)");
+    c->add_option("--refresh", args->refresh, "The mock display's refresh rate (Hz, default 90)");
+    c->add_option("--display", args->display,
+                  "mock (the default: the simulated headset panel), or a real panel: kms (a DRM "
+                  "connector, as hmdnoded drives it) or vk-display (VK_KHR_display); --clock real, "
+                  "its mode sets the size and rate, and with --observer camera a camera device "
+                  "films it")
+        ->capture_default_str();
+    c->add_option("--display-device", args->display_device,
+                  "--display kms: the DRM device (/dev/dri/cardN; default: every card in turn)");
+    c->add_option("--display-connector", args->display_connector,
+                  "--display kms or vk-display: the connector (e.g. DP-1, edid:VLV:91A8, "
+                  "non-desktop; default: the non-desktop one, else the only connected one)");
+    c->add_option("--display-mode", args->display_mode,
+                  "--display kms or vk-display: WxH@HZ (default: the connector's preferred mode; "
+                  "the eye size is half its width)");
+    c->add_option("--display-persistence-ms", args->display_persistence_ms,
+                  "--display kms or vk-display: how long a row glows (the panel's; default 2)");
     c->add_option("--mesh", args->mesh,
                   "Distortion mesh cells per side (0: the coarsest within 0.5 px of the lens "
                   "model)")

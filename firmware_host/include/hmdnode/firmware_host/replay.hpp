@@ -43,6 +43,12 @@ struct ReplayOptions {
     int64_t max_frames = 0;    // 0: no limit
     SimTrackerConfig tracker;  // host_start/start_offset/duration are filled in by replay
     MockDisplayConfig display;
+    // The display presented to: "mock" (the default: `display` above), or a real panel, "kms" or
+    // "vk-display", as `real_display` names it (wiring.hpp's DisplaySpec): the real clock only,
+    // the panel's size and rate its mode's (`display`'s persistence and frame dumps unused), and
+    // no display_watcher (a simulated camera films the mock display alone).
+    std::string display_type = "mock";
+    KmsDisplayConfig real_display;
     NodeConfig node;
     RendererConfig renderer;  // eye size is taken from the display
     // The simulated clock's frame cost: empty = calibrated on the renderer at start-up.
@@ -145,6 +151,7 @@ struct ReplayResult {
     std::vector<FrameRecord> frames;
     std::vector<VsyncSample> vsyncs;  // vsync_series of the frames against the trace
     int64_t period_ns = 0;            // of the display
+    DisplayInfo display;              // what the display said of itself
     std::vector<std::string> object_names;
     ReplaySummary summary;
     std::string device_name;
