@@ -28,7 +28,9 @@
 //      it back to its HDMI input (/dev/video0, input 1), our V4L2 capture backend takes the
 //      frames on the driver's schedule, and the marker decoder reads them: the ids decoded are
 //      ones presented, in order, none undecoded between the first and the last, each frame
-//      the one written byte for byte; repeats, skips and capture drops are printed.
+//      the one written byte for byte; repeats, skips and capture drops are printed;
+//   9. `hmdnode latency --display kms` as a rig runs it: the lane lets the connector go and the
+//      node (run_replay) presents on it with the marker on (node_on_kms).
 // argv[2] (optional) picks the renderers of the KMS runs: "gles" (the default: one GLES renderer on
 // GBM, its frames through the dumb-buffer copy, then zero-copy), "vulkan" (the Vulkan renderer's
 // frames through the dumb-buffer copy, with the live run) or "both".
@@ -55,6 +57,8 @@
 #include "hmdnode/core/latency_marker.hpp"
 #include "hmdnode/core/percentile.hpp"
 #include "hmdnode/core/stereo.hpp"
+#include "hmdnode/firmware_host/motion_profiles.hpp"
+#include "hmdnode/firmware_host/replay.hpp"
 #include "hmdnode/hal/camera.hpp"
 #include "hmdnode/hal/camera/v4l2_output.hpp"
 #include "hmdnode/hal/camera/yuyv.hpp"
@@ -1189,6 +1193,48 @@ void loopback_run(Renderer& r, const DisplayInfo& info) {
     loop_report(cap.frames, frames, payloads, shown);
 }
 
+// `hmdnode latency --display kms` as a rig runs it (docs/latency.md, "A real rig"): the node
+// itself (run_replay, the one assembly place) on bochs-display's connector, on the real clock,
+// with the latency marker on and the GLES renderer scanning out zero-copy, under 30 deg step
+// flicks for one second. Checks that it presents on the KMS panel at the panel's own mode and
+// that every present carries the marker row's photon time, after the pose sample that shaped it.
+void node_on_kms(const char* scene_path) {
+    Result<Trace> motion = make_motion_profile("step", 1.0);
+    if (!motion.ok()) return check(false, "the step profile", motion.error().message);
+    ReplayOptions o;
+    o.scene = scene_path;
+    o.trace_data = std::make_shared<const Trace>(std::move(motion).value());
+    o.trace = "step";
+    o.simulated_clock = false;
+    o.duration_s = 1.0;
+    o.display_type = "kms";
+    o.real_display.latch_margin_ns = 4'000'000;  // as the lane's own KMS runs (kms_lane)
+    o.renderer.backend = "gles";
+    o.node.latency_marker_cell_px = 4;
+    // note: a fixed distortion mesh and the fused pass: the start-up calibration times every pass
+    // it may choose with 15 warps each, at 0.3-0.8 s a warp under TCG; the choice proves nothing
+    // here.
+    o.node.mesh_cols = o.node.mesh_rows = 16;
+    o.node.lens_pass = LensPassChoice::fused;  // and one pass to calibrate at start-up, not two
+    const int64_t t0 = now_ns();
+    Result<ReplayResult> r = run_replay(o);
+    if (!r.ok())
+        return check(false, "the node on the KMS panel (latency --display kms)", r.error().message);
+    size_t marked = 0;
+    for (const FrameRecord& f : r->frames)
+        if (f.marker_photon_time_ns > f.pose_sample_time_ns && f.pose_sample_time_ns > 0) ++marked;
+    check(!r->frames.empty() && marked == r->frames.size() && r->display.eye_width > 0,
+          "the node on the KMS panel (latency --display kms): presents at the panel's mode, each "
+          "with the marker row's photon time after its sample",
+          r->display.name + " " + std::to_string(r->display.eye_width) + "x" +
+              std::to_string(r->display.eye_height) + " per eye" +
+              fmt(" at %.2f Hz, ", r->display.refresh_hz) + std::to_string(r->frames.size()) +
+              " presents (" + std::to_string(marked) + " marked), " +
+              std::to_string(r->summary.missed_vsyncs) + " of " +
+              std::to_string(r->summary.vsyncs) + " vsyncs missed, renderer " +
+              r->renderer_backend + fmt(", %.1f s", ns_to_s(now_ns() - t0)));
+}
+
 void kms_lane(const char* scene_path, const std::string& runs) {
     for (int i = 0; i < 100 && access("/dev/dri/card0", F_OK) != 0; ++i) usleep(50'000);
     auto conns = list_kms_connectors();
@@ -1259,6 +1305,10 @@ void kms_lane(const char* scene_path, const std::string& runs) {
     dumb_run(disp, clock, **renderer, ls, 0);
     gbm_run(disp, clock, **renderer, ls);
     loopback_run(**renderer, info);
+    // The connector is the node's now: the lane's renderer and display let it go first.
+    renderer->reset();
+    d->reset();
+    node_on_kms(scene_path);
 }
 
 }  // namespace
