@@ -526,6 +526,9 @@ int print_profile(const std::vector<bench::LodInput>& files, std::span<const dou
 // --profile run); meshopt_simplify as run_meshopt_simplify() calls it. Prints the triangles, the
 // collapses (qem's own count; meshopt: faces removed / 2, as --profile counts them) and the
 // output's hash (primitive_hash(), as --hashes prints it; meshopt: of its index buffer).
+}  // namespace
+
+// note: outside the anonymous namespace, so that callgrind sees their names as run_once_...
 [[gnu::noinline]] Result<std::vector<SimplifiedLevel>> run_once_qem(const Primitive& in,
                                                                     size_t target,
                                                                     const SimplifyOptions& o) {
@@ -538,6 +541,8 @@ int print_profile(const std::vector<bench::LodInput>& files, std::span<const dou
     float result_error = 0.0f;
     return run_meshopt_simplify(in, target, dst, result_error);
 }
+
+namespace {
 
 int print_once(const std::vector<bench::LodInput>& files, const std::string& mesh,
                const std::string& algo, double ratio) {
