@@ -11,10 +11,15 @@
 //
 // Usage: bench_lod_bench [MESH_DIR | MESH_FILE...] [--out PREFIX] [--only a,b] [--samples N]
 //                        [--write-docs] [--hashes] [--profile [--runs N]]
+//                        [--once ALGO RATIO [--mesh NAME]]
 //   --hashes prints a hash of every algorithm's output per mesh and target (and of the chain of
 //   the three targets in one call) and nothing else: outputs before and after an engine change
 //   compare by it. --profile prints qem's time per collapse phase by phase beside
-//   meshopt_simplify and the measurement (print_profile()) and nothing else.
+//   meshopt_simplify and the measurement (print_profile()) and nothing else. --once ALGO RATIO
+//   (ALGO qem or meshopt) simplifies one input (--mesh NAME: bunny by default, or fandisk, spot,
+//   bunny-split, or a file's stem) once to RATIO of its triangles inside run_once_qem() /
+//   run_once_meshopt(), for callgrind's --toggle-collect='run_once*', and prints one line
+//   (print_once()); usage errors exit 2.
 //   MESH_DIR defaults to HMDNODE_SOURCE_DIR/data/meshes; writes PREFIX.json and
 //   PREFIX.svg (default ./lod_bench) and a markdown table on stdout, then the target line;
 //   --write-docs also writes the tables to docs/results/lod-bench.md (every algorithm) and
@@ -27,6 +32,7 @@
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <functional>
@@ -513,6 +519,81 @@ int print_profile(const std::vector<bench::LodInput>& files, std::span<const dou
     return 0;
 }
 
+// --once: one simplification of one input to one ratio, for an instruction count
+// (valgrind --tool=callgrind --toggle-collect='run_once*'): the work of the call and nothing else
+// sits inside run_once_qem() / run_once_meshopt(). qem runs on one thread with a SimplifyScratch
+// that one call outside the count has already used (the bench's steady state, as its rows and
+// --profile run); meshopt_simplify as run_meshopt_simplify() calls it. Prints the triangles, the
+// collapses (qem's own count; meshopt: faces removed / 2, as --profile counts them) and the
+// output's hash (primitive_hash(), as --hashes prints it; meshopt: of its index buffer).
+}  // namespace
+
+// note: outside the anonymous namespace, so that callgrind sees their names as run_once_...
+[[gnu::noinline]] Result<std::vector<SimplifiedLevel>> run_once_qem(const Primitive& in,
+                                                                    size_t target,
+                                                                    const SimplifyOptions& o) {
+    const size_t targets[] = {target};
+    return simplify(in, "qem", targets, o);
+}
+
+[[gnu::noinline]] size_t run_once_meshopt(const Primitive& in, size_t target,
+                                          std::vector<uint32_t>& dst) {
+    float result_error = 0.0f;
+    return run_meshopt_simplify(in, target, dst, result_error);
+}
+
+namespace {
+
+int print_once(const std::vector<bench::LodInput>& files, const std::string& mesh,
+               const std::string& algo, double ratio) {
+    const auto input = std::find_if(files.begin(), files.end(),
+                                    [&](const bench::LodInput& f) { return f.name == mesh; });
+    if (input == files.end()) {
+        std::string names;
+        for (const bench::LodInput& f : files) names += (names.empty() ? "" : ", ") + f.name;
+        std::fprintf(stderr, "bench_lod_bench: --mesh: no input named '%s' (%s)\n", mesh.c_str(),
+                     names.c_str());
+        return 2;
+    }
+    Primitive in;
+    if (!load_input(*input, in)) return 1;
+    const size_t faces = in.triangle_count();
+    const size_t target = std::max<size_t>(1, size_t(std::llround(ratio * double(faces))));
+    size_t triangles = 0;
+    double collapses = 0.0;
+    uint64_t hash = 0;
+    if (algo == "qem") {
+        SimplifyScratch scratch;
+        SimplifyStats stats;
+        SimplifyOptions o;
+        o.threads = 1;
+        o.scratch = &scratch;
+        o.stats = &stats;
+        const size_t targets[] = {target};
+        (void)simplify(in, "qem", targets, o);  // note: outside the count, warms the scratch
+        Result<std::vector<SimplifiedLevel>> r = run_once_qem(in, target, o);
+        if (!r.ok()) {
+            std::fprintf(stderr, "bench_lod_bench: %s\n", r.error().message.c_str());
+            return 1;
+        }
+        triangles = (*r)[0].primitive.triangle_count();
+        collapses = double(stats.collapses);
+        hash = primitive_hash((*r)[0].primitive);
+    } else {
+        std::vector<uint32_t> dst(in.indices.size());
+        dst.resize(run_once_meshopt(in, target, dst));
+        triangles = dst.size() / 3;
+        collapses = double(faces - triangles) / 2.0;
+        Primitive out;
+        out.indices = std::move(dst);
+        hash = primitive_hash(out);
+    }
+    std::printf("%s %s %g %%: %zu -> %zu triangles (target %zu), %.1f collapses, hash %016llx\n",
+                input->name.c_str(), algo.c_str(), ratio * 100, faces, triangles, target, collapses,
+                (unsigned long long)hash);
+    return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -523,6 +604,8 @@ int main(int argc, char** argv) {
     std::string prefix = "lod_bench";
     std::vector<std::string> only;
     bool hashes = false;
+    std::string once_algo, once_mesh = "bunny";  // --once ALGO RATIO [--mesh NAME]
+    double once_ratio = 0.0;
     int profile_runs = 0, runs_arg = 0;  // --profile and its --runs
     // note: the quality figures keep the dense measurement they were always made with (300 000
     // samples per direction on every hardware thread), not hmdnode lod's one-per-triangle default.
@@ -545,12 +628,38 @@ int main(int argc, char** argv) {
             hashes = true;
         } else if (a == "--profile") {
             profile_runs = 5;
+        } else if (a == "--once") {
+            if (i + 2 >= argc) {
+                std::fprintf(stderr, "bench_lod_bench: --once: needs ALGO RATIO\n");
+                return 2;
+            }
+            once_algo = argv[++i];
+            if (once_algo == "meshopt_simplify") once_algo = "meshopt";
+            if (once_algo != "qem" && once_algo != "meshopt") {
+                std::fprintf(stderr, "bench_lod_bench: --once: unknown ALGO '%s' (qem, meshopt)\n",
+                             once_algo.c_str());
+                return 2;
+            }
+            char* end = nullptr;
+            once_ratio = std::strtod(argv[++i], &end);
+            if (end == argv[i] || *end != '\0' || !(once_ratio > 0.0 && once_ratio <= 1.0)) {
+                std::fprintf(stderr, "bench_lod_bench: --once: RATIO '%s' is not in (0, 1]\n",
+                             argv[i]);
+                return 2;
+            }
+        } else if (a == "--mesh") {
+            if (i + 1 >= argc) {
+                std::fprintf(stderr, "bench_lod_bench: --mesh: needs NAME\n");
+                return 2;
+            }
+            once_mesh = argv[++i];
         } else if (a == "--runs" && i + 1 < argc) {
             runs_arg = std::max(1, std::atoi(argv[++i]));
         } else if (a == "--help" || a == "-h") {
             std::printf(
                 "usage: %s [MESH_DIR | MESH_FILE...] [--out PREFIX] [--only a,b] [--samples N] "
-                "[--write-docs] [--hashes] [--profile [--runs N]]\n",
+                "[--write-docs] [--hashes] [--profile [--runs N]] [--once ALGO RATIO [--mesh "
+                "NAME]]\n",
                 argv[0]);
             return 0;
         } else if (fs::is_directory(a)) {
@@ -569,6 +678,7 @@ int main(int argc, char** argv) {
             algorithms.push_back(a.name);
     for (const char* m : {"meshopt_simplify", "meshopt_simplifySloppy"})
         if (only.empty() || std::count(only.begin(), only.end(), m)) algorithms.push_back(m);
+    if (!once_algo.empty()) return print_once(files, once_mesh, once_algo, once_ratio);
     if (hashes) return print_hashes(files, algorithms, ratios);
     if (profile_runs > 0)
         return print_profile(files, ratios, runs_arg > 0 ? runs_arg : profile_runs);

@@ -156,8 +156,11 @@ class QemCost final : public CollapseCost {
   public:
     void init(const CollapseMesh& m) override { quadrics_ = position_quadrics(m); }
 
-    bool evaluate(const CollapseMesh& m, uint32_t a, uint32_t b, EdgeMoves moves,
-                  CollapseCandidate& out) override {
+    // note: flattened, so that optimal_placement() is inlined rather than called with the summed
+    // quadric in memory: 1.1-2.2 % fewer instructions per simplify(), the same outputs
+    // (docs/simplification.md, "Where the difference goes").
+    [[gnu::flatten]] bool evaluate(const CollapseMesh& m, uint32_t a, uint32_t b, EdgeMoves moves,
+                                   CollapseCandidate& out) override {
         const Quadric& qa = quadrics_[a];
         const Quadric& qb = quadrics_[b];
         Quadric q;
