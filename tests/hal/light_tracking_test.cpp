@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "hmdnode/core/percentile.hpp"
+#include "hmdnode/core/time.hpp"
 #include "hmdnode/hal/codec/vive_imu.hpp"
 #include "hmdnode/hal/tracking/base_station_placement.hpp"
 #include "hmdnode/hal/tracking/light_tracking.hpp"
@@ -272,6 +273,88 @@ TEST(LightTracking, WithoutASetupItStaysOrientationOnlyAndNeverGood) {
     EXPECT_EQ(r.counters.events, r.counters.events_unplaced);
     EXPECT_GT(r.counters.events, 100'000u);
     EXPECT_EQ(r.filter.initialisations, 0u);
+}
+
+// The whole recording through a device tracker on a simulated clock: every sample it delivers,
+// with the recording's TIME of the report it came in.
+std::vector<std::pair<int64_t, TrackerSample>> replay_tracker(
+    const std::shared_ptr<const SurviveRecording>& rec,
+    std::shared_ptr<const LightTrackingConfig> light, DeviceTrackerStatus* status,
+    TrackerInfo* info) {
+    SimulatedClock clock(kNsPerSecond);
+    const int64_t start = clock.now_ns();
+    auto tracker = create_survive_tracker(rec, clock, start, {}, std::move(light));
+    EXPECT_TRUE(tracker.ok()) << tracker.error().message;
+    std::vector<std::pair<int64_t, TrackerSample>> out;
+    if (!tracker) return out;
+    EXPECT_TRUE((*tracker)->start().ok());
+    std::vector<TrackerSample> buf(1024);
+    const int64_t to_recording = rec->imu.front().host_time_ns - start;
+    while (!(*tracker)->finished()) {
+        clock.advance_ns(10 * kNsPerMs);
+        for (size_t n = (*tracker)->read(buf); n > 0; n = (*tracker)->read(buf))
+            for (size_t i = 0; i < n; ++i)
+                out.push_back({buf[i].arrival_ns + to_recording, buf[i]});
+    }
+    *status = (*tracker)->status();
+    *info = (*tracker)->info();
+    return out;
+}
+
+TEST(LightTracking, TheDeviceTrackerDeliversTheSixDofPosesThroughTheTrackerInterface) {
+    auto loaded = read_survive_recording(kIndexRec, "T20");
+    ASSERT_TRUE(loaded.ok()) << loaded.error().message;
+    auto rec = std::make_shared<const SurviveRecording>(std::move(*loaded));
+    auto cfg = std::make_shared<const LightTrackingConfig>(index_config(*rec, true));
+    DeviceTrackerStatus st;
+    TrackerInfo info;
+    const auto samples = replay_tracker(rec, cfg, &st, &info);
+    EXPECT_TRUE(info.provides_position);
+    EXPECT_TRUE(st.light.enabled);
+    // Every W and Y line as a report 0x28, none refused.
+    EXPECT_EQ(st.light.reports, 105'264u + 5'281u);
+    EXPECT_EQ(st.light.rejected, 0u) << st.light.light_error;
+    EXPECT_EQ(st.codec.unknown, 0u);  // no light report reached the IMU codec
+    EXPECT_EQ(samples.size(), 25'059u);
+    // libsurvive's POSE lines against the sample of the IMU line of their TIME.
+    std::vector<double> pos_mm;
+    size_t with_position = 0, pi = 0;
+    for (size_t i = 0; i < samples.size(); ++i) {
+        const auto& [t, s] = samples[i];
+        if (s.position) ++with_position;
+        if (i + 1 < samples.size() && samples[i + 1].first == t) continue;  // the line's newest
+        for (; pi < rec->poses.size() && rec->poses[pi].host_time_ns <= t; ++pi)
+            if (rec->poses[pi].host_time_ns == t && s.position)
+                pos_mm.push_back(glm::length(*s.position - rec->poses[pi].position) * 1e3);
+    }
+    std::printf(
+        "device tracker, light path: %zu samples, %zu with a position; %zu POSE lines "
+        "compared: position p50 %.2f p90 %.2f mm; %llu turns solved\n",
+        samples.size(), with_position, pos_mm.size(), percentile(pos_mm, 0.5),
+        percentile(pos_mm, 0.9), (unsigned long long)st.light.tracking.solved);
+    EXPECT_EQ(with_position, st.light.samples_with_position);
+    EXPECT_GT(with_position, 15'000u);
+    ASSERT_GT(pos_mm.size(), 4400u);
+    // The same chain as LightTracking's run on the lines (the light as reports 0x28 instead).
+    EXPECT_LT(percentile(pos_mm, 0.5), 9.0);
+    EXPECT_LT(percentile(pos_mm, 0.9), 45.0);
+    // Without a setup: the IMU-only path, sample for sample the tracker without light.
+    auto no_setup = std::make_shared<const LightTrackingConfig>(index_config(*rec, false));
+    DeviceTrackerStatus st0, st1;
+    TrackerInfo info0;
+    const auto a = replay_tracker(rec, no_setup, &st0, &info0);
+    const auto b = replay_tracker(rec, nullptr, &st1, &info0);
+    EXPECT_FALSE(info0.provides_position);
+    EXPECT_FALSE(st0.light.enabled);
+    ASSERT_EQ(a.size(), b.size());
+    size_t differ = 0, positions = 0;
+    for (size_t i = 0; i < a.size(); ++i) {
+        positions += a[i].second.position.has_value();
+        differ += a[i].second.orientation != b[i].second.orientation ||
+                  a[i].second.time_ns != b[i].second.time_ns;
+    }
+    EXPECT_EQ(positions, 0u);
+    EXPECT_EQ(differ, 0u);
 }
 
 }  // namespace

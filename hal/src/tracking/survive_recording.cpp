@@ -653,11 +653,22 @@ Result<std::unique_ptr<DeviceTracker>> create_survive_tracker(
     const ImuFusionConfig& fusion, std::shared_ptr<const LightTrackingConfig> light) {
     DeviceTrackerConfig cfg;
     cfg.fusion = fusion;
+    cfg.first_report_host_ns = first_report_host_ns;
     const bool with_light = light && !light->setup.empty() && !rec->light.empty();
-    if (with_light) cfg.light = std::move(light);
+    if (with_light) {
+        cfg.light = std::move(light);
+        // The first IMU report at first_report_host_ns: a light report before it, as early.
+        using K = SurviveLightLine::Kind;
+        for (const SurviveLightLine& l : rec->light)
+            if (l.kind != K::angle && l.kind != K::lh1_angle) {
+                if (l.host_time_ns < rec->imu.front().host_time_ns)
+                    cfg.first_report_host_ns =
+                        first_report_host_ns - (rec->imu.front().host_time_ns - l.host_time_ns);
+                break;
+            }
+    }
     cfg.filter.vendor_id = vive::kVendorId;
     cfg.filter.product_id = vive::kIndexProductId;
-    cfg.first_report_host_ns = first_report_host_ns;
     cfg.name = "libsurvive recording " + rec->device;
     auto codec = make_vive_codec(vive::kIndexProductId);
     if (rec->has_config) codec->set_imu_calibration(rec->calibration);

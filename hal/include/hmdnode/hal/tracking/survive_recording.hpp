@@ -163,7 +163,8 @@ std::unique_ptr<TransportBackend> create_survive_backend(
 // `hmdnode record --backend rec`: a device tracker over the recording's IMU (Index codec with the
 // recording's calibration, clock sync, fusion), its first report arriving at first_report_host_ns.
 // `light` with a setup, on a recording with light lines: its light too, through the light path
-// (DeviceTrackerConfig::light: 6DoF poses); else IMU only.
+// (DeviceTrackerConfig::light: 6DoF poses), the first IMU report still at first_report_host_ns
+// (light reports before it as much earlier as in the recording); else IMU only.
 Result<std::unique_ptr<DeviceTracker>> create_survive_tracker(
     std::shared_ptr<const SurviveRecording> rec, Clock& clock, int64_t first_report_host_ns,
     const ImuFusionConfig& fusion = {}, std::shared_ptr<const LightTrackingConfig> light = nullptr);
