@@ -13,6 +13,7 @@
 
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/orientation_eval.hpp"
+#include "hmdnode/core/position_eval.hpp"
 #include "hmdnode/core/time.hpp"
 #include "hmdnode/core/trace.hpp"
 #include "tool/cli_errors.hpp"
@@ -175,6 +176,55 @@ void warn_reference_glitches(const EvalArgs& args, const ReferenceGlitches& g) {
     }
 }
 
+// Both traces with positions: the position error on the orientation fit's samples, offset and
+// world rotation, a constant translation and lever arm fitted (position_eval.hpp), into the report;
+// returns the lines to print. Neither: nothing. One only: a note.
+std::string evaluate_positions(const EvalArgs& args, const Trace& ref, const Trace& est,
+                               const OrientationEval& e, nlohmann::json* report) {
+    const bool ref_p = !ref.samples.empty() && ref.samples.front().position.has_value();
+    const bool est_p = !est.samples.empty() && est.samples.front().position.has_value();
+    char b[600];
+    if (!ref_p || !est_p) {
+        if (ref_p == est_p) return {};
+        std::snprintf(b, sizeof b, "  position: not compared (%s has no positions)\n",
+                      ref_p ? args.estimate.c_str() : args.reference.c_str());
+        return b;
+    }
+    PositionEvalOptions po;
+    po.fit_time_offset = args.options.fit_time_offset;
+    auto p = evaluate_position(ref, est, e, po);
+    if (!p) {
+        errors.warning("position not compared: " + p.error().message);
+        return {};
+    }
+    const double rot_deg =
+        2.0 * std::acos(std::min(1.0, std::abs(p->world_rotation.w))) * 180.0 / 3.14159265358979;
+    std::snprintf(b, sizeof b,
+                  "  %-20s %8s %8s %8s\n  %-20s %8.2f %8.2f %8.2f\n  position alignment "
+                  "(fitted): world %.2f deg and (%.1f %.1f %.1f) mm, lever arm (%.1f %.1f %.1f) "
+                  "mm; time offset %.3f ms (%s)\n",
+                  "error (mm)", "p50", "p90", "max", "position", p->p50_mm, p->p90_mm, p->max_mm,
+                  rot_deg, p->world_offset.x * 1e3, p->world_offset.y * 1e3,
+                  p->world_offset.z * 1e3, p->lever_arm.x * 1e3, p->lever_arm.y * 1e3,
+                  p->lever_arm.z * 1e3, double(p->time_offset_ns) * 1e-6,
+                  p->time_offset_fitted ? "fitted to the positions, +-50 ms" : "the orientation's");
+    auto r3 = [](const glm::dvec3& v) {
+        return nlohmann::json::array({std::round(v.x * 1e6) / 1e6, std::round(v.y * 1e6) / 1e6,
+                                      std::round(v.z * 1e6) / 1e6});
+    };
+    (*report)["summary"]["position_error_mm"] = {
+        {"p50", std::round(p->p50_mm * 1e3) / 1e3},
+        {"p90", std::round(p->p90_mm * 1e3) / 1e3},
+        {"max", std::round(p->max_mm * 1e3) / 1e3},
+        {"samples", p->samples},
+        {"time_offset_ms", std::round(double(p->time_offset_ns) * 1e-3) / 1e3}};
+    (*report)["alignment"]["position_offset_m"] = r3(p->world_offset);
+    (*report)["alignment"]["lever_arm_m"] = r3(p->lever_arm);
+    (*report)["alignment"]["position_world_wxyz"] = {p->world_rotation.w, p->world_rotation.x,
+                                                     p->world_rotation.y, p->world_rotation.z};
+    return b;
+}
+
 void run_eval(EvalArgs args) {
     if (args.time_offset == "auto") {
         args.options.fit_time_offset = true;
@@ -259,6 +309,7 @@ void run_eval(EvalArgs args) {
         errors.warning(offset_at_limit_warning(double(e->time_offset_ns) * 1e-6,
                                                args.options.max_time_offset_s * 1e3));
     }
+    const std::string position_lines = evaluate_positions(args, *ref, *est, *e, &report);
     if (!args.report.empty()) {
         Status st = write_file_atomically(args.report, report.dump(2) + "\n");
         if (!st.ok()) return errors.fail(st.error().message);
@@ -289,6 +340,7 @@ void run_eval(EvalArgs args) {
         row("tilt", error_percentiles(tilt_ex));
         row("heading", error_percentiles(heading_ex));
     }
+    std::fputs(position_lines.c_str(), stdout);
     std::printf("  time offset: %.3f ms (%s; estimate time + offset = reference time)\n",
                 double(e->time_offset_ns) * 1e-6,
                 !args.options.fit_time_offset ? "given"
@@ -312,8 +364,9 @@ void add_tracking_command(CLI::App& app) {
     auto args = std::make_shared<EvalArgs>();
     CLI::App* eval = tracking->add_subcommand(
         "eval",
-        "Orientation error of an estimated trace against a reference trace, after fitting the "
-        "constant world and body rotations between them");
+        "Orientation error (and position error, when both traces have positions) of an "
+        "estimated trace against a reference trace, after fitting the constant world and body "
+        "rotations (and a translation and lever arm) between them");
     eval->add_option("--reference", args->reference, "Reference trace CSV (e.g. lighthouse poses)")
         ->required();
     eval->add_option("--estimate", args->estimate, "Estimated trace CSV (e.g. fused IMU)")
