@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <memory>
 #include <vector>
 
@@ -355,6 +356,73 @@ TEST(LightTracking, TheDeviceTrackerDeliversTheSixDofPosesThroughTheTrackerInter
     }
     EXPECT_EQ(positions, 0u);
     EXPECT_EQ(differ, 0u);
+}
+
+// The controllers of the other bundled recordings (their POSE lines follow their light, not an
+// IMU line: compared interpolated), libsurvive's base stations (solved during each recording)
+// standing in for a stored setup.
+TEST(LightTracking, OnTheControllerRecordingsSixDofPosesAgreeWithLibsurvivesPoses) {
+    struct Case {
+        const char* file;
+        const char* device;
+    };
+    for (const Case c : {Case{"lh2_test_cal.rec.gz", "T20"}, Case{"lh1_test_cal.rec.gz", "T20"}}) {
+        SCOPED_TRACE(c.file);
+        const std::filesystem::path file =
+            std::filesystem::path(HMDNODE_SOURCE_DIR) / "data" / "traces" / c.file;
+        auto loaded = read_survive_recording(file, c.device);
+        ASSERT_TRUE(loaded.ok()) << loaded.error().message;
+        auto rec = std::make_shared<const SurviveRecording>(std::move(*loaded));
+        const std::vector<ImuLineSamples> imu = decode_imu(rec);
+        // The controllers' accelerometer reads 4.8 m/s^2 at rest through the Index's default 4 g
+        // range (no IMU_SCALES line): half the specific force reaches the filter (not fixed here;
+        // docs/tracking.md §12). Printed, not asserted.
+        double accel_sum = 0;
+        size_t accel_n = 0;
+        for (const ImuLineSamples& l : imu)
+            for (const DeviceSample& d : l.samples) accel_sum += glm::length(*d.accel), ++accel_n;
+        LightTrackingConfig cfg = index_config(*rec, true);
+        ASSERT_FALSE(cfg.setup.empty());
+        const LightRun r = run_light(*rec, imu, cfg);
+        const Fitted raw = against_reference(*rec, r, 0, false);
+        Fitted best;
+        double best_p50 = INFINITY;
+        for (int64_t off = -30; off <= 30; ++off) {
+            const Fitted f = against_reference(*rec, r, off * 1'000'000, false);
+            const double e = percentile(f.pos_mm, 0.5);
+            if (!f.pos_mm.empty() && e < best_p50) best_p50 = e, best = f;
+        }
+        const Fitted fit = against_reference(*rec, r, best.offset_ns, true);
+        std::printf(
+            "%s %s: %zu IMU lines, %zu good; first good %.3f s; %llu turns solved of %llu; %llu "
+            "accepted, %llu gated, %llu initialised, %llu lost; against libsurvive's POSE "
+            "(%zu): raw position p50 %.2f p90 %.2f mm, orientation p50 %.3f p90 %.3f deg; "
+            "offset %+.0f ms, translation and lever arm fitted: p50 %.2f p90 %.2f mm\n",
+            c.file, c.device, imu.size(), r.good, double(r.first_good_host_ns) * 1e-9,
+            (unsigned long long)r.counters.solved, (unsigned long long)r.counters.solves,
+            (unsigned long long)r.filter.accepted, (unsigned long long)r.filter.gated,
+            (unsigned long long)r.filter.initialisations, (unsigned long long)r.filter.lost,
+            raw.pos_mm.size(), percentile(raw.pos_mm, 0.5), percentile(raw.pos_mm, 0.9),
+            percentile(raw.rot_deg, 0.5), percentile(raw.rot_deg, 0.9),
+            double(fit.offset_ns) * 1e-6, percentile(fit.pos_mm, 0.5), percentile(fit.pos_mm, 0.9));
+        std::vector<double> inn;
+        for (const auto& [t, mm] : r.innovation_mm) inn.push_back(mm);
+        std::printf(
+            "  mean |accel| %.3f m/s^2; translation (%.1f %.1f %.1f) mm and lever arm "
+            "(%.1f %.1f %.1f) mm fitted; innovation p50 %.2f mm\n",
+            accel_sum / double(accel_n), fit.world.x * 1e3, fit.world.y * 1e3, fit.world.z * 1e3,
+            fit.lever.x * 1e3, fit.lever.y * 1e3, fit.lever.z * 1e3, percentile(inn, 0.5));
+        // Measured: lh2 raw 9.31 / 11.8 mm, 0.25 / 0.28 deg, fitted 1.20 / 2.61 mm; lh1 raw 17.4
+        // / 24.9 mm, 0.29 / 0.33 deg, fitted 3.31 / 7.23 mm.
+        const bool lh2 = std::string(c.file).starts_with("lh2");
+        EXPECT_EQ(r.filter.lost, 0u);
+        EXPECT_LE(r.filter.gated, 2u);
+        EXPECT_GT(raw.pos_mm.size(), lh2 ? 900u : 1800u);
+        EXPECT_LT(percentile(raw.pos_mm, 0.9), lh2 ? 14.0 : 28.0);
+        EXPECT_LT(percentile(raw.rot_deg, 0.9), 0.4);
+        EXPECT_LT(percentile(fit.pos_mm, 0.5), lh2 ? 1.6 : 4.0);
+        EXPECT_LT(percentile(fit.pos_mm, 0.9), lh2 ? 3.2 : 8.5);
+    }
 }
 
 }  // namespace
