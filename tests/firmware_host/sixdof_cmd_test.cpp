@@ -49,9 +49,13 @@ TEST(SixDofCmd, RecordWritesSixDofFromTheLightAndTrackingEvalComparesPositions) 
     EXPECT_NE(rec.output.find("4 base station(s) from " + kSetup), std::string::npos) << rec.output;
     // Every W and Y line as a light report 0x28, none refused; every rotor turn solved.
     EXPECT_NE(rec.output.find("110545 (0 refused)"), std::string::npos) << rec.output;
+    EXPECT_NE(rec.output.find("15618 rows with a tracked position (first at 9.660 s)"),
+              std::string::npos)
+        << rec.output;
     auto t = read_trace_csv(six);
     ASSERT_TRUE(t.ok()) << t.error().message;
     ASSERT_TRUE(t->samples.front().position.has_value());
+    EXPECT_EQ(t->samples.size(), 15'618u);
     // Tracked from the first base station's calibration frame (9.64 s) to the end (25.5 s),
     // ~1 kHz: measured 15,618 rows from 9.660 s.
     EXPECT_GT(t->samples.size(), 15'000u);

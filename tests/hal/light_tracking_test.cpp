@@ -317,7 +317,14 @@ TEST(LightTracking, TheDeviceTrackerDeliversTheSixDofPosesThroughTheTrackerInter
     EXPECT_EQ(st.light.rejected, 0u) << st.light.light_error;
     EXPECT_EQ(st.codec.unknown, 0u);  // no light report reached the IMU codec
     EXPECT_EQ(samples.size(), 25'059u);
-    // libsurvive's POSE lines against the sample of the IMU line of their TIME.
+    // libsurvive's POSE lines against the sample of the IMU line of their TIME. The samples are
+    // in the node's world, +y up: libsurvive's +z is their +y, its +y their -z.
+    const glm::dquat setup_from_node = glm::angleAxis(kPi / 2, glm::dvec3(1, 0, 0));
+    for (const auto& [t, s] : samples)
+        if (s.position) {
+            EXPECT_NEAR(s.position->y, (setup_from_node * *s.position).z, 1e-12);
+            break;
+        }
     std::vector<double> pos_mm;
     size_t with_position = 0, pi = 0;
     for (size_t i = 0; i < samples.size(); ++i) {
@@ -326,7 +333,8 @@ TEST(LightTracking, TheDeviceTrackerDeliversTheSixDofPosesThroughTheTrackerInter
         if (i + 1 < samples.size() && samples[i + 1].first == t) continue;  // the line's newest
         for (; pi < rec->poses.size() && rec->poses[pi].host_time_ns <= t; ++pi)
             if (rec->poses[pi].host_time_ns == t && s.position)
-                pos_mm.push_back(glm::length(*s.position - rec->poses[pi].position) * 1e3);
+                pos_mm.push_back(
+                    glm::length(setup_from_node * *s.position - rec->poses[pi].position) * 1e3);
     }
     std::printf(
         "device tracker, light path: %zu samples, %zu with a position; %zu POSE lines "

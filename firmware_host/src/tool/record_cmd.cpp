@@ -550,8 +550,7 @@ void print_light_status(const DeviceTrackerStatus& st, const TrackerRecording& o
     std::printf(
         "  %-24s %zu rows with a tracked position (first at %.3f s); %llu samples "
         "without one left out\n",
-        "6DoF", out.trace.samples.size(),
-        out.first_position_ns >= 0 ? ns_to_s(out.first_position_ns) : 0.0,
+        "6DoF", rows, out.first_position_ns >= 0 ? ns_to_s(out.first_position_ns) : 0.0,
         static_cast<unsigned long long>(out.without_position));
 }
 
@@ -621,7 +620,8 @@ void run_record_survive(const RecordArgs& args) {
     if (six_dof)
         out.trace.comments.push_back(
             "6DoF: light + IMU (hmdnode's solver and filter), base stations from " + light_source +
-            ", world up " + args.world_up + "; rows only where the position is tracked");
+            ", their world (up " + args.world_up +
+            ") turned to +y up; rows only where the position is tracked");
     std::vector<ExtraOutput> extra;
     ReferenceCounts counts;
     if (refused.empty() && !args.reference_out.empty()) {

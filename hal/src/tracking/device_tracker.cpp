@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cassert>
+#include <cmath>
 #include <cstdio>
 #include <deque>
 #include <mutex>
@@ -152,6 +153,21 @@ class DeviceTrackerImpl final : public DeviceTracker {
         model.channel_map = config_.light->sensors.channel_map;
         decoder_ = std::make_unique<lighthouse::LightDecoder>(std::move(model));
         light_ = std::make_unique<LightTracking>(*config_.light);
+        // The node's world is +y up: the setup's world turned so its up is +y.
+        node_from_setup_ =
+            shortest_rotation(glm::normalize(config_.light->filter.world_up), glm::dvec3(0, 1, 0));
+    }
+
+    // The shortest rotation taking unit a onto unit b (half-way quaternion; a half turn about x
+    // or z when they are opposite).
+    static glm::dquat shortest_rotation(const glm::dvec3& a, const glm::dvec3& b) {
+        const double c = glm::dot(a, b);
+        if (c < -1 + 1e-12) {
+            const glm::dvec3 axis = std::abs(a.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 0, 1);
+            return glm::angleAxis(3.14159265358979323846, glm::normalize(glm::cross(a, axis)));
+        }
+        const glm::dvec3 v = glm::cross(a, b);
+        return glm::normalize(glm::dquat(1 + c, v.x, v.y, v.z));
     }
 
     static bool is_light_report(const InputReport& r) {
@@ -182,10 +198,10 @@ class DeviceTrackerImpl final : public DeviceTracker {
         light_->add_imu(d.device_time_ns, *d.gyro, *d.accel, d.imu_flags);
         const FilterPose p = light_->pose();
         t->has_orientation = light_->filter().initialized();
-        t->orientation = p.orientation;
+        t->orientation = glm::normalize(node_from_setup_ * p.orientation);
         t->gyro = *d.gyro - light_->filter().gyro_bias();
         t->position.reset();
-        if (p.good()) t->position = p.position;
+        if (p.good()) t->position = node_from_setup_ * p.position;
         light_state_ = p.state;
         light_confidence_ = p.confidence;
         if (p.good()) ++light_positions_;
@@ -334,6 +350,7 @@ class DeviceTrackerImpl final : public DeviceTracker {
     std::unique_ptr<lighthouse::LightDecoder> decoder_;
     std::unique_ptr<LightTracking> light_;
     std::vector<lighthouse::LightEvent> light_events_;
+    glm::dquat node_from_setup_{1, 0, 0, 0};
     PositionState light_state_ = PositionState::none;
     double light_confidence_ = 0;
     uint64_t light_positions_ = 0;

@@ -179,9 +179,11 @@ struct DeviceTrackerConfig {
     std::optional<int64_t> first_report_host_ns;
     // A lighthouse-tracked device with a stored base-station setup: its light reports (0x25,
     // 0x28) go to a lighthouse::LightDecoder (the sensor model of `light->sensors`) and
-    // LightTracking, whose filter then gives every sample's orientation (the setup's world) and,
-    // while its position is tracked (FilterPose::good), its position; a sample whose position is
-    // not good carries none. Null, or a setup with no base station: the IMU-only path (ImuFusion).
+    // LightTracking, whose filter then gives every sample's orientation and, while its position
+    // is tracked (FilterPose::good), its position; a sample whose position is not good carries
+    // none. Their world is the node's, +y up: the setup's world turned by the shortest rotation
+    // taking its up (filter.world_up) to +y. Null, or a setup with no base station: the IMU-only
+    // path (ImuFusion).
     std::shared_ptr<const LightTrackingConfig> light;
 };
 
