@@ -9,16 +9,19 @@
 // with margin.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "firmware_host/command_run.hpp"
 #include "hmdnode/core/time.hpp"
 #include "hmdnode/core/trace.hpp"
+#include "hmdnode/firmware_host/wiring.hpp"
 
 namespace hmdnode {
 namespace {
@@ -133,6 +136,56 @@ TEST(SixDofCmd, ABadSetupFileIsAnErrorNamingItAndNothingIsWritten) {
              " --base-stations " + kSetup + " --fusion gyro");
     EXPECT_EQ(r.code, 2) << r.output;
     EXPECT_FALSE(fs::exists(out));
+}
+
+// The node's wiring (`hmdnode replay --tracker rec --base-stations FILE`): the tracker it makes
+// delivers positions once the light tracks, in the node's +y-up world; without the setup none.
+TEST(SixDofCmd, TheNodesRecordingTrackerWithASetupDeliversPositions) {
+    for (const bool with_setup : {true, false}) {
+        SCOPED_TRACE(with_setup ? "with a setup" : "without");
+        TrackerSpec spec;
+        spec.backend = TrackerBackend::rec;
+        spec.from = kRec;
+        spec.device = "T20";
+        if (with_setup) spec.base_stations = kSetup;
+        const WiringKeys keys = WiringKeys::command_line();
+        ASSERT_TRUE(check_tracker_spec(spec, ClockKind::sim, keys).ok());
+        SimulatedClock clock(kNsPerSecond);
+        auto w = make_tracker(spec, clock, keys);
+        ASSERT_TRUE(w.ok()) << w.error().message;
+        EXPECT_EQ(w->tracker->info().provides_position, with_setup);
+        ASSERT_TRUE(w->tracker->start().ok());
+        std::vector<TrackerSample> buf(512);
+        size_t samples = 0, positions = 0;
+        double min_y = 1e9, max_y = -1e9;
+        while (!w->tracker->finished()) {
+            clock.advance_ns(10 * kNsPerMs);
+            for (size_t n = w->tracker->read(buf); n > 0; n = w->tracker->read(buf))
+                for (size_t i = 0; i < n; ++i) {
+                    ++samples;
+                    if (!buf[i].position) continue;
+                    ++positions;
+                    min_y = std::min(min_y, buf[i].position->y);
+                    max_y = std::max(max_y, buf[i].position->y);
+                }
+        }
+        EXPECT_EQ(samples, 25'059u);
+        if (!with_setup) {
+            EXPECT_EQ(positions, 0u);
+            continue;
+        }
+        EXPECT_GT(positions, 15'000u);
+        // +y up: the node's y is libsurvive's z (its POSE lines: -0.075 to 1.078 m; ours within
+        // a few cm of them).
+        EXPECT_NEAR(min_y, -0.075, 0.05);
+        EXPECT_NEAR(max_y, 1.078, 0.05);
+    }
+    TrackerSpec bad;
+    bad.backend = TrackerBackend::capture;
+    bad.from = "x.pcap";
+    bad.device = "28de:2300";
+    bad.base_stations = kSetup;
+    EXPECT_FALSE(check_tracker_spec(bad, ClockKind::sim, WiringKeys::command_line()).ok());
 }
 
 }  // namespace
