@@ -500,10 +500,17 @@ Result<std::shared_ptr<const LightTrackingConfig>> recording_light_path(const Re
         return std::shared_ptr<const LightTrackingConfig>();
     }
     if (args.base_stations.empty()) {
+        if (rec.base_station_poses.empty()) {
+            *why = "no stored base-station setup (no LH_POSE line; give --base-stations FILE): "
+                   "orientation only";
+            return std::shared_ptr<const LightTrackingConfig>();
+        }
         // The calibration ids only map the LH_POSE lines' numbers to base stations.
         lighthouse::LightDecoder all(survive_sensor_model(rec));
-        if (Status st = replay_survive_light(rec, all); !st)
-            return make_error(args.from + ": " + st.error().message);
+        if (Status st = replay_survive_light(rec, all); !st) {
+            *why = args.from + ": " + st.error().message + ": orientation only";
+            return std::shared_ptr<const LightTrackingConfig>();
+        }
         auto stored = lighthouse::recording_base_station_setup(rec, all.base_stations(), false);
         if (!stored || stored->empty()) {
             *why = "no stored base-station setup (" +
