@@ -242,7 +242,7 @@ TEST(SixDofCmd, ARecordingsBaseStationsFromBeforeItsLightAreItsStoredSetup) {
         "p50 %.2f p90 %.2f mm, orientation p50 %.3f deg\n",
         t->samples.size(), ns_to_s(t->start_ns()), s["position_error_mm"]["p50"].get<double>(),
         s["position_error_mm"]["p90"].get<double>(), s["error_deg"]["p50"].get<double>());
-    // Measured: 1,107 rows from 12.210 s (the second calibration frame 12.17 s; libsurvive's
+    // Measured: 1,107 rows from 12.210 s (the first calibration frame 12.17 s; libsurvive's
     // first pose 12.99 s); position p50 0.95, p90 2.13 mm; orientation p50 0.029 deg (W, B, the
     // translation, lever arm and offset fitted).
     EXPECT_GT(t->samples.size(), 1'000u);
