@@ -13,6 +13,7 @@
 #include <memory>
 #include <vector>
 
+#include "hal/lighthouse_synth.hpp"
 #include "hmdnode/core/percentile.hpp"
 #include "hmdnode/core/time.hpp"
 #include "hmdnode/hal/codec/vive_imu.hpp"
@@ -430,6 +431,77 @@ TEST(LightTracking, OnTheControllerRecordingsSixDofPosesAgreeWithLibsurvivesPose
         EXPECT_LT(percentile(raw.rot_deg, 0.9), 0.4);
         EXPECT_LT(percentile(fit.pos_mm, 0.5), lh2 ? 1.6 : 4.0);
         EXPECT_LT(percentile(fit.pos_mm, 0.9), lh2 ? 3.2 : 8.5);
+    }
+}
+
+// A synthetic still device (a 32-sensor sphere, four base stations with ideal planes, exact
+// IMU): tracked to the truth; the light stopping loses the position after the filter's 500 ms
+// (position_lost, never good meanwhile); back, it is tracked again. Without a decoded
+// calibration (require_calibration, the default) nothing is solved and it is never good.
+TEST(LightTracking, ASyntheticStillDeviceIsTrackedLostWithoutLightAndReacquired) {
+    std::vector<lighthouse::PlacedBaseStation> stations = test::four_stations();
+    for (auto& st : stations) st.calibration.reset();  // the ideal planes
+    LightTrackingConfig cfg;
+    const lighthouse::SensorLayout layout = test::sphere_layout();
+    cfg.sensors.points = layout.points;
+    cfg.sensors.normals = layout.normals;
+    for (const auto& st : stations) {
+        lighthouse::BaseStationPlacement p;
+        p.generation = st.generation;
+        p.base_station = st.base_station;
+        p.world_from_station = st.world_from_station;
+        cfg.setup.push_back(p);
+    }
+    cfg.filter.world_up = glm::dvec3(0, 1, 0);
+    const lighthouse::RigidPose truth{glm::dvec3(0.1, 1.2, -0.05),
+                                      glm::normalize(glm::dquat(0.9, 0.1, 0.3, -0.2))};
+    const glm::dvec3 accel = glm::conjugate(truth.orientation) * glm::dvec3(0, 9.80665, 0);
+    std::mt19937 rng(7);
+    lighthouse::LightDecoder dec;  // no base station: no calibration decoded
+    for (const bool require : {false, true}) {
+        SCOPED_TRACE(require ? "calibration required" : "ideal planes allowed");
+        cfg.require_calibration = require;
+        LightTracking lt(cfg);
+        bool lost_seen = false, good_while_dark = false;
+        double err_mm = 0, err_mrad = 0;
+        int64_t good_again_ns = -1;
+        for (int64_t ms = 0; ms < 8'000; ++ms) {
+            const int64_t t = ms * 1'000'000;
+            lt.add_imu(t, glm::dvec3(0.0), accel);
+            const bool dark = ms >= 4'000 && ms < 5'000;
+            if (ms % 20 == 0 && !dark)
+                lt.add_light(test::events_for(layout, stations, truth, t, 2e-4, &rng), dec);
+            const FilterPose p = lt.pose();
+            if (dark && ms >= 4'600) {
+                lost_seen |= lt.position_lost();
+                good_while_dark |= p.good();
+            }
+            if (ms >= 5'000 && good_again_ns < 0 && p.good()) good_again_ns = t;
+            if (ms == 3'999) {
+                err_mm = glm::length(p.position - truth.position) * 1e3;
+                err_mrad = test::angle_between(p.orientation, truth.orientation) * 1e3;
+            }
+            if (require) {
+                EXPECT_FALSE(p.good());
+            }
+        }
+        if (require) {
+            EXPECT_EQ(lt.counters().solves, 0u);
+            EXPECT_GT(lt.counters().uncalibrated_windows, 300u);
+            continue;
+        }
+        std::printf(
+            "synthetic still device: at 4 s %.3f mm, %.3f mrad from the truth; lost in "
+            "the dark: %d; good again %.3f s after the light returns\n",
+            err_mm, err_mrad, int(lost_seen), double(good_again_ns) * 1e-9 - 5.0);
+        EXPECT_LT(err_mm, 0.5);
+        EXPECT_LT(err_mrad, 0.5);
+        EXPECT_TRUE(lost_seen);
+        EXPECT_FALSE(good_while_dark);
+        EXPECT_GE(lt.filter().counters().lost, 1u);
+        ASSERT_GE(good_again_ns, 5'000'000'000);
+        EXPECT_LT(good_again_ns, 5'200'000'000);  // a re-initialisation and its confirmation
+        EXPECT_EQ(lt.counters().events_unplaced, 0u);
     }
 }
 
