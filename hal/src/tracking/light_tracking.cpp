@@ -7,10 +7,9 @@
 #include "hmdnode/hal/tracking/light_tracking.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <utility>
-
-#include <glm/gtc/matrix_transform.hpp>
 
 namespace hmdnode {
 namespace light_tracking_detail {
