@@ -115,6 +115,19 @@ TEST(SixDofCmd, RecordWritesSixDofFromTheLightAndTrackingEvalComparesPositions) 
         s["error_deg"]["max"].get<double>());
     EXPECT_LT(s["error_deg"]["p50"].get<double>(), 1.5);
     EXPECT_GT(s["error_deg"]["p50"].get<double>(), 0.05);
+    // The same comparison as tracking eval's --imu-only beside the evaluation against
+    // libsurvive's poses (its window: 16.08 s on).
+    const double p50 = s["error_deg"]["p50"].get<double>();
+    const fs::path r3 = dir / "e3.json";
+    ev = tool("tracking eval --reference " + lh.string() + " --estimate " + six.string() +
+              " --imu-only " + fused.string() + " --report " + r3.string());
+    ASSERT_EQ(ev.code, 0) << ev.output;
+    EXPECT_NE(ev.output.find("IMU-only " + fused.string() + " against the estimate's orientation"),
+              std::string::npos)
+        << ev.output;
+    s = read_json(r3)["summary"]["imu_only_vs_estimate"];
+    EXPECT_NEAR(s["error_deg"]["p50"].get<double>(), p50, 0.01);
+    EXPECT_GT(s["samples"].get<size_t>(), 8000u);
 }
 
 TEST(SixDofCmd, ABadSetupFileIsAnErrorNamingItAndNothingIsWritten) {

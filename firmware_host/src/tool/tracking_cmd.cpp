@@ -26,6 +26,7 @@ const CliErrors errors{"tracking eval"};
 
 struct EvalArgs {
     std::string reference, estimate, report, plot;
+    std::string imu_only;           // an IMU-only trace compared with the estimate's orientation
     std::string time_offset = "0";  // "auto" or milliseconds
     OrientationEvalOptions options;
 };
@@ -225,6 +226,56 @@ std::string evaluate_positions(const EvalArgs& args, const Trace& ref, const Tra
     return b;
 }
 
+// --imu-only FILE: that trace's orientation against the estimate's (a light + IMU one: the
+// reference the orientation fusion is judged against) over the same window, W and B fitted, the
+// time offset 0 (one recording, one timeline); into the report; returns the lines to print. An
+// error is a failure naming the file (the caller stops).
+std::string compare_imu_only(const EvalArgs& args, const Trace& est, const OrientationEval& e,
+                             nlohmann::json* report, bool* ok) {
+    *ok = true;
+    if (args.imu_only.empty()) return {};
+    auto imu = read_trace_csv(args.imu_only);
+    if (!imu) {
+        errors.fail("--imu-only " + imu.error().message);
+        *ok = false;
+        return {};
+    }
+    const auto a = trace_time_base(est), b = trace_time_base(*imu);
+    if (a && b && *a != *b) {
+        errors.fail("--imu-only " + args.imu_only + " is on the time base \"" + *b +
+                    "\" and --estimate " + args.estimate + " on \"" + *a + "\"");
+        *ok = false;
+        return {};
+    }
+    OrientationEvalOptions o;
+    o.start_s = std::max(0.0, ns_to_s(e.window_start_ns - est.start_ns()));
+    o.duration_s = std::max(1e-9, ns_to_s(e.window_end_ns - e.window_start_ns));
+    auto r = evaluate_orientation(est, *imu, o);
+    if (!r) {
+        errors.fail("--imu-only " + args.imu_only + ": " + r.error().message);
+        *ok = false;
+        return {};
+    }
+    (*report)["summary"]["imu_only_vs_estimate"] = {
+        {"file", args.imu_only},
+        {"error_deg", percentiles(r->error)},
+        {"tilt_error_deg", percentiles(r->tilt)},
+        {"heading_error_deg", percentiles(r->heading)},
+        {"samples", r->samples},
+        {"glitches_left_out", r->glitches.samples_left_out}};
+    char b2[700];
+    std::snprintf(b2, sizeof b2,
+                  "  IMU-only %s against the estimate's orientation (%zu samples, %.3f to %.3f s; "
+                  "%zu of the estimate's samples left out as steps its gyro does not see):\n"
+                  "  %-20s %8.3f %8.3f %8.3f\n  %-20s %8.3f %8.3f %8.3f\n  %-20s %8.3f %8.3f "
+                  "%8.3f\n",
+                  args.imu_only.c_str(), r->samples, ns_to_s(r->time_ns.front()),
+                  ns_to_s(r->time_ns.back()), r->glitches.samples_left_out, "orientation",
+                  r->error.p50, r->error.p95, r->error.max, "tilt", r->tilt.p50, r->tilt.p95,
+                  r->tilt.max, "heading", r->heading.p50, r->heading.p95, r->heading.max);
+    return b2;
+}
+
 void run_eval(EvalArgs args) {
     if (args.time_offset == "auto") {
         args.options.fit_time_offset = true;
@@ -310,6 +361,9 @@ void run_eval(EvalArgs args) {
                                                args.options.max_time_offset_s * 1e3));
     }
     const std::string position_lines = evaluate_positions(args, *ref, *est, *e, &report);
+    bool imu_ok = true;
+    const std::string imu_lines = compare_imu_only(args, *est, *e, &report, &imu_ok);
+    if (!imu_ok) return;
     if (!args.report.empty()) {
         Status st = write_file_atomically(args.report, report.dump(2) + "\n");
         if (!st.ok()) return errors.fail(st.error().message);
@@ -341,6 +395,7 @@ void run_eval(EvalArgs args) {
         row("heading", error_percentiles(heading_ex));
     }
     std::fputs(position_lines.c_str(), stdout);
+    std::fputs(imu_lines.c_str(), stdout);
     std::printf("  time offset: %.3f ms (%s; estimate time + offset = reference time)\n",
                 double(e->time_offset_ns) * 1e-6,
                 !args.options.fit_time_offset ? "given"
@@ -372,6 +427,9 @@ void add_tracking_command(CLI::App& app) {
     eval->add_option("--estimate", args->estimate, "Estimated trace CSV (e.g. fused IMU)")
         ->required();
     eval->add_option("--report", args->report, "JSON report to write");
+    eval->add_option("--imu-only", args->imu_only,
+                     "An IMU-only trace of the same recording (record without a light path): its "
+                     "orientation against the estimate's (a light + IMU trace) over the window");
     eval->add_option("--plot", args->plot, "SVG plot of the error against time to write");
     eval->add_option("--start", args->options.start_s,
                      "Window start, seconds after the reference's first sample")
