@@ -61,6 +61,28 @@ TEST(PoseHistory, SlerpsBetweenSamples) {
     EXPECT_NEAR(angle_between_deg(p.orientation, yaw(4)), 0.0, 1e-9);
 }
 
+// A lighthouse device's samples carry no position while it is not tracked (docs/tracking.md §12):
+// the last one is held, with no velocity, instead of the origin.
+TEST(PoseHistory, ASampleWithoutAPositionHoldsTheLastOne) {
+    PoseHistory h;
+    for (int i = 0; i < 50; ++i) {
+        TrackerSample s = sample(i * kNsPerMs, yaw(0));
+        s.position = glm::dvec3(0.001 * i, 1.5, 0.0);  // 1 m/s along x
+        h.push(s);
+    }
+    for (int i = 50; i < 100; ++i) h.push(sample(i * kNsPerMs, yaw(0)));
+    const Pose p = h.pose_at(99 * kNsPerMs);
+    EXPECT_NEAR(glm::length(p.position - glm::dvec3(0.049, 1.5, 0.0)), 0.0, 1e-12);
+    const MotionEstimate m = h.motion();
+    EXPECT_TRUE(m.has_position);
+    EXPECT_LT(glm::length(m.linear_velocity), 1e-9);  // the fit window holds only held samples
+    // An orientation-only tracker never gets one.
+    PoseHistory o;
+    o.push(sample(0, yaw(0)));
+    o.push(sample(kNsPerMs, yaw(1)));
+    EXPECT_FALSE(o.newest().position.has_value());
+}
+
 TEST(PoseHistory, SignFlippedSamplesCauseNoJump) {
     PoseHistory h;
     for (int i = 0; i <= 10; ++i) h.push(sample(i * kNsPerMs, (i % 2 ? -1.0 : 1.0) * yaw(i)));

@@ -132,6 +132,10 @@ bool PoseHistory::push(const TrackerSample& sample) {
     if (count_ > 0 && sample.time_ns <= newest().time_ns) return false;
     TrackerSample s = sample;
     if (count_ > 0) s.orientation = same_hemisphere(s.orientation, newest().orientation);
+    if (s.position)
+        held_position_ = s.position;
+    else if (held_position_)
+        s.position = held_position_;  // not tracked just now: the last position held
     ring_[head_] = s;
     head_ = (head_ + 1) % ring_.size();
     count_ = std::min(count_ + 1, ring_.size());

@@ -229,6 +229,7 @@ Result<NodeSpec> replay_node_spec(const ReplayOptions& opt, std::shared_ptr<cons
     TrackerSpec spec;
     spec.backend = opt.tracker_backend;
     spec.from = opt.from;
+    spec.base_stations = opt.base_stations;
     spec.trace = trace;
     spec.trace_path = opt.trace;
     spec.device = opt.device;

@@ -8,6 +8,7 @@
 #include <spdlog/spdlog.h>
 
 #include "hmdnode/hal/sim/sim_reference_device.hpp"
+#include "hmdnode/hal/tracking/base_station_placement.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
 #include "hmdnode/hal/tracking/survive_recording.hpp"
 #include "hmdnode/render/vk_display.hpp"
@@ -76,8 +77,19 @@ Result<WiredTracker> make_tracker(const TrackerSpec& spec, Clock& clock, const W
             Result<SurviveRecording> r = read_survive_recording(spec.from, spec.device);
             if (!r.ok()) return r.error();
             out.label = spec.device + " from libsurvive recording " + spec.from.string();
-            return adopt(create_survive_tracker(
-                std::make_shared<const SurviveRecording>(std::move(*r)), clock, now));
+            std::shared_ptr<const LightTrackingConfig> light;
+            if (!spec.base_stations.empty()) {  // 6DoF from the light
+                auto setup = lighthouse::load_base_station_setup(spec.base_stations);
+                if (!setup) return make_error("base stations: " + setup.error().message);
+                auto cfg = survive_light_tracking_config(*r, std::move(*setup));
+                if (!cfg)
+                    return make_error(spec.base_stations.string() + ": " + cfg.error().message);
+                light = std::make_shared<const LightTrackingConfig>(std::move(*cfg));
+                out.label += " with the base stations of " + spec.base_stations.string();
+            }
+            return adopt(
+                create_survive_tracker(std::make_shared<const SurviveRecording>(std::move(*r)),
+                                       clock, now, {}, std::move(light)));
         }
         case TrackerBackend::sim:
         case TrackerBackend::hidapi:

@@ -37,6 +37,7 @@
 #include "hmdnode/firmware_host/wiring.hpp"
 #include "hmdnode/hal/codec/reference_protocol.hpp"
 #include "hmdnode/hal/sim/sim_reference_device.hpp"
+#include "hmdnode/hal/tracking/base_station_placement.hpp"
 #include "hmdnode/hal/tracking/clock_sync.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
 #include "hmdnode/hal/tracking/survive_recording.hpp"
@@ -64,6 +65,8 @@ struct RecordArgs {
     std::string reference_out;
     std::string reference_time = "imu";  // imu: the IMU sample a POSE follows; recorded: its TIME
     std::string fusion = "mahony";       // or gyro: the gyro integrated, no gravity correction
+    std::string base_stations;           // --base-stations FILE: a stored setup (6DoF)
+    std::string world_up = "z";          // the setup's world up
     bool sim_clock = false;
     bool duration_given = false;
 };
@@ -81,6 +84,11 @@ struct TrackerRecording {
     // With keep_arrivals: a report's arrival time (from t0) -> the row time of its newest sample.
     bool keep_arrivals = false;
     std::unordered_map<int64_t, int64_t> row_time_of_arrival;
+    // 6DoF (a light path): rows only where the position is tracked; the samples left out still
+    // give their instants to row_time_of_arrival (the reference's times).
+    bool six_dof = false;
+    uint64_t without_position = 0;
+    int64_t first_position_ns = -1;  // row time of the first row
 };
 
 // Appends one delivered sample as a trace row (times from t0; a column group in every row or
@@ -94,6 +102,11 @@ void append_row(const TrackerSample& t, int64_t t0, TrackerRecording* rec) {
     std::vector<TraceSample>& rows = rec->trace.samples;
     TraceSample s;
     s.time_ns = t.time_ns - t0;
+    if (rec->six_dof && !t.position) {
+        ++rec->without_position;
+        if (rec->keep_arrivals) rec->row_time_of_arrival[t.arrival_ns - t0] = s.time_ns;
+        return;
+    }
     if (!rows.empty() && s.time_ns <= rows.back().time_ns) {
         ++rec->non_increasing;
         return;
@@ -109,6 +122,7 @@ void append_row(const TrackerSample& t, int64_t t0, TrackerRecording* rec) {
     s.gyro = group(t.gyro, &TraceSample::gyro);
     s.accel = group(t.accel, &TraceSample::accel);
     s.position = group(t.position, &TraceSample::position);
+    if (rec->six_dof && rows.empty()) rec->first_position_ns = s.time_ns;
     rows.push_back(s);
     if (rec->keep_arrivals) rec->row_time_of_arrival[t.arrival_ns - t0] = s.time_ns;
 }
@@ -124,9 +138,11 @@ constexpr int64_t kFirstPoseTimeoutNs = 5 * kNsPerSecond;
 // need_pose false (a raw capture alone): no first-pose timeout.
 TrackerRecording record_tracker(DeviceTracker& tracker, Clock& clock, int64_t start, int64_t end,
                                 std::optional<int64_t> origin = std::nullopt,
-                                bool keep_arrivals = false, bool need_pose = true) {
+                                bool keep_arrivals = false, bool need_pose = true,
+                                bool six_dof = false) {
     TrackerRecording rec;
     rec.keep_arrivals = keep_arrivals;
+    rec.six_dof = six_dof;
     std::vector<TrackerSample> buf(1024);
     std::optional<int64_t> t0 = origin;
     if (!t0 && !clock.is_simulated()) t0 = start;
@@ -165,7 +181,8 @@ TrackerRecording record_tracker(DeviceTracker& tracker, Clock& clock, int64_t st
                 (st.last_error.empty() ? std::string("no matching device") : st.last_error);
             break;
         }
-        if (need_pose && rec.trace.samples.empty() &&
+        // 6DoF: an orientation is a pose (the position waits for the light).
+        if (need_pose && (rec.six_dof ? rec.delivered == 0 : rec.trace.samples.empty()) &&
             clock.now_ns() - start >= kFirstPoseTimeoutNs) {
             rec.failure = "no pose from the device within " +
                           std::to_string(kFirstPoseTimeoutNs / kNsPerSecond) + " s (" +
@@ -198,6 +215,7 @@ void finish_tracker_recording(const RecordArgs& args, const std::string& label,
                               const DeviceTrackerStatus& st, const UsbmonPcapWriter* pcap,
                               const std::string& time_base, std::vector<ExtraOutput> extra = {},
                               const std::string& refused = "") {
+    const size_t rows = rec.trace.samples.size();  // (the trace moves into `extra` below)
     bool ok = true;
     std::vector<std::pair<std::string, std::string>> files;  // path, bytes
     if (!refused.empty()) {
@@ -258,8 +276,7 @@ void finish_tracker_recording(const RecordArgs& args, const std::string& label,
     std::printf("  %-24s %llu (%llu before the fusion was aligned)\n", "samples",
                 static_cast<unsigned long long>(rec.delivered),
                 static_cast<unsigned long long>(rec.before_fusion));
-    std::printf("  %-24s %zu (%.1f per s)\n", "trace rows", rec.trace.samples.size(),
-                s > 0 ? rec.trace.samples.size() / s : 0.0);
+    std::printf("  %-24s %zu (%.1f per s)\n", "trace rows", rows, s > 0 ? rows / s : 0.0);
     std::printf("  %-24s %llu (%llu samples missing)\n", "sequence gaps",
                 static_cast<unsigned long long>(st.codec.sequence_gaps),
                 static_cast<unsigned long long>(st.codec.missing_samples));
@@ -460,6 +477,90 @@ std::string no_samples_cause(const SurviveRecording& rec, const DeviceTrackerSta
     return s + "the recording ends before a second sample";
 }
 
+// The light path of a recording (6DoF) when it has light lines and a stored setup: --base-stations
+// FILE (a state file), else the recording's own base-station poses from before its light (as
+// libsurvive writes its saved configuration; poses solved during the recording are look-ahead and
+// not used). Null (IMU only) with `why` saying so; an error for a bad --base-stations file.
+Result<std::shared_ptr<const LightTrackingConfig>> recording_light_path(const RecordArgs& args,
+                                                                        const SurviveRecording& rec,
+                                                                        std::string* source,
+                                                                        std::string* why) {
+    using Setup = std::vector<lighthouse::BaseStationPlacement>;
+    Setup setup;
+    if (!args.base_stations.empty()) {
+        auto loaded = lighthouse::load_base_station_setup(args.base_stations);
+        if (!loaded) return make_error("--base-stations: " + loaded.error().message);
+        setup = std::move(*loaded);
+        *source = args.base_stations;
+    }
+    if (rec.light.empty()) {
+        *why = "no light line (W, Y, C) of " + rec.device + ": orientation only";
+        if (!args.base_stations.empty())
+            return make_error("--base-stations " + args.base_stations + ": " + *why);
+        return std::shared_ptr<const LightTrackingConfig>();
+    }
+    if (args.base_stations.empty()) {
+        if (rec.base_station_poses.empty()) {
+            *why = "no stored base-station setup (no LH_POSE line; give --base-stations FILE): "
+                   "orientation only";
+            return std::shared_ptr<const LightTrackingConfig>();
+        }
+        // The calibration ids only map the LH_POSE lines' numbers to base stations.
+        lighthouse::LightDecoder all(survive_sensor_model(rec));
+        if (Status st = replay_survive_light(rec, all); !st) {
+            *why = args.from + ": " + st.error().message + ": orientation only";
+            return std::shared_ptr<const LightTrackingConfig>();
+        }
+        auto stored = lighthouse::recording_base_station_setup(rec, all.base_stations(), false);
+        if (!stored || stored->empty()) {
+            *why = "no stored base-station setup (" +
+                   (stored ? std::string("no LH_POSE line") : stored.error().message) +
+                   "; give --base-stations FILE): orientation only";
+            return std::shared_ptr<const LightTrackingConfig>();
+        }
+        setup = std::move(*stored);
+        *source = "the recording's LH_POSE lines before its light";
+    }
+    const glm::dvec3 up = args.world_up == "x"   ? glm::dvec3(1, 0, 0)
+                          : args.world_up == "y" ? glm::dvec3(0, 1, 0)
+                                                 : glm::dvec3(0, 0, 1);
+    auto cfg = survive_light_tracking_config(rec, std::move(setup), up);
+    if (!cfg && args.base_stations.empty()) {
+        *why = cfg.error().message + ": orientation only";
+        return std::shared_ptr<const LightTrackingConfig>();
+    }
+    if (!cfg)
+        return make_error("--base-stations " + args.base_stations + ": " + cfg.error().message);
+    return std::shared_ptr<const LightTrackingConfig>(
+        std::make_shared<LightTrackingConfig>(std::move(*cfg)));
+}
+
+// The light path's figures.
+void print_light_status(const DeviceTrackerStatus& st, const TrackerRecording& out, size_t rows,
+                        const std::string& source, size_t stations) {
+    const DeviceLightStatus& l = st.light;
+    std::printf("  %-24s %zu base station(s) from %s\n", "base stations", stations, source.c_str());
+    std::printf("  %-24s %llu (%llu refused%s%s), %llu light events\n", "light reports",
+                static_cast<unsigned long long>(l.reports),
+                static_cast<unsigned long long>(l.rejected), l.rejected ? ": " : "",
+                l.light_error.c_str(), static_cast<unsigned long long>(l.decoder.events));
+    std::printf("  %-24s %llu turns solved of %llu (%llu not enough data, %llu no fit)\n",
+                "pose solves", static_cast<unsigned long long>(l.tracking.solved),
+                static_cast<unsigned long long>(l.tracking.solves),
+                static_cast<unsigned long long>(l.tracking.not_enough_data),
+                static_cast<unsigned long long>(l.tracking.no_fit));
+    std::printf("  %-24s %llu accepted, %llu initialisations, %llu gated, %llu lost\n",
+                "light + IMU filter", static_cast<unsigned long long>(l.filter.accepted),
+                static_cast<unsigned long long>(l.filter.initialisations),
+                static_cast<unsigned long long>(l.filter.gated),
+                static_cast<unsigned long long>(l.filter.lost));
+    std::printf(
+        "  %-24s %zu rows with a tracked position (first at %.3f s); %llu samples "
+        "without one left out\n",
+        "6DoF", rows, out.first_position_ns >= 0 ? ns_to_s(out.first_position_ns) : 0.0,
+        static_cast<unsigned long long>(out.without_position));
+}
+
 // --backend rec --from FILE.rec[.gz] --device NAME: a libsurvive recording's IMU samples through
 // the device tracker as the Index's own reports (Index codec with the recording's factory
 // calibration, clock sync, fusion) on a simulated clock; rows on the recording's timeline (its
@@ -485,15 +586,24 @@ void run_record_survive(const RecordArgs& args) {
     if (args.fusion == "gyro") {  // the gyro integrated (still-window bias kept), no gravity
         fusion.kp = fusion.ki = fusion.init_kp = fusion.init_ki = 0.0;
     }
-    auto tracker = create_survive_tracker(rec, clock, start, fusion);
+    std::string light_source, light_why;
+    auto light = recording_light_path(args, *rec, &light_source, &light_why);
+    if (!light) return errors.fail(light.error().message);
+    if (*light && args.fusion == "gyro")
+        return errors.usage(
+            "--fusion gyro is the IMU-only path: not with a light path (give "
+            "neither --base-stations nor a recording with a stored setup)");
+    const bool six_dof = *light != nullptr;
+    const size_t stations = six_dof ? (*light)->setup.size() : 0;
+    auto tracker = create_survive_tracker(rec, clock, start, fusion, *light);
     if (!tracker.ok()) return errors.fail(tracker.error().message);
     if (Status st = (*tracker)->start(); !st.ok()) return errors.fail(st.error().message);
     const int64_t end = args.duration_given && args.duration_s > 0
                             ? start + s_to_ns(args.duration_s)
                             : std::numeric_limits<int64_t>::max();
     // The tracker's host times are the recording's shifted so its first IMU line is at `start`.
-    TrackerRecording out =
-        record_tracker(**tracker, clock, start, end, start - rec->imu.front().host_time_ns, true);
+    TrackerRecording out = record_tracker(
+        **tracker, clock, start, end, start - rec->imu.front().host_time_ns, true, true, six_dof);
     add_saturation_comments(*rec, out.row_time_of_arrival, &out.trace);
     if (args.fusion == "gyro")
         out.trace.comments.push_back(
@@ -502,10 +612,23 @@ void run_record_survive(const RecordArgs& args) {
     const DeviceTrackerStatus st = (*tracker)->status();
     // Fewer than 2 rows: why, from what the IMU lines gave.
     std::string refused;
-    if (out.trace.samples.size() < 2) {
+    if (six_dof && out.trace.samples.size() < 2 && out.delivered >= 2) {
+        refused = rec->device + ": " + std::to_string(out.trace.samples.size()) +
+                  " sample(s) with a tracked position of " + std::to_string(out.delivered) + " (" +
+                  std::to_string(st.light.tracking.solved) + " turns solved of " +
+                  std::to_string(st.light.tracking.solves) + ", " +
+                  std::to_string(st.light.filter.accepted) +
+                  " accepted by the filter): " + args.out + " not written";
+        out.failure.clear();
+    } else if (out.trace.samples.size() < 2) {
         refused = no_samples_cause(*rec, st, out) + ": " + args.out + " not written";
         out.failure.clear();
     }
+    if (six_dof)
+        out.trace.comments.push_back(
+            "6DoF: light + IMU (hmdnode's solver and filter), base stations from " + light_source +
+            ", their world (up " + args.world_up +
+            ") turned to +y up; rows only where the position is tracked");
     std::vector<ExtraOutput> extra;
     ReferenceCounts counts;
     if (refused.empty() && !args.reference_out.empty()) {
@@ -517,7 +640,9 @@ void run_record_survive(const RecordArgs& args) {
         else
             refused = ref.error().message + " (nor --out " + args.out + ")";
     }
+    const size_t rows = out.trace.samples.size();  // (moved into the outputs below)
     for (const std::string& n : rec->notes) std::printf("  note: %s\n", n.c_str());
+    if (!light_why.empty()) std::printf("  note: light: %s\n", light_why.c_str());
     finish_tracker_recording(args,
                              rec->device + " (Vive/Index-family IMU" +
                                  (rec->model.empty() ? "" : ", " + rec->model) + ")",
@@ -534,6 +659,7 @@ void run_record_survive(const RecordArgs& args) {
                                    " deg/s, " + std::to_string(2 << (*rec->imu_scales)[1]) + " g")
                                       .c_str()
                                 : "the Index's defaults, 500 deg/s and 4 g (no IMU_SCALES line)");
+    if (six_dof) print_light_status(st, out, rows, light_source, stations);
     if (exit_code() != 0 || args.reference_out.empty()) return;
     std::printf(
         "  %-24s %s (%zu lighthouse poses from %s at %s; %zu with a repeated time, %zu with no "
@@ -554,6 +680,8 @@ void run_record(const RecordArgs& args) {
         return errors.usage("--from needs --backend capture or rec");
     if (!args.reference_out.empty() && args.backend != "rec")
         return errors.usage("--reference-out needs --backend rec (a recording's lighthouse poses)");
+    if (!args.base_stations.empty() && args.backend != "rec")
+        return errors.usage("--base-stations needs --backend rec (a recording's light)");
     if (args.fusion != "mahony" && args.backend != "rec")
         return errors.usage("--fusion gyro needs --backend rec");
     if (!errors.check_outputs({{"--out", args.out},
@@ -657,6 +785,15 @@ void add_record_command(CLI::App& app) {
                     "With --reference-out: imu (a pose at the instant of the IMU sample it "
                     "follows, on the fused timeline) or recorded (its TIME)")
         ->check(CLI::IsMember({"imu", "recorded"}))
+        ->capture_default_str();
+    rec->add_option("--base-stations", args->base_stations,
+                    "With --backend rec: a stored base-station setup (JSON, docs/formats.md): "
+                    "6DoF from the recording's light (default: its LH_POSE lines from before its "
+                    "light, when it has them)");
+    rec->add_option("--world-up", args->world_up,
+                    "With a light path: the setup's world up axis (z: libsurvive's world; y: a "
+                    "setup hmdnode placed levelled)")
+        ->check(CLI::IsMember({"x", "y", "z"}))
         ->capture_default_str();
     rec->add_option("--fusion", args->fusion,
                     "With --backend rec: mahony (the tracker's fusion) or gyro (the gyro "

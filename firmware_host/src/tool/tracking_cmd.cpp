@@ -13,6 +13,7 @@
 
 #include "hmdnode/core/atomic_file.hpp"
 #include "hmdnode/core/orientation_eval.hpp"
+#include "hmdnode/core/position_eval.hpp"
 #include "hmdnode/core/time.hpp"
 #include "hmdnode/core/trace.hpp"
 #include "tool/cli_errors.hpp"
@@ -25,6 +26,7 @@ const CliErrors errors{"tracking eval"};
 
 struct EvalArgs {
     std::string reference, estimate, report, plot;
+    std::string imu_only;           // an IMU-only trace compared with the estimate's orientation
     std::string time_offset = "0";  // "auto" or milliseconds
     OrientationEvalOptions options;
 };
@@ -175,6 +177,105 @@ void warn_reference_glitches(const EvalArgs& args, const ReferenceGlitches& g) {
     }
 }
 
+// Both traces with positions: the position error on the orientation fit's samples, offset and
+// world rotation, a constant translation and lever arm fitted (position_eval.hpp), into the report;
+// returns the lines to print. Neither: nothing. One only: a note.
+std::string evaluate_positions(const EvalArgs& args, const Trace& ref, const Trace& est,
+                               const OrientationEval& e, nlohmann::json* report) {
+    const bool ref_p = !ref.samples.empty() && ref.samples.front().position.has_value();
+    const bool est_p = !est.samples.empty() && est.samples.front().position.has_value();
+    char b[600];
+    if (!ref_p || !est_p) {
+        if (ref_p == est_p) return {};
+        std::snprintf(b, sizeof b, "  position: not compared (%s has no positions)\n",
+                      ref_p ? args.estimate.c_str() : args.reference.c_str());
+        return b;
+    }
+    PositionEvalOptions po;
+    po.fit_time_offset = args.options.fit_time_offset;
+    auto p = evaluate_position(ref, est, e, po);
+    if (!p) {
+        errors.warning("position not compared: " + p.error().message);
+        return {};
+    }
+    const double rot_deg =
+        2.0 * std::acos(std::min(1.0, std::abs(p->world_rotation.w))) * 180.0 / 3.14159265358979;
+    std::snprintf(b, sizeof b,
+                  "  %-20s %8s %8s %8s\n  %-20s %8.2f %8.2f %8.2f\n  position alignment "
+                  "(fitted): world %.2f deg and (%.1f %.1f %.1f) mm, lever arm (%.1f %.1f %.1f) "
+                  "mm; time offset %.3f ms (%s)\n",
+                  "error (mm)", "p50", "p90", "max", "position", p->p50_mm, p->p90_mm, p->max_mm,
+                  rot_deg, p->world_offset.x * 1e3, p->world_offset.y * 1e3,
+                  p->world_offset.z * 1e3, p->lever_arm.x * 1e3, p->lever_arm.y * 1e3,
+                  p->lever_arm.z * 1e3, double(p->time_offset_ns) * 1e-6,
+                  p->time_offset_fitted ? "fitted to the positions, +-50 ms" : "the orientation's");
+    auto r3 = [](const glm::dvec3& v) {
+        return nlohmann::json::array({std::round(v.x * 1e6) / 1e6, std::round(v.y * 1e6) / 1e6,
+                                      std::round(v.z * 1e6) / 1e6});
+    };
+    (*report)["summary"]["position_error_mm"] = {
+        {"p50", std::round(p->p50_mm * 1e3) / 1e3},
+        {"p90", std::round(p->p90_mm * 1e3) / 1e3},
+        {"max", std::round(p->max_mm * 1e3) / 1e3},
+        {"samples", p->samples},
+        {"time_offset_ms", std::round(double(p->time_offset_ns) * 1e-3) / 1e3}};
+    (*report)["alignment"]["position_offset_m"] = r3(p->world_offset);
+    (*report)["alignment"]["lever_arm_m"] = r3(p->lever_arm);
+    (*report)["alignment"]["position_world_wxyz"] = {p->world_rotation.w, p->world_rotation.x,
+                                                     p->world_rotation.y, p->world_rotation.z};
+    return b;
+}
+
+// --imu-only FILE: that trace's orientation against the estimate's (a light + IMU one: the
+// reference the orientation fusion is judged against) over the same window, W and B fitted, the
+// time offset 0 (one recording, one timeline); into the report; returns the lines to print. An
+// error is a failure naming the file (the caller stops).
+std::string compare_imu_only(const EvalArgs& args, const Trace& est, const OrientationEval& e,
+                             nlohmann::json* report, bool* ok) {
+    *ok = true;
+    if (args.imu_only.empty()) return {};
+    auto imu = read_trace_csv(args.imu_only);
+    if (!imu) {
+        errors.fail("--imu-only " + imu.error().message);
+        *ok = false;
+        return {};
+    }
+    const auto a = trace_time_base(est), b = trace_time_base(*imu);
+    if (a && b && *a != *b) {
+        errors.fail("--imu-only " + args.imu_only + " is on the time base \"" + *b +
+                    "\" and --estimate " + args.estimate + " on \"" + *a + "\"");
+        *ok = false;
+        return {};
+    }
+    OrientationEvalOptions o;
+    o.start_s = std::max(0.0, ns_to_s(e.window_start_ns - est.start_ns()));
+    o.duration_s = std::max(1e-9, ns_to_s(e.window_end_ns - e.window_start_ns));
+    auto r = evaluate_orientation(est, *imu, o);
+    if (!r) {
+        errors.fail("--imu-only " + args.imu_only + ": " + r.error().message);
+        *ok = false;
+        return {};
+    }
+    (*report)["summary"]["imu_only_vs_estimate"] = {
+        {"file", args.imu_only},
+        {"error_deg", percentiles(r->error)},
+        {"tilt_error_deg", percentiles(r->tilt)},
+        {"heading_error_deg", percentiles(r->heading)},
+        {"samples", r->samples},
+        {"glitches_left_out", r->glitches.samples_left_out}};
+    char b2[700];
+    std::snprintf(b2, sizeof b2,
+                  "  IMU-only %s against the estimate's orientation (%zu samples, %.3f to %.3f s; "
+                  "%zu of the estimate's samples left out as steps its gyro does not see):\n"
+                  "  %-20s %8.3f %8.3f %8.3f\n  %-20s %8.3f %8.3f %8.3f\n  %-20s %8.3f %8.3f "
+                  "%8.3f\n",
+                  args.imu_only.c_str(), r->samples, ns_to_s(r->time_ns.front()),
+                  ns_to_s(r->time_ns.back()), r->glitches.samples_left_out, "orientation",
+                  r->error.p50, r->error.p95, r->error.max, "tilt", r->tilt.p50, r->tilt.p95,
+                  r->tilt.max, "heading", r->heading.p50, r->heading.p95, r->heading.max);
+    return b2;
+}
+
 void run_eval(EvalArgs args) {
     if (args.time_offset == "auto") {
         args.options.fit_time_offset = true;
@@ -259,6 +360,10 @@ void run_eval(EvalArgs args) {
         errors.warning(offset_at_limit_warning(double(e->time_offset_ns) * 1e-6,
                                                args.options.max_time_offset_s * 1e3));
     }
+    const std::string position_lines = evaluate_positions(args, *ref, *est, *e, &report);
+    bool imu_ok = true;
+    const std::string imu_lines = compare_imu_only(args, *est, *e, &report, &imu_ok);
+    if (!imu_ok) return;
     if (!args.report.empty()) {
         Status st = write_file_atomically(args.report, report.dump(2) + "\n");
         if (!st.ok()) return errors.fail(st.error().message);
@@ -289,6 +394,8 @@ void run_eval(EvalArgs args) {
         row("tilt", error_percentiles(tilt_ex));
         row("heading", error_percentiles(heading_ex));
     }
+    std::fputs(position_lines.c_str(), stdout);
+    std::fputs(imu_lines.c_str(), stdout);
     std::printf("  time offset: %.3f ms (%s; estimate time + offset = reference time)\n",
                 double(e->time_offset_ns) * 1e-6,
                 !args.options.fit_time_offset ? "given"
@@ -312,13 +419,17 @@ void add_tracking_command(CLI::App& app) {
     auto args = std::make_shared<EvalArgs>();
     CLI::App* eval = tracking->add_subcommand(
         "eval",
-        "Orientation error of an estimated trace against a reference trace, after fitting the "
-        "constant world and body rotations between them");
+        "Orientation error (and position error, when both traces have positions) of an "
+        "estimated trace against a reference trace, after fitting the constant world and body "
+        "rotations (and a translation and lever arm) between them");
     eval->add_option("--reference", args->reference, "Reference trace CSV (e.g. lighthouse poses)")
         ->required();
     eval->add_option("--estimate", args->estimate, "Estimated trace CSV (e.g. fused IMU)")
         ->required();
     eval->add_option("--report", args->report, "JSON report to write");
+    eval->add_option("--imu-only", args->imu_only,
+                     "An IMU-only trace of the same recording (record without a light path): its "
+                     "orientation against the estimate's (a light + IMU trace) over the window");
     eval->add_option("--plot", args->plot, "SVG plot of the error against time to write");
     eval->add_option("--start", args->options.start_s,
                      "Window start, seconds after the reference's first sample")

@@ -4,12 +4,18 @@
 // (Mahony); the ring is the Lamport SPSC queue of spsc_ring.hpp. Reconnection follows the
 // practice of public runtimes (Monado's and OpenHMD's HID drivers: on a read error close the
 // device, poll enumeration at a fixed interval, reopen).
-// Cost: O(1) per report plus the codec; memory O(ring capacity).
+// With a lighthouse device's setup (DeviceTrackerConfig::light) its light reports go to the light
+// decoder (codec/light_codec.cpp) and LightTracking (light_tracking.cpp: a solve per rotor turn
+// and the light + IMU filter), which then gives the samples' pose on the device clock; the clock
+// sync maps it as for every sample.
+// Cost: O(1) per report plus the codec (and the light path's: light_tracking.hpp); memory O(ring
+// capacity).
 // Departures: on a simulated clock the processing step runs inside read() (no thread), so a replay
 // is deterministic; that path may allocate (replay only).
 #include <algorithm>
 #include <atomic>
 #include <cassert>
+#include <cmath>
 #include <cstdio>
 #include <deque>
 #include <mutex>
@@ -35,6 +41,11 @@ class DeviceTrackerImpl final : public DeviceTracker {
         info_.nominal_rate_hz = config.nominal_rate_hz;
         info_.provides_orientation = true;
         info_.provides_imu = true;
+        if (config.light && !config.light->setup.empty()) {
+            info_.provides_position = true;
+            status_.light.enabled = true;
+            reset_light();
+        }
     }
     ~DeviceTrackerImpl() override { stop(); }
 
@@ -135,8 +146,70 @@ class DeviceTrackerImpl final : public DeviceTracker {
         return false;
     }
 
+    // The light path afresh (at the start, and after a reconnect: a new device clock).
+    void reset_light() {
+        lighthouse::SensorModel model;
+        model.count = config_.light->sensors.points.size();
+        model.channel_map = config_.light->sensors.channel_map;
+        decoder_ = std::make_unique<lighthouse::LightDecoder>(std::move(model));
+        light_ = std::make_unique<LightTracking>(*config_.light);
+        // The node's world is +y up: the setup's world turned so its up is +y.
+        node_from_setup_ =
+            shortest_rotation(glm::normalize(config_.light->filter.world_up), glm::dvec3(0, 1, 0));
+    }
+
+    // The shortest rotation taking unit a onto unit b (half-way quaternion; a half turn about x
+    // or z when they are opposite).
+    static glm::dquat shortest_rotation(const glm::dvec3& a, const glm::dvec3& b) {
+        const double c = glm::dot(a, b);
+        if (c < -1 + 1e-12) {
+            const glm::dvec3 axis = std::abs(a.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 0, 1);
+            return glm::angleAxis(3.14159265358979323846, glm::normalize(glm::cross(a, axis)));
+        }
+        const glm::dvec3 v = glm::cross(a, b);
+        return glm::normalize(glm::dquat(1 + c, v.x, v.y, v.z));
+    }
+
+    static bool is_light_report(const InputReport& r) {
+        return !r.bytes.empty() &&
+               (r.bytes[0] == lighthouse::kLh1ReportId || r.bytes[0] == lighthouse::kLh2ReportId);
+    }
+
+    // A light report: decoded, its events to LightTracking; no sample of its own.
+    void process_light(const InputReport& report) {
+        Status st = decoder_->decode_report(report.bytes);
+        light_events_.clear();
+        decoder_->take_events(light_events_);
+        light_->add_light(light_events_, *decoder_);
+        std::lock_guard lock(mutex_);
+        ++status_.light.reports;
+        if (!st) {
+            ++status_.light.rejected;
+            status_.light.light_error = st.error().message;
+        }
+    }
+
+    // A sample's pose from the light + IMU filter (the setup's world); its position only when
+    // tracked.
+    void light_pose(const DeviceSample& d, TrackerSample* t) {
+        if (!d.gyro || !d.accel) return;
+        // The 32-bit tick of the sample extends the 24-bit light times (ns -> ticks, 48 MHz).
+        decoder_->note_imu_ticks(uint32_t(uint64_t(d.device_time_ns) * 48 / 1000));
+        light_->add_imu(d.device_time_ns, *d.gyro, *d.accel, d.imu_flags);
+        const FilterPose p = light_->pose();
+        t->has_orientation = light_->filter().initialized();
+        t->orientation = glm::normalize(node_from_setup_ * p.orientation);
+        t->gyro = *d.gyro - light_->filter().gyro_bias();
+        t->position.reset();
+        if (p.good()) t->position = node_from_setup_ * p.position;
+        light_state_ = p.state;
+        light_confidence_ = p.confidence;
+        if (p.good()) ++light_positions_;
+    }
+
     void on_transport_error(const std::string& message, int64_t now) {
         transport_.reset();
+        if (light_) reset_light();
         lookahead_.reset();
         gap_open_ = true;
         gap_start_ns_ = last_arrival_ns_ ? last_arrival_ns_ : now;
@@ -152,8 +225,11 @@ class DeviceTrackerImpl final : public DeviceTracker {
     // through emit(sample); counts the reconnect gap and the status.
     template <class Emit>
     void process(const InputReport& report, Emit&& emit) {
+        if (light_ && is_light_report(report)) return process_light(report);
         const size_t n = chain_.feed(report.bytes, report.host_time_ns,
-                                     [&](const DeviceSample&, const TrackerSample& t) {
+                                     [&](const DeviceSample& d, const TrackerSample& fused) {
+                                         TrackerSample t = fused;
+                                         if (light_) light_pose(d, &t);
                                          if (gap_open_) {
                                              gap_open_ = false;
                                              const int64_t gap = t.arrival_ns - gap_start_ns_;
@@ -173,6 +249,14 @@ class DeviceTrackerImpl final : public DeviceTracker {
         status_.clock_resets += sync.resets() - seen_resets_;
         seen_resets_ = sync.resets();
         codec_counters_ = chain_.codec().counters();
+        if (light_) {
+            status_.light.decoder = decoder_->counters();
+            status_.light.tracking = light_->counters();
+            status_.light.filter = light_->filter().counters();
+            status_.light.state = light_state_;
+            status_.light.confidence = light_confidence_;
+            status_.light.samples_with_position = light_positions_;
+        }
     }
 
     // A report's host time, rebased for a replayed recording.
@@ -262,6 +346,14 @@ class DeviceTrackerImpl final : public DeviceTracker {
     int64_t shift_ns_ = 0;
     std::optional<InputReport> lookahead_;  // simulated clock
     std::deque<TrackerSample> pending_;     // simulated clock
+    // The light path (DeviceTrackerConfig::light with a setup), producer side.
+    std::unique_ptr<lighthouse::LightDecoder> decoder_;
+    std::unique_ptr<LightTracking> light_;
+    std::vector<lighthouse::LightEvent> light_events_;
+    glm::dquat node_from_setup_{1, 0, 0, 0};
+    PositionState light_state_ = PositionState::none;
+    double light_confidence_ = 0;
+    uint64_t light_positions_ = 0;
 
     mutable std::mutex mutex_;  // guards info_, status_, codec_counters_
     TrackerInfo info_;

@@ -352,10 +352,23 @@ void number_imu_lines(const std::string& source, SurviveRecording* rec) {
 
 class SurviveTransport final : public Transport {
   public:
-    SurviveTransport(std::shared_ptr<const SurviveRecording> rec, DeviceId id)
-        : rec_(std::move(rec)), id_(std::move(id)) {}
+    SurviveTransport(std::shared_ptr<const SurviveRecording> rec, DeviceId id, bool with_light)
+        : rec_(std::move(rec)), id_(std::move(id)), with_light_(with_light) {
+        skip_reference_light();
+    }
     DeviceId id() const override { return id_; }
     Result<std::optional<InputReport>> read_input(int) override {
+        // With light: its lines interleaved by TIME (a light line first on a tie), each as the
+        // device's own light report.
+        if (with_light_ && light_cursor_ < rec_->light.size() &&
+            (cursor_ >= rec_->imu.size() ||
+             rec_->light[light_cursor_].host_time_ns <= rec_->imu[cursor_].host_time_ns)) {
+            InputReport r{light_report(rec_->light[light_cursor_]),
+                          rec_->light[light_cursor_].host_time_ns};
+            ++light_cursor_;
+            skip_reference_light();
+            return std::optional<InputReport>(std::move(r));
+        }
         if (cursor_ >= rec_->imu.size()) return std::optional<InputReport>();
         // As the device sends them: the newest sample and the two before it.
         std::array<vive::RawSlot, 3> slots;
@@ -382,17 +395,53 @@ class SurviveTransport final : public Transport {
     }
     Status set_feature(std::span<const uint8_t>) override { return {}; }
     Status write_output(std::span<const uint8_t>) override { return {}; }
-    bool finished() const override { return cursor_ >= rec_->imu.size(); }
+    bool finished() const override {
+        return cursor_ >= rec_->imu.size() && (!with_light_ || light_cursor_ >= rec_->light.size());
+    }
 
   private:
+    // B and A lines are libsurvive's angles, not input.
+    void skip_reference_light() {
+        using K = SurviveLightLine::Kind;
+        while (light_cursor_ < rec_->light.size() &&
+               (rec_->light[light_cursor_].kind == K::angle ||
+                rec_->light[light_cursor_].kind == K::lh1_angle))
+            ++light_cursor_;
+    }
+    // A W or Y line as a report 0x28 of one word (the sensor as its raw channel, the time's low 24
+    // bits, as the device sends them); a C line as a report 0x25 of one pulse.
+    std::vector<uint8_t> light_report(const SurviveLightLine& l) const {
+        using K = SurviveLightLine::Kind;
+        if (l.kind == K::pulse) {
+            const lighthouse::Lh1Pulse p{l.sensor, l.timecode, l.length};
+            return lighthouse::encode_lh1_report(std::span<const lighthouse::Lh1Pulse>(&p, 1));
+        }
+        lighthouse::Lh2Word w;
+        w.sweep = l.kind == K::sweep;
+        w.channel = l.channel;
+        w.time24 = l.timecode & 0xffffffu;
+        if (w.sweep) {
+            const auto& map = rec_->sensors.channel_map;
+            w.sensor = uint8_t(l.sensor < map.size() ? map[l.sensor] : l.sensor);
+            w.half_clock = l.flag != 0;
+        } else {
+            w.ootx = l.flag != 0;
+            w.gen = l.gen != 0;
+        }
+        return lighthouse::encode_lh2_report(std::span<const lighthouse::Lh2Word>(&w, 1));
+    }
+
     std::shared_ptr<const SurviveRecording> rec_;
     DeviceId id_;
+    bool with_light_ = false;
     size_t cursor_ = 0;
+    size_t light_cursor_ = 0;
 };
 
 class SurviveBackend final : public TransportBackend {
   public:
-    explicit SurviveBackend(std::shared_ptr<const SurviveRecording> rec) : rec_(std::move(rec)) {
+    SurviveBackend(std::shared_ptr<const SurviveRecording> rec, bool with_light)
+        : rec_(std::move(rec)), with_light_(with_light) {
         id_.vendor_id = vive::kVendorId;
         id_.product_id = vive::kIndexProductId;
         id_.path = "rec:" + rec_->device;
@@ -405,11 +454,12 @@ class SurviveBackend final : public TransportBackend {
     }
     Result<std::unique_ptr<Transport>> open(const DeviceId& id) override {
         if (id.path != id_.path) return make_error("libsurvive recording: no device " + id.path);
-        return std::unique_ptr<Transport>(new SurviveTransport(rec_, id_));
+        return std::unique_ptr<Transport>(new SurviveTransport(rec_, id_, with_light_));
     }
 
   private:
     std::shared_ptr<const SurviveRecording> rec_;
+    bool with_light_ = false;
     DeviceId id_;
 };
 
@@ -594,23 +644,53 @@ const std::vector<SurvivePose>* survive_device_poses(const SurviveRecording& rec
 }
 
 std::unique_ptr<TransportBackend> create_survive_backend(
-    std::shared_ptr<const SurviveRecording> rec) {
-    return std::make_unique<SurviveBackend>(std::move(rec));
+    std::shared_ptr<const SurviveRecording> rec, bool with_light) {
+    return std::make_unique<SurviveBackend>(std::move(rec), with_light);
 }
 
 Result<std::unique_ptr<DeviceTracker>> create_survive_tracker(
     std::shared_ptr<const SurviveRecording> rec, Clock& clock, int64_t first_report_host_ns,
-    const ImuFusionConfig& fusion) {
+    const ImuFusionConfig& fusion, std::shared_ptr<const LightTrackingConfig> light) {
     DeviceTrackerConfig cfg;
     cfg.fusion = fusion;
+    cfg.first_report_host_ns = first_report_host_ns;
+    const bool with_light = light && !light->setup.empty() && !rec->light.empty();
+    if (with_light) {
+        cfg.light = std::move(light);
+        // The first IMU report at first_report_host_ns: a light report before it, as early.
+        using K = SurviveLightLine::Kind;
+        for (const SurviveLightLine& l : rec->light)
+            if (l.kind != K::angle && l.kind != K::lh1_angle) {
+                if (l.host_time_ns < rec->imu.front().host_time_ns)
+                    cfg.first_report_host_ns =
+                        first_report_host_ns - (rec->imu.front().host_time_ns - l.host_time_ns);
+                break;
+            }
+    }
     cfg.filter.vendor_id = vive::kVendorId;
     cfg.filter.product_id = vive::kIndexProductId;
-    cfg.first_report_host_ns = first_report_host_ns;
     cfg.name = "libsurvive recording " + rec->device;
     auto codec = make_vive_codec(vive::kIndexProductId);
     if (rec->has_config) codec->set_imu_calibration(rec->calibration);
-    return create_device_tracker(create_survive_backend(std::move(rec)), std::move(codec), clock,
-                                 cfg);
+    return create_device_tracker(create_survive_backend(std::move(rec), with_light),
+                                 std::move(codec), clock, cfg);
+}
+
+Result<LightTrackingConfig> survive_light_tracking_config(
+    const SurviveRecording& rec, std::vector<lighthouse::BaseStationPlacement> setup,
+    const glm::dvec3& world_up) {
+    if (rec.light.empty())
+        return make_error(rec.device + ": the recording has no light line (W, Y or C) of it");
+    if (rec.sensors.empty())
+        return make_error(rec.device +
+                          ": no sensor model (CONFIG lighthouse_config: modelPoints, "
+                          "modelNormals) to solve its light with");
+    LightTrackingConfig cfg;
+    cfg.sensors = rec.sensors;
+    cfg.setup = std::move(setup);
+    cfg.filter.world_up = glm::normalize(world_up);
+    cfg.filter.imu_position = rec.calibration.imu_position;
+    return cfg;
 }
 
 }  // namespace hmdnode

@@ -4,13 +4,16 @@
 // rate when the tracker has one), the acceleration clamped and extrapolated only in part, a
 // deceleration followed to a stop and no further, the look-ahead bounded in time and the predicted
 // rotation and translation bounded in size. Position is predicted the same way when the samples
-// carry one.
+// carry one. A sample without a position after ones with it (a lighthouse device whose position
+// is not tracked just then gives none, docs/tracking.md §12) holds the last position, so the view
+// neither jumps to the origin nor moves on.
 //
 // Threads: frame thread only. Fixed capacity; push() and queries neither allocate nor lock.
 #pragma once
 
 #include <cassert>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "hmdnode/core/pose.hpp"
@@ -105,6 +108,7 @@ class PoseHistory {
     std::vector<TrackerSample> ring_;
     size_t head_ = 0;  // next write slot
     size_t count_ = 0;
+    std::optional<glm::dvec3> held_position_;  // the last position pushed (see the top)
 };
 
 }  // namespace hmdnode

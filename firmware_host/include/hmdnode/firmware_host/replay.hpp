@@ -33,6 +33,7 @@ struct ReplayOptions {
     std::filesystem::path trace;              // trace: the CSV; sim: its motion (optional)
     std::shared_ptr<const Trace> trace_data;  // instead of trace: a trace in memory
     std::filesystem::path from;               // capture: the pcap[.gz]; rec: the recording
+    std::filesystem::path base_stations;      // rec: a stored setup: 6DoF (wiring.hpp)
     std::string device;  // capture/sim/hidapi/libusb: "VID:PID[:SERIAL]"; rec: its device name
     // The gaze that steers LOD: none (the lens centre) or trace (the trace's gaze columns).
     EyeTrackerBackend eye_tracker = EyeTrackerBackend::none;

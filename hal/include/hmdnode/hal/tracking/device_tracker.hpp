@@ -29,6 +29,7 @@
 #include "hmdnode/hal/tracker.hpp"
 #include "hmdnode/hal/tracking/clock_sync.hpp"
 #include "hmdnode/hal/tracking/imu_fusion.hpp"
+#include "hmdnode/hal/tracking/light_tracking.hpp"
 #include "hmdnode/hal/transport.hpp"
 
 namespace hmdnode {
@@ -176,6 +177,28 @@ struct DeviceTrackerConfig {
     // Replay of a recording: shift report host times so the first report arrives at this host
     // time (a capture's times are the recording host's clock). Unset: times are used as they are.
     std::optional<int64_t> first_report_host_ns;
+    // A lighthouse-tracked device with a stored base-station setup: its light reports (0x25,
+    // 0x28) go to a lighthouse::LightDecoder (the sensor model of `light->sensors`) and
+    // LightTracking, whose filter then gives every sample's orientation and, while its position
+    // is tracked (FilterPose::good), its position; a sample whose position is not good carries
+    // none. Their world is the node's, +y up: the setup's world turned by the shortest rotation
+    // taking its up (filter.world_up) to +y. Null, or a setup with no base station: the IMU-only
+    // path (ImuFusion).
+    std::shared_ptr<const LightTrackingConfig> light;
+};
+
+// What the light path did (DeviceTrackerConfig::light).
+struct DeviceLightStatus {
+    bool enabled = false;
+    uint64_t reports = 0;   // light reports given to the decoder
+    uint64_t rejected = 0;  // of those, refused (light_error: the last one's message)
+    std::string light_error;
+    lighthouse::LightCounters decoder;
+    LightTrackingCounters tracking;
+    PoseFilterCounters filter;
+    PositionState state = PositionState::none;  // of the newest sample
+    double confidence = 0;
+    uint64_t samples_with_position = 0;  // samples delivered with a (good) position
 };
 
 struct DeviceTrackerStatus {
@@ -194,6 +217,7 @@ struct DeviceTrackerStatus {
     std::string codec_warning;  // ReportCodec::warning() after the last open
     std::string codec_info;     // ReportCodec::info() after the last open
     std::string last_error;
+    DeviceLightStatus light;
 };
 
 class DeviceTracker : public Tracker {

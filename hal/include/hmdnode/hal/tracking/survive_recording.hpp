@@ -47,6 +47,7 @@
 #include "hmdnode/hal/codec/light_codec.hpp"
 #include "hmdnode/hal/codec/lighthouse_config.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
+#include "hmdnode/hal/tracking/light_tracking.hpp"
 #include "hmdnode/hal/transport.hpp"
 
 namespace hmdnode {
@@ -152,14 +153,27 @@ Status replay_survive_light(const SurviveRecording& rec, lighthouse::LightDecode
 
 // A backend with one device (28de:2300, product "Valve Index (libsurvive recording DEV)") whose
 // input reports are Vive/Index reports 0x20 built from the recording's IMU lines, one new sample
-// each, arriving at the lines' TIME.
+// each, arriving at the lines' TIME. `with_light`: its light lines too, interleaved by TIME (a
+// light line first on a tie), as the device's light reports: a W or Y line a report 0x28 of one
+// word (the sensor as its raw channel, the low 24 bits of the time), a C line a report 0x25 of
+// one pulse; B and A lines (libsurvive's angles) are not sent.
 std::unique_ptr<TransportBackend> create_survive_backend(
-    std::shared_ptr<const SurviveRecording> rec);
+    std::shared_ptr<const SurviveRecording> rec, bool with_light = false);
 
 // `hmdnode record --backend rec`: a device tracker over the recording's IMU (Index codec with the
 // recording's calibration, clock sync, fusion), its first report arriving at first_report_host_ns.
+// `light` with a setup, on a recording with light lines: its light too, through the light path
+// (DeviceTrackerConfig::light: 6DoF poses), the first IMU report still at first_report_host_ns
+// (light reports before it as much earlier as in the recording); else IMU only.
 Result<std::unique_ptr<DeviceTracker>> create_survive_tracker(
     std::shared_ptr<const SurviveRecording> rec, Clock& clock, int64_t first_report_host_ns,
-    const ImuFusionConfig& fusion = {});
+    const ImuFusionConfig& fusion = {}, std::shared_ptr<const LightTrackingConfig> light = nullptr);
+
+// The light path's configuration for a recording's device: its sensor model and head frame
+// (CONFIG's lighthouse_config), the IMU's lever arm, `setup` in a world whose up is `world_up`
+// (libsurvive's: +z). An error when the recording has no light lines or no sensor model.
+Result<LightTrackingConfig> survive_light_tracking_config(
+    const SurviveRecording& rec, std::vector<lighthouse::BaseStationPlacement> setup,
+    const glm::dvec3& world_up = glm::dvec3(0, 0, 1));
 
 }  // namespace hmdnode

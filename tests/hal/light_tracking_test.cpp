@@ -1,0 +1,509 @@
+// LightTracking (light_tracking.hpp) on the bundled Index recording: its light lines through the
+// decoder as they come (the calibrations only once their frames arrived), its IMU through the
+// Index codec with the recording's calibration, both in file order, a solve per rotor turn fed to
+// the filter; the 6DoF pose against libsurvive's POSE lines. The base stations are the
+// recording's LH_POSE lines, solved by libsurvive at 16 s: look-ahead, standing in here for a
+// stored setup (a real setup comes from an earlier session).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <vector>
+
+#include "hal/lighthouse_synth.hpp"
+#include "hmdnode/core/percentile.hpp"
+#include "hmdnode/core/time.hpp"
+#include "hmdnode/hal/codec/vive_imu.hpp"
+#include "hmdnode/hal/tracking/base_station_placement.hpp"
+#include "hmdnode/hal/tracking/light_tracking.hpp"
+#include "hmdnode/hal/tracking/survive_recording.hpp"
+
+namespace hmdnode {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+double angle_deg(const glm::dquat& a, const glm::dquat& b) {
+    const double d = std::abs(glm::dot(glm::normalize(a), glm::normalize(b)));
+    return 2.0 * std::acos(std::min(1.0, d)) * 180.0 / kPi;
+}
+
+struct ImuLineSamples {
+    int64_t host_time_ns = 0;
+    std::vector<DeviceSample> samples;
+};
+
+// Each IMU line's samples through the Index codec with the recording's calibration.
+std::vector<ImuLineSamples> decode_imu(const std::shared_ptr<const SurviveRecording>& rec) {
+    auto backend = create_survive_backend(rec);
+    auto ids = backend->enumerate(DeviceFilter{vive::kVendorId, vive::kIndexProductId, ""});
+    EXPECT_TRUE(ids.ok() && ids->size() == 1u);
+    auto t = backend->open(ids->front());
+    EXPECT_TRUE(t.ok());
+    auto codec = make_vive_codec(vive::kIndexProductId);
+    EXPECT_TRUE(codec->set_imu_calibration(rec->calibration));
+    codec->configure(**t);
+    std::vector<ImuLineSamples> out;
+    for (size_t k = 0; k < rec->imu.size(); ++k) {
+        auto in = (*t)->read_input(0);
+        EXPECT_TRUE(in.ok() && in->has_value());
+        std::array<DeviceSample, ReportCodec::kMaxSamplesPerReport> buf;
+        const size_t n = codec->decode((*in)->bytes, buf);
+        out.push_back({rec->imu[k].host_time_ns, {buf.begin(), buf.begin() + long(n)}});
+    }
+    return out;
+}
+
+struct LightRun {
+    std::vector<double> pos_mm, rot_deg;  // against libsurvive's POSE, at its IMU sample
+    std::vector<double> still_pos_mm, still_rot_deg;  // of those, from 22 s (the headset still)
+    // The filter's pose while good, at each IMU line's TIME.
+    std::vector<std::pair<int64_t, FilterPose>> track;
+    std::vector<std::pair<int64_t, double>> innovation_mm;  // at the line after each solve
+    size_t good = 0, not_good = 0;
+    int64_t first_good_host_ns = -1;
+    LightTrackingCounters counters;
+    PoseFilterCounters filter;
+};
+
+// The recording in file order (light lines up to each IMU line's TIME, then that line), the
+// pose after each IMU line compared with the POSE lines of its TIME.
+LightRun run_light(const SurviveRecording& rec, const std::vector<ImuLineSamples>& imu,
+                   const LightTrackingConfig& cfg) {
+    LightTracking lt(cfg);
+    lighthouse::LightDecoder dec(survive_sensor_model(rec));
+    LightRun r;
+    size_t li = 0, pi = 0;
+    uint64_t innovations = 0;
+    std::vector<lighthouse::LightEvent> ev;
+    using K = SurviveLightLine::Kind;
+    for (const ImuLineSamples& line : imu) {
+        for (; li < rec.light.size() && rec.light[li].host_time_ns <= line.host_time_ns; ++li) {
+            const SurviveLightLine& l = rec.light[li];
+            Status st;
+            if (l.kind == K::sweep)
+                st = dec.add_lh2_sweep(l.channel, l.sensor, l.timecode, l.flag != 0);
+            else if (l.kind == K::sync)
+                st = dec.add_lh2_sync(l.channel, l.timecode, l.flag != 0, l.gen != 0);
+            else if (l.kind == K::pulse)
+                st = dec.add_lh1_pulse(l.sensor, l.timecode, l.length);
+            EXPECT_TRUE(st.ok()) << st.error().message;
+            ev.clear();
+            dec.take_events(ev);
+            lt.add_light(ev, dec);
+        }
+        for (const DeviceSample& d : line.samples)
+            lt.add_imu(d.device_time_ns, *d.gyro, *d.accel, d.imu_flags);
+        if (lt.counters().innovations != innovations) {
+            innovations = lt.counters().innovations;
+            r.innovation_mm.push_back({line.host_time_ns, lt.counters().last_innovation_m * 1e3});
+        }
+        const FilterPose p = lt.pose();
+        EXPECT_TRUE(p.confidence >= 0.0 && p.confidence <= 1.0);
+        if (!p.good()) {
+            ++r.not_good;
+            EXPECT_EQ(p.confidence > 0.0 && p.state == PositionState::none, false);
+        } else {
+            ++r.good;
+            if (r.first_good_host_ns < 0) r.first_good_host_ns = line.host_time_ns;
+            r.track.push_back({line.host_time_ns, p});
+        }
+        for (; pi < rec.poses.size() && rec.poses[pi].host_time_ns <= line.host_time_ns; ++pi) {
+            if (rec.poses[pi].host_time_ns != line.host_time_ns || !p.good()) continue;
+            const double e = glm::length(p.position - rec.poses[pi].position) * 1e3;
+            const double o = angle_deg(p.orientation, rec.poses[pi].orientation);
+            r.pos_mm.push_back(e);
+            r.rot_deg.push_back(o);
+            if (line.host_time_ns >= 22'000'000'000) {
+                r.still_pos_mm.push_back(e);
+                r.still_rot_deg.push_back(o);
+            }
+        }
+    }
+    r.counters = lt.counters();
+    r.filter = lt.filter().counters();
+    return r;
+}
+
+struct Fitted {
+    int64_t offset_ns = 0;
+    glm::dvec3 world{0.0}, lever{0.0};  // ref = ours + world + R_ref lever
+    std::vector<double> pos_mm, rot_deg;
+};
+
+// Our poses against libsurvive's `offset_ns` later (interpolated; not across its gaps), after
+// a constant translation and lever arm (least squares by alternation) when `align`.
+Fitted against_reference(const SurviveRecording& rec, const LightRun& r, int64_t offset_ns,
+                         bool align) {
+    struct Pair {
+        const FilterPose* ours;
+        glm::dvec3 p;
+        glm::dquat q;
+    };
+    std::vector<Pair> pairs;
+    size_t k = 0;
+    for (const auto& [t, pose] : r.track) {
+        const int64_t tr = t + offset_ns;
+        while (k + 1 < rec.poses.size() && rec.poses[k + 1].host_time_ns <= tr) ++k;
+        if (k + 1 >= rec.poses.size() || rec.poses[k].host_time_ns > tr) continue;
+        const SurvivePose& a = rec.poses[k];
+        const SurvivePose& b = rec.poses[k + 1];
+        if (b.host_time_ns - a.host_time_ns > 20'000'000) continue;
+        const double f = double(tr - a.host_time_ns) / double(b.host_time_ns - a.host_time_ns);
+        pairs.push_back({&pose, glm::mix(a.position, b.position, f),
+                         glm::slerp(a.orientation, b.orientation, f)});
+    }
+    Fitted out;
+    out.offset_ns = offset_ns;
+    for (int it = 0; align && it < 100 && !pairs.empty(); ++it) {
+        glm::dvec3 sw(0.0), sd(0.0);
+        for (const Pair& p : pairs) sw += p.ours->position - p.p - p.q * out.lever;
+        out.world = sw / double(pairs.size());
+        for (const Pair& p : pairs)
+            sd += glm::conjugate(p.q) * (p.ours->position - p.p - out.world);
+        out.lever = sd / double(pairs.size());
+    }
+    for (const Pair& p : pairs) {
+        out.pos_mm.push_back(glm::length(p.ours->position - (p.p + out.world + p.q * out.lever)) *
+                             1e3);
+        out.rot_deg.push_back(angle_deg(p.ours->orientation, p.q));
+    }
+    return out;
+}
+
+const std::string kIndexRec =
+    std::string(HMDNODE_SOURCE_DIR) + "/data/traces/compare-test-index.rec.gz";
+
+LightTrackingConfig index_config(const SurviveRecording& rec, bool with_setup) {
+    LightTrackingConfig cfg;
+    cfg.sensors = rec.sensors;
+    cfg.filter.world_up = glm::dvec3(0, 0, 1);  // libsurvive's world
+    cfg.filter.imu_position = rec.calibration.imu_position;
+    if (with_setup) {
+        // The base stations' calibration ids, from the whole light (only to map LH_POSE numbers
+        // to base stations; the run itself decodes the calibrations as they arrive).
+        lighthouse::LightDecoder all(survive_sensor_model(rec));
+        EXPECT_TRUE(replay_survive_light(rec, all).ok());
+        // Look-ahead: libsurvive solved these at 16.0 s; they stand in for a stored setup.
+        auto setup = lighthouse::recording_base_station_setup(rec, all.base_stations(), true);
+        EXPECT_TRUE(setup.ok()) << setup.error().message;
+        if (setup) cfg.setup = *setup;
+    }
+    return cfg;
+}
+
+TEST(LightTracking, OnTheIndexRecordingSixDofPosesAgreeWithLibsurvivesPoses) {
+    auto loaded = read_survive_recording(kIndexRec, "T20");
+    ASSERT_TRUE(loaded.ok()) << loaded.error().message;
+    auto rec = std::make_shared<const SurviveRecording>(std::move(*loaded));
+    const std::vector<ImuLineSamples> imu = decode_imu(rec);
+    const LightTrackingConfig cfg = index_config(*rec, true);
+    ASSERT_EQ(cfg.setup.size(), 4u);
+    const LightRun r = run_light(*rec, imu, cfg);
+    ASSERT_GT(r.pos_mm.size(), 4400u);  // of libsurvive's 4,680
+    const double p50 = percentile(r.pos_mm, 0.5), p90 = percentile(r.pos_mm, 0.9);
+    const double o50 = percentile(r.rot_deg, 0.5), o90 = percentile(r.rot_deg, 0.9);
+    const double s90 = percentile(r.still_pos_mm, 0.9), so90 = percentile(r.still_rot_deg, 0.9);
+    // The time offset (1 ms steps over +-30 ms, least median position error), then a constant
+    // translation and lever arm at it.
+    Fitted best;
+    double best_p50 = INFINITY;
+    for (int64_t off = -30; off <= 30; ++off) {
+        const Fitted f = against_reference(*rec, r, off * 1'000'000, false);
+        const double e = percentile(f.pos_mm, 0.5);
+        if (e < best_p50) best_p50 = e, best = f;
+    }
+    const Fitted fit = against_reference(*rec, r, best.offset_ns, true);
+    std::vector<double> moving_innovation;
+    for (const auto& [t, mm] : r.innovation_mm)
+        if (t >= 16'500'000'000 && t <= 21'000'000'000) moving_innovation.push_back(mm);
+    std::printf(
+        "Index recording, light + IMU (libsurvive's base stations standing in for a stored "
+        "setup), first good pose at %.3f s: against libsurvive's POSE at its IMU sample (%zu of "
+        "%zu): position p50 %.2f p90 %.2f mm, orientation p50 %.3f p90 %.3f deg; still from 22 s: "
+        "p90 %.2f mm, %.3f deg; time offset %+.0f ms and translation (%.1f %.1f %.1f) mm, lever "
+        "arm "
+        "(%.1f %.1f %.1f) mm fitted: position p50 %.2f p90 %.2f mm, orientation p50 %.3f p90 "
+        "%.3f deg; innovation while moving (16.5-21 s) p50 %.2f p90 %.2f mm; %llu turns solved "
+        "of %llu (%llu windows before a calibration), %llu accepted, %llu gated, %llu "
+        "initialised, %llu lost\n",
+        double(r.first_good_host_ns) * 1e-9, r.pos_mm.size(), rec->poses.size(), p50, p90, o50, o90,
+        s90, so90, double(fit.offset_ns) * 1e-6, fit.world.x * 1e3, fit.world.y * 1e3,
+        fit.world.z * 1e3, fit.lever.x * 1e3, fit.lever.y * 1e3, fit.lever.z * 1e3,
+        percentile(fit.pos_mm, 0.5), percentile(fit.pos_mm, 0.9), percentile(fit.rot_deg, 0.5),
+        percentile(fit.rot_deg, 0.9), percentile(moving_innovation, 0.5),
+        percentile(moving_innovation, 0.9), (unsigned long long)r.counters.solved,
+        (unsigned long long)r.counters.solves, (unsigned long long)r.counters.uncalibrated_windows,
+        (unsigned long long)r.filter.accepted, (unsigned long long)r.filter.gated,
+        (unsigned long long)r.filter.initialisations, (unsigned long long)r.filter.lost);
+    // Tracked from the first calibration frame (channel 3's, 9.64 s) on, not before.
+    EXPECT_GT(r.first_good_host_ns, 9'600'000'000);
+    EXPECT_LT(r.first_good_host_ns, 10'000'000'000);
+    EXPECT_GT(r.counters.uncalibrated_windows, 0u);
+    // Measured: raw 7.70 / 38.3 mm, 1.02 / 2.82 deg; still p90 1.37 mm, 0.42 deg; +11 ms, a
+    // translation and lever arm fitted: 4.57 / 17.6 mm; the prediction against the next solve in
+    // motion 2.33 / 6.04 mm.
+    EXPECT_LT(p50, 9.0);
+    EXPECT_LT(p90, 45.0);
+    EXPECT_LT(o50, 1.2);
+    EXPECT_LT(o90, 3.3);
+    EXPECT_LT(s90, 2.0);
+    EXPECT_LT(so90, 0.6);
+    EXPECT_GE(fit.offset_ns, 5'000'000);
+    EXPECT_LE(fit.offset_ns, 20'000'000);
+    EXPECT_LT(percentile(fit.pos_mm, 0.5), 6.0);
+    EXPECT_LT(percentile(fit.pos_mm, 0.9), 21.0);
+    ASSERT_GT(moving_innovation.size(), 150u);
+    EXPECT_LT(percentile(moving_innovation, 0.9), 8.0);
+    EXPECT_LT(r.filter.gated, r.filter.accepted / 50);
+    EXPECT_EQ(r.filter.lost, 0u);
+}
+
+TEST(LightTracking, WithoutASetupItStaysOrientationOnlyAndNeverGood) {
+    auto loaded = read_survive_recording(kIndexRec, "T20");
+    ASSERT_TRUE(loaded.ok()) << loaded.error().message;
+    auto rec = std::make_shared<const SurviveRecording>(std::move(*loaded));
+    const std::vector<ImuLineSamples> imu = decode_imu(rec);
+    const LightRun r = run_light(*rec, imu, index_config(*rec, false));
+    EXPECT_EQ(r.good, 0u);
+    EXPECT_EQ(r.not_good, imu.size());
+    EXPECT_TRUE(r.pos_mm.empty());
+    EXPECT_EQ(r.counters.solves, 0u);
+    EXPECT_EQ(r.counters.events, r.counters.events_unplaced);
+    EXPECT_GT(r.counters.events, 100'000u);
+    EXPECT_EQ(r.filter.initialisations, 0u);
+}
+
+// The whole recording through a device tracker on a simulated clock: every sample it delivers,
+// with the recording's TIME of the report it came in.
+std::vector<std::pair<int64_t, TrackerSample>> replay_tracker(
+    const std::shared_ptr<const SurviveRecording>& rec,
+    std::shared_ptr<const LightTrackingConfig> light, DeviceTrackerStatus* status,
+    TrackerInfo* info) {
+    SimulatedClock clock(kNsPerSecond);
+    const int64_t start = clock.now_ns();
+    auto tracker = create_survive_tracker(rec, clock, start, {}, std::move(light));
+    EXPECT_TRUE(tracker.ok()) << tracker.error().message;
+    std::vector<std::pair<int64_t, TrackerSample>> out;
+    if (!tracker) return out;
+    EXPECT_TRUE((*tracker)->start().ok());
+    std::vector<TrackerSample> buf(1024);
+    const int64_t to_recording = rec->imu.front().host_time_ns - start;
+    while (!(*tracker)->finished()) {
+        clock.advance_ns(10 * kNsPerMs);
+        for (size_t n = (*tracker)->read(buf); n > 0; n = (*tracker)->read(buf))
+            for (size_t i = 0; i < n; ++i)
+                out.push_back({buf[i].arrival_ns + to_recording, buf[i]});
+    }
+    *status = (*tracker)->status();
+    *info = (*tracker)->info();
+    return out;
+}
+
+TEST(LightTracking, TheDeviceTrackerDeliversTheSixDofPosesThroughTheTrackerInterface) {
+    auto loaded = read_survive_recording(kIndexRec, "T20");
+    ASSERT_TRUE(loaded.ok()) << loaded.error().message;
+    auto rec = std::make_shared<const SurviveRecording>(std::move(*loaded));
+    auto cfg = std::make_shared<const LightTrackingConfig>(index_config(*rec, true));
+    DeviceTrackerStatus st;
+    TrackerInfo info;
+    const auto samples = replay_tracker(rec, cfg, &st, &info);
+    EXPECT_TRUE(info.provides_position);
+    EXPECT_TRUE(st.light.enabled);
+    // Every W and Y line as a report 0x28, none refused.
+    EXPECT_EQ(st.light.reports, 105'264u + 5'281u);
+    EXPECT_EQ(st.light.rejected, 0u) << st.light.light_error;
+    EXPECT_EQ(st.codec.unknown, 0u);  // no light report reached the IMU codec
+    EXPECT_EQ(samples.size(), 25'059u);
+    // libsurvive's POSE lines against the sample of the IMU line of their TIME. The samples are
+    // in the node's world, +y up: libsurvive's +z is their +y, its +y their -z.
+    const glm::dquat setup_from_node = glm::angleAxis(kPi / 2, glm::dvec3(1, 0, 0));
+    for (const auto& [t, s] : samples)
+        if (s.position) {
+            EXPECT_NEAR(s.position->y, (setup_from_node * *s.position).z, 1e-12);
+            break;
+        }
+    std::vector<double> pos_mm;
+    size_t with_position = 0, pi = 0;
+    for (size_t i = 0; i < samples.size(); ++i) {
+        const auto& [t, s] = samples[i];
+        if (s.position) ++with_position;
+        if (i + 1 < samples.size() && samples[i + 1].first == t) continue;  // the line's newest
+        for (; pi < rec->poses.size() && rec->poses[pi].host_time_ns <= t; ++pi)
+            if (rec->poses[pi].host_time_ns == t && s.position)
+                pos_mm.push_back(
+                    glm::length(setup_from_node * *s.position - rec->poses[pi].position) * 1e3);
+    }
+    std::printf(
+        "device tracker, light path: %zu samples, %zu with a position; %zu POSE lines "
+        "compared: position p50 %.2f p90 %.2f mm; %llu turns solved\n",
+        samples.size(), with_position, pos_mm.size(), percentile(pos_mm, 0.5),
+        percentile(pos_mm, 0.9), (unsigned long long)st.light.tracking.solved);
+    EXPECT_EQ(with_position, st.light.samples_with_position);
+    EXPECT_GT(with_position, 15'000u);
+    ASSERT_GT(pos_mm.size(), 4400u);
+    // The same chain as LightTracking's run on the lines (the light as reports 0x28 instead).
+    EXPECT_LT(percentile(pos_mm, 0.5), 9.0);
+    EXPECT_LT(percentile(pos_mm, 0.9), 45.0);
+    // Without a setup: the IMU-only path, sample for sample the tracker without light.
+    auto no_setup = std::make_shared<const LightTrackingConfig>(index_config(*rec, false));
+    DeviceTrackerStatus st0, st1;
+    TrackerInfo info0;
+    const auto a = replay_tracker(rec, no_setup, &st0, &info0);
+    const auto b = replay_tracker(rec, nullptr, &st1, &info0);
+    EXPECT_FALSE(info0.provides_position);
+    EXPECT_FALSE(st0.light.enabled);
+    ASSERT_EQ(a.size(), b.size());
+    size_t differ = 0, positions = 0;
+    for (size_t i = 0; i < a.size(); ++i) {
+        positions += a[i].second.position.has_value();
+        differ += a[i].second.orientation != b[i].second.orientation ||
+                  a[i].second.time_ns != b[i].second.time_ns;
+    }
+    EXPECT_EQ(positions, 0u);
+    EXPECT_EQ(differ, 0u);
+}
+
+// The controllers of the other bundled recordings (their POSE lines follow their light, not an
+// IMU line: compared interpolated), libsurvive's base stations (solved during each recording)
+// standing in for a stored setup.
+TEST(LightTracking, OnTheControllerRecordingsSixDofPosesAgreeWithLibsurvivesPoses) {
+    struct Case {
+        const char* file;
+        const char* device;
+    };
+    for (const Case c : {Case{"lh2_test_cal.rec.gz", "T20"}, Case{"lh1_test_cal.rec.gz", "T20"}}) {
+        SCOPED_TRACE(c.file);
+        const std::filesystem::path file =
+            std::filesystem::path(HMDNODE_SOURCE_DIR) / "data" / "traces" / c.file;
+        auto loaded = read_survive_recording(file, c.device);
+        ASSERT_TRUE(loaded.ok()) << loaded.error().message;
+        auto rec = std::make_shared<const SurviveRecording>(std::move(*loaded));
+        const std::vector<ImuLineSamples> imu = decode_imu(rec);
+        // The controllers' accelerometer reads 4.8 m/s^2 at rest through the Index's default 4 g
+        // range (no IMU_SCALES line): half the specific force reaches the filter (not fixed here;
+        // docs/tracking.md §12). Printed, not asserted.
+        double accel_sum = 0;
+        size_t accel_n = 0;
+        for (const ImuLineSamples& l : imu)
+            for (const DeviceSample& d : l.samples) accel_sum += glm::length(*d.accel), ++accel_n;
+        LightTrackingConfig cfg = index_config(*rec, true);
+        ASSERT_FALSE(cfg.setup.empty());
+        const LightRun r = run_light(*rec, imu, cfg);
+        const Fitted raw = against_reference(*rec, r, 0, false);
+        Fitted best;
+        double best_p50 = INFINITY;
+        for (int64_t off = -30; off <= 30; ++off) {
+            const Fitted f = against_reference(*rec, r, off * 1'000'000, false);
+            const double e = percentile(f.pos_mm, 0.5);
+            if (!f.pos_mm.empty() && e < best_p50) best_p50 = e, best = f;
+        }
+        const Fitted fit = against_reference(*rec, r, best.offset_ns, true);
+        std::printf(
+            "%s %s: %zu IMU lines, %zu good; first good %.3f s; %llu turns solved of %llu; %llu "
+            "accepted, %llu gated, %llu initialised, %llu lost; against libsurvive's POSE "
+            "(%zu): raw position p50 %.2f p90 %.2f mm, orientation p50 %.3f p90 %.3f deg; "
+            "offset %+.0f ms, translation and lever arm fitted: p50 %.2f p90 %.2f mm\n",
+            c.file, c.device, imu.size(), r.good, double(r.first_good_host_ns) * 1e-9,
+            (unsigned long long)r.counters.solved, (unsigned long long)r.counters.solves,
+            (unsigned long long)r.filter.accepted, (unsigned long long)r.filter.gated,
+            (unsigned long long)r.filter.initialisations, (unsigned long long)r.filter.lost,
+            raw.pos_mm.size(), percentile(raw.pos_mm, 0.5), percentile(raw.pos_mm, 0.9),
+            percentile(raw.rot_deg, 0.5), percentile(raw.rot_deg, 0.9),
+            double(fit.offset_ns) * 1e-6, percentile(fit.pos_mm, 0.5), percentile(fit.pos_mm, 0.9));
+        std::vector<double> inn;
+        for (const auto& [t, mm] : r.innovation_mm) inn.push_back(mm);
+        std::printf(
+            "  mean |accel| %.3f m/s^2; translation (%.1f %.1f %.1f) mm and lever arm "
+            "(%.1f %.1f %.1f) mm fitted; innovation p50 %.2f mm\n",
+            accel_sum / double(accel_n), fit.world.x * 1e3, fit.world.y * 1e3, fit.world.z * 1e3,
+            fit.lever.x * 1e3, fit.lever.y * 1e3, fit.lever.z * 1e3, percentile(inn, 0.5));
+        // Measured: lh2 raw 9.31 / 11.8 mm, 0.25 / 0.28 deg, fitted 1.20 / 2.61 mm; lh1 raw 17.4
+        // / 24.9 mm, 0.29 / 0.33 deg, fitted 3.31 / 7.23 mm.
+        const bool lh2 = std::string(c.file).starts_with("lh2");
+        EXPECT_EQ(r.filter.lost, 0u);
+        EXPECT_LE(r.filter.gated, 2u);
+        EXPECT_GT(raw.pos_mm.size(), lh2 ? 900u : 1800u);
+        EXPECT_LT(percentile(raw.pos_mm, 0.9), lh2 ? 14.0 : 28.0);
+        EXPECT_LT(percentile(raw.rot_deg, 0.9), 0.4);
+        EXPECT_LT(percentile(fit.pos_mm, 0.5), lh2 ? 1.6 : 4.0);
+        EXPECT_LT(percentile(fit.pos_mm, 0.9), lh2 ? 3.2 : 8.5);
+    }
+}
+
+// A synthetic still device (a 32-sensor sphere, four base stations with ideal planes, exact
+// IMU): tracked to the truth; the light stopping loses the position after the filter's 500 ms
+// (position_lost, never good meanwhile); back, it is tracked again. Without a decoded
+// calibration (require_calibration, the default) nothing is solved and it is never good.
+TEST(LightTracking, ASyntheticStillDeviceIsTrackedLostWithoutLightAndReacquired) {
+    std::vector<lighthouse::PlacedBaseStation> stations = test::four_stations();
+    for (auto& st : stations) st.calibration.reset();  // the ideal planes
+    LightTrackingConfig cfg;
+    const lighthouse::SensorLayout layout = test::sphere_layout();
+    cfg.sensors.points = layout.points;
+    cfg.sensors.normals = layout.normals;
+    for (const auto& st : stations) {
+        lighthouse::BaseStationPlacement p;
+        p.generation = st.generation;
+        p.base_station = st.base_station;
+        p.world_from_station = st.world_from_station;
+        cfg.setup.push_back(p);
+    }
+    cfg.filter.world_up = glm::dvec3(0, 1, 0);
+    const lighthouse::RigidPose truth{glm::dvec3(0.1, 1.2, -0.05),
+                                      glm::normalize(glm::dquat(0.9, 0.1, 0.3, -0.2))};
+    const glm::dvec3 accel = glm::conjugate(truth.orientation) * glm::dvec3(0, 9.80665, 0);
+    std::mt19937 rng(7);
+    lighthouse::LightDecoder dec;  // no base station: no calibration decoded
+    for (const bool require : {false, true}) {
+        SCOPED_TRACE(require ? "calibration required" : "ideal planes allowed");
+        cfg.require_calibration = require;
+        LightTracking lt(cfg);
+        bool lost_seen = false, good_while_dark = false;
+        double err_mm = 0, err_mrad = 0;
+        int64_t good_again_ns = -1;
+        for (int64_t ms = 0; ms < 8'000; ++ms) {
+            const int64_t t = ms * 1'000'000;
+            lt.add_imu(t, glm::dvec3(0.0), accel);
+            const bool dark = ms >= 4'000 && ms < 5'000;
+            if (ms % 20 == 0 && !dark)
+                lt.add_light(test::events_for(layout, stations, truth, t, 2e-4, &rng), dec);
+            const FilterPose p = lt.pose();
+            if (dark && ms >= 4'600) {
+                lost_seen |= lt.position_lost();
+                good_while_dark |= p.good();
+            }
+            if (ms >= 5'000 && good_again_ns < 0 && p.good()) good_again_ns = t;
+            if (ms == 3'999) {
+                err_mm = glm::length(p.position - truth.position) * 1e3;
+                err_mrad = test::angle_between(p.orientation, truth.orientation) * 1e3;
+            }
+            if (require) {
+                EXPECT_FALSE(p.good());
+            }
+        }
+        if (require) {
+            EXPECT_EQ(lt.counters().solves, 0u);
+            EXPECT_GT(lt.counters().uncalibrated_windows, 300u);
+            continue;
+        }
+        std::printf(
+            "synthetic still device: at 4 s %.3f mm, %.3f mrad from the truth; lost in "
+            "the dark: %d; good again %.3f s after the light returns\n",
+            err_mm, err_mrad, int(lost_seen), double(good_again_ns) * 1e-9 - 5.0);
+        EXPECT_LT(err_mm, 0.5);
+        EXPECT_LT(err_mrad, 0.5);
+        EXPECT_TRUE(lost_seen);
+        EXPECT_FALSE(good_while_dark);
+        EXPECT_GE(lt.filter().counters().lost, 1u);
+        ASSERT_GE(good_again_ns, 5'000'000'000);
+        EXPECT_LT(good_again_ns, 5'200'000'000);  // a re-initialisation and its confirmation
+        EXPECT_EQ(lt.counters().events_unplaced, 0u);
+    }
+}
+
+}  // namespace
+}  // namespace hmdnode
