@@ -501,8 +501,9 @@ Result<std::shared_ptr<const LightTrackingConfig>> recording_light_path(const Re
     }
     if (args.base_stations.empty()) {
         if (rec.base_station_poses.empty()) {
-            *why = "no stored base-station setup (no LH_POSE line; give --base-stations FILE): "
-                   "orientation only";
+            *why =
+                "no stored base-station setup (no LH_POSE line; give --base-stations FILE): "
+                "orientation only";
             return std::shared_ptr<const LightTrackingConfig>();
         }
         // The calibration ids only map the LH_POSE lines' numbers to base stations.
