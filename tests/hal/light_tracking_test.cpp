@@ -10,6 +10,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <vector>
 
@@ -296,6 +298,17 @@ TEST(LightTracking, WithStoredCalibrationsTheFirstGoodPoseComesWithinTwoSecondsO
     const LightTrackingConfig cfg = index_config(*rec, true, true);
     ASSERT_EQ(cfg.setup.size(), 4u);
     for (const auto& p : cfg.setup) ASSERT_TRUE(p.calibration.has_value());
+    // The bundled calibrated setup (`hmdnode record --base-stations`' test input) is this setup's
+    // state file, byte for byte (HMDNODE_WRITE_TEST_DATA=1 writes it anew).
+    const std::string file = std::string(HMDNODE_SOURCE_DIR) +
+                             "/tests/data/traces/compare-test-index.base-stations-calibrated.json";
+    const std::string text = lighthouse::base_station_setup_json(cfg.setup);
+    if (std::getenv("HMDNODE_WRITE_TEST_DATA")) {
+        ASSERT_TRUE(lighthouse::save_base_station_setup(file, cfg.setup).ok());
+    }
+    std::ifstream in(file);
+    EXPECT_EQ(std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()),
+              text);
     const LightRun r = run_light(*rec, imu, cfg);
     ASSERT_GE(r.first_light_host_ns, 0);
     ASSERT_GE(r.first_good_host_ns, 0);
