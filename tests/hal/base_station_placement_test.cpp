@@ -432,6 +432,17 @@ TEST(BaseStationPlacement, TheRecordingsOwnLightPlacesTheirBaseStationsWhereLibs
         for (size_t i = 0; i < lib->size(); ++i) {
             const BaseStationPlacement &m = mine.placed[i], &l = (*lib)[i];
             ASSERT_EQ(m.base_station, l.base_station);
+            // The calibration it was placed with is kept for the setup (what the state file
+            // writes): the decoded one's id and planes.
+            const BaseStationState* k = nullptr;
+            for (const BaseStationState& s : r->known)
+                if (s.generation == m.generation && s.base_station == m.base_station) k = &s;
+            ASSERT_TRUE(k && k->calibration);
+            ASSERT_TRUE(m.calibration.has_value());
+            EXPECT_EQ(m.calibration->id, k->calibration->id);
+            EXPECT_EQ(m.id, k->calibration->id);
+            EXPECT_EQ(m.calibration->plane[1].tilt, k->calibration->plane[1].tilt);
+            EXPECT_EQ(m.calibration->plane[0].ogee_mag, k->calibration->plane[0].ogee_mag);
             worst_pos = std::max(worst_pos, glm::length(m.world_from_station.position -
                                                         l.world_from_station.position));
             worst_rot = std::max(worst_rot, angle_between(m.world_from_station.orientation,
