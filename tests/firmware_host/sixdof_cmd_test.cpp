@@ -202,6 +202,34 @@ TEST(SixDofCmd, TheNodesRecordingTrackerWithASetupDeliversPositions) {
     EXPECT_FALSE(check_tracker_spec(bad, ClockKind::sim, WiringKeys::command_line()).ok());
 }
 
+// The same with a setup that keeps the base stations' calibrations
+// (compare-test-index.base-stations-calibrated.json: the poses above and the calibrations decoded
+// from the recording's own OOTX frames, standing in for a setup saved by an earlier session, as
+// light_tracking_test checks): tracked from the first turns of light (0.18 s), not from the
+// first calibration frame (9.64 s); the status says which calibration was used.
+TEST(SixDofCmd, RecordWithStoredCalibrationsTracksFromTheFirstLight) {
+    const fs::path dir = test::fresh_temp_dir("hmdnode_sixdof_calibrated");
+    const fs::path six = dir / "six.csv";
+    const std::string setup = std::string(HMDNODE_SOURCE_DIR) +
+                              "/tests/data/traces/compare-test-index.base-stations-calibrated.json";
+    const auto rec = tool("record --backend rec --from " + kRec + " --device T20 --out " +
+                          six.string() + " --base-stations " + setup);
+    ASSERT_EQ(rec.code, 0) << rec.output;
+    EXPECT_NE(rec.output.find("4 base station(s) from " + setup), std::string::npos) << rec.output;
+    EXPECT_NE(rec.output.find("base stations solved with the setup's stored calibration"),
+              std::string::npos)
+        << rec.output;
+    EXPECT_NE(rec.output.find("; 0 turns before any"), std::string::npos) << rec.output;
+    auto t = read_trace_csv(six);
+    ASSERT_TRUE(t.ok()) << t.error().message;
+    std::printf("record with stored calibrations: %zu rows with a position from %.3f s\n",
+                t->samples.size(), ns_to_s(t->start_ns()));
+    EXPECT_LT(ns_to_s(t->start_ns()), 0.184 + 2.0);  // the first light line at 0.184 s
+    EXPECT_NEAR(ns_to_s(t->end_ns()), 25.49, 0.05);
+    EXPECT_GT(t->samples.size(), 24'000u);
+    std::filesystem::remove_all(dir);
+}
+
 // A recording that holds a stored setup: lh2_test_cal with its LH_POSE lines (libsurvive's
 // solve at 12.99 s) moved to time 0, before its light, as libsurvive writes a saved
 // configuration's base stations. `record` then takes them without --base-stations.

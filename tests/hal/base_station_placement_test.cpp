@@ -205,6 +205,13 @@ TEST(BaseStationPlacement, TheStateFileRoundTripsExactly) {
     setup[0].used = 40;
     setup[0].rejected = 2;
     setup[0].solved_unix_s = 1764650000;
+    BaseStationCalibration cal;
+    cal.generation = Generation::lh2;
+    cal.id = 0x4096b5a0u;
+    cal.firmware_version = 0x1234;
+    cal.plane[0] = {-0.0123, -0.4886, 0.0031, 1.234, 0.0056, -0.789, 0.0021};
+    cal.plane[1] = {0.0234, 0.5123, -0.0042, -2.345, 0.0067, 0.891, -0.0032};
+    setup[0].calibration = cal;
     setup[1].generation = Generation::lh1;
     setup[1].base_station = 1;
     setup[1].world_from_station = {{0.1, 2.0, -1.0}, glm::dquat(1, 0, 0, 0)};
@@ -226,11 +233,36 @@ TEST(BaseStationPlacement, TheStateFileRoundTripsExactly) {
         EXPECT_EQ(a.used, b.used);
         EXPECT_EQ(a.rejected, b.rejected);
         EXPECT_EQ(a.solved_unix_s, b.solved_unix_s);
+        ASSERT_EQ(a.calibration.has_value(), b.calibration.has_value());
+        if (!a.calibration) continue;
+        EXPECT_EQ(b.calibration->generation, a.generation);
+        EXPECT_EQ(b.calibration->id, a.calibration->id);
+        EXPECT_EQ(b.calibration->firmware_version, a.calibration->firmware_version);
+        for (size_t k = 0; k < 2; ++k) {
+            const PlaneCalibration &x = a.calibration->plane[k], &y = b.calibration->plane[k];
+            EXPECT_EQ(x.phase, y.phase);
+            EXPECT_EQ(x.tilt, y.tilt);
+            EXPECT_EQ(x.curve, y.curve);
+            EXPECT_EQ(x.gibbous_phase, y.gibbous_phase);
+            EXPECT_EQ(x.gibbous_mag, y.gibbous_mag);
+            EXPECT_EQ(x.ogee_phase, y.ogee_phase);
+            EXPECT_EQ(x.ogee_mag, y.ogee_mag);
+        }
     }
     // A directory that is not there: an error, no file.
     EXPECT_FALSE(save_base_station_setup(temp_dir() / "no" / "such.json", setup).ok());
     EXPECT_FALSE(std::filesystem::exists(temp_dir() / "no"));
     std::filesystem::remove_all(temp_dir());
+}
+
+// One base station whose calibration's second plane is `plane1` (the first a good one).
+std::string calibrated(const std::string& plane1) {
+    const std::string plane0 =
+        R"({"phase": 0, "tilt": 0, "curve": 0, "gibbous_phase": 0, "gibbous_mag": 0, )"
+        R"("ogee_phase": 0, "ogee_mag": 0})";
+    return R"({"system": 2, "base_station": 3, "position": [0, 1, 2], "orientation": [1, 0, 0, )"
+           R"(0], "calibration": {"id": "0x4096b5a0", "planes": [)" +
+           plane0 + ", {" + plane1 + "}]}}]}";
 }
 
 TEST(BaseStationPlacement, ABadStateFileIsAnErrorNamingTheFileAndField) {
@@ -264,6 +296,16 @@ TEST(BaseStationPlacement, ABadStateFileIsAnErrorNamingTheFileAndField) {
         {head +
              R"({"system": 2, "base_station": 3, "position": [0, 1, 2], "orientation": [1, 0, 0, 0], "angles": -1}]})",
          "s.json: base_stations[0].angles: a whole number in 0..1048576 expected"},
+        {head + calibrated(R"("phase": 0, "tilt": "x")"),
+         "s.json: base_stations[0].calibration.planes[1].tilt: a finite number expected"},
+        {head + calibrated(R"("phase": 0)"),
+         "s.json: base_stations[0].calibration.planes[1].tilt: missing"},
+        {head +
+             R"({"system": 2, "base_station": 3, "position": [0, 1, 2], "orientation": [1, 0, 0, 0], "calibration": {"id": "0x1", "planes": [{}]}}]})",
+         "s.json: base_stations[0].calibration.planes: an array of 2 planes expected"},
+        {head +
+             R"({"system": 2, "base_station": 3, "position": [0, 1, 2], "orientation": [1, 0, 0, 0], "calibration": {"planes": []}}]})",
+         "s.json: base_stations[0].calibration.id: missing"},
     };
     for (const auto& [text, want] : cases) {
         auto r = parse_base_station_setup(text, "s.json");
@@ -271,6 +313,31 @@ TEST(BaseStationPlacement, ABadStateFileIsAnErrorNamingTheFileAndField) {
         EXPECT_EQ(r.error().message.rfind(want, 0), 0u) << r.error().message;
     }
     EXPECT_TRUE(parse_base_station_setup(head + good + "]}", "s.json").ok());
+    const std::string full =
+        R"("phase": 0.1, "tilt": 0.2, "curve": 0.3, "gibbous_phase": 0.4, "gibbous_mag": 0.5, )"
+        R"("ogee_phase": 0.6, "ogee_mag": 0.7)";
+    auto cal = parse_base_station_setup(head + calibrated(full), "s.json");
+    ASSERT_TRUE(cal.ok()) << cal.error().message;
+    ASSERT_TRUE(cal->front().calibration);
+    EXPECT_EQ(cal->front().id, 0x4096b5a0u);  // the calibration's id is the base station's
+    EXPECT_EQ(cal->front().calibration->plane[1].ogee_mag, 0.7);
+    // A calibration whose id is not the base station's.
+    std::string other = head + calibrated(full);
+    other.replace(other.find(R"("base_station": 3, )"), 18, R"("base_station": 3, "id": "0x2",)");
+    auto swapped = parse_base_station_setup(other, "s.json");
+    ASSERT_FALSE(swapped.ok());
+    EXPECT_EQ(swapped.error().message,
+              "s.json: base_stations[0].calibration.id: 0x4096b5a0 differs from the base "
+              "station's id 0x00000002");
+    // A file written before calibrations were kept (the bundled setup): loads, none stored.
+    auto old = load_base_station_setup(std::string(HMDNODE_SOURCE_DIR) +
+                                       "/tests/data/traces/compare-test-index.base-stations.json");
+    ASSERT_TRUE(old.ok()) << old.error().message;
+    ASSERT_EQ(old->size(), 4u);
+    for (const BaseStationPlacement& p : *old) {
+        EXPECT_TRUE(p.id.has_value());
+        EXPECT_FALSE(p.calibration.has_value());
+    }
     auto missing = load_base_station_setup("/nonexistent/base_stations.json");
     ASSERT_FALSE(missing.ok());
     EXPECT_NE(missing.error().message.find("/nonexistent/base_stations.json"), std::string::npos);
@@ -365,6 +432,17 @@ TEST(BaseStationPlacement, TheRecordingsOwnLightPlacesTheirBaseStationsWhereLibs
         for (size_t i = 0; i < lib->size(); ++i) {
             const BaseStationPlacement &m = mine.placed[i], &l = (*lib)[i];
             ASSERT_EQ(m.base_station, l.base_station);
+            // The calibration it was placed with is kept for the setup (what the state file
+            // writes): the decoded one's id and planes.
+            const BaseStationState* k = nullptr;
+            for (const BaseStationState& s : r->known)
+                if (s.generation == m.generation && s.base_station == m.base_station) k = &s;
+            ASSERT_TRUE(k && k->calibration);
+            ASSERT_TRUE(m.calibration.has_value());
+            EXPECT_EQ(m.calibration->id, k->calibration->id);
+            EXPECT_EQ(m.id, k->calibration->id);
+            EXPECT_EQ(m.calibration->plane[1].tilt, k->calibration->plane[1].tilt);
+            EXPECT_EQ(m.calibration->plane[0].ogee_mag, k->calibration->plane[0].ogee_mag);
             worst_pos = std::max(worst_pos, glm::length(m.world_from_station.position -
                                                         l.world_from_station.position));
             worst_rot = std::max(worst_rot, angle_between(m.world_from_station.orientation,

@@ -10,6 +10,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <vector>
 
@@ -65,6 +67,8 @@ struct LightRun {
     std::vector<std::pair<int64_t, double>> innovation_mm;  // at the line after each solve
     size_t good = 0, not_good = 0;
     int64_t first_good_host_ns = -1;
+    int64_t first_light_host_ns = -1;  // of the first light event the decoder gave
+    std::vector<lighthouse::CalibrationSource> sources;  // per setup entry, at the end
     LightTrackingCounters counters;
     PoseFilterCounters filter;
 };
@@ -93,6 +97,7 @@ LightRun run_light(const SurviveRecording& rec, const std::vector<ImuLineSamples
             EXPECT_TRUE(st.ok()) << st.error().message;
             ev.clear();
             dec.take_events(ev);
+            if (!ev.empty() && r.first_light_host_ns < 0) r.first_light_host_ns = l.host_time_ns;
             lt.add_light(ev, dec);
         }
         for (const DeviceSample& d : line.samples)
@@ -125,6 +130,8 @@ LightRun run_light(const SurviveRecording& rec, const std::vector<ImuLineSamples
     }
     r.counters = lt.counters();
     r.filter = lt.filter().counters();
+    for (const lighthouse::BaseStationPlacement& p : cfg.setup)
+        r.sources.push_back(lt.calibration_source(p.generation, p.base_station));
     return r;
 }
 
@@ -177,7 +184,11 @@ Fitted against_reference(const SurviveRecording& rec, const LightRun& r, int64_t
 const std::string kIndexRec =
     std::string(HMDNODE_SOURCE_DIR) + "/data/traces/compare-test-index.rec.gz";
 
-LightTrackingConfig index_config(const SurviveRecording& rec, bool with_setup) {
+// `with_calibrations`: each base station's calibration decoded from the recording's own OOTX
+// frames (the whole recording) kept with the setup, through the state file's text, as an earlier
+// session's `save_base_station_setup` would have kept them.
+LightTrackingConfig index_config(const SurviveRecording& rec, bool with_setup,
+                                 bool with_calibrations = false) {
     LightTrackingConfig cfg;
     cfg.sensors = rec.sensors;
     cfg.filter.world_up = glm::dvec3(0, 0, 1);  // libsurvive's world
@@ -191,6 +202,19 @@ LightTrackingConfig index_config(const SurviveRecording& rec, bool with_setup) {
         auto setup = lighthouse::recording_base_station_setup(rec, all.base_stations(), true);
         EXPECT_TRUE(setup.ok()) << setup.error().message;
         if (setup) cfg.setup = *setup;
+        if (with_calibrations) {
+            for (lighthouse::BaseStationPlacement& p : cfg.setup) {
+                const lighthouse::BaseStationState* s =
+                    all.base_station(p.generation, p.base_station);
+                EXPECT_TRUE(s && s->calibration);
+                if (s && s->calibration)
+                    p.calibration = lighthouse::stored_calibration(*s->calibration);
+            }
+            auto back = lighthouse::parse_base_station_setup(
+                lighthouse::base_station_setup_json(cfg.setup), "setup.json");
+            EXPECT_TRUE(back.ok()) << back.error().message;
+            if (back) cfg.setup = *back;
+        }
     }
     return cfg;
 }
@@ -260,6 +284,76 @@ TEST(LightTracking, OnTheIndexRecordingSixDofPosesAgreeWithLibsurvivesPoses) {
     EXPECT_LT(percentile(moving_innovation, 0.9), 8.0);
     EXPECT_LT(r.filter.gated, r.filter.accepted / 50);
     EXPECT_EQ(r.filter.lost, 0u);
+}
+
+// The same run with the base stations' calibrations kept in the setup (decoded from this
+// recording's own OOTX frames: they stand in for a setup stored by an earlier session, as the
+// poses do): the light is used from its first turn, not from the first calibration frame
+// (9.64 s), and each live frame replaces the stored calibration when it arrives.
+TEST(LightTracking, WithStoredCalibrationsTheFirstGoodPoseComesWithinTwoSecondsOfTheLight) {
+    auto loaded = read_survive_recording(kIndexRec, "T20");
+    ASSERT_TRUE(loaded.ok()) << loaded.error().message;
+    auto rec = std::make_shared<const SurviveRecording>(std::move(*loaded));
+    const std::vector<ImuLineSamples> imu = decode_imu(rec);
+    const LightTrackingConfig cfg = index_config(*rec, true, true);
+    ASSERT_EQ(cfg.setup.size(), 4u);
+    for (const auto& p : cfg.setup) ASSERT_TRUE(p.calibration.has_value());
+    // The bundled calibrated setup (`hmdnode record --base-stations`' test input) is this setup's
+    // state file, byte for byte (HMDNODE_WRITE_TEST_DATA=1 writes it anew).
+    const std::string file = std::string(HMDNODE_SOURCE_DIR) +
+                             "/tests/data/traces/compare-test-index.base-stations-calibrated.json";
+    const std::string text = lighthouse::base_station_setup_json(cfg.setup);
+    if (std::getenv("HMDNODE_WRITE_TEST_DATA")) {
+        ASSERT_TRUE(lighthouse::save_base_station_setup(file, cfg.setup).ok());
+    }
+    std::ifstream in(file);
+    EXPECT_EQ(std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()),
+              text);
+    const LightRun r = run_light(*rec, imu, cfg);
+    ASSERT_GE(r.first_light_host_ns, 0);
+    ASSERT_GE(r.first_good_host_ns, 0);
+    const double ready_s = double(r.first_good_host_ns - r.first_light_host_ns) * 1e-9;
+    ASSERT_GT(r.pos_mm.size(), 4400u);
+    const double p50 = percentile(r.pos_mm, 0.5), p90 = percentile(r.pos_mm, 0.9);
+    const double o50 = percentile(r.rot_deg, 0.5), o90 = percentile(r.rot_deg, 0.9);
+    const double s90 = percentile(r.still_pos_mm, 0.9), so90 = percentile(r.still_rot_deg, 0.9);
+    std::printf(
+        "Index recording with stored calibrations: first light event at %.3f s, first good pose "
+        "at %.3f s (ready %.3f s after the light); against libsurvive's POSE (%zu): position p50 "
+        "%.2f p90 %.2f mm, orientation p50 %.3f p90 %.3f deg; still from 22 s p90 %.2f mm, %.3f "
+        "deg; base stations solved with a stored calibration %llu times, a decoded one %llu; "
+        "%llu windows without a calibration, %llu lost\n",
+        double(r.first_light_host_ns) * 1e-9, double(r.first_good_host_ns) * 1e-9, ready_s,
+        r.pos_mm.size(), p50, p90, o50, o90, s90, so90,
+        (unsigned long long)r.counters.stored_calibration_uses,
+        (unsigned long long)r.counters.decoded_calibration_uses,
+        (unsigned long long)r.counters.uncalibrated_windows, (unsigned long long)r.filter.lost);
+    EXPECT_LT(ready_s, 2.0);
+    EXPECT_LT(r.first_good_host_ns, 9'600'000'000);  // before any calibration frame arrived
+    EXPECT_EQ(r.counters.uncalibrated_windows, 0u);
+    EXPECT_GT(r.counters.stored_calibration_uses, 0u);
+    EXPECT_GT(r.counters.decoded_calibration_uses, 0u);
+    // Every base station's live frame arrived (by 15 s) and replaced the stored calibration.
+    for (const lighthouse::CalibrationSource src : r.sources)
+        EXPECT_EQ(src, lighthouse::CalibrationSource::decoded);
+    // No worse than the run that waits for the frames (its bounds).
+    EXPECT_LT(p50, 9.0);
+    EXPECT_LT(p90, 45.0);
+    EXPECT_LT(o50, 1.2);
+    EXPECT_LT(o90, 3.3);
+    EXPECT_LT(s90, 2.0);
+    EXPECT_LT(so90, 0.6);
+    EXPECT_EQ(r.filter.lost, 0u);
+
+    // A stored calibration whose id is not the one the base station then sends: a swapped base
+    // station, used (stored) until its frame arrives and left out after.
+    LightTrackingConfig swapped = cfg;
+    swapped.setup[0].id = 0xdeadbeefu;
+    swapped.setup[0].calibration->id = 0xdeadbeefu;
+    const LightRun w = run_light(*rec, imu, swapped);
+    EXPECT_EQ(w.sources[0], lighthouse::CalibrationSource::none);
+    for (size_t i = 1; i < w.sources.size(); ++i)
+        EXPECT_EQ(w.sources[i], lighthouse::CalibrationSource::decoded);
 }
 
 TEST(LightTracking, WithoutASetupItStaysOrientationOnlyAndNeverGood) {

@@ -550,6 +550,12 @@ void print_light_status(const DeviceTrackerStatus& st, const TrackerRecording& o
                 static_cast<unsigned long long>(l.tracking.solves),
                 static_cast<unsigned long long>(l.tracking.not_enough_data),
                 static_cast<unsigned long long>(l.tracking.no_fit));
+    std::printf(
+        "  %-24s base stations solved with the setup's stored calibration %llu times, with the "
+        "one decoded from their light %llu; %llu turns before any\n",
+        "calibrations", static_cast<unsigned long long>(l.tracking.stored_calibration_uses),
+        static_cast<unsigned long long>(l.tracking.decoded_calibration_uses),
+        static_cast<unsigned long long>(l.tracking.uncalibrated_windows));
     std::printf("  %-24s %llu accepted, %llu initialisations, %llu gated, %llu lost\n",
                 "light + IMU filter", static_cast<unsigned long long>(l.filter.accepted),
                 static_cast<unsigned long long>(l.filter.initialisations),

@@ -9,8 +9,12 @@
 #include "hmdnode/hal/tracking/base_station_placement.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <map>
+#include <optional>
 #include <set>
 
 #include <nlohmann/json.hpp>
@@ -114,7 +118,10 @@ std::optional<BaseStationPlacement> place_one(const SensorLayout& layout, const 
     BaseStationPlacement p;
     p.generation = g;
     p.base_station = mine.front().base_station;
-    if (known && known->calibration) p.id = known->calibration->id;
+    if (known && known->calibration) {
+        p.id = known->calibration->id;
+        p.calibration = stored_calibration(*known->calibration);
+    }
     p.world_from_station = inverse(r.pose);
     p.residual_rms_rad = r.rms;
     p.used = r.used;
@@ -165,17 +172,40 @@ PlacementResult place_base_stations(const SensorLayout& layout,
     return out;
 }
 
+const char* calibration_source_name(CalibrationSource s) {
+    switch (s) {
+        case CalibrationSource::stored:
+            return "stored";
+        case CalibrationSource::decoded:
+            return "decoded";
+        default:
+            return "none";
+    }
+}
+
 std::vector<PlacedBaseStation> placed_stations(std::span<const BaseStationPlacement> setup,
-                                               std::span<const BaseStationState> known) {
+                                               std::span<const BaseStationState> known,
+                                               std::vector<CalibrationSource>* sources) {
     std::vector<PlacedBaseStation> out;
+    if (sources) sources->clear();
     for (const BaseStationPlacement& p : setup) {
         const BaseStationState* k = find_known(known, p.generation, p.base_station);
         PlacedBaseStation s{p.generation, p.base_station, p.world_from_station, std::nullopt};
+        CalibrationSource src = CalibrationSource::none;
         if (k && k->calibration) {
-            if (p.id && *p.id != k->calibration->id) continue;  // another base station now
+            const std::optional<uint32_t> want = p.id ? p.id
+                                                 : p.calibration
+                                                     ? std::optional<uint32_t>(p.calibration->id)
+                                                     : std::nullopt;
+            if (want && *want != k->calibration->id) continue;  // another base station now
             s.calibration = k->calibration;
+            src = CalibrationSource::decoded;
+        } else if (p.calibration && p.calibration->generation == p.generation) {
+            s.calibration = p.calibration;  // the live frame has not arrived (yet)
+            src = CalibrationSource::stored;
         }
         out.push_back(s);
+        if (sources) sources->push_back(src);
     }
     return out;
 }
@@ -184,7 +214,94 @@ std::vector<PlacedBaseStation> placed_stations(std::span<const BaseStationPlacem
 
 constexpr const char* kFormat = "hmdnode base stations";
 
+namespace placement_detail {
+
+std::string hex_id(uint32_t id) {
+    char s[16];
+    std::snprintf(s, sizeof s, "0x%08x", id);
+    return s;
+}
+
+// The calibration's fields the angle model uses (ootx.hpp's PlaneCalibration), by name.
+constexpr std::array<std::pair<const char*, double PlaneCalibration::*>, 7> kPlaneFields{{
+    {"phase", &PlaneCalibration::phase},
+    {"tilt", &PlaneCalibration::tilt},
+    {"curve", &PlaneCalibration::curve},
+    {"gibbous_phase", &PlaneCalibration::gibbous_phase},
+    {"gibbous_mag", &PlaneCalibration::gibbous_mag},
+    {"ogee_phase", &PlaneCalibration::ogee_phase},
+    {"ogee_mag", &PlaneCalibration::ogee_mag},
+}};
+
+nlohmann::json calibration_json(const BaseStationCalibration& c) {
+    nlohmann::json j;
+    j["id"] = hex_id(c.id);
+    j["firmware_version"] = c.firmware_version;
+    nlohmann::json planes = nlohmann::json::array();
+    for (const PlaneCalibration& pl : c.plane) {
+        nlohmann::json x;
+        for (const auto& [name, field] : kPlaneFields) x[name] = pl.*field;
+        planes.push_back(x);
+    }
+    j["planes"] = planes;
+    return j;
+}
+
+// "0x" and up to 8 hex digits, or nullopt.
+std::optional<uint32_t> parse_hex_id(const nlohmann::json& id) {
+    const std::string s = id.is_string() ? id.get<std::string>() : "";
+    if (s.size() < 3 || s.rfind("0x", 0) != 0) return std::nullopt;
+    char* end = nullptr;
+    const unsigned long x = std::strtoul(s.c_str() + 2, &end, 16);
+    if (*end != '\0' || x > 0xffffffffUL || s[2] == '-' || s[2] == '+') return std::nullopt;
+    return uint32_t(x);
+}
+
+// A base_stations[] entry's "calibration" (`w` names it); an error naming the field, or "".
+std::string parse_calibration(const nlohmann::json& j, const std::string& w, Generation g,
+                              BaseStationCalibration* c) {
+    if (!j.is_object()) return w + ": an object expected";
+    c->generation = g;
+    if (!j.contains("id")) return w + ".id: missing";
+    const std::optional<uint32_t> id = parse_hex_id(j["id"]);
+    if (!id) return w + ".id: a 32-bit id as \"0x\" and hex digits expected";
+    c->id = *id;
+    if (j.contains("firmware_version")) {
+        const nlohmann::json& f = j["firmware_version"];
+        if (!f.is_number_integer() || f.get<int64_t>() < 0 || f.get<int64_t>() > 0xffff)
+            return w + ".firmware_version: a whole number in 0..65535 expected";
+        c->firmware_version = uint16_t(f.get<int64_t>());
+    }
+    if (!j.contains("planes") || !j["planes"].is_array() || j["planes"].size() != 2)
+        return w + ".planes: an array of 2 planes expected";
+    for (size_t i = 0; i < 2; ++i) {
+        const nlohmann::json& pl = j["planes"][i];
+        const std::string pw = cat(w, ".planes[", i, "]");
+        if (!pl.is_object()) return pw + ": an object expected";
+        for (const auto& [name, field] : kPlaneFields) {
+            if (!pl.contains(name)) return cat(pw, ".", name, ": missing");
+            const nlohmann::json& x = pl[name];
+            if (!x.is_number() || !std::isfinite(x.get<double>()))
+                return cat(pw, ".", name, ": a finite number expected");
+            c->plane[i].*field = x.get<double>();
+        }
+    }
+    return {};
+}
+
+}  // namespace placement_detail
+
+BaseStationCalibration stored_calibration(const BaseStationCalibration& c) {
+    BaseStationCalibration out;
+    out.generation = c.generation;
+    out.firmware_version = c.firmware_version;
+    out.id = c.id;
+    out.plane = c.plane;
+    return out;
+}
+
 std::string base_station_setup_json(std::span<const BaseStationPlacement> setup) {
+    using placement_detail::calibration_json;
     nlohmann::json list = nlohmann::json::array();
     for (const BaseStationPlacement& p : setup) {
         nlohmann::json j;
@@ -203,6 +320,7 @@ std::string base_station_setup_json(std::span<const BaseStationPlacement> setup)
         j["angles"] = p.used;
         j["rejected"] = p.rejected;
         j["solved_unix_s"] = p.solved_unix_s;
+        if (p.calibration) j["calibration"] = calibration_json(*p.calibration);
         list.push_back(j);
     }
     nlohmann::json doc;
@@ -263,6 +381,18 @@ std::string parse_station(const nlohmann::json& j, const std::string& w, BaseSta
     if (!qe.empty() || std::abs(norm - 1) > 1e-3)
         return w + ".orientation: 4 numbers (w, x, y, z) of a unit quaternion expected";
     p->world_from_station = {{t[0], t[1], t[2]}, glm::dquat(q[0], q[1], q[2], q[3]) / norm};
+    if (j.contains("calibration")) {
+        BaseStationCalibration c;
+        if (auto e = placement_detail::parse_calibration(j["calibration"], w + ".calibration",
+                                                         p->generation, &c);
+            !e.empty())
+            return e;
+        if (p->id && *p->id != c.id)
+            return cat(w, ".calibration.id: ", placement_detail::hex_id(c.id),
+                       " differs from the base station's id ", placement_detail::hex_id(*p->id));
+        p->id = c.id;
+        p->calibration = c;
+    }
     if (j.contains("residual_rad")) {
         if (!j["residual_rad"].is_number() || !(j["residual_rad"].get<double>() >= 0))
             return w + ".residual_rad: a non-negative number expected";

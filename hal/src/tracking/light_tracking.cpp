@@ -44,6 +44,15 @@ LightTracking::LightTracking(LightTrackingConfig config)
     : config_(std::move(config)), filter_(config_.filter) {
     layout_.points = config_.sensors.points;
     layout_.normals = config_.sensors.normals;
+    sources_.assign(config_.setup.size(), lighthouse::CalibrationSource::none);
+}
+
+lighthouse::CalibrationSource LightTracking::calibration_source(lighthouse::Generation g,
+                                                                uint8_t base_station) const {
+    for (size_t i = 0; i < config_.setup.size(); ++i)
+        if (config_.setup[i].generation == g && config_.setup[i].base_station == base_station)
+            return sources_[i];
+    return lighthouse::CalibrationSource::none;
 }
 
 void LightTracking::add_imu(int64_t device_time_ns, const glm::dvec3& gyro, const glm::dvec3& accel,
@@ -104,8 +113,16 @@ void LightTracking::solve_window(int64_t end_ns, int64_t window_ns,
         if (const lighthouse::BaseStationState* s =
                 decoder.base_station(p.generation, p.base_station))
             known.push_back(*s);
+    std::vector<lighthouse::CalibrationSource> sources;
     std::vector<lighthouse::PlacedBaseStation> stations =
-        lighthouse::placed_stations(config_.setup, known);
+        lighthouse::placed_stations(config_.setup, known, &sources);
+    // Each setup entry's source (an entry left out as swapped: none).
+    for (size_t i = 0, k = 0; i < config_.setup.size(); ++i) {
+        const bool here = k < stations.size() &&
+                          stations[k].generation == config_.setup[i].generation &&
+                          stations[k].base_station == config_.setup[i].base_station;
+        sources_[i] = here ? sources[k++] : lighthouse::CalibrationSource::none;
+    }
     if (config_.require_calibration) {
         std::erase_if(stations,
                       [](const lighthouse::PlacedBaseStation& p) { return !p.calibration; });
@@ -113,6 +130,10 @@ void LightTracking::solve_window(int64_t end_ns, int64_t window_ns,
             ++counters_.uncalibrated_windows;
             return;
         }
+    }
+    for (const lighthouse::CalibrationSource src : sources) {
+        counters_.stored_calibration_uses += src == lighthouse::CalibrationSource::stored;
+        counters_.decoded_calibration_uses += src == lighthouse::CalibrationSource::decoded;
     }
     if (warm_ && end_ns - warm_ns_ > config_.warm_start_max_age_ns) warm_.reset();
     lighthouse::PoseSolve s = lighthouse::solve_device_pose(

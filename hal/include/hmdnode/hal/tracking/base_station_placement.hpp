@@ -33,6 +33,10 @@ struct BaseStationPlacement {
     Generation generation = Generation::lh2;
     uint8_t base_station = 0;    // lighthouse-2 channel or lighthouse-1 number (LightEvent's)
     std::optional<uint32_t> id;  // its OOTX id, when its calibration was known
+    // Its factory calibration (OOTX) as decoded when it was placed, kept with the setup so that
+    // the next start uses it before the base station's frame arrives again (its id is `id`).
+    // The angle model's fields only: generation, firmware_version, id and the two planes.
+    std::optional<BaseStationCalibration> calibration;
     RigidPose world_from_station;
     double residual_rms_rad = 0;    // of the angles used (0: not known, e.g. a recording's pose)
     size_t used = 0, rejected = 0;  // angles in the fit, outliers left out
@@ -64,15 +68,31 @@ PlacementResult place_base_stations(const SensorLayout& layout,
                                     const std::optional<glm::dvec3>& up_in_device = std::nullopt,
                                     const PlacementOptions& options = {});
 
-// The solver's input from a setup: each placement with the calibration `known` has for it (a
-// known id that differs from the placement's: left out, as a base station that was swapped).
+// The part of a decoded calibration a setup keeps (generation, firmware_version, id, planes).
+BaseStationCalibration stored_calibration(const BaseStationCalibration& c);
+
+// Which calibration a placed base station is solved with.
+enum class CalibrationSource : uint8_t {
+    none,     // the ideal planes (nothing decoded, nothing stored)
+    stored,   // the setup's (decoded in an earlier session), until the live frame arrives
+    decoded,  // the base station's own frame, decoded in this run
+};
+const char* calibration_source_name(CalibrationSource s);  // "none", "stored", "decoded"
+
+// The solver's input from a setup: each placement with the calibration `known` has decoded for
+// it, or else the one the setup stores (a known id that differs from the placement's: left out,
+// as a base station that was swapped). `sources`, when given, gets each output's source.
 std::vector<PlacedBaseStation> placed_stations(std::span<const BaseStationPlacement> setup,
-                                               std::span<const BaseStationState> known);
+                                               std::span<const BaseStationState> known,
+                                               std::vector<CalibrationSource>* sources = nullptr);
 
 // ---- The state file --------------------------------------------------------------------------
 // {"format": "hmdnode base stations", "version": 1, "base_stations": [{"system": 2,
 //  "base_station": 3, "id": "0x4096b5a0", "position": [x, y, z], "orientation": [w, x, y, z],
-//  "residual_rad": r, "angles": n, "rejected": k, "solved_unix_s": s}, ...]} (docs/formats.md).
+//  "residual_rad": r, "angles": n, "rejected": k, "solved_unix_s": s, "calibration": {"id":
+//  "0x4096b5a0", "firmware_version": v, "planes": [{"phase": .., "tilt": .., "curve": ..,
+//  "gibbous_phase": .., "gibbous_mag": .., "ogee_phase": .., "ogee_mag": ..}, {..}]}}, ...]}
+// (docs/formats.md); "calibration" is optional (files written before it load without one).
 std::string base_station_setup_json(std::span<const BaseStationPlacement> setup);
 // Written atomically (core/atomic_file.hpp).
 Status save_base_station_setup(const std::filesystem::path& path,

@@ -44,9 +44,11 @@ struct LightTrackingConfig {
     int64_t lh2_window_ns = 20'000'000;  // one rotor turn (50..54 Hz)
     int64_t lh1_window_ns = 34'000'000;  // both base stations' two axes (4 slots of 8.33 ms)
     int64_t warm_start_max_age_ns = 100'000'000;  // an older previous solve is not a warm start
-    // A base station's light is used only once its calibration (OOTX) has been decoded: the
-    // ideal planes are 7..60 mrad off (docs/tracking.md §9), poses 10..100 mm. False: the ideal
-    // planes meanwhile.
+    // A base station's light is used only once its calibration is known: decoded from its OOTX
+    // frame, or, until that arrives, the one the setup stores (BaseStationPlacement::calibration,
+    // from an earlier session; its id must match the frame's when it comes). The ideal planes
+    // are 7..60 mrad off (docs/tracking.md §9), poses 10..100 mm. False: the ideal planes
+    // meanwhile.
     bool require_calibration = true;
     // The solve's covariance is a fit to its own residual; what the angle model lacks (the base
     // stations' placement, a moving device's motion within the window) adds, per axis, this
@@ -65,6 +67,9 @@ struct LightTrackingCounters {
     uint64_t solved = 0;           // of them, a pose
     uint64_t not_enough_data = 0, no_fit = 0;
     uint64_t uncalibrated_windows = 0;  // windows whose base stations had no calibration yet
+    // Base stations in the windows solved, by the calibration they were solved with: the
+    // setup's stored one (before the live frame) or the one decoded in this run.
+    uint64_t stored_calibration_uses = 0, decoded_calibration_uses = 0;
     uint64_t accepted = 0, initialised = 0, gated = 0, refused = 0;  // the filter's answers
     double last_residual_rad = 0;                                    // of the last pose solved
     // |filter position at the solve's time, before it - the solve's| (m), of the last solve met
@@ -97,6 +102,10 @@ class LightTracking {
     const LightTrackingCounters& counters() const { return counters_; }
     const PoseFilter& filter() const { return filter_; }
     const std::optional<lighthouse::PoseSolve>& last_solve() const { return last_solve_; }
+    // The calibration a setup's base station was last solved with (none before its first
+    // window, or when it has none).
+    lighthouse::CalibrationSource calibration_source(lighthouse::Generation g,
+                                                     uint8_t base_station) const;
 
   private:
     void solve_window(int64_t end_ns, int64_t window_ns, const lighthouse::LightDecoder& decoder);
@@ -114,6 +123,7 @@ class LightTracking {
     std::optional<lighthouse::RigidPose> warm_;
     int64_t warm_ns_ = 0;
     std::optional<lighthouse::PoseSolve> last_solve_;
+    std::vector<lighthouse::CalibrationSource> sources_;  // per setup entry, of the last window
 };
 
 }  // namespace hmdnode
