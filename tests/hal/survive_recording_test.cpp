@@ -8,6 +8,7 @@
 
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <string>
 #include <vector>
@@ -24,7 +25,7 @@ const std::string kIndexRec =
 
 // A CONFIG with the Index's IMU block (as the bundled recording's, rounded) and a head block.
 const std::string kConfig =
-    R"(0.1 T20 CONFIG {"model_number":"Utah MP","head":{"plus_x":[-1,0,0],"plus_z":[0,0,-1]},)"
+    R"(0.1 T20 CONFIG {"model_number":"Utah MP","device_class":"hmd","head":{"plus_x":[-1,0,0],"plus_z":[0,0,-1]},)"
     R"("imu":{"acc_bias":[-0.003,-0.072,0.275],"acc_scale":[1.0017,1.0018,0.9992],)"
     R"("gyro_bias":[-0.0164,0.0227,0.0243],"plus_x":[0,-1,0],"plus_z":[0,0,1]}})"
     "\r\n";
@@ -96,7 +97,8 @@ TEST(SurviveRecording, TheCodecAppliesTheFactoryCalibration) {
     EXPECT_TRUE((*t)->finished());
     ASSERT_EQ(got.size(), 3u);
     // By hand: counts x range / 32768 in the IMU's axes, scale x value - bias, then the Index
-    // mapping head = (-y, -x, -z).
+    // mapping head = (-y, -x, -z). The ranges: libsurvive's defaults for a headset (no IMU_SCALES
+    // line; CONFIG device_class "hmd"), 4 g and 500 deg/s.
     const double acc_lsb = 4 * 9.80665 / 32768, gyro_lsb = 500 * M_PI / 180 / 32768;
     const ImuCalibration& c = rec->calibration;
     const glm::dvec3 a_imu(1.0017 * -7170 * acc_lsb + 0.003, 1.0018 * -438 * acc_lsb + 0.072,
@@ -152,14 +154,19 @@ std::string kn_line(double t, uint32_t tick, int gx, int seq, bool magnetometer 
            std::to_string(seq) + "\n";
 }
 
-// Decodes every report of the recording's backend through a fresh Vive/Index codec.
-std::vector<DeviceSample> decode_all(std::shared_ptr<const SurviveRecording> rec) {
+// Decodes every report of the recording's backend through a fresh Vive/Index codec (with the
+// recording's factory calibration when `calibrated`).
+std::vector<DeviceSample> decode_all(std::shared_ptr<const SurviveRecording> rec,
+                                     bool calibrated = false) {
     auto backend = create_survive_backend(rec);
     auto ids = backend->enumerate(DeviceFilter{vive::kVendorId, vive::kIndexProductId, ""});
     EXPECT_TRUE(ids.ok() && ids->size() == 1);
     auto t = backend->open(ids->front());
     EXPECT_TRUE(t.ok());
     auto codec = make_vive_codec(vive::kIndexProductId);
+    if (calibrated) {
+        EXPECT_TRUE(codec->set_imu_calibration(rec->calibration));
+    }
     codec->configure(**t);
     std::vector<DeviceSample> got;
     while (!(*t)->finished()) {
@@ -207,13 +214,33 @@ TEST(SurviveRecording, AControllersStreamWithoutSequenceNumbersAndItsImuScales) 
     // are the Index's).
     EXPECT_NEAR(glm::length(*got[5].gyro), 100 * 2000.0 / 32768 * M_PI / 180, 1e-12);
     EXPECT_NEAR(glm::length(*got[5].accel), 4096 * 8 * 9.80665 / 32768, 1e-9);
-    // Without the line: the Index's defaults (500 deg/s, 4 g).
-    auto d = parse_survive_recording(text.substr(text.find('\n') + 1), "kn.rec", "KN0");
+    // Without the line: libsurvive's defaults (survive_default_devices.c), for a device that is
+    // not the HMD 2000 deg/s and 8 g; for the HMD 500 deg/s and 4 g. (Before: the Index's 500
+    // deg/s and 4 g for every device, which halved a controller's accelerometer.)
+    const std::string no_scales = text.substr(text.find('\n') + 1);
+    auto d = parse_survive_recording(no_scales, "kn.rec", "KN0");
     ASSERT_TRUE(d.ok());
     EXPECT_FALSE(d->imu_scales.has_value());
+    EXPECT_EQ(describe_survive_imu_scales(*d),
+              "2000 deg/s, 8 g (no IMU_SCALES line: libsurvive's default for a device that is not "
+              "a headset, by its codename KN0)");
     const std::vector<DeviceSample> def = decode_all(std::make_shared<const SurviveRecording>(*d));
     ASSERT_EQ(def.size(), 40u);
-    EXPECT_NEAR(glm::length(*def[5].gyro), 100 * 500.0 / 32768 * M_PI / 180, 1e-12);
+    EXPECT_NEAR(glm::length(*def[5].gyro), 100 * 2000.0 / 32768 * M_PI / 180, 1e-12);
+    EXPECT_NEAR(glm::length(*def[5].accel), 4096 * 8 * 9.80665 / 32768, 1e-9);
+    std::string hmd_text = no_scales;
+    for (size_t at = hmd_text.find(" KN0 "); at != std::string::npos;
+         at = hmd_text.find(" KN0 ", at))
+        hmd_text.replace(at, 5, " HMD ");
+    auto h = parse_survive_recording(hmd_text, "hmd.rec", "HMD");
+    ASSERT_TRUE(h.ok()) << h.error().message;
+    EXPECT_EQ(describe_survive_imu_scales(*h),
+              "500 deg/s, 4 g (no IMU_SCALES line: libsurvive's default for a headset, by its "
+              "codename HMD)");
+    const std::vector<DeviceSample> hd = decode_all(std::make_shared<const SurviveRecording>(*h));
+    ASSERT_EQ(hd.size(), 40u);
+    EXPECT_NEAR(glm::length(*hd[5].gyro), 100 * 500.0 / 32768 * M_PI / 180, 1e-12);
+    EXPECT_NEAR(glm::length(*hd[5].accel), 4096 * 4 * 9.80665 / 32768, 1e-9);
     // A mode libsurvive does not know is a warning naming the line; a bad one an error.
     auto w = parse_survive_recording("0.01 KN0 IMU_SCALES 4 2\n" + kn_line(0.1, 1, 1, 0), "w.rec",
                                      "KN0");
@@ -226,6 +253,38 @@ TEST(SurviveRecording, AControllersStreamWithoutSequenceNumbersAndItsImuScales) 
     ASSERT_FALSE(b.ok());
     EXPECT_NE(b.error().message.find("b.rec:1: an IMU_SCALES line has 5 fields"), std::string::npos)
         << b.error().message;
+}
+
+// The bundled lighthouse recordings have no IMU_SCALES line: through libsurvive's default ranges
+// every device reads g when still (before, the controllers read half of it through the Index's
+// 4 g: 4.79 and 4.80 m/s^2); the Index headset of compare-test-index (T20, device_class "hmd")
+// keeps its 4 g. Still: the samples turning under 0.05 rad/s (every one of the lighthouse
+// recordings: their devices lie still throughout). Measured: 9.779, 9.783, 9.777 m/s^2.
+TEST(SurviveRecording, EveryBundledLighthouseDeviceReadsGravityWhenStill) {
+    struct Case {
+        const char* file;
+        const char* device;
+    };
+    for (const Case c :
+         {Case{"lh2_test_cal.rec.gz", "T20"}, Case{"lh1_test_cal.rec.gz", "T20"},
+          Case{"lh1_test_cal.rec.gz", "HMD"}, Case{"compare-test-index.rec.gz", "T20"}}) {
+        SCOPED_TRACE(std::string(c.file) + " " + c.device);
+        auto loaded = read_survive_recording(
+            std::string(HMDNODE_SOURCE_DIR) + "/data/traces/" + c.file, c.device);
+        ASSERT_TRUE(loaded.ok()) << loaded.error().message;
+        EXPECT_FALSE(loaded->imu_scales.has_value());
+        const std::vector<DeviceSample> got =
+            decode_all(std::make_shared<const SurviveRecording>(std::move(*loaded)), true);
+        double sum = 0;
+        size_t n = 0;
+        for (const DeviceSample& d : got)
+            if (d.accel && d.gyro && glm::length(*d.gyro) < 0.05) sum += glm::length(*d.accel), ++n;
+        ASSERT_GT(n, 1000u);
+        const double mean = sum / double(n);
+        std::printf("%s %s: mean |accel| %.3f m/s^2 over %zu still samples of %zu\n", c.file,
+                    c.device, mean, n, got.size());
+        EXPECT_NEAR(mean, 9.80665, 0.03 * 9.80665);
+    }
 }
 
 // libsurvive's replay output: the device's solved poses as EXTERNAL_POSE lines named replay_DEV

@@ -661,11 +661,7 @@ void run_record_survive(const RecordArgs& args) {
     std::printf("  %-24s %s\n", "factory calibration",
                 rec->has_config ? "applied (CONFIG imu: acc_bias, acc_scale, gyro_bias, axes)"
                                 : "none (no CONFIG line)");
-    std::printf("  %-24s %s\n", "IMU ranges",
-                rec->imu_scales ? ("IMU_SCALES: " + std::to_string(250 << (*rec->imu_scales)[0]) +
-                                   " deg/s, " + std::to_string(2 << (*rec->imu_scales)[1]) + " g")
-                                      .c_str()
-                                : "the Index's defaults, 500 deg/s and 4 g (no IMU_SCALES line)");
+    std::printf("  %-24s %s\n", "IMU ranges", describe_survive_imu_scales(*rec).c_str());
     if (six_dof) print_light_status(st, out, rows, light_source, stations);
     if (exit_code() != 0 || args.reference_out.empty()) return;
     std::printf(

@@ -294,6 +294,8 @@ std::string parse_line(const std::vector<std::string_view>& t, std::string_view 
     }
     if (j.is_object() && j.contains("model_number") && j["model_number"].is_string())
         rec->model = j["model_number"].get<std::string>();
+    if (j.is_object() && j.contains("device_class") && j["device_class"].is_string())
+        rec->device_class = j["device_class"].get<std::string>();
     return {};
 }
 
@@ -382,16 +384,15 @@ class SurviveTransport final : public Transport {
         ++cursor_;
         return std::optional<InputReport>(std::move(r));
     }
-    // Feature report 0x01 (the IMU ranges) from the recording's IMU_SCALES line, as the device
-    // answered it to libsurvive; without one, none (the codec keeps the Index's defaults).
+    // Feature report 0x01 (the IMU ranges): the recording's IMU_SCALES line, as the device
+    // answered it to libsurvive; without one, libsurvive's defaults for the device
+    // (survive_imu_scales: a controller's or tracker's 8 g, not the headset's 4 g).
     Result<std::vector<uint8_t>> get_feature(uint8_t report_id, size_t) override {
-        if (report_id == vive::kRangeReportId && rec_->imu_scales)
-            return std::vector<uint8_t>{vive::kRangeReportId, (*rec_->imu_scales)[0],
-                                        (*rec_->imu_scales)[1]};
-        return make_error("libsurvive recording: no feature report " + std::to_string(report_id) +
-                          (report_id == vive::kRangeReportId
-                               ? " (no IMU_SCALES line: the IMU ranges are the Index's defaults)"
-                               : ""));
+        if (report_id == vive::kRangeReportId) {
+            const std::array<uint8_t, 2> m = survive_imu_scales(*rec_);
+            return std::vector<uint8_t>{vive::kRangeReportId, m[0], m[1]};
+        }
+        return make_error("libsurvive recording: no feature report " + std::to_string(report_id));
     }
     Status set_feature(std::span<const uint8_t>) override { return {}; }
     Status write_output(std::span<const uint8_t>) override { return {}; }
@@ -464,6 +465,36 @@ class SurviveBackend final : public TransportBackend {
 };
 
 }  // namespace
+
+namespace survive_detail {
+// A headset: the CONFIG's device_class "hmd" when it has one (the Index, "Utah MP", is T20 in
+// compare-test-index, so the codename alone would take it for a controller), else libsurvive's
+// own test, the codename "HMD".
+bool is_headset(const SurviveRecording& rec) {
+    if (!rec.device_class.empty()) return rec.device_class == "hmd";
+    return rec.device == "HMD";
+}
+}  // namespace survive_detail
+
+std::array<uint8_t, 2> survive_imu_scales(const SurviveRecording& rec) {
+    if (rec.imu_scales) return *rec.imu_scales;
+    // libsurvive's handle_config: raw_acc_scale 1/8192 g (4 g full scale) and 500 deg/s for a
+    // headset; 2/8192 g (8 g) and 2000 deg/s for every other device.
+    if (survive_detail::is_headset(rec)) return {1, 1};
+    return {3, 2};
+}
+
+std::string describe_survive_imu_scales(const SurviveRecording& rec) {
+    const std::array<uint8_t, 2> m = survive_imu_scales(rec);
+    std::string s = std::to_string(250 << m[0]) + " deg/s, " + std::to_string(2 << m[1]) + " g";
+    if (rec.imu_scales) return "IMU_SCALES: " + s;
+    const std::string by = rec.device_class.empty()
+                               ? "codename " + rec.device
+                               : "CONFIG device_class \"" + rec.device_class + "\"";
+    return s + " (no IMU_SCALES line: libsurvive's default for " +
+           (survive_detail::is_headset(rec) ? "a headset" : "a device that is not a headset") +
+           ", by its " + by + ")";
+}
 
 Result<ImuCalibration> parse_imu_calibration_json(const std::string& text,
                                                   const std::string& source) {

@@ -102,7 +102,8 @@ struct SurviveRecording {
     std::vector<SurvivePose> poses;                 // the device's POSE lines
     std::vector<SurviveNamedPoses> external_poses;  // every EXTERNAL_POSE line, by name
     // IMU_SCALES of the device (libsurvive's range modes: gyro 250 << g deg/s, accel 2 << a g),
-    // when the recording has one with modes 0..3 (what libsurvive applies); else the defaults.
+    // when the recording has one with modes 0..3 (what libsurvive applies); else the device's
+    // defaults (survive_imu_scales).
     std::optional<std::array<uint8_t, 2>> imu_scales;
     // The IMU lines carry no sequence number (every SEQ the same: a controller's, through its
     // radio): they were numbered in the order of their ticks (SurviveImuLine::sequence).
@@ -113,6 +114,7 @@ struct SurviveRecording {
     bool has_config = false;
     ImuCalibration calibration;        // from the device's CONFIG (identity when none)
     std::string model;                 // CONFIG's model_number, when present
+    std::string device_class;          // CONFIG's device_class ("hmd", "controller"), when present
     uint64_t lines = 0;                // lines read
     uint64_t other_lines = 0;          // lines of other kinds or devices, skipped
     std::vector<std::string> devices;  // every device name with lines of a kind read, in order
@@ -126,6 +128,17 @@ struct SurviveRecording {
 // such line, and `what` then lists the EXTERNAL_POSE names the recording holds.
 const std::vector<SurvivePose>* survive_device_poses(const SurviveRecording& rec,
                                                      std::string* what);
+
+// The IMU range modes the device's samples are decoded with ({gyro, accel}, as IMU_SCALES): the
+// recording's IMU_SCALES line when it has one, else libsurvive's defaults by device
+// (survive_default_devices.c, handle_config): a headset 500 deg/s and 4 g ({1, 1}); every other
+// device (controllers, trackers) 2000 deg/s and 8 g ({3, 2}). A headset: the CONFIG's
+// device_class "hmd", or without one the codename "HMD" (libsurvive's own test).
+std::array<uint8_t, 2> survive_imu_scales(const SurviveRecording& rec);
+// What survive_imu_scales gives and where it comes from: "IMU_SCALES: 2000 deg/s, 8 g", or
+// "2000 deg/s, 8 g (no IMU_SCALES line: libsurvive's default for a device that is not a headset,
+// by its CONFIG device_class "controller")".
+std::string describe_survive_imu_scales(const SurviveRecording& rec);
 
 // Reads `device`'s lines of a recording (gzip'd or not). A device with no IMU line is an error
 // naming the devices the file holds.
