@@ -11,6 +11,7 @@
 #include <ctime>
 
 #include "hmdnode/core/time.hpp"
+#include "hmdnode/hal/camera.hpp"
 
 namespace hmdnode::v4l2_detail {
 
@@ -98,6 +99,48 @@ Status set_controls(int fd, const std::string& device,
                 device, "VIDIOC_S_CTRL \"" + name + "\" = " + std::to_string(value), errno));
     }
     return Status::success();
+}
+
+Result<PixFormat> set_pix_format(int fd, const std::string& device, uint32_t buf_type,
+                                 uint32_t width, uint32_t height, uint32_t fourcc, uint32_t field) {
+    const bool output = buf_type == V4L2_BUF_TYPE_VIDEO_OUTPUT;
+    v4l2_format fmt{};
+    fmt.type = buf_type;
+    fmt.fmt.pix.width = width;
+    fmt.fmt.pix.height = height;
+    fmt.fmt.pix.pixelformat = fourcc;
+    fmt.fmt.pix.field = field;
+    if (xioctl(fd, VIDIOC_S_FMT, &fmt) == -1)
+        return make_error(
+            explain(device, output ? "VIDIOC_S_FMT (output)" : "VIDIOC_S_FMT", errno));
+    if (fmt.fmt.pix.pixelformat != fourcc) {
+        std::string offered;
+        v4l2_fmtdesc d{};
+        d.type = buf_type;
+        for (d.index = 0; xioctl(fd, VIDIOC_ENUM_FMT, &d) == 0; ++d.index)
+            offered += (offered.empty() ? "" : ", ") + fourcc_to_string(d.pixelformat);
+        return make_error(device + (output ? ": output pixel format " : ": pixel format ") +
+                          fourcc_to_string(fourcc) + " is not offered (offered: " + offered + ")");
+    }
+    return PixFormat{fmt.fmt.pix.width, fmt.fmt.pix.height, fmt.fmt.pix.pixelformat,
+                     fmt.fmt.pix.bytesperline};
+}
+
+Result<uint32_t> request_mmap_buffers(int fd, const std::string& device, uint32_t buf_type,
+                                      int count) {
+    const bool output = buf_type == V4L2_BUF_TYPE_VIDEO_OUTPUT;
+    v4l2_requestbuffers req{};
+    req.count = count < 2 ? 2 : uint32_t(count);
+    req.type = buf_type;
+    req.memory = V4L2_MEMORY_MMAP;
+    if (xioctl(fd, VIDIOC_REQBUFS, &req) == -1)
+        return make_error(explain(
+            device, output ? "VIDIOC_REQBUFS (output, mmap)" : "VIDIOC_REQBUFS (mmap)", errno));
+    if (req.count < 2)
+        return make_error(device + ": the driver gave " + std::to_string(req.count) +
+                          (output ? " output buffer(s)" : " buffer(s)") +
+                          "; streaming needs at least 2");
+    return req.count;
 }
 
 }  // namespace hmdnode::v4l2_detail

@@ -209,38 +209,19 @@ Status V4l2Output::configure(const V4l2OutputConfig& config) {
             !s.ok())
             return s;
 
-    v4l2_format fmt{};
-    fmt.type = V4L2_BUF_TYPE_VIDEO_OUTPUT;
-    fmt.fmt.pix.width = config.width;
-    fmt.fmt.pix.height = config.height;
-    fmt.fmt.pix.pixelformat = config.fourcc;
-    fmt.fmt.pix.field = V4L2_FIELD_NONE;
-    if (xioctl(fd_, VIDIOC_S_FMT, &fmt) == -1)
-        return make_error(explain(device_, "VIDIOC_S_FMT (output)", errno));
-    if (fmt.fmt.pix.pixelformat != config.fourcc) {
-        std::string offered;
-        v4l2_fmtdesc d{};
-        d.type = V4L2_BUF_TYPE_VIDEO_OUTPUT;
-        for (d.index = 0; xioctl(fd_, VIDIOC_ENUM_FMT, &d) == 0; ++d.index)
-            offered += (offered.empty() ? "" : ", ") + fourcc_to_string(d.pixelformat);
-        return make_error(device_ + ": output pixel format " + fourcc_to_string(config.fourcc) +
-                          " is not offered (offered: " + offered + ")");
-    }
-    width_ = fmt.fmt.pix.width;
-    height_ = fmt.fmt.pix.height;
-    fourcc_ = fmt.fmt.pix.pixelformat;
-    bytes_per_line_ = fmt.fmt.pix.bytesperline;
+    Result<v4l2_detail::PixFormat> pix =
+        v4l2_detail::set_pix_format(fd_, device_, V4L2_BUF_TYPE_VIDEO_OUTPUT, config.width,
+                                    config.height, config.fourcc, V4L2_FIELD_NONE);
+    if (!pix.ok()) return pix.error();
+    width_ = pix->width;
+    height_ = pix->height;
+    fourcc_ = pix->fourcc;
+    bytes_per_line_ = pix->bytes_per_line;
 
-    v4l2_requestbuffers req{};
-    req.count = config.buffers < 2 ? 2 : config.buffers;
-    req.type = V4L2_BUF_TYPE_VIDEO_OUTPUT;
-    req.memory = V4L2_MEMORY_MMAP;
-    if (xioctl(fd_, VIDIOC_REQBUFS, &req) == -1)
-        return make_error(explain(device_, "VIDIOC_REQBUFS (output, mmap)", errno));
-    if (req.count < 2)
-        return make_error(device_ + ": the driver gave " + std::to_string(req.count) +
-                          " output buffer(s); streaming needs at least 2");
-    for (uint32_t i = 0; i < req.count; ++i) {
+    Result<uint32_t> count = v4l2_detail::request_mmap_buffers(
+        fd_, device_, V4L2_BUF_TYPE_VIDEO_OUTPUT, int(config.buffers));
+    if (!count.ok()) return count.error();
+    for (uint32_t i = 0; i < *count; ++i) {
         v4l2_buffer b{};
         b.type = V4L2_BUF_TYPE_VIDEO_OUTPUT;
         b.memory = V4L2_MEMORY_MMAP;
