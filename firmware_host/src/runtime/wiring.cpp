@@ -67,12 +67,20 @@ Result<WiredTracker> make_tracker(const TrackerSpec& spec, Clock& clock, const W
             out.label = "trace " + spec.trace_path.string();
             return out;
         }
-        case TrackerBackend::capture:
+        case TrackerBackend::capture: {
             // The report start_s after the capture's first one arrives now; the earlier ones at
             // once (decoded and fused, not shown), so the pose at the start is the live one.
             out.label = spec.device + " from capture " + spec.from.string();
-            return adopt(
-                create_capture_tracker(spec.from, spec.device, clock, now - s_to_ns(spec.start_s)));
+            std::vector<lighthouse::BaseStationPlacement> setup;
+            if (!spec.base_stations.empty()) {  // 6DoF from the light
+                auto loaded = lighthouse::load_base_station_setup(spec.base_stations);
+                if (!loaded) return make_error("base stations: " + loaded.error().message);
+                setup = std::move(*loaded);
+                out.label += " with the base stations of " + spec.base_stations.string();
+            }
+            return adopt(create_capture_tracker(spec.from, spec.device, clock,
+                                                now - s_to_ns(spec.start_s), std::move(setup)));
+        }
         case TrackerBackend::rec: {
             Result<SurviveRecording> r = read_survive_recording(spec.from, spec.device);
             if (!r.ok()) return r.error();

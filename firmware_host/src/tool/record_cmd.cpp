@@ -310,7 +310,11 @@ void finish_tracker_recording(const RecordArgs& args, const std::string& label,
     // note: a write that failed above has set exit status 1 already.
 }
 
-// --backend capture --from FILE: the capture's device through the device tracker, simulated clock.
+void print_light_status(const DeviceTrackerStatus& st, const TrackerRecording& out, size_t rows,
+                        const std::string& source, size_t stations);
+
+// --backend capture --from FILE: the capture's device through the device tracker, simulated clock
+// (with --base-stations, 6DoF from its light).
 void run_record_capture(const RecordArgs& args, const DeviceFilter& filter) {
     if (args.from.empty()) return errors.usage("--backend capture needs --from FILE.pcap[.gz]");
     if (!args.capture.empty())
@@ -324,6 +328,18 @@ void run_record_capture(const RecordArgs& args, const DeviceFilter& filter) {
     spec.backend = TrackerBackend::capture;
     spec.from = args.from;
     spec.device = args.device;
+    spec.base_stations = args.base_stations;  // 6DoF: the capture's light with a stored setup
+    const bool six_dof = !args.base_stations.empty();
+    if (six_dof && args.world_up != "z")
+        return errors.usage("--world-up with --backend capture: a setup file's world is +z up");
+    size_t stations = 0;
+    if (six_dof) {
+        auto setup = lighthouse::load_base_station_setup(args.base_stations);
+        if (!setup) return errors.fail("--base-stations: " + setup.error().message);
+        if (setup->empty())
+            return errors.fail("--base-stations " + args.base_stations + ": no base station");
+        stations = setup->size();
+    }
     Result<WiredTracker> wired = make_tracker(spec, clock, WiringKeys::command_line());
     if (!wired.ok()) return errors.fail(wired.error().message);
     DeviceTracker* tracker = wired->device;
@@ -332,16 +348,37 @@ void run_record_capture(const RecordArgs& args, const DeviceFilter& filter) {
     const int64_t end = args.duration_given && args.duration_s > 0
                             ? start + s_to_ns(args.duration_s)
                             : std::numeric_limits<int64_t>::max();
-    TrackerRecording rec = record_tracker(*tracker, clock, start, end);
+    TrackerRecording rec =
+        record_tracker(*tracker, clock, start, end, std::nullopt, false, true, six_dof);
     rec.seconds = ns_to_s(clock.now_ns() - start);
     const DeviceTrackerStatus st = tracker->status();
+    std::string refused;
+    if (six_dof && rec.trace.samples.size() < 2 && rec.delivered >= 2) {
+        refused = args.device + ": " + std::to_string(rec.trace.samples.size()) +
+                  " sample(s) with a tracked position of " + std::to_string(rec.delivered) + " (" +
+                  std::to_string(st.light.reports) + " light reports, " +
+                  std::to_string(st.light.tracking.solved) + " turns solved of " +
+                  std::to_string(st.light.tracking.solves) + ", " +
+                  std::to_string(st.light.filter.accepted) +
+                  " accepted by the filter): " + args.out + " not written";
+        rec.failure.clear();
+    }
+    if (six_dof)
+        rec.trace.comments.push_back(
+            "6DoF: light + IMU (hmdnode's solver and filter), base stations from " +
+            args.base_stations +
+            ", their world (up z) turned to +y up; rows only where the "
+            "position is tracked");
+    const size_t rows = rec.trace.samples.size();  // (moved into the outputs below)
     finish_tracker_recording(args,
                              format_vid_pid(filter.vendor_id, filter.product_id) + " (" +
                                  make_codec_for(filter.vendor_id, filter.product_id)->name() + ")",
                              "capture " + args.from, rec, st, nullptr,
                              "first_sample capture " +
                                  std::filesystem::path(args.from).filename().string() +
-                                 " (0 = its first pose)");
+                                 " (0 = its first pose)",
+                             {}, refused);
+    if (six_dof) print_light_status(st, rec, rows, args.base_stations, stations);
 }
 
 // --reference-out: a libsurvive recording's lighthouse-solved poses as a trace (libsurvive's world,
@@ -683,8 +720,9 @@ void run_record(const RecordArgs& args) {
         return errors.usage("--from needs --backend capture or rec");
     if (!args.reference_out.empty() && args.backend != "rec")
         return errors.usage("--reference-out needs --backend rec (a recording's lighthouse poses)");
-    if (!args.base_stations.empty() && args.backend != "rec")
-        return errors.usage("--base-stations needs --backend rec (a recording's light)");
+    if (!args.base_stations.empty() && args.backend != "rec" && args.backend != "capture")
+        return errors.usage(
+            "--base-stations needs --backend rec or capture (a recording's or a capture's light)");
     if (args.fusion != "mahony" && args.backend != "rec")
         return errors.usage("--fusion gyro needs --backend rec");
     if (!errors.check_outputs({{"--out", args.out},
@@ -790,9 +828,10 @@ void add_record_command(CLI::App& app) {
         ->check(CLI::IsMember({"imu", "recorded"}))
         ->capture_default_str();
     rec->add_option("--base-stations", args->base_stations,
-                    "With --backend rec: a stored base-station setup (JSON, docs/formats.md): "
-                    "6DoF from the recording's light (default: its LH_POSE lines from before its "
-                    "light, when it has them)");
+                    "With --backend rec or capture: a stored base-station setup (JSON, "
+                    "docs/formats.md; `hmdnode tracking place` writes one): 6DoF from the "
+                    "recording's or the capture's light (rec's default: its LH_POSE lines from "
+                    "before its light, when it has them)");
     rec->add_option("--world-up", args->world_up,
                     "With a light path: the setup's world up axis (z: libsurvive's world; y: a "
                     "setup hmdnode placed levelled)")

@@ -18,6 +18,7 @@
 #include "hmdnode/core/trace.hpp"
 #include "tool/cli_errors.hpp"
 #include "tool/commands.hpp"
+#include "tool/tracking_commands.hpp"
 
 namespace hmdnode::tool {
 namespace {
@@ -414,7 +415,8 @@ void run_eval(EvalArgs args) {
 }
 
 void add_tracking_command(CLI::App& app) {
-    CLI::App* tracking = app.add_subcommand("tracking", "Evaluate tracking against a reference");
+    CLI::App* tracking = app.add_subcommand(
+        "tracking", "Evaluate tracking against a reference; place the base stations");
     tracking->require_subcommand(1);
     auto args = std::make_shared<EvalArgs>();
     CLI::App* eval = tracking->add_subcommand(
@@ -451,6 +453,7 @@ void add_tracking_command(CLI::App& app) {
         [args](int64_t) { args->options.leave_out_reference_glitches = false; },
         "Keep the reference's excursions the estimate's gyro does not see (left out by default)");
     eval->callback([args] { run_eval(*args); });
+    add_tracking_place_command(*tracking);
 }
 
 const CommandRegistration reg{57, add_tracking_command};

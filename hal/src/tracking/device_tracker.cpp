@@ -22,6 +22,7 @@
 #include <thread>
 
 #include "hmdnode/hal/tracking/device_tracker.hpp"
+#include "hmdnode/hal/tracking/survive_recording.hpp"
 #include "hmdnode/hal/transport/usbmon_capture.hpp"
 #include "tracking/spsc_ring.hpp"
 
@@ -383,69 +384,46 @@ Result<std::unique_ptr<DeviceTracker>> create_device_tracker(
         new DeviceTrackerImpl(std::move(backend), std::move(codec), clock, config));
 }
 
-Result<std::unique_ptr<DeviceTracker>> create_capture_tracker(const std::filesystem::path& file,
-                                                              const std::string& vid_pid,
-                                                              Clock& clock,
-                                                              int64_t first_report_host_ns) {
-    auto filter = parse_vid_pid(vid_pid);
-    if (!filter) return filter.error();
-    auto cap = read_usbmon_capture(file);
-    if (!cap) return cap.error();
+Result<std::unique_ptr<DeviceTracker>> create_capture_tracker(
+    const std::filesystem::path& file, const std::string& vid_pid, Clock& clock,
+    int64_t first_report_host_ns, std::vector<lighthouse::BaseStationPlacement> setup,
+    const glm::dvec3& world_up) {
+    auto dev = find_capture_device(file, vid_pid);
+    if (!dev) return dev.error();
     // note: a truncated capture replays its whole records; the reader's warning names the cut.
-    for (const std::string& w : cap->warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
-    CaptureSummary summary = summarize_capture(*cap);
-    const std::filesystem::path sidecar = file.string() + ".usbdevs";
-    if (std::filesystem::exists(sidecar)) {
-        auto applied = apply_usbdevs_sidecar(sidecar, &summary);
-        if (!applied) return applied.error();
-    }
-    auto held_devices = [&summary] {
-        std::string held;
-        for (const auto& d : summary.devices) {
-            held.append(" ").append(std::to_string(d.bus)).append("-");
-            held.append(std::to_string(d.address)).append("=");
-            held.append(d.id_source.empty() ? std::string("unknown")
-                                            : format_vid_pid(d.vendor_id, d.product_id));
-        }
-        if (held.empty()) held = " no device";
-        return held;
-    };
-    auto has_intr_in = [](const CaptureDeviceSummary& d) {
-        for (const auto& e : d.endpoints)
-            if (e.transfer_type == 1 && (e.endpoint & 0x80) && e.completions > 0) return true;
-        return false;
-    };
-    size_t matching = 0, unknown_with_reports = 0;
-    for (const auto& d : summary.devices) {
-        if (d.vendor_id == filter->vendor_id && d.product_id == filter->product_id) ++matching;
-        if (d.id_source.empty() && has_intr_in(d)) ++unknown_with_reports;
-    }
-    if (matching == 0 && unknown_with_reports == 1)
-        for (auto& d : summary.devices)
-            if (d.id_source.empty() && has_intr_in(d)) {
-                d.vendor_id = filter->vendor_id;
-                d.product_id = filter->product_id;
-                d.id_source = "given";
-            }
-    if (matching == 0 && unknown_with_reports != 1)
-        return make_error(file.string() + ": no device " + vid_pid + " in the capture (it holds" +
-                          held_devices() + ")");
+    for (const std::string& w : dev->capture->warnings)
+        std::fprintf(stderr, "warning: %s\n", w.c_str());
     DeviceTrackerConfig cfg;
-    cfg.filter = *filter;
+    cfg.filter = dev->filter;
     cfg.first_report_host_ns = first_report_host_ns;
     cfg.name = "capture " + file.filename().string() + " " + vid_pid;
-    auto codec = make_codec_for(filter->vendor_id, filter->product_id);
-    auto backend = create_capture_backend(std::make_shared<UsbCapture>(std::move(*cap)), summary);
-    // A selector that matches nothing is an error now, not a tracker retrying the open forever
-    // (a capture records no serial numbers, so VID:PID:SERIAL never matches one).
-    auto found = backend->enumerate(cfg.filter);
-    if (!found) return found.error();
-    if (found->empty()) {
-        std::string msg = file.string() + ": no device " + vid_pid + " in the capture (it holds";
-        msg.append(held_devices());
-        if (!filter->serial.empty()) msg.append("; a capture has no serial numbers: give VID:PID");
-        return make_error(msg + ")");
+    auto codec = make_codec_for(dev->filter.vendor_id, dev->filter.product_id);
+    // The configuration read the capture recorded: the factory IMU calibration, and for the
+    // light path the sensor model.
+    auto json = capture_lighthouse_config(*dev->capture, dev->bus, dev->address);
+    std::optional<ImuCalibration> calibration;
+    if (json)
+        if (auto cal = parse_imu_calibration_json(*json, file.string() + ": the configuration"))
+            if (codec->set_imu_calibration(*cal)) calibration = *cal;
+    if (!setup.empty()) {
+        const std::string what = file.string() + ": device " + vid_pid;
+        if (!json)
+            return make_error(what +
+                              ": no configuration read in the capture, so no sensor "
+                              "model to solve its light with (" +
+                              json.error().message + ")");
+        auto sensors = parse_lighthouse_sensors(*json, file.string() + ": the configuration");
+        if (!sensors) return sensors.error();
+        if (sensors->empty())
+            return make_error(what + ": its configuration has no lighthouse_config (sensor model)");
+        auto light = std::make_shared<LightTrackingConfig>();
+        light->sensors = std::move(*sensors);
+        light->setup = std::move(setup);
+        light->filter.world_up = glm::normalize(world_up);
+        if (calibration) light->filter.imu_position = calibration->imu_position;
+        cfg.light = std::move(light);
     }
+    auto backend = create_capture_backend(dev->capture, dev->summary);
     auto t = create_device_tracker(std::move(backend), std::move(codec), clock, cfg);
     if (!t) return t.error();
     return std::move(*t);

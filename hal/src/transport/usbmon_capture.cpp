@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -315,6 +316,64 @@ class CaptureBackend final : public TransportBackend {
 std::unique_ptr<TransportBackend> create_capture_backend(std::shared_ptr<const UsbCapture> capture,
                                                          const CaptureSummary& summary) {
     return std::make_unique<CaptureBackend>(std::move(capture), summary);
+}
+
+Result<CaptureDevice> find_capture_device(const std::filesystem::path& file,
+                                          const std::string& vid_pid) {
+    auto filter = parse_vid_pid(vid_pid);
+    if (!filter) return filter.error();
+    auto cap = read_usbmon_capture(file);
+    if (!cap) return cap.error();
+    CaptureDevice out;
+    out.filter = *filter;
+    out.summary = summarize_capture(*cap);
+    const std::filesystem::path sidecar = file.string() + ".usbdevs";
+    if (std::filesystem::exists(sidecar)) {
+        auto applied = apply_usbdevs_sidecar(sidecar, &out.summary);
+        if (!applied) return applied.error();
+    }
+    auto held_devices = [&out] {
+        std::string held;
+        for (const auto& d : out.summary.devices) {
+            held.append(" ").append(std::to_string(d.bus)).append("-");
+            held.append(std::to_string(d.address)).append("=");
+            held.append(d.id_source.empty() ? std::string("unknown")
+                                            : format_vid_pid(d.vendor_id, d.product_id));
+        }
+        if (held.empty()) held = " no device";
+        return held;
+    };
+    auto has_intr_in = [](const CaptureDeviceSummary& d) {
+        for (const auto& e : d.endpoints)
+            if (e.transfer_type == 1 && (e.endpoint & 0x80) && e.completions > 0) return true;
+        return false;
+    };
+    size_t matching = 0, unknown_with_reports = 0;
+    for (const auto& d : out.summary.devices) {
+        if (d.vendor_id == filter->vendor_id && d.product_id == filter->product_id) ++matching;
+        if (d.id_source.empty() && has_intr_in(d)) ++unknown_with_reports;
+    }
+    if (matching == 0 && unknown_with_reports == 1)
+        for (auto& d : out.summary.devices)
+            if (d.id_source.empty() && has_intr_in(d)) {
+                d.vendor_id = filter->vendor_id;
+                d.product_id = filter->product_id;
+                d.id_source = "given";
+            }
+    const CaptureDeviceSummary* found = nullptr;
+    for (const auto& d : out.summary.devices)
+        if (!found && d.vendor_id == filter->vendor_id && d.product_id == filter->product_id)
+            found = &d;
+    if (!found || !filter->serial.empty()) {
+        std::string msg = file.string() + ": no device " + vid_pid + " in the capture (it holds";
+        msg.append(held_devices());
+        if (found) msg.append("; a capture has no serial numbers: give VID:PID");
+        return make_error(msg + ")");
+    }
+    out.bus = found->bus;
+    out.address = found->address;
+    out.capture = std::make_shared<UsbCapture>(std::move(*cap));
+    return out;
 }
 
 }  // namespace hmdnode

@@ -87,8 +87,9 @@ struct TrackerSpec {
     // capture, sim, hidapi, libusb: "VID:PID[:SERIAL]" (hex; sim: default 1209:0001);
     // rec: the recording's device name (T20, WM0, ...)
     std::string device;
-    // rec: a stored base-station setup (JSON, docs/formats.md; libsurvive's world, +z up): the
-    // recording's light through the device tracker's light path, 6DoF (docs/tracking.md §12).
+    // rec, capture: a stored base-station setup (JSON, docs/formats.md; its world +z up, as
+    // libsurvive's): the recording's or the capture's light through the device tracker's light
+    // path, 6DoF (docs/tracking.md §12).
     std::filesystem::path base_stations;
     SimTrackerConfig sim;     // trace: rate, noise, latency, jitter (host_start/offset: filled in)
     double start_s = 0.0;     // trace, capture: start this far into the input

@@ -23,6 +23,7 @@
 #include <span>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "hmdnode/core/result.hpp"
 #include "hmdnode/core/time.hpp"
@@ -234,9 +235,14 @@ Result<std::unique_ptr<DeviceTracker>> create_device_tracker(
 // capture (VID:PID from the capture's descriptors, its ".usbdevs" sidecar, or -- when exactly
 // one unidentified device sends interrupt-IN reports -- the id given), its first report arriving
 // at first_report_host_ns on `clock`. Errors name the file and say which devices it holds.
-Result<std::unique_ptr<DeviceTracker>> create_capture_tracker(const std::filesystem::path& capture,
-                                                              const std::string& vid_pid,
-                                                              Clock& clock,
-                                                              int64_t first_report_host_ns);
+// When the capture holds the device's configuration read (feature reports 0x10 / 0x11), its
+// factory IMU calibration is applied (the capture cannot replay that read to the codec).
+// `setup` (a base-station setup whose world's up is `world_up`): the device's light reports go
+// through the light path (6DoF, DeviceTrackerConfig::light) with the configuration's sensor
+// model -- an error when the capture holds no configuration read or it has no sensor model.
+Result<std::unique_ptr<DeviceTracker>> create_capture_tracker(
+    const std::filesystem::path& capture, const std::string& vid_pid, Clock& clock,
+    int64_t first_report_host_ns, std::vector<lighthouse::BaseStationPlacement> setup = {},
+    const glm::dvec3& world_up = glm::dvec3(0, 0, 1));
 
 }  // namespace hmdnode

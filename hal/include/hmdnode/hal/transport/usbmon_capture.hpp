@@ -101,4 +101,21 @@ Result<size_t> apply_usbdevs_sidecar(const std::filesystem::path& sidecar, Captu
 std::unique_ptr<TransportBackend> create_capture_backend(std::shared_ptr<const UsbCapture> capture,
                                                          const CaptureSummary& summary);
 
+// One device of a capture file, as `--from FILE --device VID:PID` names it: the capture, its
+// summary (the ".usbdevs" sidecar applied when there is one) and the device's bus and address.
+// The device is the one the capture's descriptors or the sidecar give that VID:PID, or -- when
+// none does and exactly one unidentified device sends interrupt-IN reports -- that one (its
+// id_source then "given"). Errors name the file and say which devices it holds; a VID:PID:SERIAL
+// never matches (a capture records no serial numbers). The reader's warnings (a file cut short)
+// are in capture->warnings.
+struct CaptureDevice {
+    std::shared_ptr<const UsbCapture> capture;
+    CaptureSummary summary;
+    DeviceFilter filter;
+    uint16_t bus = 0;
+    uint8_t address = 0;
+};
+Result<CaptureDevice> find_capture_device(const std::filesystem::path& file,
+                                          const std::string& vid_pid);
+
 }  // namespace hmdnode
