@@ -170,3 +170,35 @@ TEST(DaemonConfig, FrameBudgetLeversAreCheckedAndTaken) {
     EXPECT_EQ(ok.code, 0) << ok.output;
     EXPECT_NE(ok.output.find("lens pass fused"), std::string::npos) << ok.output;
 }
+
+// tracker.base_stations (docs/daemon.md): a stored setup for a lighthouse device's light; with a
+// backend that has no light it is a config error naming the key (exit 2); with a recording's
+// light the daemon loads it and runs.
+TEST(DaemonConfig, BaseStationsNeedABackendWithLight) {
+    const std::string setup =
+        HMDNODE_SOURCE_DIR "/tests/data/traces/compare-test-index.base-stations.json";
+    hmdnode::test::CommandRun r =
+        run_with("base_stations_trace", {{"tracker", {{"base_stations", setup}}}});
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("tracker.base_stations (a stored base-station setup) needs "
+                            "tracker.backend hidapi, libusb, rec or capture"),
+              std::string::npos)
+        << r.output;
+    r = run_with("base_stations_rec",
+                 {{"tracker",
+                   {{"trace", nullptr},
+                    {"backend", "rec"},
+                    {"from", HMDNODE_SOURCE_DIR "/data/traces/compare-test-index.rec.gz"},
+                    {"device", "T20"},
+                    {"base_stations", setup}}}});
+    EXPECT_EQ(r.code, 0) << r.output;
+    r = run_with("base_stations_missing",
+                 {{"tracker",
+                   {{"trace", nullptr},
+                    {"backend", "rec"},
+                    {"from", HMDNODE_SOURCE_DIR "/data/traces/compare-test-index.rec.gz"},
+                    {"device", "T20"},
+                    {"base_stations", "/nonexistent/setup.json"}}}});
+    EXPECT_NE(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("/nonexistent/setup.json"), std::string::npos) << r.output;
+}

@@ -145,7 +145,8 @@ TEST(SixDofCmd, ABadSetupFileIsAnErrorNamingItAndNothingIsWritten) {
     r = tool("record --device 1209:0001 --backend sim --sim-clock --out " + out.string() +
              " --base-stations " + kSetup);
     EXPECT_EQ(r.code, 2) << r.output;
-    EXPECT_NE(r.output.find("--base-stations needs --backend rec or capture"), std::string::npos)
+    EXPECT_NE(r.output.find("--base-stations needs --backend hidapi, libusb, rec or capture"),
+              std::string::npos)
         << r.output;
     r = tool("record --backend rec --from " + kRec + " --device T20 --out " + out.string() +
              " --base-stations " + kSetup + " --fusion gyro");
@@ -199,7 +200,18 @@ TEST(SixDofCmd, TheNodesRecordingTrackerWithASetupDeliversPositions) {
     bad.backend = TrackerBackend::trace;  // a trace has no light
     bad.trace_path = "x.csv";
     bad.base_stations = kSetup;
-    EXPECT_FALSE(check_tracker_spec(bad, ClockKind::sim, WiringKeys::command_line()).ok());
+    const Status refused = check_tracker_spec(bad, ClockKind::sim, WiringKeys::command_line());
+    ASSERT_FALSE(refused.ok());
+    EXPECT_NE(refused.error().message.find("--base-stations (a stored base-station setup) needs "
+                                           "--tracker hidapi, libusb, rec or capture"),
+              std::string::npos)
+        << refused.error().message;
+    // A live device takes one: its light interface beside its IMU one (interface_group_test).
+    TrackerSpec live;
+    live.backend = TrackerBackend::hidapi;
+    live.device = "28de:2000";
+    live.base_stations = kSetup;
+    EXPECT_TRUE(check_tracker_spec(live, ClockKind::real, WiringKeys::command_line()).ok());
 }
 
 // The same with a setup that keeps the base stations' calibrations

@@ -50,7 +50,9 @@ struct FakeDevice {
 class FakeTransport final : public Transport {
   public:
     explicit FakeTransport(FakeDevice* d) : d_(d) {}
-    DeviceId id() const override { return DeviceId{0x1209, 0x0001, "FAKE1", "fake:0", "", "", 0}; }
+    DeviceId id() const override {
+        return DeviceId{0x1209, 0x0001, "FAKE1", "fake:0", "", "", 0, ""};
+    }
     Result<std::optional<InputReport>> read_input(int timeout_ms) override {
         const int64_t deadline = d_->clock->now_ns() + int64_t(timeout_ms) * 1'000'000;
         while (true) {

@@ -60,7 +60,7 @@ class MockHid final : public Transport {
             std::unique_ptr<Transport> inner = nullptr)
         : data_(std::move(compressed)), product_(std::move(product)), inner_(std::move(inner)) {}
     DeviceId id() const override {
-        return DeviceId{0x28de, 0x2300, "", "mock:0", "Valve", product_, 0};
+        return DeviceId{0x28de, 0x2300, "", "mock:0", "Valve", product_, 0, ""};
     }
     Result<std::optional<InputReport>> read_input(int timeout_ms) override {
         if (inner_) return inner_->read_input(timeout_ms);

@@ -33,6 +33,9 @@ struct DaemonConfig {
     TrackerBackend tracker_backend = TrackerBackend::trace;
     std::string device;           // "device" (+ ":" "serial"): VID:PID[:SERIAL], rec: its name
     DeviceFilter tracker_device;  // `device` parsed (not for rec)
+    // "base_stations": a stored base-station setup (`hmdnode tracking place` writes one; relative
+    // to the config file): 6DoF from a lighthouse device's light (hidapi, libusb, rec, capture).
+    std::filesystem::path base_stations;
     // "eye_tracker": {"backend": "none" | "trace", "latency_us": N}: the gaze that steers LOD
     // (trace: the gaze columns of tracker.trace, on the head tracker's timeline).
     EyeTrackerBackend eye_tracker = EyeTrackerBackend::none;

@@ -11,6 +11,7 @@
 #include "hmdnode/hal/tracking/base_station_placement.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
 #include "hmdnode/hal/tracking/survive_recording.hpp"
+#include "hmdnode/hal/transport/interface_group.hpp"
 #include "hmdnode/render/vk_display.hpp"
 #include "vk_display_pacing.hpp"
 
@@ -127,6 +128,19 @@ Result<WiredTracker> make_tracker(const TrackerSpec& spec, Clock& clock, const W
                         tracker_backend_name(spec.backend);
             DeviceTrackerConfig tc;
             tc.filter = filter;
+            if (!spec.base_stations.empty()) {  // 6DoF from the device's light interface
+                auto setup = lighthouse::load_base_station_setup(spec.base_stations);
+                if (!setup) return make_error("base stations: " + setup.error().message);
+                // The sensor model comes with the configuration the codec reads at the open; the
+                // light reports from the device's other HID interface, merged with the IMU's.
+                auto light = std::make_shared<LightTrackingConfig>();
+                light->setup = std::move(*setup);
+                light->filter.world_up = glm::dvec3(0, 0, 1);  // a setup file's world
+                tc.light = std::move(light);
+                backend = group_interfaces(
+                    std::move(backend), interface_reading_for(tracker_backend_name(spec.backend)));
+                out.label += " with the base stations of " + spec.base_stations.string();
+            }
             return adopt(create_device_tracker(std::move(backend),
                                                make_codec_for(filter.vendor_id, filter.product_id),
                                                clock, tc));

@@ -75,9 +75,13 @@ Result<ClockKind> parse_clock(std::string_view name, const WiringKeys& keys) {
 Status check_tracker_spec(const TrackerSpec& spec, ClockKind clock, const WiringKeys& keys) {
     const char* name = tracker_backend_name(spec.backend);
     if (!spec.base_stations.empty() && spec.backend != TrackerBackend::rec &&
-        spec.backend != TrackerBackend::capture)
-        return make_error("base stations (a stored setup) need " + keys.backend +
-                          " rec or capture (a recording's or a capture's light), not " + name);
+        spec.backend != TrackerBackend::capture && spec.backend != TrackerBackend::hidapi &&
+        spec.backend != TrackerBackend::libusb)
+        return make_error(keys.base_stations + " (a stored base-station setup) needs " +
+                          keys.backend +
+                          " hidapi, libusb, rec or capture (a device's, a recording's or a "
+                          "capture's light), not " +
+                          name);
     switch (spec.backend) {
         case TrackerBackend::trace:
             if (!spec.trace && spec.trace_path.empty())

@@ -313,6 +313,27 @@ void finish_tracker_recording(const RecordArgs& args, const std::string& label,
 void print_light_status(const DeviceTrackerStatus& st, const TrackerRecording& out, size_t rows,
                         const std::string& source, size_t stations);
 
+// --base-stations for a device's own light (capture, live): the setup file's world is +z up (no
+// --world-up), it loads and holds a base station; *stations gets their count. False (the exit
+// status set) otherwise.
+bool setup_stations(const RecordArgs& args, const std::string& what, size_t* stations) {
+    if (args.world_up != "z") {
+        errors.usage("--world-up with " + what + ": a setup file's world is +z up");
+        return false;
+    }
+    auto setup = lighthouse::load_base_station_setup(args.base_stations);
+    if (!setup) {
+        errors.fail("--base-stations: " + setup.error().message);
+        return false;
+    }
+    if (setup->empty()) {
+        errors.fail("--base-stations " + args.base_stations + ": no base station");
+        return false;
+    }
+    *stations = setup->size();
+    return true;
+}
+
 // --backend capture --from FILE: the capture's device through the device tracker, simulated clock
 // (with --base-stations, 6DoF from its light).
 void run_record_capture(const RecordArgs& args, const DeviceFilter& filter) {
@@ -330,16 +351,8 @@ void run_record_capture(const RecordArgs& args, const DeviceFilter& filter) {
     spec.device = args.device;
     spec.base_stations = args.base_stations;  // 6DoF: the capture's light with a stored setup
     const bool six_dof = !args.base_stations.empty();
-    if (six_dof && args.world_up != "z")
-        return errors.usage("--world-up with --backend capture: a setup file's world is +z up");
     size_t stations = 0;
-    if (six_dof) {
-        auto setup = lighthouse::load_base_station_setup(args.base_stations);
-        if (!setup) return errors.fail("--base-stations: " + setup.error().message);
-        if (setup->empty())
-            return errors.fail("--base-stations " + args.base_stations + ": no base station");
-        stations = setup->size();
-    }
+    if (six_dof && !setup_stations(args, "--backend capture", &stations)) return;
     Result<WiredTracker> wired = make_tracker(spec, clock, WiringKeys::command_line());
     if (!wired.ok()) return errors.fail(wired.error().message);
     DeviceTracker* tracker = wired->device;
@@ -578,6 +591,11 @@ void print_light_status(const DeviceTrackerStatus& st, const TrackerRecording& o
                         const std::string& source, size_t stations) {
     const DeviceLightStatus& l = st.light;
     std::printf("  %-24s %zu base station(s) from %s\n", "base stations", stations, source.c_str());
+    if (!l.enabled) {  // a live device that gave no sensor model
+        std::printf("  %-24s off: %s\n", "light path",
+                    l.light_error.empty() ? "no sensor model" : l.light_error.c_str());
+        return;
+    }
     std::printf("  %-24s %llu (%llu refused%s%s), %llu light events\n", "light reports",
                 static_cast<unsigned long long>(l.reports),
                 static_cast<unsigned long long>(l.rejected), l.rejected ? ": " : "",
@@ -720,9 +738,11 @@ void run_record(const RecordArgs& args) {
         return errors.usage("--from needs --backend capture or rec");
     if (!args.reference_out.empty() && args.backend != "rec")
         return errors.usage("--reference-out needs --backend rec (a recording's lighthouse poses)");
-    if (!args.base_stations.empty() && args.backend != "rec" && args.backend != "capture")
+    if (!args.base_stations.empty() && args.backend != "rec" && args.backend != "capture" &&
+        args.backend != "hidapi" && args.backend != "libusb")
         return errors.usage(
-            "--base-stations needs --backend rec or capture (a recording's or a capture's light)");
+            "--base-stations needs --backend hidapi, libusb, rec or capture (a device's, a "
+            "recording's or a capture's light)");
     if (args.fusion != "mahony" && args.backend != "rec")
         return errors.usage("--fusion gyro needs --backend rec");
     if (!errors.check_outputs({{"--out", args.out},
@@ -756,6 +776,11 @@ void run_record(const RecordArgs& args) {
     TrackerSpec spec;
     spec.backend = *backend;
     spec.device = args.device;
+    // 6DoF: the device's light interface beside its IMU, with a stored setup.
+    spec.base_stations = args.base_stations;
+    const bool six_dof = !args.base_stations.empty();
+    size_t stations = 0;
+    if (six_dof && !setup_stations(args, "--backend " + args.backend, &stations)) return;
     spec.wrap_backend = [&](std::unique_ptr<TransportBackend> b) {
         backend_name = b->name();
         Result<std::vector<DeviceId>> list = b->enumerate(*filter);
@@ -782,15 +807,23 @@ void run_record(const RecordArgs& args) {
     const int64_t end = args.duration_s > 0 ? start + s_to_ns(args.duration_s)
                                             : std::numeric_limits<int64_t>::max();
     // --capture alone records a device hmdnode cannot decode: no pose is waited for.
-    TrackerRecording rec = record_tracker(tracker, clock, start, end, std::nullopt,
-                                          /*keep_arrivals=*/false, /*need_pose=*/!args.out.empty());
+    TrackerRecording rec =
+        record_tracker(tracker, clock, start, end, std::nullopt,
+                       /*keep_arrivals=*/false, /*need_pose=*/!args.out.empty(), six_dof);
     const DeviceTrackerStatus st = tracker.status();
+    if (six_dof)
+        rec.trace.comments.push_back(
+            "6DoF: light + IMU (hmdnode's solver and filter), base stations from " +
+            args.base_stations +
+            ", their world (up z) turned to +y up; rows only where the position is tracked");
+    const size_t rows = rec.trace.samples.size();  // (moved into the outputs below)
     // Time 0 is the recording's start on this host's clock: no other trace shares it.
     const std::string time_base =
         "record_start " + backend_name + " " + args.device +
         (args.sim_clock ? std::string(" (simulated clock)")
                         : " at " + std::to_string(start + rt_offset) + " ns realtime");
     finish_tracker_recording(args, label, via, rec, st, pcap.get(), time_base);
+    if (six_dof) print_light_status(st, rec, rows, args.base_stations, stations);
 }
 
 void add_record_command(CLI::App& app) {
@@ -828,10 +861,11 @@ void add_record_command(CLI::App& app) {
         ->check(CLI::IsMember({"imu", "recorded"}))
         ->capture_default_str();
     rec->add_option("--base-stations", args->base_stations,
-                    "With --backend rec or capture: a stored base-station setup (JSON, "
-                    "docs/formats.md; `hmdnode tracking place` writes one): 6DoF from the "
-                    "recording's or the capture's light (rec's default: its LH_POSE lines from "
-                    "before its light, when it has them)");
+                    "With --backend hidapi, libusb, rec or capture: a stored base-station setup "
+                    "(JSON, docs/formats.md; `hmdnode tracking place` writes one): 6DoF from the "
+                    "device's (its light interface beside its IMU one), the recording's or the "
+                    "capture's light (rec's default: its LH_POSE lines from before its light, "
+                    "when it has them)");
     rec->add_option("--world-up", args->world_up,
                     "With a light path: the setup's world up axis (z: libsurvive's world; y: a "
                     "setup hmdnode placed levelled)")

@@ -61,8 +61,9 @@ void add_source_options(CLI::App* c, const std::shared_ptr<ReplayArgs>& a) {
                   "--tracker capture: the usbmon capture (pcap or pcap.gz); --tracker rec: the "
                   "libsurvive recording (.rec or .rec.gz)");
     c->add_option("--base-stations", a->opt.base_stations,
-                  "--tracker rec: a stored base-station setup (JSON, docs/formats.md): the "
-                  "recording's light tracked too, 6DoF (docs/tracking.md section 12)");
+                  "--tracker rec, capture, hidapi, libusb: a stored base-station setup (JSON, "
+                  "docs/formats.md): the recording's, the capture's or the device's light "
+                  "tracked too, 6DoF (docs/tracking.md section 12)");
     c->add_option("--capture", a->capture,
                   "Instead of --trace: a usbmon capture (pcap or pcap.gz) to replay (the same as "
                   "--tracker capture --from FILE)");

@@ -98,6 +98,7 @@ class ViveCodec final : public ReportCodec {
         return true;
     }
     std::string info() const override { return info_; }
+    std::string device_configuration() const override { return configuration_; }
     CodecCounters counters() const override {
         CodecCounters c = base_;
         accumulate(c, dec_.counters());
@@ -112,6 +113,7 @@ class ViveCodec final : public ReportCodec {
     // product-string warning in configure()).
     void read_device_configuration(Transport& t) {
         calibration_.reset();
+        configuration_.clear();
         if (t.replayed()) {
             info_ =
                 "factory calibration not read (a capture answers each feature report with its "
@@ -123,6 +125,7 @@ class ViveCodec final : public ReportCodec {
             info_ = "factory calibration not read (" + json.error().message + ")";
             return;
         }
+        configuration_ = *json;
         const nlohmann::json j = nlohmann::json::parse(*json, nullptr, false);
         std::string model;
         if (j.is_object() && j.contains("model_number") && j["model_number"].is_string())
@@ -213,6 +216,7 @@ class ViveCodec final : public ReportCodec {
     std::string warning_;
     std::string info_;
     bool calibration_from_recording_ = false;
+    std::string configuration_;  // the JSON read at the last configure(), if any
     std::optional<ImuCalibration> calibration_;
 };
 

@@ -44,8 +44,11 @@ class DeviceTrackerImpl final : public DeviceTracker {
         info_.provides_imu = true;
         if (config.light && !config.light->setup.empty()) {
             info_.provides_position = true;
-            status_.light.enabled = true;
-            reset_light();
+            if (!config.light->sensors.empty()) {
+                light_config_ = config.light;
+                status_.light.enabled = true;
+                reset_light();
+            }
         }
     }
     ~DeviceTrackerImpl() override { stop(); }
@@ -129,6 +132,9 @@ class DeviceTrackerImpl final : public DeviceTracker {
                 transport_ = std::move(*t);
                 chain_.codec().reset();
                 chain_.codec().configure(*transport_);
+                if (config_.light && !config_.light->setup.empty() &&
+                    config_.light->sensors.empty())
+                    light_from_device();
                 std::lock_guard lock(mutex_);
                 status_.codec_warning = chain_.codec().warning();
                 status_.codec_info = chain_.codec().info();
@@ -150,13 +156,41 @@ class DeviceTrackerImpl final : public DeviceTracker {
     // The light path afresh (at the start, and after a reconnect: a new device clock).
     void reset_light() {
         lighthouse::SensorModel model;
-        model.count = config_.light->sensors.points.size();
-        model.channel_map = config_.light->sensors.channel_map;
+        model.count = light_config_->sensors.points.size();
+        model.channel_map = light_config_->sensors.channel_map;
         decoder_ = std::make_unique<lighthouse::LightDecoder>(std::move(model));
-        light_ = std::make_unique<LightTracking>(*config_.light);
+        light_ = std::make_unique<LightTracking>(*light_config_);
         // The node's world is +y up: the setup's world turned so its up is +y.
         node_from_setup_ =
-            shortest_rotation(glm::normalize(config_.light->filter.world_up), glm::dvec3(0, 1, 0));
+            shortest_rotation(glm::normalize(light_config_->filter.world_up), glm::dvec3(0, 1, 0));
+    }
+
+    // After an open (configure done): the light path with the sensor model of the configuration
+    // the codec read from the device, or the IMU-only path and the reason.
+    void light_from_device() {
+        light_.reset();
+        decoder_.reset();
+        light_config_.reset();
+        const std::string json = chain_.codec().device_configuration();
+        const std::string source = transport_->id().path + ": the device's configuration";
+        std::string why;
+        if (json.empty()) {
+            why = "the device gave no configuration (" + chain_.codec().info() + ")";
+        } else if (auto sensors = parse_lighthouse_sensors(json, source); !sensors) {
+            why = sensors.error().message;
+        } else if (sensors->empty()) {
+            why = source + " has no lighthouse_config (sensor model)";
+        } else {
+            auto cfg = std::make_shared<LightTrackingConfig>(*config_.light);
+            cfg->sensors = std::move(*sensors);
+            if (auto cal = parse_imu_calibration_json(json, source))
+                cfg->filter.imu_position = cal->imu_position;
+            light_config_ = std::move(cfg);
+            reset_light();
+        }
+        std::lock_guard lock(mutex_);
+        status_.light.enabled = light_ != nullptr;
+        if (!light_) status_.light.light_error = why + "; orientation only";
     }
 
     // The shortest rotation taking unit a onto unit b (half-way quaternion; a half turn about x
@@ -210,7 +244,7 @@ class DeviceTrackerImpl final : public DeviceTracker {
 
     void on_transport_error(const std::string& message, int64_t now) {
         transport_.reset();
-        if (light_) reset_light();
+        if (light_) reset_light();  // the device's own model is read again at the reopen
         lookahead_.reset();
         gap_open_ = true;
         gap_start_ns_ = last_arrival_ns_ ? last_arrival_ns_ : now;
@@ -347,7 +381,9 @@ class DeviceTrackerImpl final : public DeviceTracker {
     int64_t shift_ns_ = 0;
     std::optional<InputReport> lookahead_;  // simulated clock
     std::deque<TrackerSample> pending_;     // simulated clock
-    // The light path (DeviceTrackerConfig::light with a setup), producer side.
+    // The light path (DeviceTrackerConfig::light with a setup), producer side; light_config_ is
+    // the config's, or with the device's sensor model once read.
+    std::shared_ptr<const LightTrackingConfig> light_config_;
     std::unique_ptr<lighthouse::LightDecoder> decoder_;
     std::unique_ptr<LightTracking> light_;
     std::vector<lighthouse::LightEvent> light_events_;

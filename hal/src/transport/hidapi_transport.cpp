@@ -1,11 +1,13 @@
 // The hidapi backend (hidraw): a Transport over hid_device. Input reports through
 // hid_read_timeout, feature reports through hid_get/send_feature_report, output reports through
 // hid_write. hidraw hands numbered reports with the id first, which is what Transport promises.
-// Cost: one read(2)/ioctl(2) per call plus a copy of the report into its own vector.
+// Cost: one read(2)/ioctl(2) per call plus a copy of the report into its own vector; enumerate()
+// resolves one sysfs link per node (DeviceId::usb_device, the USB device its interfaces share).
 // Departs from plain hidapi use: errors carry the device path and hid_error's text, and a device
 // that is gone (poll error, ENODEV) is an error, never a silent zero-length read.
 #include <ctime>
 #include <cwchar>
+#include <filesystem>
 #include <mutex>
 #include <vector>
 
@@ -72,6 +74,7 @@ DeviceId to_device_id(const hid_device_info& info) {
     id.manufacturer = detail::narrow(info.manufacturer_string);
     id.product = detail::narrow(info.product_string);
     id.interface_number = info.interface_number;
+    id.usb_device = hidraw_usb_device(id.path);
     return id;
 }
 
@@ -181,6 +184,24 @@ class HidapiBackend final : public TransportBackend {
 };
 
 }  // namespace
+
+std::string hidraw_usb_device(const std::string& hidraw_path, const std::string& sysfs) {
+    namespace fs = std::filesystem;
+    const std::string name = fs::path(hidraw_path).filename().string();
+    if (name.rfind("hidraw", 0) != 0) return {};
+    std::error_code ec;
+    const fs::path hid = fs::canonical(fs::path(sysfs) / "class" / "hidraw" / name / "device", ec);
+    if (ec) return {};
+    // The HID device's parent is the USB interface ("1-4:1.0"), whose parent is the USB device
+    // ("1-4"): BUS-PORT[.PORT...], digits, '-' and '.' only.
+    const std::string interface = hid.parent_path().filename().string();
+    const std::string device = hid.parent_path().parent_path().filename().string();
+    if (interface.rfind(device + ":", 0) != 0 || device.empty()) return {};
+    if (device.find_first_not_of("0123456789-.") != std::string::npos ||
+        device.find('-') == std::string::npos)
+        return {};
+    return "usb:" + device;
+}
 
 Result<std::unique_ptr<TransportBackend>> create_hidapi_backend(
     const TransportBackendOptions& options) {

@@ -1,18 +1,20 @@
-// The libusb backend: a HID-class interface driven directly over USB. Opens by VID:PID (+ serial),
-// optionally lets libusb detach the kernel's usbhid driver (libusb_set_auto_detach_kernel_driver),
-// claims the interface, finds its interrupt-IN (and, if any, interrupt-OUT) endpoint and keeps
-// TransportBackendOptions::transfers_in_flight asynchronous interrupt-IN transfers submitted
-// (libusb_fill_interrupt_transfer / libusb_submit_transfer, resubmitted from their callback), so
-// a 1 kHz device never waits for the host to ask. read_input() runs libusb's event handling with
-// the caller's timeout. Feature reports are HID class control transfers (HID 1.11 §7.2.1/§7.2.2:
-// GET_REPORT 0xA1/0x01, SET_REPORT 0x21/0x09, wValue = (3 << 8) | id). Hotplug uses
-// libusb_hotplug_register_callback where libusb_has_capability(LIBUSB_CAP_HAS_HOTPLUG).
-// Cost: one transfer completion per report, one copy into the report's vector; memory
-// transfers_in_flight x wMaxPacketSize plus the queue of unread reports (bounded: the oldest is
-// dropped past 4096 and counted).
-// Departs from hidapi's libusb backend: no reader thread -- events are handled in the caller's
-// read, which keeps every libusb call on one thread; a report id 0 (unnumbered reports) is still
-// put first, so callers see the same layout as from hidraw.
+// The libusb backend: a HID-class interface driven directly over USB. enumerate() lists each HID
+// interface with an interrupt-IN endpoint (path "usb:BUS-PORTS:1.N", usb_device "usb:BUS-PORTS");
+// open() takes the interface the id's path names (without a path: the device's first), by VID:PID
+// (+ serial), optionally lets libusb detach the kernel's usbhid driver
+// (libusb_set_auto_detach_kernel_driver), claims the interface, finds its interrupt-IN (and, if
+// any, interrupt-OUT) endpoint and keeps TransportBackendOptions::transfers_in_flight asynchronous
+// interrupt-IN transfers submitted (libusb_fill_interrupt_transfer / libusb_submit_transfer,
+// resubmitted from their callback), so a 1 kHz device never waits for the host to ask. read_input()
+// runs libusb's event handling with the caller's timeout. Feature reports are HID class control
+// transfers (HID 1.11 §7.2.1/§7.2.2: GET_REPORT 0xA1/0x01, SET_REPORT 0x21/0x09, wValue = (3 << 8)
+// | id). Hotplug uses libusb_hotplug_register_callback where
+// libusb_has_capability(LIBUSB_CAP_HAS_HOTPLUG). Cost: one transfer completion per report, one copy
+// into the report's vector; memory transfers_in_flight x wMaxPacketSize plus the queue of unread
+// reports (bounded: the oldest is dropped past 4096 and counted). Departs from hidapi's libusb
+// backend: no reader thread -- events are handled in the caller's read, which keeps every libusb
+// call on one thread; a report id 0 (unnumbered reports) is still put first, so callers see the
+// same layout as from hidraw.
 #include <sys/time.h>
 
 #include <deque>
@@ -32,7 +34,8 @@ std::string usb_error(int rc) {
     return std::string(libusb_error_name(rc)) + " (" + libusb_strerror(rc) + ")";
 }
 
-std::string usb_path(libusb_device* dev, int interface_number) {
+// "usb:BUS-PORT.PORT": the device, as every interface of it shares it (DeviceId::usb_device).
+std::string usb_device_path(libusb_device* dev) {
     uint8_t ports[8];
     const int n = libusb_get_port_numbers(dev, ports, sizeof ports);
     std::string p = "usb:" + std::to_string(libusb_get_bus_number(dev)) + "-";
@@ -41,8 +44,13 @@ std::string usb_path(libusb_device* dev, int interface_number) {
         p += std::to_string(ports[i]);
     }
     if (n <= 0) p += "0";
-    p += ":1." + std::to_string(interface_number < 0 ? 0 : interface_number);
     return p;
+}
+
+// "usb:BUS-PORTS:1.INTERFACE": one interface (DeviceId::path).
+std::string usb_path(libusb_device* dev, int interface_number) {
+    return usb_device_path(dev) + ":1." +
+           std::to_string(interface_number < 0 ? 0 : interface_number);
 }
 
 struct HidEndpoints {
@@ -52,16 +60,17 @@ struct HidEndpoints {
     uint8_t out_endpoint = 0;  // 0: none
 };
 
-// The first HID-class interface with an interrupt-IN endpoint.
-std::optional<HidEndpoints> find_hid_endpoints(libusb_device* dev) {
+// Every HID-class interface with an interrupt-IN endpoint, in descriptor order (a Vive or an
+// Index: interface 0 its IMU, 1 its light sensors).
+std::vector<HidEndpoints> find_hid_interfaces(libusb_device* dev) {
     libusb_config_descriptor* cfg = nullptr;
     if (libusb_get_active_config_descriptor(dev, &cfg) != 0 &&
         libusb_get_config_descriptor(dev, 0, &cfg) != 0)
-        return std::nullopt;
-    std::optional<HidEndpoints> found;
-    for (int i = 0; i < cfg->bNumInterfaces && !found; ++i) {
+        return {};
+    std::vector<HidEndpoints> found;
+    for (int i = 0; i < cfg->bNumInterfaces; ++i) {
         const libusb_interface& intf = cfg->interface[i];
-        for (int a = 0; a < intf.num_altsetting && !found; ++a) {
+        for (int a = 0; a < intf.num_altsetting; ++a) {
             const libusb_interface_descriptor& d = intf.altsetting[a];
             if (d.bInterfaceClass != LIBUSB_CLASS_HID) continue;
             HidEndpoints e;
@@ -78,7 +87,10 @@ std::optional<HidEndpoints> find_hid_endpoints(libusb_device* dev) {
                     e.out_endpoint = ep.bEndpointAddress;
                 }
             }
-            if (e.in_endpoint) found = e;
+            if (e.in_endpoint) {
+                found.push_back(e);
+                break;  // the first alternate setting of an interface that has one
+            }
         }
     }
     libusb_free_config_descriptor(cfg);
@@ -92,17 +104,21 @@ std::string read_string(libusb_device_handle* h, uint8_t index) {
     return n > 0 ? std::string(reinterpret_cast<char*>(buf), static_cast<size_t>(n)) : "";
 }
 
-// DeviceId of a device; opens it briefly for the strings when `strings` (which may fail without
-// permission: the strings then stay empty).
-std::optional<DeviceId> describe(libusb_device* dev, bool strings) {
+// The DeviceIds of a device, one per HID interface (first: the lowest in descriptor order; none
+// when it has no HID interface with an interrupt-IN endpoint); opens it briefly for the strings
+// when `strings` (which may fail without permission: the strings then stay empty). `ep`, when
+// given, receives each id's endpoints.
+std::vector<DeviceId> describe(libusb_device* dev, bool strings,
+                               std::vector<HidEndpoints>* ep = nullptr) {
     libusb_device_descriptor desc{};
-    if (libusb_get_device_descriptor(dev, &desc) != 0) return std::nullopt;
+    if (libusb_get_device_descriptor(dev, &desc) != 0) return {};
+    const std::vector<HidEndpoints> interfaces = find_hid_interfaces(dev);
+    if (ep) *ep = interfaces;
+    if (interfaces.empty()) return {};
     DeviceId id;
     id.vendor_id = desc.idVendor;
     id.product_id = desc.idProduct;
-    std::optional<HidEndpoints> ep = find_hid_endpoints(dev);
-    id.interface_number = ep ? ep->interface_number : -1;
-    id.path = usb_path(dev, id.interface_number);
+    id.usb_device = usb_device_path(dev);
     if (strings) {
         libusb_device_handle* h = nullptr;
         if (libusb_open(dev, &h) == 0) {
@@ -112,7 +128,13 @@ std::optional<DeviceId> describe(libusb_device* dev, bool strings) {
             libusb_close(h);
         }
     }
-    return id;
+    std::vector<DeviceId> out;
+    for (const HidEndpoints& e : interfaces) {
+        id.interface_number = e.interface_number;
+        id.path = usb_path(dev, e.interface_number);
+        out.push_back(id);
+    }
+    return out;
 }
 
 class LibusbTransport final : public Transport {
@@ -333,12 +355,12 @@ class LibusbHotplugMonitor final : public HotplugMonitor {
         auto* self = static_cast<LibusbHotplugMonitor*>(user);
         // note: only descriptors are safe to read here; the serial needs the device opened, so a
         // serial in the filter is checked by the caller's enumerate() after an arrival.
-        std::optional<DeviceId> id = describe(dev, false);
-        if (!id) return 0;
+        std::vector<DeviceId> ids = describe(dev, false);
+        if (ids.empty()) return 0;
         HotplugEvent e;
         e.kind = event == LIBUSB_HOTPLUG_EVENT_DEVICE_ARRIVED ? HotplugEvent::Kind::arrived
                                                               : HotplugEvent::Kind::left;
-        e.id = std::move(*id);
+        e.id = std::move(ids.front());
         self->events_.push_back(std::move(e));
         return 0;
     }
@@ -369,9 +391,8 @@ class LibusbBackend final : public TransportBackend {
             if (libusb_get_device_descriptor(list[i], &desc) != 0) continue;
             if (filter.vendor_id && desc.idVendor != filter.vendor_id) continue;
             if (filter.product_id && desc.idProduct != filter.product_id) continue;
-            std::optional<DeviceId> id = describe(list[i], true);
-            if (id && id->interface_number >= 0 && filter.matches(*id))
-                out.push_back(std::move(*id));
+            for (DeviceId& id : describe(list[i], true))
+                if (filter.matches(id)) out.push_back(std::move(id));
         }
         libusb_free_device_list(list, 1);
         return out;
@@ -389,23 +410,34 @@ class LibusbBackend final : public TransportBackend {
                               usb_error(static_cast<int>(n)));
         libusb_device* dev = nullptr;
         DeviceId id;
+        std::optional<HidEndpoints> ep;
+        bool has_hid = false;
         for (ssize_t i = 0; i < n && !dev; ++i) {
             libusb_device_descriptor desc{};
             if (libusb_get_device_descriptor(list[i], &desc) != 0) continue;
             if (desc.idVendor != want.vendor_id || desc.idProduct != want.product_id) continue;
-            std::optional<DeviceId> d = describe(list[i], !want.serial.empty());
-            if (!d) continue;
-            if (!want.path.empty() && d->path != want.path) continue;
-            if (!want.serial.empty() && d->serial != want.serial) continue;
-            dev = libusb_ref_device(list[i]);
-            id = std::move(*d);
+            std::vector<HidEndpoints> eps;
+            std::vector<DeviceId> ids = describe(list[i], !want.serial.empty(), &eps);
+            if (ids.empty()) continue;
+            has_hid = true;
+            for (size_t k = 0; k < ids.size() && !dev; ++k) {
+                // The interface the path names; without a path the device's first one.
+                if (!want.path.empty() ? ids[k].path != want.path : k != 0) continue;
+                if (!want.serial.empty() && ids[k].serial != want.serial) continue;
+                dev = libusb_ref_device(list[i]);
+                id = std::move(ids[k]);
+                ep = eps[k];
+            }
         }
         libusb_free_device_list(list, 1);
         if (!dev)
-            return make_error("libusb: no USB device " + what +
-                              (want.serial.empty() ? "" : " with serial \"" + want.serial + "\"") +
-                              " is connected");
-        std::optional<HidEndpoints> ep = find_hid_endpoints(dev);
+            return make_error(
+                "libusb: " +
+                (has_hid && !want.path.empty()
+                     ? "no HID interface " + what + " with an interrupt-IN endpoint is connected"
+                     : "no USB device " + what +
+                           (want.serial.empty() ? "" : " with serial \"" + want.serial + "\"") +
+                           " is connected"));
         libusb_device_handle* h = nullptr;
         int rc = ep ? libusb_open(dev, &h) : LIBUSB_ERROR_NOT_FOUND;
         libusb_unref_device(dev);

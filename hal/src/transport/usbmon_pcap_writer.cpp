@@ -103,8 +103,9 @@ void UsbmonPcapWriter::device_descriptor(int64_t realtime_ns, uint16_t vid, uint
     control_in(realtime_ns, UsbSetupPacket{0x80, 0x06, 0x0100, 0, 18}, d);
 }
 
-void UsbmonPcapWriter::interrupt_in(int64_t realtime_ns, std::span<const uint8_t> data) {
-    event(realtime_ns, 0x1000, 'C', 1, 0x81, static_cast<uint32_t>(data.size()), nullptr, data);
+void UsbmonPcapWriter::interrupt_in(int64_t realtime_ns, std::span<const uint8_t> data,
+                                    uint8_t endpoint) {
+    event(realtime_ns, 0x1000, 'C', 1, endpoint, static_cast<uint32_t>(data.size()), nullptr, data);
 }
 
 int64_t realtime_minus_monotonic_ns() {
@@ -133,8 +134,12 @@ class TeeTransport : public Transport {
     Result<std::optional<InputReport>> read_input(int timeout_ms) override {
         auto r = inner_->read_input(timeout_ms);
         if (r.ok() && r->has_value()) {
+            // note: interface N's reports as endpoint 0x81 + N (a Vive's light on interface 1
+            // comes from endpoint 0x82, as a usbmon capture of it shows).
+            const int iface = std::clamp(inner_->id().interface_number, 0, 14);
             std::lock_guard<std::mutex> lock(out_->mutex);
-            out_->pcap->interrupt_in((*r)->host_time_ns + out_->rt_offset_ns, (*r)->bytes);
+            out_->pcap->interrupt_in((*r)->host_time_ns + out_->rt_offset_ns, (*r)->bytes,
+                                     static_cast<uint8_t>(0x81 + iface));
         }
         return r;
     }

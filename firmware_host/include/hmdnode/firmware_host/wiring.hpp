@@ -60,10 +60,11 @@ struct WiringKeys {
     std::string renderer = "renderer.backend";
     std::string start = "tracker.start_s";
     std::string eye_tracker = "eye_tracker.backend";
+    std::string base_stations = "tracker.base_stations";
     static WiringKeys config() { return {}; }
     static WiringKeys command_line() {
-        return {"--clock",   "--tracker",  "--from",  "--trace",      "--device",
-                "--display", "--renderer", "--start", "--eye-tracker"};
+        return {"--clock",   "--tracker",  "--from",  "--trace",       "--device",
+                "--display", "--renderer", "--start", "--eye-tracker", "--base-stations"};
     }
 };
 
@@ -87,9 +88,11 @@ struct TrackerSpec {
     // capture, sim, hidapi, libusb: "VID:PID[:SERIAL]" (hex; sim: default 1209:0001);
     // rec: the recording's device name (T20, WM0, ...)
     std::string device;
-    // rec, capture: a stored base-station setup (JSON, docs/formats.md; its world +z up, as
-    // libsurvive's): the recording's or the capture's light through the device tracker's light
-    // path, 6DoF (docs/tracking.md §12).
+    // rec, capture, hidapi, libusb: a stored base-station setup (JSON, docs/formats.md; its world
+    // +z up, as libsurvive's): the recording's, the capture's or the live device's light through
+    // the device tracker's light path, 6DoF (docs/tracking.md §12). A live device's light comes
+    // from its other HID interface, merged with the IMU's (hal/transport/interface_group.hpp), and
+    // its sensor model from the configuration read at the open.
     std::filesystem::path base_stations;
     SimTrackerConfig sim;     // trace: rate, noise, latency, jitter (host_start/offset: filled in)
     double start_s = 0.0;     // trace, capture: start this far into the input

@@ -96,6 +96,10 @@ class ReportCodec {
     // recording's), applied to every IMU sample from then on; its axes replace the codec's own
     // mapping. False when the codec has no IMU to calibrate.
     virtual bool set_imu_calibration(const ImuCalibration&) { return false; }
+    // After configure(): the configuration JSON the codec read from the device (a Vive's or an
+    // Index's feature reports 0x10/0x11; its sensor model feeds the light path), empty when it
+    // read none.
+    virtual std::string device_configuration() const { return {}; }
 };
 
 // HTC Vive / Valve Index IMU (report 0x20; ranges from feature report 0x01).
@@ -185,12 +189,17 @@ struct DeviceTrackerConfig {
     // none. Their world is the node's, +y up: the setup's world turned by the shortest rotation
     // taking its up (filter.world_up) to +y. Null, or a setup with no base station: the IMU-only
     // path (ImuFusion).
+    // A config whose `sensors` is empty takes the sensor model (and the IMU's lever arm) from the
+    // configuration the codec reads from the device at each open (the live path: hidapi, libusb);
+    // a device that gives none keeps the IMU-only path, and DeviceLightStatus::light_error says
+    // why.
     std::shared_ptr<const LightTrackingConfig> light;
 };
 
 // What the light path did (DeviceTrackerConfig::light).
 struct DeviceLightStatus {
-    bool enabled = false;
+    bool enabled = false;  // light reports go to the light path (false until the sensor model is
+                           // known: a live device's comes with its configuration at the open)
     uint64_t reports = 0;   // light reports given to the decoder
     uint64_t rejected = 0;  // of those, refused (light_error: the last one's message)
     std::string light_error;

@@ -33,8 +33,9 @@ class UsbmonPcapWriter {
     // A synthetic GET_DESCRIPTOR(DEVICE) exchange, so that readers learn the VID:PID from the
     // capture itself.
     void device_descriptor(int64_t realtime_ns, uint16_t vendor_id, uint16_t product_id);
-    // One interrupt-IN completion ('C', endpoint 0x81).
-    void interrupt_in(int64_t realtime_ns, std::span<const uint8_t> data);
+    // One interrupt-IN completion ('C', endpoint 0x81 unless told: the tee backend writes
+    // interface N's reports as 0x81 + N).
+    void interrupt_in(int64_t realtime_ns, std::span<const uint8_t> data, uint8_t endpoint = 0x81);
 
     const std::string& bytes() const { return bytes_; }
     uint64_t events() const { return events_; }
