@@ -287,6 +287,42 @@ TEST(SurviveRecording, EveryBundledLighthouseDeviceReadsGravityWhenStill) {
     }
 }
 
+// A Vive HMD (lighthouse 1) keeps its factory calibration at the top level of its CONFIG, its
+// IMU's pose as trackref_from_imu and its head's as trackref_from_head ([qx, qy, qz, qw, x, y,
+// z]): read from there (lh1_test_cal's HMD: "Vive MV"), its head axes a rotation that puts the
+// still accelerometer along the head's up as the light solves have it; a malformed pose is an
+// error naming the field.
+TEST(SurviveRecording, AViveHmdsTopLevelCalibrationAndImuPoseAreRead) {
+    auto rec = read_survive_recording(
+        std::string(HMDNODE_SOURCE_DIR) + "/data/traces/lh1_test_cal.rec.gz", "HMD");
+    ASSERT_TRUE(rec.ok()) << rec.error().message;
+    ASSERT_TRUE(rec->has_config);
+    EXPECT_EQ(rec->model, "Vive MV");
+    const ImuCalibration& c = rec->calibration;
+    EXPECT_NEAR(c.acc_bias.x, 0.04207, 1e-9);
+    EXPECT_NEAR(c.acc_bias.z, -0.08301, 1e-9);
+    EXPECT_NEAR(c.acc_scale.x, 1.001, 1e-9);
+    EXPECT_NEAR(c.gyro_bias.y, -0.02049, 1e-9);
+    // head <- trackref <- IMU: a rotation.
+    const glm::dmat3 m = c.head_from_imu;
+    EXPECT_NEAR(glm::determinant(m), 1.0, 1e-9);
+    const glm::dmat3 mtm = glm::transpose(m) * m;
+    for (int i = 0; i < 3; ++i)
+        for (int k = 0; k < 3; ++k) EXPECT_NEAR(mtm[i][k], i == k ? 1.0 : 0.0, 1e-9);
+    EXPECT_LT(glm::length(c.imu_position), 0.2);  // within the headset
+    for (const std::string& w : rec->warnings)
+        EXPECT_EQ(w.find("no \"imu\" object"), std::string::npos) << w;
+
+    const std::string bad =
+        R"({"acc_bias":[0,0,0],"acc_scale":[1,1,1],"gyro_bias":[0,0,0],"gyro_scale":[1,1,1],)"
+        R"("trackref_from_imu":[0,0,-1,0,0.01]})";
+    auto e = parse_imu_calibration_json(bad, "hmd.json");
+    ASSERT_FALSE(e.ok());
+    EXPECT_NE(e.error().message.find("hmd.json.trackref_from_imu: not [qx, qy, qz, qw, x, y, z]"),
+              std::string::npos)
+        << e.error().message;
+}
+
 // libsurvive's replay output: the device's solved poses as EXTERNAL_POSE lines named replay_DEV
 // (its playback re-emits POSE lines so), other names beside them.
 TEST(SurviveRecording, ExternalPoseLinesAreTheDevicesPosesWhenItHasNoPoseLine) {

@@ -280,17 +280,19 @@ std::string parse_line(const std::vector<std::string_view>& t, std::string_view 
     auto sensors = parse_lighthouse_sensors(json, "CONFIG");
     if (!sensors) return sensors.error().message;
     rec->sensors = std::move(*sensors);
-    if (j.contains("imu")) {
+    // The factory calibration: an `imu` object, or a Vive HMD's top-level acc_bias ... with its
+    // trackref_from_imu (parse_imu_calibration_json).
+    const bool vive_hmd = j.contains("acc_bias") && j.contains("trackref_from_imu");
+    if (j.contains("imu") || vive_hmd) {
         auto cal = parse_imu_calibration_json(json, "CONFIG");
         if (!cal) return cal.error().message;
         rec->has_config = true;
         rec->calibration = *cal;
     } else {
-        // A Vive HMD's configuration keeps its IMU calibration elsewhere (top-level acc_bias ...,
-        // trackref_from_imu), which is not read: its IMU is decoded without it.
         rec->warnings.push_back(source + ":" + std::to_string(line_no) +
-                                ": CONFIG has no \"imu\" object (the factory IMU calibration); "
-                                "the IMU is decoded without one (its light model is read)");
+                                ": CONFIG has no \"imu\" object nor a Vive HMD's top-level "
+                                "calibration (the factory IMU calibration); the IMU is decoded "
+                                "without one (its light model is read)");
     }
     if (j.is_object() && j.contains("model_number") && j["model_number"].is_string())
         rec->model = j["model_number"].get<std::string>();
@@ -328,6 +330,24 @@ Result<glm::dmat3> frame(const nlohmann::json& o, const std::string& where) {
     const glm::dvec3 zn = glm::normalize(*z);
     const glm::dvec3 yn = glm::normalize(glm::cross(zn, *x));
     return glm::dmat3(glm::cross(yn, zn), yn, zn);
+}
+
+// A pose [qx, qy, qz, qw, x, y, z] (a Vive HMD's trackref_from_imu, trackref_from_head): the
+// rotation (unit quaternion) and the origin.
+Result<std::pair<glm::dmat3, glm::dvec3>> pose7(const nlohmann::json& o, const char* key,
+                                                const std::string& where) {
+    const nlohmann::json& a = o[key];
+    bool ok = a.is_array() && a.size() == 7;
+    double v[7] = {};
+    for (size_t i = 0; ok && i < 7; ++i) {
+        ok = a[i].is_number() && std::isfinite(a[i].get<double>());
+        if (ok) v[i] = a[i].get<double>();
+    }
+    const glm::dquat q(v[3], v[0], v[1], v[2]);
+    if (!ok || std::abs(glm::length(q) - 1) > 0.01)
+        return make_error(where + "." + key +
+                          ": not [qx, qy, qz, qw, x, y, z] with a unit quaternion");
+    return std::pair{glm::mat3_cast(glm::normalize(q)), glm::dvec3(v[4], v[5], v[6])};
 }
 
 // IMU lines that carry no sequence number (every SEQ the same, e.g. 0: a controller's samples
@@ -500,10 +520,17 @@ Result<ImuCalibration> parse_imu_calibration_json(const std::string& text,
                                                   const std::string& source) {
     nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
     if (j.is_discarded() || !j.is_object()) return make_error(source + ": not a JSON object");
-    if (!j.contains("imu") || !j["imu"].is_object())
-        return make_error(source + ": no \"imu\" object (the factory IMU calibration)");
-    const nlohmann::json& imu = j["imu"];
-    const std::string w = source + ": imu";
+    // A Vive HMD (lighthouse 1) keeps its calibration at the top level and its IMU's pose in the
+    // tracking-reference frame as trackref_from_imu [qx, qy, qz, qw, x, y, z], as its head's
+    // trackref_from_head (Monado's vive_config.c reads the Vive's the same way).
+    const bool top_level = !(j.contains("imu") && j["imu"].is_object()) && j.contains("acc_bias") &&
+                           j.contains("gyro_bias") && j.contains("trackref_from_imu");
+    if (!top_level && !(j.contains("imu") && j["imu"].is_object()))
+        return make_error(source +
+                          ": no \"imu\" object, nor a Vive HMD's top-level acc_bias, gyro_bias "
+                          "and trackref_from_imu (the factory IMU calibration)");
+    const nlohmann::json& imu = top_level ? j : j["imu"];
+    const std::string w = top_level ? source : source + ": imu";
     ImuCalibration c;
     auto acc_bias = vec3(imu, "acc_bias", w, std::nullopt);
     if (!acc_bias) return acc_bias.error();
@@ -521,13 +548,27 @@ Result<ImuCalibration> parse_imu_calibration_json(const std::string& text,
     c.acc_scale = *acc_scale;
     c.gyro_bias = *gyro_bias;
     c.gyro_scale = *gyro_scale;
-    auto device_from_imu = frame(imu, w);
-    if (!device_from_imu) return device_from_imu.error();
-    auto imu_origin = vec3(imu, "position", w, glm::dvec3(0.0));
-    if (!imu_origin) return imu_origin.error();
+    Result<glm::dmat3> device_from_imu = glm::dmat3(1.0);
+    Result<glm::dvec3> imu_origin = glm::dvec3(0.0);
+    if (top_level) {
+        auto pose = pose7(j, "trackref_from_imu", source);
+        if (!pose) return pose.error();
+        device_from_imu = pose->first;
+        imu_origin = pose->second;
+    } else {
+        device_from_imu = frame(imu, w);
+        if (!device_from_imu) return device_from_imu.error();
+        imu_origin = vec3(imu, "position", w, glm::dvec3(0.0));
+        if (!imu_origin) return imu_origin.error();
+    }
     glm::dmat3 device_from_head(1.0);
     glm::dvec3 head_origin(0.0);
-    if (j.contains("head") && j["head"].is_object()) {
+    if (top_level && j.contains("trackref_from_head")) {
+        auto pose = pose7(j, "trackref_from_head", source);
+        if (!pose) return pose.error();
+        device_from_head = pose->first;
+        head_origin = pose->second;
+    } else if (j.contains("head") && j["head"].is_object()) {
         auto h = frame(j["head"], source + ": head");
         if (!h) return h.error();
         device_from_head = *h;
