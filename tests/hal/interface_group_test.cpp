@@ -199,6 +199,67 @@ TEST(InterfaceGroup, ASecondaryInterfaceGoneFailsTheDevice) {
     }
 }
 
+// A report of another interface that arrives while the primary is waited for is older than the
+// primary's report that ends the wait: it comes first (the kernel lane found the merge handing
+// them the other way round).
+TEST(InterfaceGroup, AReportArrivingDuringThePrimarysWaitComesBeforeThePrimarysReport) {
+    struct Shared {
+        bool waited = false;
+    };
+    auto shared = std::make_shared<Shared>();
+    class Primary final : public Transport {
+      public:
+        explicit Primary(std::shared_ptr<Shared> s) : s_(std::move(s)) {}
+        DeviceId id() const override { return interface_id(0, "usb:1-4"); }
+        Result<std::optional<InputReport>> read_input(int timeout_ms) override {
+            if (timeout_ms == 0 || done_) return std::optional<InputReport>{};
+            s_->waited = true;  // the light arrived (at 50) while this waited; the IMU at 51
+            done_ = true;
+            return std::optional<InputReport>{report(0x20, 51, 0)};
+        }
+        Result<std::vector<uint8_t>> get_feature(uint8_t, size_t) override {
+            return make_error("none");
+        }
+        Status set_feature(std::span<const uint8_t>) override { return {}; }
+        Status write_output(std::span<const uint8_t>) override { return {}; }
+
+      private:
+        std::shared_ptr<Shared> s_;
+        bool done_ = false;
+    };
+    class Light final : public Transport {
+      public:
+        explicit Light(std::shared_ptr<Shared> s) : s_(std::move(s)) {}
+        DeviceId id() const override { return interface_id(1, "usb:1-4"); }
+        Result<std::optional<InputReport>> read_input(int) override {
+            if (!s_->waited || done_) return std::optional<InputReport>{};
+            done_ = true;
+            return std::optional<InputReport>{report(0x25, 50, 0)};
+        }
+        Result<std::vector<uint8_t>> get_feature(uint8_t, size_t) override {
+            return make_error("none");
+        }
+        Status set_feature(std::span<const uint8_t>) override { return {}; }
+        Status write_output(std::span<const uint8_t>) override { return {}; }
+
+      private:
+        std::shared_ptr<Shared> s_;
+        bool done_ = false;
+    };
+    std::vector<std::unique_ptr<Transport>> parts;
+    parts.push_back(std::make_unique<Primary>(shared));
+    parts.push_back(std::make_unique<Light>(shared));
+    auto merged = merge_interfaces(std::move(parts), InterfaceReading::polled);
+    ASSERT_TRUE(merged.ok());
+    auto first = (*merged)->read_input(10);
+    ASSERT_TRUE(first.ok() && first->has_value());
+    EXPECT_EQ((*first)->bytes[0], 0x25);
+    EXPECT_EQ((*first)->host_time_ns, 50);
+    auto second = (*merged)->read_input(10);
+    ASSERT_TRUE(second.ok() && second->has_value());
+    EXPECT_EQ((*second)->bytes[0], 0x20);
+}
+
 TEST(InterfaceGroup, MergeRefusesNoParts) {
     auto none = merge_interfaces({}, InterfaceReading::polled);
     ASSERT_FALSE(none.ok());
@@ -273,7 +334,15 @@ TEST(InterfaceGroup, HidrawNodeResolvesToItsUsbDeviceThroughSysfs) {
     fs::create_directory_symlink(uhid, root / "class/hidraw/hidraw5/device");
     EXPECT_EQ(hidraw_usb_device("/dev/hidraw3", root.string()), "usb:1-4.1");
     EXPECT_EQ(hidraw_usb_device("/dev/hidraw4", root.string()), "usb:1-4.1");
-    EXPECT_EQ(hidraw_usb_device("/dev/hidraw5", root.string()), "");  // uhid: not USB
+    EXPECT_EQ(hidraw_usb_device("/dev/hidraw5", root.string()), "");  // uhid, no HID_PHYS
+    // A uhid device whose HID_PHYS ends in /inputN (as a USB interface's): its part before that.
+    std::ofstream(uhid / "uevent") << "DRIVER=hid-generic\nHID_ID=0003:000028DE:00002000\n"
+                                      "HID_PHYS=hmdnode-lane-vive/input1\nHID_UNIQ=LANE-VIVE\n";
+    int iface = -1;
+    EXPECT_EQ(hidraw_usb_device("/dev/hidraw5", root.string(), &iface), "phys:hmdnode-lane-vive");
+    EXPECT_EQ(iface, 1);
+    std::ofstream(uhid / "uevent") << "HID_PHYS=00:1a:7d:da:71:13\n";  // Bluetooth: the adapter
+    EXPECT_EQ(hidraw_usb_device("/dev/hidraw5", root.string()), "");
     EXPECT_EQ(hidraw_usb_device("/dev/hidraw6", root.string()), "");  // no such node
     EXPECT_EQ(hidraw_usb_device("/dev/ttyUSB0", root.string()), "");
     fs::remove_all(root);

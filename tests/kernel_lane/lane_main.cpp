@@ -11,6 +11,9 @@
 //      hotplug monitor (kernel uevents: no udevd in the guest) sees it come back, and the backend
 //      reads again within a second of the re-creation;
 //   3b. 100 more destroy/re-create cycles, each recovered within a second, no fd leaked;
+//   3c. a Vive's two HID interfaces (IMU and light, two uhid devices of one phys) found by the
+//       grouped hidapi backend as one device and read as one merged transport, every report of
+//       both delivered in its order (the live light path's transport);
 //   4. our V4L2 backend streams a few frames from vivid's /dev/video0;
 //   5. our KMS display drives bochs-display's connector (qemu's EDID): atomic modeset, 300 page
 //      flips with their events' times, the scanned-out buffer read back and compared;
@@ -66,6 +69,8 @@
 #include "hmdnode/hal/display/kms_display.hpp"
 #include "hmdnode/hal/sim/sim_reference_device.hpp"
 #include "hmdnode/hal/transport.hpp"
+#include "hmdnode/hal/transport/interface_group.hpp"
+#include "hmdnode/hal/transport/usbmon_capture.hpp"
 #include "hmdnode/render/lens.hpp"
 #include "hmdnode/render/renderer.hpp"
 
@@ -345,6 +350,177 @@ void replug_cycles(UhidTracker& tracker, TransportBackend& backend) {
                         : error);
     check(fds_after == fds_before, "no fd leaked over the replug cycles",
           std::to_string(fds_before) + " open fds before, " + std::to_string(fds_after) + " after");
+}
+
+// 3c. A lighthouse device's two HID interfaces through the kernel: two uhid devices stand for a
+// Vive's (28de:2000, serial LANE-VIVE, phys "hmdnode-lane-vive/input0" with the IMU report 0x20
+// and ".../input1" with the light report 0x25, vendor-defined report descriptors of the capture's
+// sizes), fed the first seconds of data/traces/vive_cal.pcap.gz's endpoint 0x81 and 0x82 reports
+// at the capture's pace from a thread of their own. The hidapi backend grouped by device
+// (group_interfaces, the secondary interface on a reader thread, as `record --backend hidapi
+// --base-stations` opens one) lists one device, and its merged transport delivers every report of
+// both interfaces, byte for byte, each interface's in its order.
+class UhidInterface {
+  public:
+    ~UhidInterface() {
+        if (fd_ >= 0) {
+            uhid_event ev{};
+            ev.type = UHID_DESTROY;
+            (void)!write(fd_, &ev, sizeof ev);
+            close(fd_);
+        }
+    }
+    bool create(const char* phys, uint8_t report_id, size_t report_size, std::string* error) {
+        fd_ = open("/dev/uhid", O_RDWR | O_CLOEXEC | O_NONBLOCK);
+        if (fd_ < 0) {
+            *error = std::string("/dev/uhid: ") + std::strerror(errno);
+            return false;
+        }
+        // Vendor-defined page, one input report of report_size - 1 bytes after its id.
+        const uint8_t count = uint8_t(report_size - 1);
+        const uint8_t rd[] = {0x06,      0x00, 0xFF, 0x09,  0x01, 0xA1, 0x01, 0x85,
+                              report_id, 0x09, 0x01, 0x15,  0x00, 0x26, 0xFF, 0x00,
+                              0x75,      0x08, 0x95, count, 0x81, 0x02, 0xC0};
+        uhid_event ev{};
+        ev.type = UHID_CREATE2;
+        std::snprintf(reinterpret_cast<char*>(ev.u.create2.name), sizeof ev.u.create2.name,
+                      "hmdnode lane Vive interface");
+        std::snprintf(reinterpret_cast<char*>(ev.u.create2.phys), sizeof ev.u.create2.phys, "%s",
+                      phys);
+        std::snprintf(reinterpret_cast<char*>(ev.u.create2.uniq), sizeof ev.u.create2.uniq,
+                      "LANE-VIVE");
+        ev.u.create2.rd_size = sizeof rd;
+        std::memcpy(ev.u.create2.rd_data, rd, sizeof rd);
+        ev.u.create2.bus = 0x03;  // BUS_USB
+        ev.u.create2.vendor = 0x28de;
+        ev.u.create2.product = 0x2000;
+        if (write(fd_, &ev, sizeof ev) != ssize_t(sizeof ev)) {
+            *error = std::string("UHID_CREATE2 (") + phys + "): " + std::strerror(errno);
+            return false;
+        }
+        return true;
+    }
+    bool input(const std::vector<uint8_t>& bytes) {
+        uhid_event ev{};
+        ev.type = UHID_INPUT2;
+        ev.u.input2.size = uint16_t(bytes.size());
+        std::memcpy(ev.u.input2.data, bytes.data(), bytes.size());
+        // note: the kernel's events to us (start, open, close) are read and dropped.
+        uhid_event in{};
+        while (read(fd_, &in, sizeof in) > 0) {
+        }
+        return write(fd_, &ev, sizeof ev) == ssize_t(sizeof ev);
+    }
+
+  private:
+    int fd_ = -1;
+};
+
+void interface_group_lane() {
+    constexpr double kSeconds = 3.0;  // of the capture
+    auto dev = find_capture_device(HMDNODE_SOURCE_DIR "/data/traces/vive_cal.pcap.gz", "28de:2000");
+    if (!dev.ok()) {
+        check(false, "two-interface Vive through uhid: the capture", dev.error().message);
+        return;
+    }
+    std::vector<UsbPacket> sent[2];
+    int64_t first = -1;
+    for (const UsbPacket& u : dev->capture->packets) {
+        if (u.bus != dev->bus || u.device_address != dev->address) continue;
+        if (!is_interrupt_in_completion(u) || (u.endpoint != 0x81 && u.endpoint != 0x82)) continue;
+        // note: only the interface's own report (the capture's first 0x81 transfer is a stray
+        // id 0, which a numbered-report device cannot send)
+        if (u.data[0] != (u.endpoint == 0x81 ? 0x20 : 0x25)) continue;
+        if (first < 0) first = u.time_ns;
+        if (u.time_ns - first > int64_t(kSeconds * 1e9)) break;
+        sent[u.endpoint - 0x81].push_back(u);
+    }
+    UhidInterface imu, light;
+    std::string error;
+    const bool made =
+        !sent[0].empty() && !sent[1].empty() &&
+        imu.create("hmdnode-lane-vive/input0", 0x20, sent[0].front().data.size(), &error) &&
+        light.create("hmdnode-lane-vive/input1", 0x25, sent[1].front().data.size(), &error);
+    check(made,
+          "two uhid interfaces of one Vive (28de:2000, phys hmdnode-lane-vive/input0, /input1)",
+          made ? std::to_string(sent[0].size()) + " IMU and " + std::to_string(sent[1].size()) +
+                     " light reports to send"
+               : error);
+    if (!made) return;
+    TransportBackendOptions options;
+    options.udev_event_source = "kernel";
+    auto inner = create_hidapi_backend(options);
+    if (!inner.ok()) {
+        check(false, "hidapi backend", inner.error().message);
+        return;
+    }
+    auto backend = group_interfaces(std::move(*inner), InterfaceReading::threads);
+    const DeviceFilter filter{0x28de, 0x2000, "LANE-VIVE"};
+    std::vector<DeviceId> ids;
+    for (const int64_t deadline = now_ns() + 5 * kNsPerSecond; now_ns() < deadline;) {
+        auto list = backend->enumerate(filter);
+        if (list.ok() && list->size() == 1 && !list->front().usb_device.empty()) {
+            ids = *list;
+            break;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    check(ids.size() == 1, "the grouped hidapi backend lists the two hidraw nodes as one device",
+          ids.size() == 1 ? ids.front().path + " " + ids.front().usb_device + " interface " +
+                                std::to_string(ids.front().interface_number)
+                          : "not one device within 5 s");
+    if (ids.size() != 1) return;
+    auto t = backend->open(ids.front());
+    check(t.ok(), "its interfaces opened as one merged transport",
+          t.ok() ? (*t)->id().path : t.error().message);
+    if (!t.ok()) return;
+    // The device: the capture's reports at its pace, each to its interface.
+    std::atomic<bool> fed{false};
+    std::thread feeder([&] {
+        const int64_t start = now_ns();
+        size_t k[2] = {0, 0};
+        while (k[0] < sent[0].size() || k[1] < sent[1].size()) {
+            const int e = k[1] >= sent[1].size() || (k[0] < sent[0].size() &&
+                                                     sent[0][k[0]].time_ns <= sent[1][k[1]].time_ns)
+                              ? 0
+                              : 1;
+            const UsbPacket& u = sent[e][k[e]++];
+            const int64_t at = start + (u.time_ns - first);
+            while (now_ns() < at) std::this_thread::sleep_for(std::chrono::microseconds(200));
+            (e == 0 ? imu : light).input(u.data);
+        }
+        fed = true;
+    });
+    std::vector<std::vector<uint8_t>> got[2];
+    size_t out_of_order = 0;
+    int64_t last_t = 0;
+    const int64_t limit = now_ns() + int64_t((kSeconds + 5) * 1e9);
+    while (now_ns() < limit && got[0].size() + got[1].size() < sent[0].size() + sent[1].size()) {
+        auto r = (*t)->read_input(50);
+        if (!r.ok()) {
+            error = r.error().message;
+            break;
+        }
+        if (!r->has_value()) continue;
+        const InputReport& rep = **r;
+        if (rep.host_time_ns < last_t) ++out_of_order;
+        last_t = rep.host_time_ns;
+        got[!rep.bytes.empty() && rep.bytes[0] == 0x25 ? 1 : 0].push_back(rep.bytes);
+    }
+    feeder.join();
+    bool same[2];
+    for (int e = 0; e < 2; ++e) {
+        same[e] = got[e].size() == sent[e].size();
+        for (size_t i = 0; same[e] && i < got[e].size(); ++i)
+            same[e] = got[e][i] == sent[e][i].data;
+    }
+    check(fed && same[0] && same[1] && error.empty(),
+          "every report of both interfaces, byte for byte, each in its order",
+          std::to_string(got[0].size()) + "/" + std::to_string(sent[0].size()) + " IMU (0x20), " +
+              std::to_string(got[1].size()) + "/" + std::to_string(sent[1].size()) +
+              " light (0x25); " + std::to_string(out_of_order) +
+              " delivered before an older report of the other interface" +
+              (error.empty() ? "" : "; " + error));
 }
 
 void hid_lane() {
@@ -1328,6 +1504,7 @@ int main(int argc, char** argv) {
         "hmdnode kernel lane: uhid -> hidraw -> hidapi, vivid -> V4L2, bochs-display -> "
         "KMS, the renderer -> KMS, the renderer -> V4L2 output -> vivid loopback -> V4L2\n");
     hid_lane();
+    interface_group_lane();
     camera_lane();
     kms_lane(argv[1], runs);
     std::printf("HMDNODE_KERNEL_LANE: %s (%d failed, %.2f s)\n", g_failures ? "FAIL" : "PASS",

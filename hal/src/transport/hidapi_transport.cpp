@@ -5,9 +5,11 @@
 // resolves one sysfs link per node (DeviceId::usb_device, the USB device its interfaces share).
 // Departs from plain hidapi use: errors carry the device path and hid_error's text, and a device
 // that is gone (poll error, ENODEV) is an error, never a silent zero-length read.
+#include <cstdlib>
 #include <ctime>
 #include <cwchar>
 #include <filesystem>
+#include <fstream>
 #include <mutex>
 #include <vector>
 
@@ -74,7 +76,9 @@ DeviceId to_device_id(const hid_device_info& info) {
     id.manufacturer = detail::narrow(info.manufacturer_string);
     id.product = detail::narrow(info.product_string);
     id.interface_number = info.interface_number;
-    id.usb_device = hidraw_usb_device(id.path);
+    int from_phys = -1;
+    id.usb_device = hidraw_usb_device(id.path, "/sys", &from_phys);
+    if (id.interface_number < 0) id.interface_number = from_phys;
     return id;
 }
 
@@ -185,22 +189,37 @@ class HidapiBackend final : public TransportBackend {
 
 }  // namespace
 
-std::string hidraw_usb_device(const std::string& hidraw_path, const std::string& sysfs) {
+std::string hidraw_usb_device(const std::string& hidraw_path, const std::string& sysfs,
+                              int* interface_number) {
     namespace fs = std::filesystem;
     const std::string name = fs::path(hidraw_path).filename().string();
     if (name.rfind("hidraw", 0) != 0) return {};
     std::error_code ec;
-    const fs::path hid = fs::canonical(fs::path(sysfs) / "class" / "hidraw" / name / "device", ec);
+    const fs::path link = fs::path(sysfs) / "class" / "hidraw" / name / "device";
+    const fs::path hid = fs::canonical(link, ec);
     if (ec) return {};
     // The HID device's parent is the USB interface ("1-4:1.0"), whose parent is the USB device
     // ("1-4"): BUS-PORT[.PORT...], digits, '-' and '.' only.
     const std::string interface = hid.parent_path().filename().string();
     const std::string device = hid.parent_path().parent_path().filename().string();
-    if (interface.rfind(device + ":", 0) != 0 || device.empty()) return {};
-    if (device.find_first_not_of("0123456789-.") != std::string::npos ||
-        device.find('-') == std::string::npos)
-        return {};
-    return "usb:" + device;
+    if (!device.empty() && interface.rfind(device + ":", 0) == 0 &&
+        device.find_first_not_of("0123456789-.") == std::string::npos &&
+        device.find('-') != std::string::npos)
+        return "usb:" + device;
+    // Not under a USB device (uhid): its HID_PHYS, when it ends in /inputN as a USB interface's
+    // does ("usb-0000:00:14.0-4/input1"), names the device by the part before it.
+    std::ifstream uevent(hid / "uevent");
+    for (std::string line; std::getline(uevent, line);) {
+        if (line.rfind("HID_PHYS=", 0) != 0) continue;
+        const std::string phys = line.substr(9);
+        const size_t at = phys.rfind("/input");
+        if (at == std::string::npos || at == 0 || at + 6 >= phys.size() ||
+            phys.find_first_not_of("0123456789", at + 6) != std::string::npos)
+            return {};
+        if (interface_number) *interface_number = std::atoi(phys.c_str() + at + 6);
+        return "phys:" + phys.substr(0, at);
+    }
+    return {};
 }
 
 Result<std::unique_ptr<TransportBackend>> create_hidapi_backend(

@@ -27,6 +27,7 @@ namespace {
 constexpr int kSliceMs = 2;              // the primary's read while nothing is at hand
 constexpr int kReaderTimeoutMs = 20;     // a reader thread's read: bounds the reaction to close
 constexpr size_t kQueueCapacity = 4096;  // per secondary part (threads)
+constexpr size_t kPrimaryHeld = 256;     // the primary's reports drained ahead
 
 // One secondary part read on a thread of its own into a bounded queue.
 class PartReader {
@@ -115,18 +116,13 @@ class MergedTransport final : public Transport {
         while (true) {
             // The secondaries first: a report at hand there means the primary is not waited for.
             bool any = false;
-            for (size_t i = 1; i < parts_.size(); ++i) {
-                if (!pending_[i]) {
-                    auto r = reading_ == InterfaceReading::threads ? readers_[i - 1]->take()
-                                                                   : parts_[i]->read_input(0);
-                    if (!r) return r.error();
-                    if (r->has_value()) pending_[i] = std::move(**r);
-                }
-                any = any || pending_[i].has_value();
-            }
-            if (!pending_[0]) {
+            if (Status st = fill_secondaries(&any); !st) return st.error();
+            // The primary: waited for in a slice when nothing is at hand, then drained of what
+            // it holds (up to kPrimaryHeld): its reports are stamped when read, and a hidraw
+            // node keeps only 64.
+            for (int k = 0; primary_.size() < kPrimaryHeld; ++k) {
                 int slice = 0;
-                if (!any && timeout_ms != 0) {
+                if (k == 0 && primary_.empty() && !any && timeout_ms != 0) {
                     slice = kSliceMs;
                     if (deadline >= 0) {
                         const int64_t left_ms =
@@ -136,14 +132,23 @@ class MergedTransport final : public Transport {
                 }
                 auto r = parts_[0]->read_input(slice);
                 if (!r) return r.error();
-                if (r->has_value()) pending_[0] = std::move(**r);
+                if (!r->has_value()) break;
+                primary_.push_back(std::move(**r));
             }
+            // Again after the primary's wait: what arrived meanwhile is older than its report.
+            if (Status st = fill_secondaries(&any); !st) return st.error();
             // The oldest report at hand; the primary's first on a tie.
             size_t best = parts_.size();
-            for (size_t i = 0; i < parts_.size(); ++i)
-                if (pending_[i] && (best == parts_.size() ||
-                                    pending_[i]->host_time_ns < pending_[best]->host_time_ns))
-                    best = i;
+            int64_t best_t = 0;
+            if (!primary_.empty()) best = 0, best_t = primary_.front().host_time_ns;
+            for (size_t i = 1; i < parts_.size(); ++i)
+                if (pending_[i] && (best == parts_.size() || pending_[i]->host_time_ns < best_t))
+                    best = i, best_t = pending_[i]->host_time_ns;
+            if (best == 0) {
+                InputReport r = std::move(primary_.front());
+                primary_.pop_front();
+                return std::optional<InputReport>{std::move(r)};
+            }
             if (best < parts_.size()) {
                 InputReport r = std::move(*pending_[best]);
                 pending_[best].reset();
@@ -167,6 +172,7 @@ class MergedTransport final : public Transport {
 
     // Every part has nothing more to give and nothing is left at hand.
     bool finished() const override {
+        if (!primary_.empty()) return false;
         for (size_t i = 0; i < parts_.size(); ++i) {
             if (pending_[i]) return false;
             if (i > 0 && reading_ == InterfaceReading::threads) {
@@ -180,9 +186,24 @@ class MergedTransport final : public Transport {
     bool replayed() const override { return parts_[0]->replayed(); }
 
   private:
+    // A report at hand for every secondary that has one; *any: some secondary has one.
+    Status fill_secondaries(bool* any) {
+        for (size_t i = 1; i < parts_.size(); ++i) {
+            if (!pending_[i]) {
+                auto r = reading_ == InterfaceReading::threads ? readers_[i - 1]->take()
+                                                               : parts_[i]->read_input(0);
+                if (!r) return r.error();
+                if (r->has_value()) pending_[i] = std::move(**r);
+            }
+            *any = *any || pending_[i].has_value();
+        }
+        return {};
+    }
+
     std::vector<std::unique_ptr<Transport>> parts_;
     InterfaceReading reading_;
-    std::vector<std::optional<InputReport>> pending_;   // one report at hand per part
+    std::deque<InputReport> primary_;                   // the primary's reports at hand
+    std::vector<std::optional<InputReport>> pending_;   // one report at hand per other part
     std::vector<std::unique_ptr<PartReader>> readers_;  // threads: parts 1.. (last: joined first)
 };
 

@@ -30,8 +30,9 @@ struct DeviceId {
     std::string manufacturer;  // may be empty
     std::string product;       // may be empty
     int interface_number = -1;
-    // The USB device the interface belongs to ("usb:1-4": bus and ports), shared by all its
-    // interfaces; empty when the backend cannot tell (transport/interface_group.hpp groups by it).
+    // The USB device the interface belongs to ("usb:1-4": bus and ports; a virtual device's
+    // "phys:NAME", hidraw_usb_device()), shared by all its interfaces; empty when the backend
+    // cannot tell (transport/interface_group.hpp groups by it).
     std::string usb_device;
 };
 
@@ -118,10 +119,14 @@ std::string format_vid_pid(uint16_t vendor_id, uint16_t product_id);
 // The USB device a hidraw node ("/dev/hidraw3") belongs to, as DeviceId::usb_device has it
 // ("usb:1-4"): from SYSFS/class/hidraw/hidraw3/device, which for a USB HID interface resolves to
 // .../1-4/1-4:1.0/0003:28DE:2000.0004 (the HID device, under the interface, under the USB
-// device). Empty when the node is not on USB (uhid, Bluetooth) or sysfs does not say. The hidapi
-// backend's enumerate() fills usb_device with it; exposed so the resolution can be tested on a
-// made-up sysfs tree.
-std::string hidraw_usb_device(const std::string& hidraw_path, const std::string& sysfs = "/sys");
+// device). A node under no USB device (a uhid device) whose HID_PHYS (the HID device's uevent)
+// ends in /inputN, as a USB interface's does, gives "phys:" and the part before it, and N as
+// *interface_number. Empty otherwise (Bluetooth: its HID_PHYS is the adapter's address) or when
+// sysfs does not say. The hidapi backend's enumerate() fills usb_device with it (and the
+// interface number where hidapi has none); exposed so the resolution can be tested on a made-up
+// sysfs tree.
+std::string hidraw_usb_device(const std::string& hidraw_path, const std::string& sysfs = "/sys",
+                              int* interface_number = nullptr);
 
 // Options of the real backends.
 struct TransportBackendOptions {

@@ -14,7 +14,11 @@
 //     backends whose transports share one event loop (libusb: handling events for one transport
 //     completes the others' transfers too), and for replays (deterministic order).
 // While nothing is at hand the primary is read in slices of at most 2 ms, so a report of another
-// part waits at most that long. A part's failure (the device unplugged) fails the whole transport.
+// part waits at most that long; each call drains what the primary holds (up to 256 reports: a
+// hidraw node keeps only 64). Reports are stamped when their part reads them, so two interfaces'
+// reports that arrive within a reader's scheduling delay of each other may come in either order
+// (the light decoder's 24-bit times tolerate far more). A part's failure (the device unplugged)
+// fails the whole transport.
 //
 // group_interfaces() is the backend decorator: its enumerate() lists each USB device once (the id
 // of its lowest-numbered interface), its open() opens every interface of that device (the
