@@ -313,6 +313,25 @@ void finish_tracker_recording(const RecordArgs& args, const std::string& label,
 void print_light_status(const DeviceTrackerStatus& st, const TrackerRecording& out, size_t rows,
                         const std::string& source, size_t stations);
 
+// A 6DoF recording with fewer than two rows of a tracked position (of at least two samples): why,
+// and that `out` is not written (the light path's counts, or why it is off); empty otherwise.
+// Clears rec's own failure (this one says more).
+std::string six_dof_refusal(const std::string& device, TrackerRecording& rec,
+                            const DeviceTrackerStatus& st, const std::string& out) {
+    if (rec.trace.samples.size() >= 2 || rec.delivered < 2) return {};
+    rec.failure.clear();
+    const std::string why =
+        !st.light.enabled && !st.light.light_error.empty()
+            ? "the light path is off: " + st.light.light_error
+            : std::to_string(st.light.reports) + " light reports, " +
+                  std::to_string(st.light.tracking.solved) + " turns solved of " +
+                  std::to_string(st.light.tracking.solves) + ", " +
+                  std::to_string(st.light.filter.accepted) + " accepted by the filter";
+    return device + ": " + std::to_string(rec.trace.samples.size()) +
+           " sample(s) with a tracked position of " + std::to_string(rec.delivered) + " (" + why +
+           "): " + out + " not written";
+}
+
 // --base-stations for a device's own light (capture, live): the setup file's world is +z up (no
 // --world-up), it loads and holds a base station; *stations gets their count. False (the exit
 // status set) otherwise.
@@ -366,16 +385,7 @@ void run_record_capture(const RecordArgs& args, const DeviceFilter& filter) {
     rec.seconds = ns_to_s(clock.now_ns() - start);
     const DeviceTrackerStatus st = tracker->status();
     std::string refused;
-    if (six_dof && rec.trace.samples.size() < 2 && rec.delivered >= 2) {
-        refused = args.device + ": " + std::to_string(rec.trace.samples.size()) +
-                  " sample(s) with a tracked position of " + std::to_string(rec.delivered) + " (" +
-                  std::to_string(st.light.reports) + " light reports, " +
-                  std::to_string(st.light.tracking.solved) + " turns solved of " +
-                  std::to_string(st.light.tracking.solves) + ", " +
-                  std::to_string(st.light.filter.accepted) +
-                  " accepted by the filter): " + args.out + " not written";
-        rec.failure.clear();
-    }
+    if (six_dof) refused = six_dof_refusal(args.device, rec, st, args.out);
     if (six_dof)
         rec.trace.comments.push_back(
             "6DoF: light + IMU (hmdnode's solver and filter), base stations from " +
@@ -674,15 +684,8 @@ void run_record_survive(const RecordArgs& args) {
     const DeviceTrackerStatus st = (*tracker)->status();
     // Fewer than 2 rows: why, from what the IMU lines gave.
     std::string refused;
-    if (six_dof && out.trace.samples.size() < 2 && out.delivered >= 2) {
-        refused = rec->device + ": " + std::to_string(out.trace.samples.size()) +
-                  " sample(s) with a tracked position of " + std::to_string(out.delivered) + " (" +
-                  std::to_string(st.light.tracking.solved) + " turns solved of " +
-                  std::to_string(st.light.tracking.solves) + ", " +
-                  std::to_string(st.light.filter.accepted) +
-                  " accepted by the filter): " + args.out + " not written";
-        out.failure.clear();
-    } else if (out.trace.samples.size() < 2) {
+    if (six_dof) refused = six_dof_refusal(rec->device, out, st, args.out);
+    if (refused.empty() && out.trace.samples.size() < 2) {
         refused = no_samples_cause(*rec, st, out) + ": " + args.out + " not written";
         out.failure.clear();
     }
@@ -822,7 +825,8 @@ void run_record(const RecordArgs& args) {
         "record_start " + backend_name + " " + args.device +
         (args.sim_clock ? std::string(" (simulated clock)")
                         : " at " + std::to_string(start + rt_offset) + " ns realtime");
-    finish_tracker_recording(args, label, via, rec, st, pcap.get(), time_base);
+    const std::string refused = six_dof ? six_dof_refusal(args.device, rec, st, args.out) : "";
+    finish_tracker_recording(args, label, via, rec, st, pcap.get(), time_base, {}, refused);
     if (six_dof) print_light_status(st, rec, rows, args.base_stations, stations);
 }
 
