@@ -825,7 +825,9 @@ void run_record(const RecordArgs& args) {
         "record_start " + backend_name + " " + args.device +
         (args.sim_clock ? std::string(" (simulated clock)")
                         : " at " + std::to_string(start + rt_offset) + " ns realtime");
-    const std::string refused = six_dof ? six_dof_refusal(args.device, rec, st, args.out) : "";
+    // note: --capture alone keeps the raw reports whatever the light did
+    const std::string refused =
+        six_dof && !args.out.empty() ? six_dof_refusal(args.device, rec, st, args.out) : "";
     finish_tracker_recording(args, label, via, rec, st, pcap.get(), time_base, {}, refused);
     if (six_dof) print_light_status(st, rec, rows, args.base_stations, stations);
 }
