@@ -9,8 +9,12 @@
 #include <array>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 extern char** environ;
 
@@ -50,6 +54,13 @@ inline pid_t spawn(const std::vector<std::string>& args, const std::filesystem::
     if (posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), envp ? envp : environ) != 0) pid = -1;
     posix_spawn_file_actions_destroy(&fa);
     return pid;
+}
+
+// The JSON a command wrote (throws nlohmann::json::parse_error when it is not JSON).
+inline nlohmann::json read_json(const std::filesystem::path& p) {
+    std::ifstream in(p);
+    return nlohmann::json::parse(
+        std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()));
 }
 
 // An empty directory <tmp>/<name>, removed first if it exists.

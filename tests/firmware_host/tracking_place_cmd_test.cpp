@@ -37,11 +37,7 @@ test::CommandRun tool(const std::string& args) {
     return test::run(std::string(HMDNODE_TOOL) + " " + args);
 }
 
-nlohmann::json read_json(const fs::path& p) {
-    std::ifstream in(p);
-    return nlohmann::json::parse(
-        std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()));
-}
+using test::read_json;
 
 double percentile(std::vector<double> v, double f) {
     std::sort(v.begin(), v.end());

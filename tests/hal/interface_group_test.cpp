@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -83,6 +84,26 @@ class MockPart final : public Transport {
     long fail_after_;
     size_t next_ = 0;
     std::map<uint8_t, size_t> served_;
+};
+
+// One interface whose reads a function answers (given the read's timeout).
+class ScriptedPart final : public Transport {
+  public:
+    using Read = std::function<std::optional<InputReport>(int timeout_ms)>;
+    ScriptedPart(DeviceId id, Read read) : id_(std::move(id)), read_(std::move(read)) {}
+    DeviceId id() const override { return id_; }
+    Result<std::optional<InputReport>> read_input(int timeout_ms) override {
+        return read_(timeout_ms);
+    }
+    Result<std::vector<uint8_t>> get_feature(uint8_t, size_t) override {
+        return make_error("no feature reports");
+    }
+    Status set_feature(std::span<const uint8_t>) override { return {}; }
+    Status write_output(std::span<const uint8_t>) override { return {}; }
+
+  private:
+    DeviceId id_;
+    Read read_;
 };
 
 InputReport report(uint8_t id, int64_t t, uint8_t tag) {
@@ -203,52 +224,21 @@ TEST(InterfaceGroup, ASecondaryInterfaceGoneFailsTheDevice) {
 // primary's report that ends the wait: it comes first (the kernel lane found the merge handing
 // them the other way round).
 TEST(InterfaceGroup, AReportArrivingDuringThePrimarysWaitComesBeforeThePrimarysReport) {
-    struct Shared {
-        bool waited = false;
+    bool waited = false;  // the primary waited: the light arrived (at 50) meanwhile, the IMU at 51
+    bool imu_sent = false, light_sent = false;
+    auto primary = [&](int timeout_ms) -> std::optional<InputReport> {
+        if (timeout_ms == 0 || imu_sent) return std::nullopt;
+        waited = imu_sent = true;
+        return report(0x20, 51, 0);
     };
-    auto shared = std::make_shared<Shared>();
-    class Primary final : public Transport {
-      public:
-        explicit Primary(std::shared_ptr<Shared> s) : s_(std::move(s)) {}
-        DeviceId id() const override { return interface_id(0, "usb:1-4"); }
-        Result<std::optional<InputReport>> read_input(int timeout_ms) override {
-            if (timeout_ms == 0 || done_) return std::optional<InputReport>{};
-            s_->waited = true;  // the light arrived (at 50) while this waited; the IMU at 51
-            done_ = true;
-            return std::optional<InputReport>{report(0x20, 51, 0)};
-        }
-        Result<std::vector<uint8_t>> get_feature(uint8_t, size_t) override {
-            return make_error("none");
-        }
-        Status set_feature(std::span<const uint8_t>) override { return {}; }
-        Status write_output(std::span<const uint8_t>) override { return {}; }
-
-      private:
-        std::shared_ptr<Shared> s_;
-        bool done_ = false;
-    };
-    class Light final : public Transport {
-      public:
-        explicit Light(std::shared_ptr<Shared> s) : s_(std::move(s)) {}
-        DeviceId id() const override { return interface_id(1, "usb:1-4"); }
-        Result<std::optional<InputReport>> read_input(int) override {
-            if (!s_->waited || done_) return std::optional<InputReport>{};
-            done_ = true;
-            return std::optional<InputReport>{report(0x25, 50, 0)};
-        }
-        Result<std::vector<uint8_t>> get_feature(uint8_t, size_t) override {
-            return make_error("none");
-        }
-        Status set_feature(std::span<const uint8_t>) override { return {}; }
-        Status write_output(std::span<const uint8_t>) override { return {}; }
-
-      private:
-        std::shared_ptr<Shared> s_;
-        bool done_ = false;
+    auto light = [&](int) -> std::optional<InputReport> {
+        if (!waited || light_sent) return std::nullopt;
+        light_sent = true;
+        return report(0x25, 50, 0);
     };
     std::vector<std::unique_ptr<Transport>> parts;
-    parts.push_back(std::make_unique<Primary>(shared));
-    parts.push_back(std::make_unique<Light>(shared));
+    parts.push_back(std::make_unique<ScriptedPart>(interface_id(0, "usb:1-4"), primary));
+    parts.push_back(std::make_unique<ScriptedPart>(interface_id(1, "usb:1-4"), light));
     auto merged = merge_interfaces(std::move(parts), InterfaceReading::polled);
     ASSERT_TRUE(merged.ok());
     auto first = (*merged)->read_input(10);

@@ -99,6 +99,23 @@ std::string fmt(const char* f, double v) {
     return b;
 }
 
+// A UHID_CREATE2 event: a USB-bus HID device with these strings, ids and report descriptor.
+uhid_event uhid_create_event(const char* name, const char* uniq, const char* phys, uint16_t vendor,
+                             uint16_t product, std::span<const uint8_t> rd) {
+    uhid_event ev{};
+    ev.type = UHID_CREATE2;
+    std::snprintf(reinterpret_cast<char*>(ev.u.create2.name), sizeof ev.u.create2.name, "%s", name);
+    std::snprintf(reinterpret_cast<char*>(ev.u.create2.uniq), sizeof ev.u.create2.uniq, "%s", uniq);
+    std::snprintf(reinterpret_cast<char*>(ev.u.create2.phys), sizeof ev.u.create2.phys, "%s", phys);
+    ev.u.create2.rd_size = static_cast<uint16_t>(rd.size());
+    std::memcpy(ev.u.create2.rd_data, rd.data(), rd.size());
+    ev.u.create2.bus = 0x03;  // BUS_USB
+    ev.u.create2.vendor = vendor;
+    ev.u.create2.product = product;
+    ev.u.create2.version = 0x0100;
+    return ev;
+}
+
 constexpr const char* kSerial = "LANE-0001";
 constexpr int64_t kDeviceClockOffsetUs = 4'000'000'000;  // device clock far from the host's
 
@@ -148,19 +165,9 @@ class UhidTracker {
     }
 
     bool create(std::string* error) {
-        uhid_event ev{};
-        ev.type = UHID_CREATE2;
-        std::snprintf(reinterpret_cast<char*>(ev.u.create2.name), sizeof ev.u.create2.name,
-                      "hmdnode reference tracker (lane)");
-        std::snprintf(reinterpret_cast<char*>(ev.u.create2.uniq), sizeof ev.u.create2.uniq, "%s",
-                      kSerial);
-        const std::span<const uint8_t> rd = refproto::report_descriptor();
-        ev.u.create2.rd_size = static_cast<uint16_t>(rd.size());
-        std::memcpy(ev.u.create2.rd_data, rd.data(), rd.size());
-        ev.u.create2.bus = 0x03;  // BUS_USB
-        ev.u.create2.vendor = refproto::kDevVendorId;
-        ev.u.create2.product = refproto::kDevProductId;
-        ev.u.create2.version = 0x0100;
+        const uhid_event ev = uhid_create_event("hmdnode reference tracker (lane)", kSerial, "",
+                                                refproto::kDevVendorId, refproto::kDevProductId,
+                                                refproto::report_descriptor());
         if (!write_event(ev)) {
             if (error) *error = std::string("UHID_CREATE2: ") + std::strerror(errno);
             return false;
@@ -381,19 +388,8 @@ class UhidInterface {
         const uint8_t rd[] = {0x06,      0x00, 0xFF, 0x09,  0x01, 0xA1, 0x01, 0x85,
                               report_id, 0x09, 0x01, 0x15,  0x00, 0x26, 0xFF, 0x00,
                               0x75,      0x08, 0x95, count, 0x81, 0x02, 0xC0};
-        uhid_event ev{};
-        ev.type = UHID_CREATE2;
-        std::snprintf(reinterpret_cast<char*>(ev.u.create2.name), sizeof ev.u.create2.name,
-                      "hmdnode lane Vive interface");
-        std::snprintf(reinterpret_cast<char*>(ev.u.create2.phys), sizeof ev.u.create2.phys, "%s",
-                      phys);
-        std::snprintf(reinterpret_cast<char*>(ev.u.create2.uniq), sizeof ev.u.create2.uniq,
-                      "LANE-VIVE");
-        ev.u.create2.rd_size = sizeof rd;
-        std::memcpy(ev.u.create2.rd_data, rd, sizeof rd);
-        ev.u.create2.bus = 0x03;  // BUS_USB
-        ev.u.create2.vendor = 0x28de;
-        ev.u.create2.product = 0x2000;
+        const uhid_event ev =
+            uhid_create_event("hmdnode lane Vive interface", "LANE-VIVE", phys, 0x28de, 0x2000, rd);
         if (write(fd_, &ev, sizeof ev) != ssize_t(sizeof ev)) {
             *error = std::string("UHID_CREATE2 (") + phys + "): " + std::strerror(errno);
             return false;

@@ -14,6 +14,7 @@
 #include <glm/gtc/quaternion.hpp>
 #include <nlohmann/json.hpp>
 
+#include "codec/config_pose.hpp"
 #include "transport/gunzip.hpp"
 
 namespace hmdnode {
@@ -187,22 +188,26 @@ Result<LighthouseSensors> parse_lighthouse_sensors(const std::string& text,
         s.model_from_head = glm::dmat3(x, glm::cross(z, x), z);
         s.head_origin = p;
     } else if (j.contains("trackref_from_head")) {
-        const nlohmann::json& a = j["trackref_from_head"];
-        bool ok = a.is_array() && a.size() == 7;
-        double v[7] = {};
-        for (size_t i = 0; ok && i < 7; ++i) {
-            ok = a[i].is_number() && std::isfinite(a[i].get<double>());
-            if (ok) v[i] = a[i].get<double>();
-        }
-        const glm::dquat q(v[3], v[0], v[1], v[2]);
-        if (!ok || std::abs(glm::length(q) - 1) > 0.01)
-            return make_error(source +
-                              ": trackref_from_head: not [qx, qy, qz, qw, x, y, z] with a "
-                              "unit quaternion");
-        s.model_from_head = glm::mat3_cast(glm::normalize(q));
-        s.head_origin = glm::dvec3(v[4], v[5], v[6]);
+        auto pose = detail::config_pose7(j["trackref_from_head"], source + ": trackref_from_head");
+        if (!pose) return pose.error();
+        s.model_from_head = pose->first;
+        s.head_origin = pose->second;
     }
     return s;
+}
+
+Result<LighthouseSensors> capture_sensor_model(const Result<std::string>& json,
+                                               const std::string& file, const std::string& vid_pid,
+                                               const std::string& purpose) {
+    const std::string what = file + ": device " + vid_pid;
+    if (!json)
+        return make_error(what + ": no configuration read in the capture, so no sensor model " +
+                          purpose + " (" + json.error().message + ")");
+    auto sensors = parse_lighthouse_sensors(*json, file + ": the configuration");
+    if (!sensors) return sensors.error();
+    if (sensors->empty())
+        return make_error(what + ": its configuration has no lighthouse_config (sensor model)");
+    return sensors;
 }
 
 LighthouseModel lighthouse_model(const std::string& model_number) {

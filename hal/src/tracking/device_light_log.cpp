@@ -19,9 +19,6 @@
 namespace hmdnode {
 namespace {
 
-// One turn of the device's 32-bit, 48 MHz clock.
-constexpr int64_t kLightLogClockTurnNs = int64_t((uint64_t(1) << 32) * 1000 / 48);
-
 // Reads `transport` to its end (a replayed stream: it never blocks) through `codec` and a light
 // decoder of `model` into `log`.
 Status gather_light_log(Transport& transport, ReportCodec& codec,
@@ -32,7 +29,6 @@ Status gather_light_log(Transport& transport, ReportCodec& codec,
     std::vector<lighthouse::LightEvent> events;
     bool have_imu = false;
     int64_t last_imu_ns = 0;
-    uint64_t light_index = 0;
     while (!transport.finished()) {
         auto r = transport.read_input(0);
         if (!r) return r.error();
@@ -41,7 +37,6 @@ Status gather_light_log(Transport& transport, ReportCodec& codec,
         if (bytes.empty()) continue;
         if (bytes[0] == lighthouse::kLh1ReportId || bytes[0] == lighthouse::kLh2ReportId) {
             ++log.light_reports;
-            ++light_index;
             if (Status st = decoder.decode_report(bytes); !st) {
                 ++log.rejected_light_reports;
                 if (log.first_rejection.empty()) log.first_rejection = st.error().message;
@@ -49,13 +44,8 @@ Status gather_light_log(Transport& transport, ReportCodec& codec,
             events.clear();
             decoder.take_events(events);
             for (lighthouse::LightEvent& e : events) {
-                // The light and the IMU unwrap the same 32-bit clock from their own first ticks.
-                if (have_imu &&
-                    std::llabs(e.device_time_ns - last_imu_ns) > kLightLogClockTurnNs / 2)
-                    e.device_time_ns -=
-                        int64_t(std::llround(double(e.device_time_ns - last_imu_ns) /
-                                             double(kLightLogClockTurnNs))) *
-                        kLightLogClockTurnNs;
+                if (have_imu)
+                    e.device_time_ns = lighthouse::onto_imu_turn(e.device_time_ns, last_imu_ns);
                 log.events.push_back(e);
             }
             continue;
@@ -65,7 +55,7 @@ Status gather_light_log(Transport& transport, ReportCodec& codec,
         for (size_t i = 0; i < n; ++i) {
             const DeviceSample& d = samples[i];
             if (!d.gyro || !d.accel) continue;
-            decoder.note_imu_ticks(uint32_t(uint64_t(d.device_time_ns) * 48 / 1000));
+            decoder.note_imu_ticks(lighthouse::imu_ticks(d.device_time_ns));
             log.imu.push_back({d.device_time_ns, *d.gyro, *d.accel});
             have_imu = true;
             last_imu_ns = d.device_time_ns;
@@ -91,16 +81,9 @@ Result<DeviceLightLog> device_light_log_from_capture(const std::filesystem::path
     log.source = "capture " + capture.filename().string() + " " + vid_pid;
     log.warnings = dev->capture->warnings;
     auto json = capture_lighthouse_config(*dev->capture, dev->bus, dev->address);
-    if (!json)
-        return make_error(capture.string() + ": device " + vid_pid +
-                          ": no configuration read in the capture, so no sensor model to place "
-                          "the base stations with (" +
-                          json.error().message + ")");
-    auto sensors = parse_lighthouse_sensors(*json, capture.string() + ": the configuration");
+    auto sensors =
+        capture_sensor_model(json, capture.string(), vid_pid, "to place the base stations with");
     if (!sensors) return sensors.error();
-    if (sensors->empty())
-        return make_error(capture.string() + ": device " + vid_pid +
-                          ": its configuration has no lighthouse_config (sensor model)");
     log.sensors = std::move(*sensors);
     auto codec = make_codec_for(dev->filter.vendor_id, dev->filter.product_id);
     if (auto cal = parse_imu_calibration_json(*json, capture.string() + ": the configuration")) {
@@ -110,8 +93,7 @@ Result<DeviceLightLog> device_light_log_from_capture(const std::filesystem::path
         log.warnings.push_back(cal.error().message + ": the codec's own IMU axes, uncalibrated");
     }
     auto backend = create_capture_backend(dev->capture, dev->summary);
-    DeviceFilter f = dev->filter;
-    auto ids = backend->enumerate(f);
+    auto ids = backend->enumerate(dev->filter);
     if (!ids || ids->empty()) return make_error(capture.string() + ": no device " + vid_pid);
     auto transport = backend->open(ids->front());
     if (!transport) return transport.error();

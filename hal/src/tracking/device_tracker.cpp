@@ -229,7 +229,7 @@ class DeviceTrackerImpl final : public DeviceTracker {
     void light_pose(const DeviceSample& d, TrackerSample* t) {
         if (!d.gyro || !d.accel) return;
         // The 32-bit tick of the sample extends the 24-bit light times (ns -> ticks, 48 MHz).
-        decoder_->note_imu_ticks(uint32_t(uint64_t(d.device_time_ns) * 48 / 1000));
+        decoder_->note_imu_ticks(lighthouse::imu_ticks(d.device_time_ns));
         light_->add_imu(d.device_time_ns, *d.gyro, *d.accel, d.imu_flags);
         const FilterPose p = light_->pose();
         t->has_orientation = light_->filter().initialized();
@@ -442,16 +442,9 @@ Result<std::unique_ptr<DeviceTracker>> create_capture_tracker(
         if (auto cal = parse_imu_calibration_json(*json, file.string() + ": the configuration"))
             if (codec->set_imu_calibration(*cal)) calibration = *cal;
     if (!setup.empty()) {
-        const std::string what = file.string() + ": device " + vid_pid;
-        if (!json)
-            return make_error(what +
-                              ": no configuration read in the capture, so no sensor "
-                              "model to solve its light with (" +
-                              json.error().message + ")");
-        auto sensors = parse_lighthouse_sensors(*json, file.string() + ": the configuration");
+        auto sensors =
+            capture_sensor_model(json, file.string(), vid_pid, "to solve its light with");
         if (!sensors) return sensors.error();
-        if (sensors->empty())
-            return make_error(what + ": its configuration has no lighthouse_config (sensor model)");
         auto light = std::make_shared<LightTrackingConfig>();
         light->sensors = std::move(*sensors);
         light->setup = std::move(setup);

@@ -14,11 +14,6 @@
 namespace hmdnode {
 namespace light_tracking_detail {
 
-// 2^32 ticks of the 48 MHz clock in ns (ticks_to_ns of light_codec.cpp): one turn of the
-// device's 32-bit clock.
-constexpr int64_t kClockTurnNs =
-    int64_t(4294967296LL / 48 * 1000 + (4294967296LL % 48) * 1000 / 48);
-
 // out = a * b (6x6 row-major).
 std::array<double, 36> mul6(const std::array<double, 36>& a, const std::array<double, 36>& b) {
     std::array<double, 36> out{};
@@ -65,14 +60,13 @@ void LightTracking::add_imu(int64_t device_time_ns, const glm::dvec3& gyro, cons
 
 void LightTracking::add_light(std::span<const lighthouse::LightEvent> events,
                               const lighthouse::LightDecoder& decoder) {
-    using light_tracking_detail::kClockTurnNs;
     for (lighthouse::LightEvent e : events) {
         ++counters_.events;
         // The light and the IMU unwrap the same 32-bit clock from their own first ticks.
-        if (have_imu_ && std::llabs(e.device_time_ns - last_imu_ns_) > kClockTurnNs / 2) {
-            const double turns = double(e.device_time_ns - last_imu_ns_) / double(kClockTurnNs);
-            e.device_time_ns -= int64_t(std::llround(turns)) * kClockTurnNs;
-            ++counters_.wrap_moved;
+        if (have_imu_) {
+            const int64_t t = lighthouse::onto_imu_turn(e.device_time_ns, last_imu_ns_);
+            counters_.wrap_moved += t != e.device_time_ns;
+            e.device_time_ns = t;
         }
         const bool placed =
             std::any_of(config_.setup.begin(), config_.setup.end(),

@@ -17,6 +17,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "codec/config_pose.hpp"
 #include "hmdnode/hal/codec/vive_imu.hpp"
 #include "transport/gunzip.hpp"
 
@@ -206,6 +207,16 @@ bool is_light_kind(std::string_view k) {
     return k == "W" || k == "B" || k == "Y" || k == "C" || k == "A";
 }
 
+// The factory IMU calibration a configuration holds: an `imu` object, or a Vive HMD's (lighthouse
+// 1) top-level acc_bias ... with its IMU's pose as trackref_from_imu.
+bool has_imu_object(const nlohmann::json& j) {
+    return j.contains("imu") && j["imu"].is_object();
+}
+bool has_vive_hmd_calibration(const nlohmann::json& j) {
+    return !has_imu_object(j) && j.contains("acc_bias") && j.contains("gyro_bias") &&
+           j.contains("trackref_from_imu");
+}
+
 // Parses one line of a kind read into rec; an error message (without the location) when it is
 // malformed.
 std::string parse_line(const std::vector<std::string_view>& t, std::string_view line,
@@ -282,8 +293,7 @@ std::string parse_line(const std::vector<std::string_view>& t, std::string_view 
     rec->sensors = std::move(*sensors);
     // The factory calibration: an `imu` object, or a Vive HMD's top-level acc_bias ... with its
     // trackref_from_imu (parse_imu_calibration_json).
-    const bool vive_hmd = j.contains("acc_bias") && j.contains("trackref_from_imu");
-    if (j.contains("imu") || vive_hmd) {
+    if (j.contains("imu") || has_vive_hmd_calibration(j)) {
         auto cal = parse_imu_calibration_json(json, "CONFIG");
         if (!cal) return cal.error().message;
         rec->has_config = true;
@@ -330,24 +340,6 @@ Result<glm::dmat3> frame(const nlohmann::json& o, const std::string& where) {
     const glm::dvec3 zn = glm::normalize(*z);
     const glm::dvec3 yn = glm::normalize(glm::cross(zn, *x));
     return glm::dmat3(glm::cross(yn, zn), yn, zn);
-}
-
-// A pose [qx, qy, qz, qw, x, y, z] (a Vive HMD's trackref_from_imu, trackref_from_head): the
-// rotation (unit quaternion) and the origin.
-Result<std::pair<glm::dmat3, glm::dvec3>> pose7(const nlohmann::json& o, const char* key,
-                                                const std::string& where) {
-    const nlohmann::json& a = o[key];
-    bool ok = a.is_array() && a.size() == 7;
-    double v[7] = {};
-    for (size_t i = 0; ok && i < 7; ++i) {
-        ok = a[i].is_number() && std::isfinite(a[i].get<double>());
-        if (ok) v[i] = a[i].get<double>();
-    }
-    const glm::dquat q(v[3], v[0], v[1], v[2]);
-    if (!ok || std::abs(glm::length(q) - 1) > 0.01)
-        return make_error(where + "." + key +
-                          ": not [qx, qy, qz, qw, x, y, z] with a unit quaternion");
-    return std::pair{glm::mat3_cast(glm::normalize(q)), glm::dvec3(v[4], v[5], v[6])};
 }
 
 // IMU lines that carry no sequence number (every SEQ the same, e.g. 0: a controller's samples
@@ -523,9 +515,8 @@ Result<ImuCalibration> parse_imu_calibration_json(const std::string& text,
     // A Vive HMD (lighthouse 1) keeps its calibration at the top level and its IMU's pose in the
     // tracking-reference frame as trackref_from_imu [qx, qy, qz, qw, x, y, z], as its head's
     // trackref_from_head (Monado's vive_config.c reads the Vive's the same way).
-    const bool top_level = !(j.contains("imu") && j["imu"].is_object()) && j.contains("acc_bias") &&
-                           j.contains("gyro_bias") && j.contains("trackref_from_imu");
-    if (!top_level && !(j.contains("imu") && j["imu"].is_object()))
+    const bool top_level = has_vive_hmd_calibration(j);
+    if (!top_level && !has_imu_object(j))
         return make_error(source +
                           ": no \"imu\" object, nor a Vive HMD's top-level acc_bias, gyro_bias "
                           "and trackref_from_imu (the factory IMU calibration)");
@@ -551,7 +542,7 @@ Result<ImuCalibration> parse_imu_calibration_json(const std::string& text,
     Result<glm::dmat3> device_from_imu = glm::dmat3(1.0);
     Result<glm::dvec3> imu_origin = glm::dvec3(0.0);
     if (top_level) {
-        auto pose = pose7(j, "trackref_from_imu", source);
+        auto pose = detail::config_pose7(j["trackref_from_imu"], source + ".trackref_from_imu");
         if (!pose) return pose.error();
         device_from_imu = pose->first;
         imu_origin = pose->second;
@@ -564,7 +555,7 @@ Result<ImuCalibration> parse_imu_calibration_json(const std::string& text,
     glm::dmat3 device_from_head(1.0);
     glm::dvec3 head_origin(0.0);
     if (top_level && j.contains("trackref_from_head")) {
-        auto pose = pose7(j, "trackref_from_head", source);
+        auto pose = detail::config_pose7(j["trackref_from_head"], source + ".trackref_from_head");
         if (!pose) return pose.error();
         device_from_head = pose->first;
         head_origin = pose->second;

@@ -78,21 +78,18 @@ class PartReader {
                 }
                 continue;
             }
-            if (queue_.size() >= kQueueCapacity) {
-                queue_.pop_front();
-                ++dropped_;
-            }
+            // note: a caller that stopped reading keeps the newest kQueueCapacity
+            if (queue_.size() >= kQueueCapacity) queue_.pop_front();
             queue_.push_back(std::move(**r));
         }
     }
 
     Transport& part_;
     std::atomic<bool> stop_{false};
-    mutable std::mutex mutex_;  // guards queue_, error_, finished_, dropped_
+    mutable std::mutex mutex_;  // guards queue_, error_, finished_
     std::deque<InputReport> queue_;
     std::string error_;
     bool finished_ = false;
-    uint64_t dropped_ = 0;
     std::thread thread_;  // last: started once the members above exist
 };
 
@@ -203,7 +200,7 @@ class MergedTransport final : public Transport {
     std::vector<std::unique_ptr<Transport>> parts_;
     InterfaceReading reading_;
     std::deque<InputReport> primary_;                   // the primary's reports at hand
-    std::vector<std::optional<InputReport>> pending_;   // one report at hand per other part
+    std::vector<std::optional<InputReport>> pending_;   // one at hand per other part ([0] unused)
     std::vector<std::unique_ptr<PartReader>> readers_;  // threads: parts 1.. (last: joined first)
 };
 

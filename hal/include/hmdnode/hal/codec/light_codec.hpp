@@ -22,6 +22,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <map>
 #include <optional>
@@ -45,6 +46,21 @@ constexpr size_t kMaxSensors = 32;  // a device's photodiode channels (raw ids 0
 constexpr int kLh2Channels = 16;
 constexpr int64_t kLh1CycleTicks = 400'000;  // one sync slot (120 per second)
 constexpr int64_t kLh1PairTicks = 20'000;    // the second base station's flash after the first
+
+// The device's 32-bit, 48 MHz clock. Its light events and its IMU samples are unwrapped from
+// their own first ticks, so the two can lie whole turns apart: onto_imu_turn() moves a light
+// time onto the turn of the IMU time it is nearest (the light tracking and the offline log do);
+// imu_ticks() is an IMU sample's 32-bit tick, LightDecoder::note_imu_ticks()'s argument.
+constexpr int64_t kClockTurnNs =
+    int64_t(4294967296LL / 48 * 1000 + (4294967296LL % 48) * 1000 / 48);  // 2^32 ticks in ns
+inline int64_t onto_imu_turn(int64_t light_ns, int64_t imu_ns) {
+    const int64_t d = light_ns - imu_ns;
+    if ((d < 0 ? -d : d) <= kClockTurnNs / 2) return light_ns;
+    return light_ns - int64_t(std::llround(double(d) / double(kClockTurnNs))) * kClockTurnNs;
+}
+inline uint32_t imu_ticks(int64_t device_ns) {
+    return uint32_t(uint64_t(device_ns) * 48 / 1000);
+}
 
 // Nominal rotor rate of a lighthouse-2 channel 0..15 (Hz), as libsurvive's table has them.
 double lh2_rotor_hz(int channel);

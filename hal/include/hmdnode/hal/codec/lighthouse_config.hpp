@@ -62,6 +62,14 @@ struct LighthouseSensors {
 Result<LighthouseSensors> parse_lighthouse_sensors(const std::string& json,
                                                    const std::string& source);
 
+// The sensor model of device VID_PID in capture FILE from the configuration read the capture
+// recorded (`json`, capture_lighthouse_config's result). Errors name the file and the device:
+// no configuration read ("so no sensor model " + purpose, e.g. "to solve its light with"), a
+// malformed lighthouse_config, or none.
+Result<LighthouseSensors> capture_sensor_model(const Result<std::string>& json,
+                                               const std::string& file, const std::string& vid_pid,
+                                               const std::string& purpose);
+
 // Which device a configuration describes, for the IMU axes (28de:2300 is an Index's and also a
 // Vive Pro's): from `model_number` (e.g. "Utah MP" on an Index, "VIVE_Pro MV" on a Vive Pro).
 enum class LighthouseModel { Index, VivePro, Other, Unknown };

@@ -8,7 +8,7 @@
 // first part (the primary: the interface whose feature reports configure the device) is read on
 // the caller's thread, and so are its feature and output reports; the other parts are read
 //   - `threads`: each on a reader thread of its own (named "hmdnode-if<N>"), into a bounded queue
-//     (4096 reports; the oldest dropped and counted past it). For backends whose transports are
+//     (4096 reports; the oldest dropped past it). For backends whose transports are
 //     independent of each other (hidapi: one file descriptor each);
 //   - `polled`: on the caller's thread too, without waiting, after each read of the primary. For
 //     backends whose transports share one event loop (libusb: handling events for one transport
