@@ -30,7 +30,13 @@
 //   bounds), then split 1:4 at its edge midpoints (3 queries, each child's r half its parent's),
 //   until the top is the largest distance measured (the Hausdorff distance is then exact) or the
 //   refinement's query budget is spent; the top is the bound. The midpoints count for the lower
-//   bound too.
+//   bound too;
+// - with MeshDistanceOptions::prism_bounds, a triangle whose corners lie nearest to different
+//   triangles is bounded by the prism bound instead (prism_bound(): the distance along its normal
+//   to the triangles of the other mesh over it, largest at a corner of their overlay), exact where
+//   the other mesh is flat over it and close where it turns little; each tight bound's peak is
+//   measured once, so the refinement closes the bracket without splitting the triangles down to
+//   the size of the distance (which the Lipschitz bound needs).
 //
 // Nearest point: a BVH over the target's triangles (Morton order, split at the octree planes,
 // float boxes; built in O(T) after a radix sort), depth first, nearer child first, from a hint
@@ -39,7 +45,8 @@
 // Detection", Morgan Kaufmann 2005, 5.1.5, in double precision.
 // Cost: O(T) per BVH (level 0's once per MeshDistanceReference), O(log T) per query typically;
 // time O((N + Q + R) log T + T) with Q the vertices queried (few: the descent settles most) and R
-// refinement queries, memory O(N + T + R).
+// refinement queries, memory O(N + T + R); with prism bounds also O(k) per triangle, k the
+// triangles of the other mesh over it (the edge table O(T) per mesh).
 #include "hmdnode/lod/mesh_distance.hpp"
 
 #include <algorithm>
@@ -203,8 +210,14 @@ struct Surface {
     // The triangles (in leaf order) around each vertex: fan[fan_start[v] .. fan_start[v + 1]); and
     // each triangle's vertices, corners[3 i + k]. For the local descent (descend()).
     std::vector<uint32_t> fan_start, fan, corners;
+    // across[3 i + k]: the triangle across triangle i's edge from corner k to corner k + 1 when
+    // exactly one other triangle has that edge and winds it the other way; else kNoTriangle (an
+    // open border, a non-manifold or inconsistently wound edge). For the prism bound.
+    std::vector<uint32_t> across;
+    static constexpr uint32_t kNoTriangle = 0xFFFFFFFFu;
 
-    explicit Surface(TriangleMeshView m)
+    // `edges`: fill `across` (the prism bound's walks need it).
+    Surface(TriangleMeshView m, bool edges)
         : positions(m.positions.begin(), m.positions.end()),
           indices(m.indices.begin(), m.indices.begin() + m.indices.size() / 3 * 3) {
         const size_t tris = indices.size() / 3;
@@ -255,6 +268,24 @@ struct Surface {
             std::vector<uint32_t> at(fan_start.begin(), fan_start.end() - 1);
             for (size_t i = 0; i < 3 * tris; ++i) fan[at[corners[i]]++] = uint32_t(i / 3);
         }
+        if (edges) across.assign(3 * tris, kNoTriangle);
+        for (size_t i = 0; i < tris && edges; ++i)
+            for (int k = 0; k < 3; ++k) {
+                const uint32_t v0 = corners[3 * i + k], v1 = corners[3 * i + (k + 1) % 3];
+                uint32_t other = kNoTriangle, sharing = 0;
+                for (uint32_t f = fan_start[v0]; f < fan_start[v0 + 1]; ++f) {
+                    const uint32_t j = fan[f];
+                    if (j == i) continue;
+                    for (int m = 0; m < 3; ++m) {
+                        if (corners[3 * j + m] != v0) continue;
+                        const uint32_t next = corners[3 * j + (m + 1) % 3],
+                                       prev = corners[3 * j + (m + 2) % 3];
+                        if (next == v1) sharing += 2;  // wound the same way: never crossed
+                        if (prev == v1) ++sharing, other = j;
+                    }
+                }
+                if (sharing == 1) across[3 * i + k] = other;
+            }
         for (size_t i = 0; i < tris; ++i) {
             Packed& q = packed[i];
             const uint32_t t = order[i];
@@ -428,6 +459,10 @@ struct Cell {
     uint32_t t[3];
     double r;
     double upper;
+    // Where the prism bound (prism_bound()) is largest, when it set `upper` and that point was
+    // not measured yet.
+    dvec3 peak{0.0};
+    bool probe = false;
 };
 
 double distance_to(const Surface& s, const dvec3& p, uint32_t t) {
@@ -460,17 +495,168 @@ void descend(const Surface& s, const dvec3& p, uint32_t& tau, double& e) {
     }
 }
 
-// Tightens c.upper (set by the caller: a bound it already has, or infinity).
-void bound_cell(Cell& c, const Surface& to, double lower) {
+// The prism bound of a cell C (corners p_k): every point x of C is at most |t(x)| from `to`, t(x)
+// the distance from x along C's unit normal n to the triangle of `to` that this line meets, for
+// the triangles whose projections along n cover C's. Seen along n, the triangles of `to` over C
+// form an arrangement; on each piece, C's part inside one triangle's prism, t is affine in x (the
+// line meets that triangle's plane inside the triangle), so its largest |t| is at a corner of the
+// piece (C clipped by the projected triangle, Sutherland-Hodgman). The triangles are found by a
+// walk from `seed` to the one under C's centroid and a search across every edge whose projection
+// touches C (C grown by a relative 1e-9, so nothing is missed by rounding); the projections cover
+// C when every triangle reached faces along n (positively wound seen along n: neighbours then lie
+// on opposite sides of their shared edge) and no touched edge is an open border, non-manifold or
+// inconsistently wound (across[] has no triangle there). Otherwise, or past kMaxPatch triangles,
+// the bound does not apply (infinity). It is exact where `to` is flat over C and close to the true
+// one where the faces turn little (|t| exceeds the distance by 1 / cos of their angle to n); it
+// does not shrink with C's size as the Lipschitz bound does, so a smooth surface needs no
+// subdivision. Cost: O(k) for the k triangles over C (a few dozen operations each).
+double prism_bound(const Cell& c, const Surface& to, uint32_t seed, dvec3& peak) {
+    constexpr int kMaxPatch = 48;
+    const double inf = std::numeric_limits<double>::infinity();
+    if (seed == Surface::kNoTriangle || seed == kNone) return inf;
+    const dvec3 e01 = c.p[1] - c.p[0], e02 = c.p[2] - c.p[0];
+    dvec3 n = glm::cross(e01, e02);
+    const double nl = glm::length(n), l01 = glm::length(e01);
+    if (!(nl > 0.0) || !(l01 > 0.0)) return inf;
+    n /= nl;
+    const dvec3 u = e01 / l01, v = glm::cross(n, u);
+    struct P2 {
+        double x, y;
+    };
+    auto project = [&](const dvec3& x) {
+        return P2{glm::dot(x - c.p[0], u), glm::dot(x - c.p[0], v)};
+    };
+    // C in its own plane, counter-clockwise seen along n.
+    const P2 cell[3] = {{0.0, 0.0}, {l01, 0.0}, project(c.p[2])};
+    const double size = std::max({l01, glm::length(e02), glm::length(c.p[2] - c.p[1])});
+    const double grow = 1e-9 * size;
+    auto cross2 = [](P2 a, P2 b, P2 w) {
+        return (b.x - a.x) * (w.y - a.y) - (b.y - a.y) * (w.x - a.x);
+    };
+    // Signed distances to C's edge lines (positive inside), per unit length.
+    double cell_len[3];
+    for (int k = 0; k < 3; ++k) {
+        const P2 a = cell[k], b = cell[(k + 1) % 3];
+        cell_len[k] = std::sqrt((b.x - a.x) * (b.x - a.x) + (b.y - a.y) * (b.y - a.y));
+    }
+    // Whether segment ab meets C grown by `grow` (clipped against C's three edge lines).
+    auto touches = [&](P2 a, P2 b) {
+        double t0 = 0.0, t1 = 1.0;
+        for (int k = 0; k < 3; ++k) {
+            const P2 e0 = cell[k], e1 = cell[(k + 1) % 3];
+            const double sa = cross2(e0, e1, a) + grow * cell_len[k];
+            const double sb = cross2(e0, e1, b) + grow * cell_len[k];
+            if (sa < 0.0 && sb < 0.0) return false;
+            if (sa < 0.0)
+                t0 = std::max(t0, sa / (sa - sb));
+            else if (sb < 0.0)
+                t1 = std::min(t1, sa / (sa - sb));
+            if (t0 > t1) return false;
+        }
+        return true;
+    };
+    // A triangle of `to` seen along n, or false when it does not face along n.
+    struct Seen {
+        P2 q[3];
+        double facing;  // n . its unit normal
+    };
+    auto see = [&](uint32_t t, Seen& out) {
+        const Surface::Packed& q = to.packed[t];
+        out.facing = glm::dot(n, q.n);
+        if (!(out.facing > 1e-3)) return false;
+        out.q[0] = project(q.a), out.q[1] = project(q.b), out.q[2] = project(q.c);
+        return cross2(out.q[0], out.q[1], out.q[2]) > 0.0;
+    };
+    // Walk from the seed to the triangle under C's centroid: across an edge whose line has the
+    // centroid outside (a visibility walk; the step limit ends a cycle).
+    const P2 centre{(cell[0].x + cell[1].x + cell[2].x) / 3.0,
+                    (cell[0].y + cell[1].y + cell[2].y) / 3.0};
+    uint32_t start = seed;
+    Seen seen;
+    for (int step = 0;; ++step) {
+        if (step == 64 || !see(start, seen)) return inf;
+        int out_edge = -1;
+        for (int k = 0; k < 3 && out_edge < 0; ++k)
+            if (cross2(seen.q[k], seen.q[(k + 1) % 3], centre) < 0.0) out_edge = k;
+        if (out_edge < 0) break;
+        start = to.across[3 * size_t(start) + out_edge];
+        if (start == Surface::kNoTriangle) return inf;
+    }
+    uint32_t patch[kMaxPatch];
+    int count = 0, next = 0;
+    patch[count++] = start;
+    double bound = 0.0;
+    while (next < count) {
+        const uint32_t t = patch[next++];
+        if (!see(t, seen)) return inf;
+        const Surface::Packed& q = to.packed[t];
+        // C clipped by the triangle's three edge lines.
+        P2 poly[9], tmp[9];
+        int m = 3;
+        for (int k = 0; k < 3; ++k) poly[k] = cell[k];
+        for (int k = 0; k < 3 && m > 0; ++k) {
+            const P2 a = seen.q[k], b = seen.q[(k + 1) % 3];
+            int o = 0;
+            for (int i = 0; i < m; ++i) {
+                const P2 x = poly[i], y = poly[(i + 1) % m];
+                const double sx = cross2(a, b, x), sy = cross2(a, b, y);
+                if (sx >= 0.0) tmp[o++] = x;
+                if ((sx >= 0.0) != (sy >= 0.0)) {
+                    const double f = sx / (sx - sy);
+                    tmp[o++] = {x.x + f * (y.x - x.x), x.y + f * (y.y - x.y)};
+                }
+            }
+            m = o;
+            for (int i = 0; i < m; ++i) poly[i] = tmp[i];
+        }
+        for (int i = 0; i < m; ++i) {
+            const dvec3 x = c.p[0] + u * poly[i].x + v * poly[i].y;
+            const double h = std::abs(glm::dot(q.a - x, q.n)) / seen.facing;
+            if (h > bound) bound = h, peak = x;
+        }
+        for (int k = 0; k < 3; ++k) {
+            if (!touches(seen.q[k], seen.q[(k + 1) % 3])) continue;
+            const uint32_t nb = to.across[3 * size_t(t) + k];
+            if (nb == Surface::kNoTriangle) return inf;
+            if (std::find(patch, patch + count, nb) != patch + count) continue;
+            if (count == kMaxPatch) return inf;
+            patch[count++] = nb;
+        }
+    }
+    // note: rounding in the clip moves a piece's corners by about 1e-16 of C's size; the slope of
+    // t is at most 1 / facing.
+    return bound * (1.0 + 1e-12) + 1e-9 * size;
+}
+
+// The refinement lets a cell go once its bound is within this relative margin of the largest
+// distance measured (the margin stays in the bound it reports).
+constexpr double kSettle = 1e-4;
+
+// Tightens c.upper (set by the caller: a bound it already has, or infinity): the Lipschitz bound,
+// then the convex bounds of the corners' triangles; with `prism`, where the corners were measured
+// to more than one triangle, the prism bound first and the convex bounds only where it does not
+// apply.
+void bound_cell(Cell& c, const Surface& to, double lower, bool prism) {
     c.upper = std::min(c.upper, std::max({c.d[0], c.d[1], c.d[2]}) + c.r);
     if (c.upper <= lower) return;  // settled already
+    const bool one = c.t[0] != kNone && c.t[0] == c.t[1] && c.t[1] == c.t[2];
+    if (prism && !one) {
+        for (int j = 0; j < 3; ++j)
+            if (c.t[j] != kNone) {
+                dvec3 peak;
+                const double b = prism_bound(c, to, c.t[j], peak);
+                if (b < c.upper) c.upper = b, c.peak = peak, c.probe = true;
+                if (b < std::numeric_limits<double>::infinity()) return;
+                break;
+            }
+    }
     for (int j = 0; j < 3; ++j) {
         const uint32_t t = c.t[j];
         if (t == kNone || (j > 0 && t == c.t[0]) || (j > 1 && t == c.t[1])) continue;
         double m = c.d[j];
         for (int k = 0; k < 3 && m < c.upper; ++k)
             if (k != j) m = std::max(m, c.t[k] == t ? c.d[k] : distance_to(to, c.p[k], t));
-        c.upper = std::min(c.upper, m);
+        if (m < c.upper) c.upper = m, c.probe = false;
     }
 }
 
@@ -488,9 +674,12 @@ struct VertexBounds {
 // of its corners' bounds); an entry at the top is first tightened (bound_cell: point-triangle
 // distances, no query), and a tight one at the top is split 1:4 (3 queries), while `budget`
 // lasts; what is left at the top is the bound. Raises `lower` with the midpoints measured.
+// With `prism` every triangle is tightened first, in order (bound_cell with its prism bound),
+// a tight entry whose prism bound's peak was not measured yet has it measured (1 query) before
+// it is split, and a cell within a relative kSettle of `lower` is let go.
 double hausdorff_upper_bound(const TriangleMeshView& from, const std::vector<float>& radii,
                              const VertexBounds& vb, const Surface& to, Querier& q, size_t budget,
-                             double& lower) {
+                             bool prism, double& lower) {
     const size_t tris = from.indices.size() / 3;
     if (tris == 0) return lower;
     auto cell_of = [&](size_t t) {
@@ -512,34 +701,77 @@ double hausdorff_upper_bound(const TriangleMeshView& from, const std::vector<flo
         bool tight;
     };
     auto below = [](const Entry& x, const Entry& y) { return x.upper < y.upper; };
-    std::vector<Entry> heap;
-    for (size_t t = 0; t < tris; ++t)
-        if (const double u = cell_of(t).upper; u > lower) heap.push_back({u, uint32_t(t), false});
-    std::make_heap(heap.begin(), heap.end(), below);
     std::vector<Cell> pieces;
+    // A cell whose bound is within a relative kSettle of `lower` is let go; the largest such bound
+    // stays part of the result.
+    double band = 0.0;
+    auto settled = [&](double u) {
+        if (u <= lower) return true;
+        if (!prism || u > lower * (1.0 + kSettle)) return false;
+        band = std::max(band, u);
+        return true;
+    };
+    std::vector<Entry> heap;
+    auto push_piece = [&](const Cell& c) {
+        heap.push_back({c.upper, uint32_t(tris + pieces.size()), true});
+        pieces.push_back(c);
+        std::push_heap(heap.begin(), heap.end(), below);
+    };
+    // note: every triangle is tightened in order first (neighbours follow each other, and so do
+    // the parts of `to` their bounds read), the heap orders what is left; per triangle its
+    // prism bound's peak (Cell::peak, probe), the rest made again by cell_of.
+    std::vector<dvec3> peaks(prism ? tris : 0);
+    std::vector<char> probes(prism ? tris : 0, 0);
+    for (size_t t = 0; t < tris; ++t) {
+        Cell c = cell_of(t);
+        if (c.upper <= lower) continue;
+        if (!prism) {  // tightened when it comes to the top
+            heap.push_back({c.upper, uint32_t(t), false});
+            continue;
+        }
+        bound_cell(c, to, lower, prism);
+        if (settled(c.upper)) continue;
+        heap.push_back({c.upper, uint32_t(t), true});
+        peaks[t] = c.peak, probes[t] = c.probe;
+    }
+    std::make_heap(heap.begin(), heap.end(), below);
     size_t spent = 0;
-    while (!heap.empty() && heap.front().upper > lower) {
+    while (!heap.empty() && !settled(heap.front().upper)) {
         std::pop_heap(heap.begin(), heap.end(), below);
         const Entry e = heap.back();
         heap.pop_back();
         Cell c = e.id < tris ? cell_of(e.id) : pieces[e.id - tris];
         c.upper = e.upper;
+        if (e.id < tris && prism) c.peak = peaks[e.id], c.probe = probes[e.id];
         if (!e.tight) {
-            bound_cell(c, to, lower);
-            if (c.upper <= lower) continue;  // settled
-            if (e.id < tris) {
+            bound_cell(c, to, lower, prism);
+            if (settled(c.upper)) continue;
+            if (e.id < tris && !c.probe) {  // made again by cell_of, its bound in the entry
                 heap.push_back({c.upper, e.id, true});
+                std::push_heap(heap.begin(), heap.end(), below);
             } else {
-                pieces[e.id - tris] = c;
-                heap.push_back({c.upper, e.id, true});
+                push_piece(c);
             }
-            std::push_heap(heap.begin(), heap.end(), below);
             continue;
         }
-        if (spent + 3 > budget) {  // out of queries: it stays as it is
+        if (spent + (c.probe ? 1 : 3) > budget) {  // out of queries: it stays as it is
             heap.push_back(e);
             std::push_heap(heap.begin(), heap.end(), below);
             break;
+        }
+        if (c.probe) {
+            // The point where its prism bound is largest: measured, that bound is often closed.
+            lower = std::max(lower, q.distance(c.peak, c.t[0]));
+            ++spent;
+            if (e.id < tris)
+                probes[e.id] = 0;
+            else
+                pieces[e.id - tris].probe = false;
+            if (!settled(c.upper)) {
+                heap.push_back(e);
+                std::push_heap(heap.begin(), heap.end(), below);
+            }
+            continue;
         }
         const dvec3 m[3] = {0.5 * (c.p[0] + c.p[1]), 0.5 * (c.p[1] + c.p[2]),
                             0.5 * (c.p[2] + c.p[0])};
@@ -559,17 +791,13 @@ double hausdorff_upper_bound(const TriangleMeshView& from, const std::vector<flo
             {{m[2], m[1], c.p[2]}, {dm[2], dm[1], c.d[2]}, {tm[2], tm[1], c.t[2]}, r, u},
             {{m[0], m[1], m[2]}, {dm[0], dm[1], dm[2]}, {tm[0], tm[1], tm[2]}, r, u}};
         for (Cell& child : children) {
-            bound_cell(child, to, lower);
-            if (child.upper <= lower) continue;  // settled
-            heap.push_back({child.upper, uint32_t(tris + pieces.size()), true});
-            pieces.push_back(child);
-            std::push_heap(heap.begin(), heap.end(), below);
+            bound_cell(child, to, lower, prism);
+            if (!settled(child.upper)) push_piece(child);
         }
     }
     // note: untightened entries below the top are bounded by it.
-    return heap.empty() ? lower : std::max(lower, heap.front().upper);
+    return std::max({lower, band, heap.empty() ? 0.0 : heap.front().upper});
 }
-
 // The vertex bounds from the samples' nearest triangles `nearest` (each triangle's samples'
 // distinct ones: 3 point-triangle distances each, no query), then an exact query for each vertex
 // whose bound exceeds the largest distance measured (`lower`, raised by them), largest bound
@@ -661,7 +889,8 @@ VertexBounds bound_vertices(const TriangleMeshView& from, const SampleSet& set,
 // Distances from the samples of `from` to the surface `to`, and the bracket of the Hausdorff
 // distance from its vertices and triangles.
 OneSidedDistance measure_one_side(const TriangleMeshView& from, const SampleSet& set,
-                                  const Surface& to, unsigned threads, size_t refine_budget) {
+                                  const Surface& to, unsigned threads, size_t refine_budget,
+                                  bool prism) {
     OneSidedDistance out;
     out.samples = set.samples.size();
     if (to.triangles() == 0 || set.vertices.empty()) return out;
@@ -700,7 +929,7 @@ OneSidedDistance measure_one_side(const TriangleMeshView& from, const SampleSet&
     double lower = total.max;
     Querier q(to);
     const VertexBounds vb = bound_vertices(from, set, nearest, to, q, lower);
-    out.max_upper = hausdorff_upper_bound(from, set.radii, vb, to, q, refine_budget, lower);
+    out.max_upper = hausdorff_upper_bound(from, set.radii, vb, to, q, refine_budget, prism, lower);
     out.queries += q.queries;
     out.max = lower;
     if (total.w > 0.0) {
@@ -760,7 +989,7 @@ struct MeshDistanceReference::Impl {
     MeshDistanceOptions options;
     size_t n = 0;  // samples per direction
     double diagonal = 0.0;
-    Impl(TriangleMeshView m, const MeshDistanceOptions& o) : a(m), options(o) {
+    Impl(TriangleMeshView m, const MeshDistanceOptions& o) : a(m, o.prism_bounds), options(o) {
         samples = sample_surface(a.view(), samples_for(a.triangles(), o), o.seed);
         diagonal = bounding_box_diagonal(a.view());
     }
@@ -782,15 +1011,16 @@ MeshDistance MeshDistanceReference::measure(TriangleMeshView b_view) const {
 #endif
     const Impl& r = *impl_;
     const unsigned threads = thread_count(r.options);
-    const Surface b(b_view);
+    const Surface b(b_view, r.options.prism_bounds);
     MeshDistance out;
     out.diagonal = r.diagonal;
-    out.forward =
-        measure_one_side(r.a.view(), r.samples, b, threads, refine_for(r.a.triangles(), r.options));
+    out.forward = measure_one_side(r.a.view(), r.samples, b, threads,
+                                   refine_for(r.a.triangles(), r.options), r.options.prism_bounds);
     out.backward = measure_one_side(
         b.view(),
         sample_surface(b.view(), samples_for(b.triangles(), r.options), r.options.seed + 1), r.a,
-        threads, refine_for(std::max(r.a.triangles(), b.triangles()), r.options));
+        threads, refine_for(std::max(r.a.triangles(), b.triangles()), r.options),
+        r.options.prism_bounds);
     out.hausdorff = std::max(out.forward.max, out.backward.max);
     out.hausdorff_upper = std::max(out.forward.max_upper, out.backward.max_upper);
     const bool fwd = out.forward.mean >= out.backward.mean;
