@@ -76,6 +76,7 @@ bool write_ply(const fs::path& path, const Primitive& p) {
 
 struct Row {
     std::string mesh;
+    bool prism = false;  // MeshDistanceOptions::prism_bounds
     size_t faces = 0;
     double simplify_ms = 0.0;   // one call, the three levels
     double reference_ms = 0.0;  // level 0's BVH and samples, once
@@ -86,9 +87,12 @@ struct Row {
 
 const double kRatios[] = {0.5, 0.1, 0.01};
 
-Row measure_mesh(const std::string& name, const Primitive& in, int runs) {
+Row measure_mesh(const std::string& name, const Primitive& in, int runs, bool prism) {
     Row row;
     row.mesh = name;
+    row.prism = prism;
+    MeshDistanceOptions mo;
+    mo.prism_bounds = prism;
     row.faces = in.triangle_count();
     std::vector<size_t> targets;
     for (double r : kRatios) targets.push_back(std::max<size_t>(1, size_t(r * double(row.faces))));
@@ -107,7 +111,7 @@ Row measure_mesh(const std::string& name, const Primitive& in, int runs) {
         }
         levels = std::move(r).value();
         t0 = bench::thread_cpu_ms();
-        const MeshDistanceReference ref(view_of(in));
+        const MeshDistanceReference ref(view_of(in), mo);
         ref_t.push_back(bench::thread_cpu_ms() - t0);
         for (size_t k = 0; k < levels.size() && k < 3; ++k) {
             t0 = bench::thread_cpu_ms();
@@ -248,7 +252,7 @@ int main(int argc, char** argv) {
         Primitive in =
             input.splits ? test::subdivided_flat(std::move(*p), input.splits) : std::move(*p);
         std::fprintf(stderr, "%s: %zu faces\n", input.name.c_str(), in.triangle_count());
-        rows.push_back(measure_mesh(input.name, in, runs));
+        for (bool prism : {false, true}) rows.push_back(measure_mesh(input.name, in, runs, prism));
     }
     const std::string run_text =
         "one thread, thread CPU time, medians of " + std::to_string(runs) + " runs";
@@ -262,19 +266,22 @@ int main(int argc, char** argv) {
     appendf(out,
             "Simplify: qem to 50/10/1 %% in one call; prepare: level 0's BVH and samples, once "
             "(charged to the 50 %% level in the worst-level column); the bracket is [sampled "
-            "Hausdorff, its upper bound], %% of the diagonal:\n\n");
+            "Hausdorff, its upper bound], %% of the diagonal; bounds: the default (Lipschitz and "
+            "convex bounds) or prism (MeshDistanceOptions::prism_bounds, hmdnode lod "
+            "--prism-bounds):\n\n");
     appendf(out,
-            "| mesh | faces | simplify ms | prepare ms | measure 50 / 10 / 1 %% ms | all levels / "
+            "| mesh | bounds | faces | simplify ms | prepare ms | measure 50 / 10 / 1 %% ms | all "
+            "levels / "
             "simplify | worst level / simplify | Hausdorff 50 %% | Hausdorff 10 %% | Hausdorff 1 "
             "%% | mean ± stderr 10 %% |\n");
-    appendf(out, "|---|---|---|---|---|---|---|---|---|---|---|\n");
+    appendf(out, "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (const Row& r : rows) {
         const double worst =
             std::max({r.reference_ms + r.level_ms[0], r.level_ms[1], r.level_ms[2]});
-        appendf(out, "| %s | %zu | %.1f | %.1f | %.1f / %.1f / %.1f | %.2fx | %.2fx |",
-                r.mesh.c_str(), r.faces, r.simplify_ms, r.reference_ms, r.level_ms[0],
-                r.level_ms[1], r.level_ms[2], r.measure_ms() / r.simplify_ms,
-                worst / r.simplify_ms);
+        appendf(out, "| %s | %s | %zu | %.1f | %.1f | %.1f / %.1f / %.1f | %.2fx | %.2fx |",
+                r.mesh.c_str(), r.prism ? "prism" : "default", r.faces, r.simplify_ms,
+                r.reference_ms, r.level_ms[0], r.level_ms[1], r.level_ms[2],
+                r.measure_ms() / r.simplify_ms, worst / r.simplify_ms);
         for (int k = 0; k < 3; ++k) appendf(out, " %.4f..%.4f |", r.hausdorff[k], r.upper[k]);
         appendf(out, " %.4f ± %.4f |\n", r.mean[1], r.stderr_[1]);
     }

@@ -540,6 +540,15 @@ double prism_bound(const Cell& c, const Surface& to, uint32_t seed, dvec3& peak)
         cell_len[k] = std::sqrt((b.x - a.x) * (b.x - a.x) + (b.y - a.y) * (b.y - a.y));
     }
     // Whether segment ab meets C grown by `grow` (clipped against C's three edge lines).
+    // note: a contact at one of C's corners alone needs no crossing: the triangles beyond such an
+    // edge lie outside C's angle there, and those inside it are reached across the edges that
+    // enter C (this keeps the walk off the whole fan of a vertex that C's corner sits on).
+    const double corner_tol2 = (1e-6 * size) * (1e-6 * size);
+    auto at_corner = [&](P2 w) {
+        for (const P2& k : cell)
+            if ((w.x - k.x) * (w.x - k.x) + (w.y - k.y) * (w.y - k.y) <= corner_tol2) return true;
+        return false;
+    };
     auto touches = [&](P2 a, P2 b) {
         double t0 = 0.0, t1 = 1.0;
         for (int k = 0; k < 3; ++k) {
@@ -553,7 +562,11 @@ double prism_bound(const Cell& c, const Surface& to, uint32_t seed, dvec3& peak)
                 t1 = std::min(t1, sa / (sa - sb));
             if (t0 > t1) return false;
         }
-        return true;
+        const P2 w0{a.x + t0 * (b.x - a.x), a.y + t0 * (b.y - a.y)};
+        const P2 w1{a.x + t1 * (b.x - a.x), a.y + t1 * (b.y - a.y)};
+        if ((w1.x - w0.x) * (w1.x - w0.x) + (w1.y - w0.y) * (w1.y - w0.y) > corner_tol2)
+            return true;
+        return !at_corner(w0) || !at_corner(w1);
     };
     // A triangle of `to` seen along n, or false when it does not face along n.
     struct Seen {
