@@ -363,6 +363,43 @@ TEST(MeshDistanceBounds, PrismBoundsHoldAndCloseTheBracket) {
     }
 }
 
+TEST(MeshDistanceBounds, PrismBoundsHoldOnAnOpenBumpyPatch) {
+    // A height field with an open border (where the walks stop) against qem's levels of it: the
+    // prism upper bound is at least the brute-force distance both ways.
+    Primitive patch;
+    const int n = 16;
+    for (int j = 0; j <= n; ++j)
+        for (int i = 0; i <= n; ++i) {
+            const float x = float(i) / n, y = float(j) / n;
+            patch.positions.push_back({x, y,
+                                       0.06f * std::sin(7.0f * x) * std::cos(5.0f * y) +
+                                           0.02f * std::sin(23.0f * x * y)});
+        }
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+            const uint32_t a = uint32_t(j * (n + 1) + i), b = a + 1, c = a + uint32_t(n + 1),
+                           d = c + 1;
+            patch.indices.insert(patch.indices.end(), {a, b, d, a, d, c});
+        }
+    const size_t targets[] = {120, 30};
+    const Result<std::vector<SimplifiedLevel>> levels = simplify(patch, "qem", targets);
+    ASSERT_TRUE(levels.ok());
+    MeshDistanceOptions prism;
+    prism.prism_bounds = true;
+    for (const SimplifiedLevel& l : *levels) {
+        const MeshDistance d = measure_mesh_distance(patch, l.primitive, prism);
+        const auto [fwd, fwd_slack] = brute_hausdorff(patch, l.primitive, 10);
+        const auto [bwd, bwd_slack] = brute_hausdorff(l.primitive, patch, 10);
+        SCOPED_TRACE(testing::Message()
+                     << l.primitive.triangle_count() << " triangles: brute force " << fwd << " / "
+                     << bwd << ", bounds " << d.forward.max_upper << " / " << d.backward.max_upper);
+        EXPECT_GE(d.forward.max_upper, fwd - 1e-9);
+        EXPECT_GE(d.backward.max_upper, bwd - 1e-9);
+        EXPECT_LE(d.hausdorff, d.hausdorff_upper);
+        (void)fwd_slack, (void)bwd_slack;
+    }
+}
+
 TEST(MeshDistanceBounds, PrismBoundsKeepTheClosedForms) {
     // Open borders (the squares: the walks stop there) and a convex polyhedron: the brackets of
     // the closed forms hold with prism bounds too.
