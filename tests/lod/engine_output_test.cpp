@@ -57,8 +57,8 @@ struct Pinned {
 
 // Levels at 50 %, 10 % and 1 % of the input's triangles.
 const Pinned kPinned[] = {
-    {"spot.obj", "qem", 0xf857e726a19021faull},
-    {"spot.obj", "curvature-qem", 0xdde347d82e4baf5aull},
+    {"spot.obj", "qem", 0xe7a8ab85e07a517aull},
+    {"spot.obj", "curvature-qem", 0x39234cea0b8f2abdull},
     {"spot.obj", "formula1", 0x0008a5e9bb3cf136ull},
     {"spot.obj", "melax", 0x55db5be34c9258b8ull},
     {"fandisk.obj", "qem", 0x424b094648e621b6ull},

@@ -15,9 +15,10 @@
 //   that share an edge at the kept position, or a face of the fan that turned by more than
 //   kFoldMinTurn and the face across its outer edge, end with unit normals whose dot product is
 //   below kFoldCosine (folded by more than 143 degrees), where they were not so before (two faces
-//   that become neighbours only through the collapse were not). The flip guard above checks each
-//   face alone, so two neighbours turning less than 90 degrees each, in opposite directions, pass
-//   it.
+//   that become neighbours only through the collapse were not) and, for costs of the endpoints
+//   only (qem, curvature-qem), where their input faces were not folded as much either (the two
+//   sides of a thin feature meet at coarse levels). The flip guard above checks each face alone,
+//   so two neighbours turning less than 90 degrees each, in opposite directions, pass it.
 // A new guard goes into check_collapse() (or the functions it calls), and so into both schedules.
 //
 // Papers: T. Dey, H. Edelsbrunner, S. Guha, D. Nekhayev, "Topology preserving edge contraction",
@@ -82,7 +83,7 @@ inline bool EngineCore::fan_face(Worker& w, bool of_kept, const glm::dvec3& from
     const glm::dvec3 n1 = glm::cross(b - target, d - target);
     // note: the fold check finds the face sharing the edge (kept, next) by its prev.
     w.slot[p2] = uint32_t(w.fan.size());
-    w.fan.push_back({p1, p2, of_kept, n0, n1});
+    w.fan.push_back({p1, p2, of_kept, n0, n1, f});
     const double l0 = glm::dot(n0, n0);
     if (l0 == 0.0) return false;  // degenerate already: nothing to keep
     // note: exactly 90 degrees passes (the cube diagonal of Lazányi 2003, Figure 5); the input
@@ -101,6 +102,12 @@ inline bool folded(const glm::dvec3& a, const glm::dvec3& b) {
 
 template <class Around>
 bool EngineCore::folds(const Worker& w, uint32_t u, uint32_t v, Around&& around) const {
+    // note: a fold the input surface had (the two faces' input normals folded as much: the two
+    // sides of a thin ear, horn or leg) is the coarse shape, not a fold-over (EngineCore::
+    // input_folds_; docs/simplification.md, "Where the quality slips").
+    auto input_folded = [this](uint32_t f, uint32_t g) {
+        return input_folds_ && folded(glm::dvec3(input_normals_[f]), glm::dvec3(input_normals_[g]));
+    };
     const size_t n = w.fan.size();
     for (size_t i = 0; i < n; ++i) {
         const FanFace& x = w.fan[i];
@@ -110,7 +117,9 @@ bool EngineCore::folds(const Worker& w, uint32_t u, uint32_t v, Around&& around)
         const uint32_t j = w.slot[x.next];
         if (j < n && j != i && w.fan[j].prev == x.next) {
             const FanFace& y = w.fan[j];
-            if (folded(x.after, y.after) && (x.of_kept != y.of_kept || !folded(x.before, y.before)))
+            if (folded(x.after, y.after) &&
+                (x.of_kept != y.of_kept || !folded(x.before, y.before)) &&
+                !input_folded(x.face, y.face))
                 return true;
         }
         // The face across the outer edge (x.next, x.prev), only where x turned by more than
@@ -120,17 +129,17 @@ bool EngineCore::folds(const Worker& w, uint32_t u, uint32_t v, Around&& around)
         constexpr double kCos = 1.0 - 0.5 * kFoldMinTurn * kFoldMinTurn;
         if (ab >= 0.0 && ab * ab >= kCos * kCos * aa * bb) continue;
         // note: seen from x.prev as (x.prev, x.next, o).
-        uint32_t o = kNone;
-        around(x.prev, [&](uint32_t, uint32_t, uint32_t a, uint32_t b) {
+        uint32_t o = kNone, of = kNone;
+        around(x.prev, [&](uint32_t face, uint32_t, uint32_t a, uint32_t b) {
             if (a != x.next) return true;
-            o = b;
+            o = b, of = face;
             return false;
         });
         if (o == kNone || o == u || o == v) continue;
         const glm::dvec3 pa = m_.positions[x.prev];
         const glm::dvec3 on =
             glm::cross(glm::dvec3(m_.positions[x.next]) - pa, glm::dvec3(m_.positions[o]) - pa);
-        if (folded(x.after, on) && !folded(x.before, on)) return true;
+        if (folded(x.after, on) && !folded(x.before, on) && !input_folded(x.face, of)) return true;
     }
     return false;
 }

@@ -52,7 +52,8 @@ class EngineCore {
           log_(log),
           flat_(flat_lists),
           two_way_(helper),
-          profile_(helper ? nullptr : options.profile) {}
+          profile_(helper ? nullptr : options.profile),
+          input_folds_(!cost.depends_on_ring()) {}
     virtual ~EngineCore() = default;
     EngineCore(const EngineCore&) = delete;
     EngineCore& operator=(const EngineCore&) = delete;
@@ -102,12 +103,13 @@ class EngineCore {
         bool lerp = false;  // src[0] towards src[1] by l[1] (lerp_wedge()), the edge's rule
     };
     // A face around the kept position after a collapse, for the fold check (folds()): its other
-    // two positions (next, prev in winding order), whose it was before, and its normals before
-    // and after (unnormalised).
+    // two positions (next, prev in winding order), whose it was before, its normals before and
+    // after (unnormalised) and its id.
     struct FanFace {
         uint32_t next, prev;
         bool of_kept;  // a face of the kept position before (else of the removed one)
         glm::dvec3 before, after;
+        uint32_t face;
     };
     // What one half of a two-way split walks the mesh with (workers_[0] on the calling thread,
     // workers_[1] on the helper); the rest of the engine uses workers_[0]. note: aligned apart, so
@@ -283,6 +285,11 @@ class EngineCore {
     // instructions; above it they pay (measured: docs/simplification.md, "Measurements behind the
     // engine's choices").
     bool prefetch_ = true;
+    // The fold guard lets two faces fold where their input faces were folded as much (folds()):
+    // for costs of the endpoints only (qem, curvature-qem), whose quadrics hold the input's
+    // planes; a cost that reads the faces around an endpoint (formula1, melax) keeps the strict
+    // guard.
+    bool input_folds_ = false;
     // Flat lists: per position, the live faces around it (adj_ from adj_first_[p] to
     // adj_first_[p + 1]); within a pass a collapse u -> v only records remap_[u] = v and the map
     // of u's wedges (wedge_remap_), so readers map an entry's positions through remap_.
