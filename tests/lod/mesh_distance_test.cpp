@@ -303,18 +303,26 @@ std::pair<double, double> brute_hausdorff(const Primitive& from, const Primitive
     return {max, slack};
 }
 
+// qem's levels of `bumpy` (160, 40 and 12 faces) and a smooth coarse sphere: what the
+// brute-force comparisons below measure it against.
+std::vector<Primitive> levels_and_a_sphere(const Primitive& bumpy) {
+    std::vector<Primitive> out;
+    const size_t targets[] = {160, 40, 12};
+    const Result<std::vector<SimplifiedLevel>> levels = simplify(bumpy, "qem", targets);
+    EXPECT_TRUE(levels.ok());
+    if (levels.ok())
+        for (const SimplifiedLevel& l : *levels) out.push_back(l.primitive);
+    out.push_back(icosphere(1));
+    return out;
+}
+
 TEST(MeshDistanceBounds, BracketHoldsAgainstABruteForceReference) {
     // A bumpy sphere against qem's levels of it and against a smooth coarse sphere: the default
     // measurement's upper bound is at least the brute-force Hausdorff distance (a grid of 66
     // points per triangle, every triangle of the other mesh), both ways; its lower bound at most
     // that plus the grid's slack, and close to it (within 10 %: the maximum is found).
     const Primitive bumpy = bumpy_sphere(2, 0.05f);
-    std::vector<Primitive> others;
-    const size_t targets[] = {160, 40, 12};
-    const Result<std::vector<SimplifiedLevel>> levels = simplify(bumpy, "qem", targets);
-    ASSERT_TRUE(levels.ok());
-    for (const SimplifiedLevel& l : *levels) others.push_back(l.primitive);
-    others.push_back(icosphere(1));
+    const std::vector<Primitive> others = levels_and_a_sphere(bumpy);
     for (const Primitive& b : others) {
         const MeshDistance d = measure_mesh_distance(bumpy, b);
         const auto [fwd, fwd_slack] = brute_hausdorff(bumpy, b, 10);
@@ -337,12 +345,7 @@ TEST(MeshDistanceBounds, PrismBoundsHoldAndCloseTheBracket) {
     // bracket closed; without prism bounds it is 3.7 times that on the 160-triangle level, where
     // the grid of the brute force finds 4 % less than the measured point).
     const Primitive bumpy = bumpy_sphere(2, 0.05f);
-    std::vector<Primitive> others;
-    const size_t targets[] = {160, 40, 12};
-    const Result<std::vector<SimplifiedLevel>> levels = simplify(bumpy, "qem", targets);
-    ASSERT_TRUE(levels.ok());
-    for (const SimplifiedLevel& l : *levels) others.push_back(l.primitive);
-    others.push_back(icosphere(1));
+    const std::vector<Primitive> others = levels_and_a_sphere(bumpy);
     MeshDistanceOptions prism;
     prism.prism_bounds = true;
     for (const Primitive& b : others) {
