@@ -137,8 +137,13 @@ rm -f "$work/qemu.pid" "$log"
 : >"$log"
 [ "$write_docs" = 1 ] && kernel_lane_sample "$work/qemu.pid" "$log" "$steps" "$work/samples"
 read -r up_start _ </proc/uptime
+# note: a watchdog for a guest that hangs, not a speed target: under TCG the guest's renderer runs
+# 7x slower on some hosts than on others (109 against 750 ms a frame) and shares the cores with
+# the rest of the suite, so the limit leaves room for a slow machine (the test's own limit in
+# tests/CMakeLists.txt is above it).
+guest_limit=420
 # shellcheck disable=SC2086
-timeout 150 qemu-system-x86_64 $qemu_accel -m 2048 -smp 2 -nodefaults -no-user-config \
+timeout $guest_limit qemu-system-x86_64 $qemu_accel -m 2048 -smp 2 -nodefaults -no-user-config \
     -display none -serial stdio -no-reboot $bios -kernel "$kernel" -initrd "$initrd" \
     -device bochs-display,edid=on,xres=320,yres=240,refresh_rate=60000 \
     -virtfs local,path=/,mount_tag=host,security_model=none,readonly=on,multidevs=remap \
@@ -152,7 +157,7 @@ cpu_end=$kernel_lane_cpu
 tr -d '\r' <"$log" | grep -v '^$' | sed 's/^/guest| /'
 wall=$(echo "$end $start" | awk '{ printf "%.1f", $1 - $2 }')
 if [ $qemu_status -eq 124 ]; then
-    echo "kernel lane FAILED: the guest did not finish within 150 s (wall $wall s)"
+    echo "kernel lane FAILED: the guest did not finish within $guest_limit s (wall $wall s)"
     exit 1
 fi
 # The live frames' pacing line: "... N of F presents missed their vsync; M of V vsyncs showed no new
