@@ -104,7 +104,7 @@ template <class Around>
 bool EngineCore::folds(const Worker& w, uint32_t u, uint32_t v, Around&& around) const {
     // note: a fold the input surface had (the two faces' input normals folded as much: the two
     // sides of a thin ear, horn or leg) is the coarse shape, not a fold-over (EngineCore::
-    // input_folds_; docs/simplification.md, "Where the quality slips").
+    // input_folds_; docs/simplification.md, "The fold guard and thin features").
     auto input_folded = [this](uint32_t f, uint32_t g) {
         return input_folds_ && folded(glm::dvec3(input_normals_[f]), glm::dvec3(input_normals_[g]));
     };

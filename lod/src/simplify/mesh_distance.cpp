@@ -107,6 +107,8 @@ dvec3 closest_on_triangle(const dvec3& p, const dvec3& a, const dvec3& b, const 
     return a + ab * v + ac * w;
 }
 
+constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
+
 struct Sample {
     glm::vec3 p;
     float weight;  // area represented
@@ -211,10 +213,9 @@ struct Surface {
     // each triangle's vertices, corners[3 i + k]. For the local descent (descend()).
     std::vector<uint32_t> fan_start, fan, corners;
     // across[3 i + k]: the triangle across triangle i's edge from corner k to corner k + 1 when
-    // exactly one other triangle has that edge and winds it the other way; else kNoTriangle (an
-    // open border, a non-manifold or inconsistently wound edge). For the prism bound.
+    // exactly one other triangle has that edge and winds it the other way; else kNone (an open
+    // border, a non-manifold or inconsistently wound edge). For the prism bound.
     std::vector<uint32_t> across;
-    static constexpr uint32_t kNoTriangle = 0xFFFFFFFFu;
 
     // `edges`: fill `across` (the prism bound's walks need it).
     Surface(TriangleMeshView m, bool edges)
@@ -268,11 +269,11 @@ struct Surface {
             std::vector<uint32_t> at(fan_start.begin(), fan_start.end() - 1);
             for (size_t i = 0; i < 3 * tris; ++i) fan[at[corners[i]]++] = uint32_t(i / 3);
         }
-        if (edges) across.assign(3 * tris, kNoTriangle);
+        if (edges) across.assign(3 * tris, kNone);
         for (size_t i = 0; i < tris && edges; ++i)
             for (int k = 0; k < 3; ++k) {
                 const uint32_t v0 = corners[3 * i + k], v1 = corners[3 * i + (k + 1) % 3];
-                uint32_t other = kNoTriangle, sharing = 0;
+                uint32_t other = kNone, sharing = 0;
                 for (uint32_t f = fan_start[v0]; f < fan_start[v0 + 1]; ++f) {
                     const uint32_t j = fan[f];
                     if (j == i) continue;
@@ -350,8 +351,6 @@ struct Surface {
     TriangleMeshView view() const { return {positions, indices}; }
     size_t triangles() const { return indices.size() / 3; }
 };
-
-constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
 
 // Squared distance from p to a node's box.
 [[gnu::always_inline]] inline double box_distance2(const Surface::Node& n, const dvec3& p) {
@@ -513,7 +512,7 @@ void descend(const Surface& s, const dvec3& p, uint32_t& tau, double& e) {
 double prism_bound(const Cell& c, const Surface& to, uint32_t seed, dvec3& peak) {
     constexpr int kMaxPatch = 48;
     const double inf = std::numeric_limits<double>::infinity();
-    if (seed == Surface::kNoTriangle || seed == kNone) return inf;
+    if (seed == kNone) return inf;
     const dvec3 e01 = c.p[1] - c.p[0], e02 = c.p[2] - c.p[0];
     dvec3 n = glm::cross(e01, e02);
     const double nl = glm::length(n), l01 = glm::length(e01);
@@ -533,7 +532,7 @@ double prism_bound(const Cell& c, const Surface& to, uint32_t seed, dvec3& peak)
     auto cross2 = [](P2 a, P2 b, P2 w) {
         return (b.x - a.x) * (w.y - a.y) - (b.y - a.y) * (w.x - a.x);
     };
-    // Signed distances to C's edge lines (positive inside), per unit length.
+    // The lengths of C's edges (the signed distances to their lines are cross2 / length).
     double cell_len[3];
     for (int k = 0; k < 3; ++k) {
         const P2 a = cell[k], b = cell[(k + 1) % 3];
@@ -593,7 +592,7 @@ double prism_bound(const Cell& c, const Surface& to, uint32_t seed, dvec3& peak)
             if (cross2(seen.q[k], seen.q[(k + 1) % 3], centre) < 0.0) out_edge = k;
         if (out_edge < 0) break;
         start = to.across[3 * size_t(start) + out_edge];
-        if (start == Surface::kNoTriangle) return inf;
+        if (start == kNone) return inf;
     }
     uint32_t patch[kMaxPatch];
     int count = 0, next = 0;
@@ -630,7 +629,7 @@ double prism_bound(const Cell& c, const Surface& to, uint32_t seed, dvec3& peak)
         for (int k = 0; k < 3; ++k) {
             if (!touches(seen.q[k], seen.q[(k + 1) % 3])) continue;
             const uint32_t nb = to.across[3 * size_t(t) + k];
-            if (nb == Surface::kNoTriangle) return inf;
+            if (nb == kNone) return inf;
             if (std::find(patch, patch + count, nb) != patch + count) continue;
             if (count == kMaxPatch) return inf;
             patch[count++] = nb;
@@ -759,12 +758,10 @@ double hausdorff_upper_bound(const TriangleMeshView& from, const std::vector<flo
         if (!e.tight) {
             bound_cell(c, to, lower, prism);
             if (settled(c.upper)) continue;
-            if (e.id < tris && !c.probe) {  // made again by cell_of, its bound in the entry
-                heap.push_back({c.upper, e.id, true});
-                std::push_heap(heap.begin(), heap.end(), below);
-            } else {
-                push_piece(c);
-            }
+            // note: only a triangle comes untightened (with prism bounds all are tightened first),
+            // made again by cell_of, its bound in the entry.
+            heap.push_back({c.upper, e.id, true});
+            std::push_heap(heap.begin(), heap.end(), below);
             continue;
         }
         if (spent + (c.probe ? 1 : 3) > budget) {  // out of queries: it stays as it is
@@ -811,6 +808,7 @@ double hausdorff_upper_bound(const TriangleMeshView& from, const std::vector<flo
     // note: untightened entries below the top are bounded by it.
     return std::max({lower, band, heap.empty() ? 0.0 : heap.front().upper});
 }
+
 // The vertex bounds from the samples' nearest triangles `nearest` (each triangle's samples'
 // distinct ones: 3 point-triangle distances each, no query), then an exact query for each vertex
 // whose bound exceeds the largest distance measured (`lower`, raised by them), largest bound
