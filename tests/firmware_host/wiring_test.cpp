@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "firmware_host/command_run.hpp"
+#include "hmdnode/hal/tracking/base_station_placement.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
 
 namespace hmdnode {
@@ -132,6 +133,72 @@ TEST(Wiring, CaptureBackendMakesADeviceTracker) {
     t = make_tracker(s, *clock, WiringKeys::config());
     ASSERT_FALSE(t.ok());
     EXPECT_EQ(t.error().message, "tracker.from /no/such.pcap: no such file");
+}
+
+// tracker.place_base_stations with a setup file not there yet (a box's first start): the
+// recording's tracker places the base stations itself from the device's still stretch,
+// save_placed_setup writes them to the file, and the next start loads them as its stored setup.
+TEST(Wiring, BaseStationsPlacedInTheTrackerAreStoredAndReusedOnTheNextStart) {
+    const fs::path dir = fs::path(testing::TempDir()) / "wiring_place";
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    std::unique_ptr<Clock> clock = make_clock(ClockKind::sim, kNsPerSecond);
+    TrackerSpec s;
+    s.backend = TrackerBackend::rec;
+    s.from = HMDNODE_SOURCE_DIR "/data/traces/lh2_test_cal.rec.gz";
+    s.device = "T20";
+    s.base_stations = dir / "base_stations.json";
+    s.place_base_stations = true;
+    ASSERT_TRUE(check_tracker_spec(s, ClockKind::sim, WiringKeys::config()).ok());
+    auto stored = stored_base_stations(s);
+    ASSERT_TRUE(stored.ok()) << stored.error().message;
+    EXPECT_EQ(*stored, 0u);
+    Result<WiredTracker> t = make_tracker(s, *clock, WiringKeys::config());
+    ASSERT_TRUE(t.ok()) << t.error().message;
+    ASSERT_NE(t->device, nullptr);
+    EXPECT_TRUE(t->tracker->info().provides_position);
+    ASSERT_TRUE(t->tracker->start().ok());
+    auto* sim = static_cast<SimulatedClock*>(clock.get());
+    std::vector<TrackerSample> buf(1024);
+    size_t with_position = 0;
+    while (!t->tracker->finished()) {
+        sim->advance_ns(10 * kNsPerMs);
+        for (size_t n = t->tracker->read(buf); n > 0; n = t->tracker->read(buf))
+            for (size_t i = 0; i < n; ++i) with_position += buf[i].position.has_value();
+    }
+    t->tracker->stop();
+    EXPECT_GT(with_position, 500u);
+    size_t count = *stored;
+    ASSERT_TRUE(save_placed_setup(s, *t->device, &count).ok());
+    EXPECT_EQ(count, 2u);  // the recording's two base stations
+    auto loaded = lighthouse::load_base_station_setup(s.base_stations);
+    ASSERT_TRUE(loaded.ok()) << loaded.error().message;
+    ASSERT_EQ(loaded->size(), 2u);
+    for (const lighthouse::BaseStationPlacement& b : *loaded) {
+        EXPECT_TRUE(b.calibration.has_value());  // placed once its calibration had arrived
+        EXPECT_GT(b.residual_rms_rad, 0.0);
+        EXPECT_LT(b.residual_rms_rad, 1e-3);
+        EXPECT_GT(b.solved_unix_s, 0);
+    }
+    // Nothing new: nothing written again.
+    ASSERT_TRUE(save_placed_setup(s, *t->device, &count).ok());
+    EXPECT_EQ(count, 2u);
+    // The next start: the stored setup.
+    stored = stored_base_stations(s);
+    ASSERT_TRUE(stored.ok()) << stored.error().message;
+    EXPECT_EQ(*stored, 2u);
+    t = make_tracker(s, *clock, WiringKeys::config());
+    ASSERT_TRUE(t.ok()) << t.error().message;
+    EXPECT_TRUE(contains(t->label, "with the base stations of")) << t->label;
+    // Placing needs the file to write to.
+    s.base_stations.clear();
+    Status st = check_tracker_spec(s, ClockKind::sim, WiringKeys::config());
+    ASSERT_FALSE(st.ok());
+    EXPECT_TRUE(contains(st.error().message,
+                         "tracker.place_base_stations needs "
+                         "tracker.base_stations"))
+        << st.error().message;
+    fs::remove_all(dir);
 }
 
 // The same backend string in the daemon's config and on replay's command line: the daemon

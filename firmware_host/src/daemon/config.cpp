@@ -92,15 +92,16 @@ void read_top_level(Reader& r, const json& j, DaemonConfig& c) {
 // "tracker": the backend of the one vocabulary and what it reads.
 void read_tracker(Reader& r, const json& j, DaemonConfig& c) {
     json t = j.value("tracker", json::object());
-    if (r.check_keys(
-            t, "tracker",
-            {"type", "backend", "from", "device", "serial", "trace", "loop", "start_s",
-             "resample_hz", "noise_deg", "latency_us", "jitter_us", "seed", "base_stations"})) {
+    if (r.check_keys(t, "tracker",
+                     {"type", "backend", "from", "device", "serial", "trace", "loop", "start_s",
+                      "resample_hz", "noise_deg", "latency_us", "jitter_us", "seed",
+                      "base_stations", "place_base_stations"})) {
         std::string type, trace, backend, from, device, serial, base_stations;
         r.get(t, "backend", &backend);
         r.get(t, "from", &from);
         r.get(t, "base_stations", &base_stations);
         if (!base_stations.empty()) c.base_stations = r.resolve(base_stations);
+        r.get(t, "place_base_stations", &c.place_base_stations);
         r.get(t, "device", &device);
         r.get(t, "serial", &serial);
         double latency_us = 1000.0, jitter_us = 0.0;
@@ -393,6 +394,7 @@ TrackerSpec tracker_spec(const DaemonConfig& c, std::shared_ptr<const Trace> tra
     s.trace_path = c.trace;
     s.device = c.device;
     s.base_stations = c.base_stations;
+    s.place_base_stations = c.place_base_stations;
     s.sim = c.tracker;
     s.start_s = c.start_s;
     return s;

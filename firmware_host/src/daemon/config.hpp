@@ -36,6 +36,10 @@ struct DaemonConfig {
     // "base_stations": a stored base-station setup (`hmdnode tracking place` writes one; relative
     // to the config file): 6DoF from a lighthouse device's light (hidapi, libusb, rec, capture).
     std::filesystem::path base_stations;
+    // "place_base_stations": true: the base stations the setup lacks (all while the file does
+    // not exist) are placed in the tracker from the device's first still stretch and written to
+    // base_stations (wiring.hpp's TrackerSpec::place_base_stations): the first start places.
+    bool place_base_stations = false;
     // "eye_tracker": {"backend": "none" | "trace", "latency_us": N}: the gaze that steers LOD
     // (trace: the gaze columns of tracker.trace, on the head tracker's timeline).
     EyeTrackerBackend eye_tracker = EyeTrackerBackend::none;

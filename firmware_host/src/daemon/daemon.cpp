@@ -201,6 +201,7 @@ int Daemon::run() {
         pet_watchdog(/*needs_frames=*/true);
     }
     notifier_.notify("STOPPING=1");
+    store_placed_setup();  // a placement since the last window (written as the writer closes)
     node.stop();
     spdlog::info("hmdnoded: stopped after {} frames ({} failed)", frames_, errors_);
     return 0;

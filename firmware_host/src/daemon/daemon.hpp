@@ -104,6 +104,13 @@ class Daemon {
     int64_t next_status_ = 0;
     FrameRecord rec_;
     std::optional<StatusWriter> status_writer_;  // started with the first status window
+    // tracker.place_base_stations: the placed setup written to tracker.base_stations off the
+    // loop's thread when it grows (setup_stored_: base stations posted; setup_failed_: the
+    // writer's failures seen, a new one re-posts).
+    void store_placed_setup();
+    std::optional<StatusWriter> setup_writer_;
+    size_t setup_stored_ = 0;
+    uint64_t setup_failed_ = 0;
 
     // The control socket, served between frames (docs/daemon.md, "Control socket").
     DaemonMetrics metrics_;

@@ -2,12 +2,14 @@
 // the status file (on a thread of its own) and sent to systemd (STATUS=), readiness after the first
 // presented frame, and the watchdog from the loop's progress.
 #include <chrono>
+#include <filesystem>
 #include <string>
 
 #include <spdlog/spdlog.h>
 
 #include "daemon/daemon.hpp"
 #include "hmdnode/firmware_host/replay.hpp"
+#include "hmdnode/hal/tracking/base_station_placement.hpp"
 #include "hmdnode/hal/tracking/device_tracker.hpp"
 
 namespace hmdnode {
@@ -113,9 +115,42 @@ nlohmann::json Daemon::status_json(const Percentiles& p) {
     return s;
 }
 
+// With tracker.place_base_stations: the device tracker's setup, when it holds base stations the
+// file did not, posted to its writer (write_file_atomically on the writer's thread: a stalled disk
+// never costs a vsync); a failed write is posted again at the next window.
+void Daemon::store_placed_setup() {
+    if (!cfg_.place_base_stations || cfg_.base_stations.empty()) return;
+    DeviceTracker* dt = node_->device_tracker();
+    if (!dt) return;
+    if (!setup_writer_) {
+        setup_writer_.emplace(cfg_.status_every_s);
+        std::error_code ec;  // a stored file's base stations are not written again
+        if (std::filesystem::exists(cfg_.base_stations, ec))
+            if (auto s = lighthouse::load_base_station_setup(cfg_.base_stations))
+                setup_stored_ = s->size();
+    }
+    if (const uint64_t f = setup_writer_->counts().failed; f != setup_failed_) {
+        setup_failed_ = f;
+        setup_stored_ = 0;
+    }
+    const DeviceTrackerStatus ts = dt->status();
+    if (ts.light.setup.size() <= setup_stored_) return;
+    std::vector<lighthouse::BaseStationPlacement> setup = ts.light.setup;
+    const int64_t now = std::chrono::duration_cast<std::chrono::seconds>(
+                            std::chrono::system_clock::now().time_since_epoch())
+                            .count();
+    for (lighthouse::BaseStationPlacement& b : setup)
+        if (b.solved_unix_s == 0 && b.residual_rms_rad > 0) b.solved_unix_s = now;
+    spdlog::info("{} base station(s) placed in the tracker; setup written to {}", setup.size(),
+                 cfg_.base_stations.string());
+    setup_writer_->post(cfg_.base_stations, lighthouse::base_station_setup_json(setup));
+    setup_stored_ = setup.size();
+}
+
 // Every status window: log it, write the status file when one is configured, start anew (so the
 // window never grows, with or without a status file).
 void Daemon::status_window() {
+    store_placed_setup();
     const Percentiles p = percentiles(lat_);
     last_window_ = status_json(p);
     // The status file is written on a thread of its own (a stalled disk never costs a vsync); one

@@ -2,6 +2,7 @@
 // renderer (the names and the checks: wiring_names.cpp).
 #include "hmdnode/firmware_host/wiring.hpp"
 
+#include <chrono>
 #include <filesystem>
 #include <system_error>
 
@@ -39,6 +40,43 @@ Result<std::unique_ptr<EyeTracker>> make_eye_tracker(const EyeTrackerSpec& spec,
     return t;
 }
 
+namespace {
+
+// The stored setup of a spec: its file, or none yet when the tracker is to place the base
+// stations and the file does not exist.
+Result<std::vector<lighthouse::BaseStationPlacement>> load_setup(const TrackerSpec& spec) {
+    std::error_code ec;
+    if (spec.place_base_stations && !std::filesystem::exists(spec.base_stations, ec))
+        return std::vector<lighthouse::BaseStationPlacement>{};
+    auto loaded = lighthouse::load_base_station_setup(spec.base_stations);
+    if (!loaded) return make_error("base stations: " + loaded.error().message);
+    return std::move(*loaded);
+}
+
+}  // namespace
+
+Result<size_t> stored_base_stations(const TrackerSpec& spec) {
+    if (spec.base_stations.empty()) return size_t(0);
+    auto s = load_setup(spec);
+    if (!s) return s.error();
+    return s->size();
+}
+
+Status save_placed_setup(const TrackerSpec& spec, const DeviceTracker& tracker, size_t* stored) {
+    if (!spec.place_base_stations || spec.base_stations.empty()) return {};
+    const DeviceTrackerStatus st = tracker.status();
+    if (st.light.setup.size() <= *stored) return {};
+    std::vector<lighthouse::BaseStationPlacement> setup = st.light.setup;
+    const int64_t now = std::chrono::duration_cast<std::chrono::seconds>(
+                            std::chrono::system_clock::now().time_since_epoch())
+                            .count();
+    for (lighthouse::BaseStationPlacement& p : setup)
+        if (p.solved_unix_s == 0 && p.residual_rms_rad > 0) p.solved_unix_s = now;
+    if (Status w = lighthouse::save_base_station_setup(spec.base_stations, setup); !w) return w;
+    *stored = setup.size();
+    return {};
+}
+
 Result<WiredTracker> make_tracker(const TrackerSpec& spec, Clock& clock, const WiringKeys& keys) {
     if (Status st =
             check_tracker_spec(spec, clock.is_simulated() ? ClockKind::sim : ClockKind::real, keys);
@@ -74,13 +112,14 @@ Result<WiredTracker> make_tracker(const TrackerSpec& spec, Clock& clock, const W
             out.label = spec.device + " from capture " + spec.from.string();
             std::vector<lighthouse::BaseStationPlacement> setup;
             if (!spec.base_stations.empty()) {  // 6DoF from the light
-                auto loaded = lighthouse::load_base_station_setup(spec.base_stations);
-                if (!loaded) return make_error("base stations: " + loaded.error().message);
+                auto loaded = load_setup(spec);
+                if (!loaded) return loaded.error();
                 setup = std::move(*loaded);
                 out.label += " with the base stations of " + spec.base_stations.string();
             }
-            return adopt(create_capture_tracker(spec.from, spec.device, clock,
-                                                now - s_to_ns(spec.start_s), std::move(setup)));
+            return adopt(create_capture_tracker(
+                spec.from, spec.device, clock, now - s_to_ns(spec.start_s), std::move(setup),
+                glm::dvec3(0, 0, 1), spec.place_base_stations && !spec.base_stations.empty()));
         }
         case TrackerBackend::rec: {
             Result<SurviveRecording> r = read_survive_recording(spec.from, spec.device);
@@ -88,11 +127,12 @@ Result<WiredTracker> make_tracker(const TrackerSpec& spec, Clock& clock, const W
             out.label = spec.device + " from libsurvive recording " + spec.from.string();
             std::shared_ptr<const LightTrackingConfig> light;
             if (!spec.base_stations.empty()) {  // 6DoF from the light
-                auto setup = lighthouse::load_base_station_setup(spec.base_stations);
-                if (!setup) return make_error("base stations: " + setup.error().message);
+                auto setup = load_setup(spec);
+                if (!setup) return setup.error();
                 auto cfg = survive_light_tracking_config(*r, std::move(*setup));
                 if (!cfg)
                     return make_error(spec.base_stations.string() + ": " + cfg.error().message);
+                cfg->place.enabled = spec.place_base_stations;
                 light = std::make_shared<const LightTrackingConfig>(std::move(*cfg));
                 out.label += " with the base stations of " + spec.base_stations.string();
             }
@@ -129,12 +169,13 @@ Result<WiredTracker> make_tracker(const TrackerSpec& spec, Clock& clock, const W
             DeviceTrackerConfig tc;
             tc.filter = filter;
             if (!spec.base_stations.empty()) {  // 6DoF from the device's light interface
-                auto setup = lighthouse::load_base_station_setup(spec.base_stations);
-                if (!setup) return make_error("base stations: " + setup.error().message);
+                auto setup = load_setup(spec);
+                if (!setup) return setup.error();
                 // The sensor model comes with the configuration the codec reads at the open; the
                 // light reports from the device's other HID interface, merged with the IMU's.
                 auto light = std::make_shared<LightTrackingConfig>();
                 light->setup = std::move(*setup);
+                light->place.enabled = spec.place_base_stations;
                 light->filter.world_up = glm::dvec3(0, 0, 1);  // a setup file's world
                 tc.light = std::move(light);
                 backend = group_interfaces(

@@ -82,6 +82,9 @@ Status check_tracker_spec(const TrackerSpec& spec, ClockKind clock, const Wiring
                           " hidapi, libusb, rec or capture (a device's, a recording's or a "
                           "capture's light), not " +
                           name);
+    if (spec.place_base_stations && spec.base_stations.empty())
+        return make_error(keys.place_base_stations + " needs " + keys.base_stations +
+                          " FILE: the setup file the placed base stations are written to");
     switch (spec.backend) {
         case TrackerBackend::trace:
             if (!spec.trace && spec.trace_path.empty())

@@ -42,7 +42,7 @@ class DeviceTrackerImpl final : public DeviceTracker {
         info_.nominal_rate_hz = config.nominal_rate_hz;
         info_.provides_orientation = true;
         info_.provides_imu = true;
-        if (config.light && !config.light->setup.empty()) {
+        if (uses_light(config)) {
             info_.provides_position = true;
             if (!config.light->sensors.empty()) {
                 light_config_ = config.light;
@@ -132,9 +132,7 @@ class DeviceTrackerImpl final : public DeviceTracker {
                 transport_ = std::move(*t);
                 chain_.codec().reset();
                 chain_.codec().configure(*transport_);
-                if (config_.light && !config_.light->setup.empty() &&
-                    config_.light->sensors.empty())
-                    light_from_device();
+                if (uses_light(config_) && config_.light->sensors.empty()) light_from_device();
                 std::lock_guard lock(mutex_);
                 status_.codec_warning = chain_.codec().warning();
                 status_.codec_info = chain_.codec().info();
@@ -203,6 +201,11 @@ class DeviceTrackerImpl final : public DeviceTracker {
         }
         const glm::dvec3 v = glm::cross(a, b);
         return glm::normalize(glm::dquat(1 + c, v.x, v.y, v.z));
+    }
+
+    // The light path: a setup, or base stations to place in the tracker.
+    static bool uses_light(const DeviceTrackerConfig& c) {
+        return c.light && (!c.light->setup.empty() || c.light->place.enabled);
     }
 
     static bool is_light_report(const InputReport& r) {
@@ -291,6 +294,8 @@ class DeviceTrackerImpl final : public DeviceTracker {
             status_.light.state = light_state_;
             status_.light.confidence = light_confidence_;
             status_.light.samples_with_position = light_positions_;
+            if (light_->setup().size() != status_.light.setup.size())
+                status_.light.setup = light_->setup();
         }
     }
 
@@ -423,7 +428,7 @@ Result<std::unique_ptr<DeviceTracker>> create_device_tracker(
 Result<std::unique_ptr<DeviceTracker>> create_capture_tracker(
     const std::filesystem::path& file, const std::string& vid_pid, Clock& clock,
     int64_t first_report_host_ns, std::vector<lighthouse::BaseStationPlacement> setup,
-    const glm::dvec3& world_up) {
+    const glm::dvec3& world_up, bool place_base_stations) {
     auto dev = find_capture_device(file, vid_pid);
     if (!dev) return dev.error();
     // note: a truncated capture replays its whole records; the reader's warning names the cut.
@@ -441,7 +446,7 @@ Result<std::unique_ptr<DeviceTracker>> create_capture_tracker(
     if (json)
         if (auto cal = parse_imu_calibration_json(*json, file.string() + ": the configuration"))
             if (codec->set_imu_calibration(*cal)) calibration = *cal;
-    if (!setup.empty()) {
+    if (!setup.empty() || place_base_stations) {
         auto sensors =
             capture_sensor_model(json, file.string(), vid_pid, "to solve its light with");
         if (!sensors) return sensors.error();
@@ -449,6 +454,7 @@ Result<std::unique_ptr<DeviceTracker>> create_capture_tracker(
         light->sensors = std::move(*sensors);
         light->setup = std::move(setup);
         light->filter.world_up = glm::normalize(world_up);
+        light->place.enabled = place_base_stations;
         if (calibration) light->filter.imu_position = calibration->imu_position;
         cfg.light = std::move(light);
     }

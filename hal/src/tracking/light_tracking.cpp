@@ -11,6 +11,8 @@
 #include <cmath>
 #include <utility>
 
+#include "self_placement.hpp"
+
 namespace hmdnode {
 namespace light_tracking_detail {
 
@@ -36,17 +38,36 @@ std::array<double, 36> transpose6(const std::array<double, 36>& a) {
 }  // namespace light_tracking_detail
 
 LightTracking::LightTracking(LightTrackingConfig config)
-    : config_(std::move(config)), filter_(config_.filter) {
+    : config_(std::move(config)), setup_(config_.setup), filter_(config_.filter) {
     layout_.points = config_.sensors.points;
     layout_.normals = config_.sensors.normals;
-    sources_.assign(config_.setup.size(), lighthouse::CalibrationSource::none);
+    sources_.assign(setup_.size(), lighthouse::CalibrationSource::none);
+    if (config_.place.enabled)
+        placer_ =
+            std::make_unique<SelfPlacement>(config_.place, layout_, config_.sensors.model_from_head,
+                                            config_.filter.world_up, config_.require_calibration);
+}
+
+LightTracking::~LightTracking() = default;
+
+void LightTracking::take_placements(const lighthouse::LightDecoder& decoder) {
+    place_due_ = false;
+    std::string why;
+    std::vector<lighthouse::BaseStationPlacement> placed = placer_->place(setup_, decoder, &why);
+    counters_.still_stretches = placer_->stretches();
+    if (!why.empty()) counters_.last_placement_note = why;
+    for (lighthouse::BaseStationPlacement& p : placed) {
+        if (counters_.first_placement_ns == 0) counters_.first_placement_ns = last_imu_ns_;
+        ++counters_.placed_in_tracker;
+        setup_.push_back(std::move(p));
+        sources_.push_back(lighthouse::CalibrationSource::none);
+    }
 }
 
 lighthouse::CalibrationSource LightTracking::calibration_source(lighthouse::Generation g,
                                                                 uint8_t base_station) const {
-    for (size_t i = 0; i < config_.setup.size(); ++i)
-        if (config_.setup[i].generation == g && config_.setup[i].base_station == base_station)
-            return sources_[i];
+    for (size_t i = 0; i < setup_.size(); ++i)
+        if (setup_[i].generation == g && setup_[i].base_station == base_station) return sources_[i];
     return lighthouse::CalibrationSource::none;
 }
 
@@ -54,12 +75,14 @@ void LightTracking::add_imu(int64_t device_time_ns, const glm::dvec3& gyro, cons
                             ImuSampleFlags flags) {
     ++counters_.imu_samples;
     filter_.add_imu(device_time_ns, gyro, accel, flags);
+    if (placer_ && placer_->add_imu(device_time_ns, gyro, accel)) place_due_ = true;
     have_imu_ = true;
     last_imu_ns_ = device_time_ns;
 }
 
 void LightTracking::add_light(std::span<const lighthouse::LightEvent> events,
                               const lighthouse::LightDecoder& decoder) {
+    if (place_due_) take_placements(decoder);
     for (lighthouse::LightEvent e : events) {
         ++counters_.events;
         // The light and the IMU unwrap the same 32-bit clock from their own first ticks.
@@ -68,13 +91,13 @@ void LightTracking::add_light(std::span<const lighthouse::LightEvent> events,
             counters_.wrap_moved += t != e.device_time_ns;
             e.device_time_ns = t;
         }
-        const bool placed =
-            std::any_of(config_.setup.begin(), config_.setup.end(),
-                        [&](const lighthouse::BaseStationPlacement& p) {
-                            return p.generation == e.generation && p.base_station == e.base_station;
-                        });
+        const bool placed = std::any_of(
+            setup_.begin(), setup_.end(), [&](const lighthouse::BaseStationPlacement& p) {
+                return p.generation == e.generation && p.base_station == e.base_station;
+            });
         if (!placed) {
             ++counters_.events_unplaced;
+            if (placer_) placer_->add_light(e);
             continue;
         }
         const int64_t window = e.generation == lighthouse::Generation::lh1 ? config_.lh1_window_ns
@@ -103,18 +126,17 @@ void LightTracking::solve_window(int64_t end_ns, int64_t window_ns,
         if (e.device_time_ns > end_ns - window_ns && e.device_time_ns <= end_ns) in.push_back(e);
     if (in.size() < config_.solver.min_angles) return;  // a window without a turn's light
     std::vector<lighthouse::BaseStationState> known;
-    for (const lighthouse::BaseStationPlacement& p : config_.setup)
+    for (const lighthouse::BaseStationPlacement& p : setup_)
         if (const lighthouse::BaseStationState* s =
                 decoder.base_station(p.generation, p.base_station))
             known.push_back(*s);
     std::vector<lighthouse::CalibrationSource> sources;
     std::vector<lighthouse::PlacedBaseStation> stations =
-        lighthouse::placed_stations(config_.setup, known, &sources);
+        lighthouse::placed_stations(setup_, known, &sources);
     // Each setup entry's source (an entry left out as swapped: none).
-    for (size_t i = 0, k = 0; i < config_.setup.size(); ++i) {
-        const bool here = k < stations.size() &&
-                          stations[k].generation == config_.setup[i].generation &&
-                          stations[k].base_station == config_.setup[i].base_station;
+    for (size_t i = 0, k = 0; i < setup_.size(); ++i) {
+        const bool here = k < stations.size() && stations[k].generation == setup_[i].generation &&
+                          stations[k].base_station == setup_[i].base_station;
         sources_[i] = here ? sources[k++] : lighthouse::CalibrationSource::none;
     }
     if (config_.require_calibration) {
@@ -143,6 +165,7 @@ void LightTracking::solve_window(int64_t end_ns, int64_t window_ns,
     counters_.last_residual_rad = s.residual_rms_rad;
     warm_ = s.world_from_device;
     warm_ns_ = end_ns;
+    if (placer_) placer_->note_solve(s.device_time_ns, *s.world_from_device);
     const PoseMeasurement hm = head_measurement(s);
     // The innovation: the filter's pose at the solve's time before it takes it.
     const FilterPose before = filter_.predict(hm.device_time_ns);

@@ -717,7 +717,8 @@ Result<std::unique_ptr<DeviceTracker>> create_survive_tracker(
     DeviceTrackerConfig cfg;
     cfg.fusion = fusion;
     cfg.first_report_host_ns = first_report_host_ns;
-    const bool with_light = light && !light->setup.empty() && !rec->light.empty();
+    const bool with_light =
+        light && (!light->setup.empty() || light->place.enabled) && !rec->light.empty();
     if (with_light) {
         cfg.light = std::move(light);
         // The first IMU report at first_report_host_ns: a light report before it, as early.

@@ -61,10 +61,20 @@ struct WiringKeys {
     std::string start = "tracker.start_s";
     std::string eye_tracker = "eye_tracker.backend";
     std::string base_stations = "tracker.base_stations";
+    std::string place_base_stations = "tracker.place_base_stations";
     static WiringKeys config() { return {}; }
     static WiringKeys command_line() {
-        return {"--clock",   "--tracker",  "--from",  "--trace",       "--device",
-                "--display", "--renderer", "--start", "--eye-tracker", "--base-stations"};
+        return {"--clock",
+                "--tracker",
+                "--from",
+                "--trace",
+                "--device",
+                "--display",
+                "--renderer",
+                "--start",
+                "--eye-tracker",
+                "--base-stations",
+                "--place-base-stations"};
     }
 };
 
@@ -94,6 +104,11 @@ struct TrackerSpec {
     // from its other HID interface, merged with the IMU's (hal/transport/interface_group.hpp), and
     // its sensor model from the configuration read at the open.
     std::filesystem::path base_stations;
+    // With base_stations: the base stations the setup lacks (all of them while the file does not
+    // exist yet) are placed in the tracker from the device's first still stretch
+    // (LightTrackingConfig::place), and save_placed_setup writes them back to the file: the first
+    // start of a box places, the next ones reuse.
+    bool place_base_stations = false;
     SimTrackerConfig sim;     // trace: rate, noise, latency, jitter (host_start/offset: filled in)
     double start_s = 0.0;     // trace, capture: start this far into the input
     double duration_s = 0.0;  // trace: replay this long (0: to the end)
@@ -117,6 +132,15 @@ struct WiredTracker {
 // Makes the tracker (not started) with its first sample due at the clock's now (a file backend:
 // its first record arrives then).
 Result<WiredTracker> make_tracker(const TrackerSpec& spec, Clock& clock, const WiringKeys& keys);
+
+// With spec.place_base_stations: the device tracker's setup (DeviceLightStatus::setup) written to
+// spec.base_stations (atomically) when it holds more base stations than *stored, the count the
+// file held (0 for a file not there yet); *stored then its count. Nothing to write: OK. Errors
+// name the file.
+Status save_placed_setup(const TrackerSpec& spec, const DeviceTracker& tracker, size_t* stored);
+// The number of base stations spec.base_stations holds (0 when it is missing and
+// spec.place_base_stations: to be placed). An error for a bad file.
+Result<size_t> stored_base_stations(const TrackerSpec& spec);
 
 // Where the gaze comes from (docs/lod-selection.md, "Gaze"):
 //   none  : no eye tracker; LOD eccentricity is measured from the lens centre

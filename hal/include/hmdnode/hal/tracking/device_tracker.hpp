@@ -187,8 +187,10 @@ struct DeviceTrackerConfig {
     // LightTracking, whose filter then gives every sample's orientation and, while its position
     // is tracked (FilterPose::good), its position; a sample whose position is not good carries
     // none. Their world is the node's, +y up: the setup's world turned by the shortest rotation
-    // taking its up (filter.world_up) to +y. Null, or a setup with no base station: the IMU-only
-    // path (ImuFusion).
+    // taking its up (filter.world_up) to +y. Null, or a setup with no base station and no
+    // placement in the tracker (LightTrackingConfig::place): the IMU-only path (ImuFusion). With
+    // placement, the base stations the setup lacks are placed from the device's first still
+    // stretch (DeviceLightStatus::setup: the setup to store).
     // A config whose `sensors` is empty takes the sensor model (and the IMU's lever arm) from the
     // configuration the codec reads from the device at each open (the live path: hidapi, libusb);
     // a device that gives none keeps the IMU-only path, and DeviceLightStatus::light_error says
@@ -198,8 +200,8 @@ struct DeviceTrackerConfig {
 
 // What the light path did (DeviceTrackerConfig::light).
 struct DeviceLightStatus {
-    bool enabled = false;  // light reports go to the light path (false until the sensor model is
-                           // known: a live device's comes with its configuration at the open)
+    bool enabled = false;   // light reports go to the light path (false until the sensor model is
+                            // known: a live device's comes with its configuration at the open)
     uint64_t reports = 0;   // light reports given to the decoder
     uint64_t rejected = 0;  // of those, refused (light_error: the last one's message)
     std::string light_error;
@@ -209,6 +211,9 @@ struct DeviceLightStatus {
     PositionState state = PositionState::none;  // of the newest sample
     double confidence = 0;
     uint64_t samples_with_position = 0;  // samples delivered with a (good) position
+    // The base stations the light path uses: the configured setup and those placed in the
+    // tracker (LightTrackingCounters::placed_in_tracker); empty until the first one is known.
+    std::vector<lighthouse::BaseStationPlacement> setup;
 };
 
 struct DeviceTrackerStatus {
@@ -249,9 +254,11 @@ Result<std::unique_ptr<DeviceTracker>> create_device_tracker(
 // `setup` (a base-station setup whose world's up is `world_up`): the device's light reports go
 // through the light path (6DoF, DeviceTrackerConfig::light) with the configuration's sensor
 // model -- an error when the capture holds no configuration read or it has no sensor model.
+// `place_base_stations`: the light path also without a setup, placing the base stations it lacks
+// in the tracker (LightTrackingConfig::place).
 Result<std::unique_ptr<DeviceTracker>> create_capture_tracker(
     const std::filesystem::path& capture, const std::string& vid_pid, Clock& clock,
     int64_t first_report_host_ns, std::vector<lighthouse::BaseStationPlacement> setup = {},
-    const glm::dvec3& world_up = glm::dvec3(0, 0, 1));
+    const glm::dvec3& world_up = glm::dvec3(0, 0, 1), bool place_base_stations = false);
 
 }  // namespace hmdnode

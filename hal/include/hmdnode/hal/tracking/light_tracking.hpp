@@ -10,7 +10,13 @@
 // poser's residual, the IMU as the process input); the code is this project's own.
 //
 // Without a setup (or before a base station of the setup is seen) no solve is made: the filter is
-// orientation only (PositionState::none) and its position is never good. Light times are the
+// orientation only (PositionState::none) and its position is never good. With placement in the
+// tracker (LightTrackingConfig::place, self_placement.cpp) the base stations the setup lacks are
+// placed from the light of a still stretch of the device (its IMU says when), each once its
+// calibration is known; the first placement defines the world when the setup is empty (the
+// device's model frame there, levelled by the accelerometer: the world of `tracking place`), a
+// later one takes the device's pose there from the base stations already placed. setup() is then
+// the setup to store for the next start. Light times are the
 // device's 48 MHz clock like the IMU's; a light time that a 32-bit wrap put on another turn of the
 // clock than the newest IMU sample is moved onto the IMU's (the two unwrap from their own first
 // ticks).
@@ -21,6 +27,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
@@ -33,6 +40,25 @@
 #include "hmdnode/hal/tracking/pose_filter.hpp"
 
 namespace hmdnode {
+
+// Placement in the tracker: when the device lies still (over every `window_s` of IMU samples the
+// gyro's standard deviation and mean and the accelerometer's deviation under their bounds, as
+// device_light_log.hpp's StillOptions; consecutive still windows joined) for min_still_s, the
+// light of that stretch (its first max_light_s) places the base stations it saw that the setup
+// lacks. The stretch's light is kept until a newer still stretch replaces it, so a base station
+// whose calibration arrives after the device moved is placed from it then.
+struct InTrackerPlacement {
+    bool enabled = false;
+    double window_s = 0.25;
+    double max_gyro_sd_rad_s = 0.6 * 0.0174533;
+    double max_gyro_mean_rad_s = 3.0 * 0.0174533;
+    double max_accel_sd_m_s2 = 0.06;
+    double min_still_s = 1.0;
+    double max_light_s = 2.0;
+    lighthouse::PlacementOptions placement;
+};
+
+class SelfPlacement;
 
 struct LightTrackingConfig {
     LighthouseSensors sensors;  // model points and normals, the head frame in the model's
@@ -56,6 +82,7 @@ struct LightTrackingConfig {
     double added_position_sigma_m = 0.0015;
     double added_orientation_sigma_rad = 0.0015;
     double motion_sigma_s = 0.001;
+    InTrackerPlacement place;  // off: only the setup's base stations are used
 };
 
 struct LightTrackingCounters {
@@ -76,13 +103,21 @@ struct LightTrackingCounters {
     // while tracked: how far the light + IMU prediction was from the light.
     double last_innovation_m = 0;
     uint64_t innovations = 0;  // solves met while tracked
+    // Placement in the tracker: base stations placed, still stretches long enough to place
+    // from, and the device time of the first placement (0: none yet).
+    uint64_t placed_in_tracker = 0, still_stretches = 0;
+    int64_t first_placement_ns = 0;
+    std::string last_placement_note;  // the last placement's base stations not placed, and why
 };
 
 class LightTracking {
   public:
     explicit LightTracking(LightTrackingConfig config);
+    ~LightTracking();
 
-    bool has_setup() const { return !config_.setup.empty(); }
+    bool has_setup() const { return !setup_.empty(); }
+    // The base stations used: the configured setup and those placed in the tracker since.
+    const std::vector<lighthouse::BaseStationPlacement>& setup() const { return setup_; }
 
     // One IMU sample (head axes, device clock; DeviceSample's units).
     void add_imu(int64_t device_time_ns, const glm::dvec3& gyro, const glm::dvec3& accel,
@@ -109,9 +144,13 @@ class LightTracking {
 
   private:
     void solve_window(int64_t end_ns, int64_t window_ns, const lighthouse::LightDecoder& decoder);
+    void take_placements(const lighthouse::LightDecoder& decoder);
     PoseMeasurement head_measurement(const lighthouse::PoseSolve& s) const;
 
     LightTrackingConfig config_;
+    std::vector<lighthouse::BaseStationPlacement> setup_;
+    std::unique_ptr<SelfPlacement> placer_;  // with config_.place.enabled
+    bool place_due_ = false;                 // a still window closed: placed at the next light
     lighthouse::SensorLayout layout_;
     PoseFilter filter_;
     LightTrackingCounters counters_;
