@@ -155,6 +155,56 @@ TEST(TrackingPlaceCmd, AViveHeadsetsUsbCaptureIsPlacedAndTrackedInSixDof) {
     fs::remove_all(dir);
 }
 
+// `record --place-base-stations`: with no setup file yet the tracker places the base stations
+// itself (compare-test-index: its still start, each base station once its calibration frame has
+// arrived at about 9.6 s) and writes the file; the next run reads it and tracks from the first
+// light. Without --base-stations (where would the setup go?) a usage error.
+TEST(TrackingPlaceCmd, RecordPlacesTheBaseStationsItselfAndTheNextRunReusesTheFile) {
+    const fs::path dir = test::fresh_temp_dir("hmdnode_record_place");
+    const fs::path setup = dir / "setup.json", first = dir / "first.csv",
+                   second = dir / "second.csv";
+    const std::string rec = kTraces + "compare-test-index.rec.gz";
+    const std::string run = "record --backend rec --from " + rec +
+                            " --device T20 --place-base-stations --base-stations " +
+                            setup.string() + " --out ";
+    auto a = tool(run + first.string());
+    ASSERT_EQ(a.code, 0) << a.output;
+    EXPECT_NE(a.output.find("4 base station(s) placed in the tracker, the setup of 4 written to"),
+              std::string::npos)
+        << a.output;
+    auto placed = lighthouse::load_base_station_setup(setup);
+    ASSERT_TRUE(placed.ok()) << placed.error().message;
+    ASSERT_EQ(placed->size(), 4u);
+    for (const lighthouse::BaseStationPlacement& b : *placed) {
+        EXPECT_TRUE(b.calibration.has_value());
+        EXPECT_GT(b.solved_unix_s, 0);
+    }
+    auto t1 = read_trace_csv(first);
+    ASSERT_TRUE(t1.ok()) << t1.error().message;
+    // Tracked once placed: after the calibrations (measured first row 9.78 s), before
+    // libsurvive's first pose (16.08 s).
+    EXPECT_GT(ns_to_s(t1->start_ns()), 5.0);
+    EXPECT_LT(ns_to_s(t1->start_ns()), 16.0);
+
+    const auto before = fs::last_write_time(setup);
+    auto b = tool(run + second.string());
+    ASSERT_EQ(b.code, 0) << b.output;
+    EXPECT_NE(b.output.find("none placed"), std::string::npos) << b.output;
+    EXPECT_EQ(fs::last_write_time(setup), before);  // nothing new: the file left as it was
+    auto t2 = read_trace_csv(second);
+    ASSERT_TRUE(t2.ok()) << t2.error().message;
+    EXPECT_LT(ns_to_s(t2->start_ns()), 2.0);  // measured 0.261 s: the stored setup
+    EXPECT_GT(t2->samples.size(), t1->samples.size());
+
+    auto u = tool("record --backend rec --from " + rec +
+                  " --device T20 --place-base-stations --out " + (dir / "x.csv").string());
+    EXPECT_EQ(u.code, 2) << u.output;
+    EXPECT_NE(u.output.find("--place-base-stations needs --base-stations FILE"), std::string::npos)
+        << u.output;
+    EXPECT_FALSE(fs::exists(dir / "x.csv"));
+    fs::remove_all(dir);
+}
+
 TEST(TrackingPlaceCmd, BadInputIsAClearErrorAndNothingIsWritten) {
     const fs::path dir = test::fresh_temp_dir("hmdnode_place_bad");
     const fs::path out = dir / "setup.json";

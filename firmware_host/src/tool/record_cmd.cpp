@@ -67,6 +67,7 @@ struct RecordArgs {
     std::string fusion = "mahony";       // or gyro: the gyro integrated, no gravity correction
     std::string base_stations;           // --base-stations FILE: a stored setup (6DoF)
     std::string world_up = "z";          // the setup's world up
+    bool place_base_stations = false;    // --place-base-stations: place what the setup lacks
     bool sim_clock = false;
     bool duration_given = false;
 };
@@ -333,24 +334,55 @@ std::string six_dof_refusal(const std::string& device, TrackerRecording& rec,
 }
 
 // --base-stations for a device's own light (capture, live): the setup file's world is +z up (no
-// --world-up), it loads and holds a base station; *stations gets their count. False (the exit
-// status set) otherwise.
+// --world-up), it loads and holds a base station (with --place-base-stations it may be empty or
+// not there yet); *stations gets their count. False (the exit status set) otherwise.
 bool setup_stations(const RecordArgs& args, const std::string& what, size_t* stations) {
     if (args.world_up != "z") {
         errors.usage("--world-up with " + what + ": a setup file's world is +z up");
         return false;
+    }
+    std::error_code ec;
+    if (args.place_base_stations && !std::filesystem::exists(args.base_stations, ec)) {
+        *stations = 0;
+        return true;
     }
     auto setup = lighthouse::load_base_station_setup(args.base_stations);
     if (!setup) {
         errors.fail("--base-stations: " + setup.error().message);
         return false;
     }
-    if (setup->empty()) {
+    if (setup->empty() && !args.place_base_stations) {
         errors.fail("--base-stations " + args.base_stations + ": no base station");
         return false;
     }
     *stations = setup->size();
     return true;
+}
+
+// --place-base-stations: the tracker's setup (the base stations it placed beside the stored ones)
+// written to --base-stations when it grew, and what happened said. `stored`: the count the file
+// held at the start.
+void store_placed_setup(const RecordArgs& args, const DeviceTracker& tracker, size_t stored) {
+    if (!args.place_base_stations) return;
+    TrackerSpec spec;
+    spec.base_stations = args.base_stations;
+    spec.place_base_stations = true;
+    const DeviceTrackerStatus st = tracker.status();
+    const LightTrackingCounters& t = st.light.tracking;
+    const size_t had = stored;
+    if (Status w = save_placed_setup(spec, tracker, &stored); !w)
+        return errors.fail("--base-stations " + args.base_stations + ": " + w.error().message);
+    if (stored > had)
+        std::printf(
+            "  %-24s %llu base station(s) placed in the tracker, the setup of %zu "
+            "written to %s\n",
+            "placement", static_cast<unsigned long long>(t.placed_in_tracker), stored,
+            args.base_stations.c_str());
+    else
+        std::printf("  %-24s none placed (%llu still stretch(es)%s%s); %s left as it was\n",
+                    "placement", static_cast<unsigned long long>(t.still_stretches),
+                    t.last_placement_note.empty() ? "" : ": ", t.last_placement_note.c_str(),
+                    args.base_stations.c_str());
 }
 
 // --backend capture --from FILE: the capture's device through the device tracker, simulated clock
@@ -369,6 +401,7 @@ void run_record_capture(const RecordArgs& args, const DeviceFilter& filter) {
     spec.from = args.from;
     spec.device = args.device;
     spec.base_stations = args.base_stations;  // 6DoF: the capture's light with a stored setup
+    spec.place_base_stations = args.place_base_stations;
     const bool six_dof = !args.base_stations.empty();
     size_t stations = 0;
     if (six_dof && !setup_stations(args, "--backend capture", &stations)) return;
@@ -402,6 +435,7 @@ void run_record_capture(const RecordArgs& args, const DeviceFilter& filter) {
                                  " (0 = its first pose)",
                              {}, refused);
     if (six_dof) print_light_status(st, rec, rows, args.base_stations, stations);
+    if (six_dof) store_placed_setup(args, *tracker, stations);
 }
 
 // --reference-out: a libsurvive recording's lighthouse-solved poses as a trace (libsurvive's world,
@@ -547,11 +581,15 @@ Result<std::shared_ptr<const LightTrackingConfig>> recording_light_path(const Re
                                                                         std::string* why) {
     using Setup = std::vector<lighthouse::BaseStationPlacement>;
     Setup setup;
-    if (!args.base_stations.empty()) {
+    std::error_code ec;
+    if (args.place_base_stations && !std::filesystem::exists(args.base_stations, ec)) {
+        *source = "none stored (" + args.base_stations + " not there yet): placed in the tracker";
+    } else if (!args.base_stations.empty()) {
         auto loaded = lighthouse::load_base_station_setup(args.base_stations);
         if (!loaded) return make_error("--base-stations: " + loaded.error().message);
         setup = std::move(*loaded);
         *source = args.base_stations;
+        if (args.place_base_stations) *source += " (those it lacks placed in the tracker)";
     }
     if (rec.light.empty()) {
         *why = "no light line (W, Y, C) of " + rec.device + ": orientation only";
@@ -592,6 +630,7 @@ Result<std::shared_ptr<const LightTrackingConfig>> recording_light_path(const Re
     }
     if (!cfg)
         return make_error("--base-stations " + args.base_stations + ": " + cfg.error().message);
+    cfg->place.enabled = args.place_base_stations;
     return std::shared_ptr<const LightTrackingConfig>(
         std::make_shared<LightTrackingConfig>(std::move(*cfg)));
 }
@@ -721,6 +760,7 @@ void run_record_survive(const RecordArgs& args) {
                                 : "none (no CONFIG line)");
     std::printf("  %-24s %s\n", "IMU ranges", describe_survive_imu_scales(*rec).c_str());
     if (six_dof) print_light_status(st, out, rows, light_source, stations);
+    if (six_dof) store_placed_setup(args, **tracker, stations);
     if (exit_code() != 0 || args.reference_out.empty()) return;
     std::printf(
         "  %-24s %s (%zu lighthouse poses from %s at %s; %zu with a repeated time, %zu with no "
@@ -746,6 +786,12 @@ void run_record(const RecordArgs& args) {
         return errors.usage(
             "--base-stations needs --backend hidapi, libusb, rec or capture (a device's, a "
             "recording's or a capture's light)");
+    if (args.place_base_stations && args.base_stations.empty())
+        return errors.usage(
+            "--place-base-stations needs --base-stations FILE (read when it is there, the placed "
+            "setup written to it)");
+    if (args.place_base_stations && args.world_up != "z")
+        return errors.usage("--world-up with --place-base-stations: a setup file's world is +z up");
     if (args.fusion != "mahony" && args.backend != "rec")
         return errors.usage("--fusion gyro needs --backend rec");
     if (!errors.check_outputs({{"--out", args.out},
@@ -781,6 +827,7 @@ void run_record(const RecordArgs& args) {
     spec.device = args.device;
     // 6DoF: the device's light interface beside its IMU, with a stored setup.
     spec.base_stations = args.base_stations;
+    spec.place_base_stations = args.place_base_stations;
     const bool six_dof = !args.base_stations.empty();
     size_t stations = 0;
     if (six_dof && !setup_stations(args, "--backend " + args.backend, &stations)) return;
@@ -830,6 +877,7 @@ void run_record(const RecordArgs& args) {
         six_dof && !args.out.empty() ? six_dof_refusal(args.device, rec, st, args.out) : "";
     finish_tracker_recording(args, label, via, rec, st, pcap.get(), time_base, {}, refused);
     if (six_dof) print_light_status(st, rec, rows, args.base_stations, stations);
+    if (six_dof) store_placed_setup(args, tracker, stations);
 }
 
 void add_record_command(CLI::App& app) {
@@ -872,6 +920,11 @@ void add_record_command(CLI::App& app) {
                     "device's (its light interface beside its IMU one), the recording's or the "
                     "capture's light (rec's default: its LH_POSE lines from before its light, "
                     "when it has them)");
+    rec->add_flag("--place-base-stations", args->place_base_stations,
+                  "With --base-stations FILE: the base stations FILE lacks (all of them while it "
+                  "is not there) placed in the tracker from the device's first still stretch, "
+                  "each once its calibration has arrived; the setup written to FILE when it grew "
+                  "(docs/tracking.md, placement inside the tracker)");
     rec->add_option("--world-up", args->world_up,
                     "With a light path: the setup's world up axis (z: libsurvive's world; y: a "
                     "setup hmdnode placed levelled)")
