@@ -47,6 +47,7 @@ namespace {
 
 std::string out;
 std::string accuracy;  // the second table: the fused track against libsurvive's, aligned
+std::string disagree;  // the fourth: which track the raw angles support where the two disagree
 std::string placed;    // the third: no stored setup, the base stations placed in the tracker
 
 template <typename... Args>
@@ -210,7 +211,12 @@ struct Accuracy {
     std::string error;
     double pos_p50 = 0, pos_p90 = 0, rot_p50 = 0, rot_p90 = 0;
     size_t glitch_samples = 0, samples = 0;
+    // The reference's times (its timeline) of the samples more than kDisagreeMm apart, aligned.
+    std::vector<int64_t> disagree_ns;
 };
+
+// Where a track and libsurvive's disagree: more than the position target's p90 apart (aligned).
+constexpr double kDisagreeMm = 10.0;
 
 Accuracy accuracy_of(const Trace& reference, const Trace& estimate) {
     Accuracy a;
@@ -235,6 +241,8 @@ Accuracy accuracy_of(const Trace& reference, const Trace& estimate) {
     a.rot_p90 = bench::quantile(orient->error_deg, 0.9);
     a.glitch_samples = orient->glitches.samples_left_out;
     a.samples = orient->samples;
+    for (size_t i = 0; i < pos->error_mm.size() && i < orient->time_ns.size(); ++i)
+        if (pos->error_mm[i] > kDisagreeMm) a.disagree_ns.push_back(orient->time_ns[i]);
     return a;
 }
 
@@ -506,6 +514,42 @@ bool bench_case(const Case& c, int reps) {
     line += "  " + num(imu_p50, true, "%6.3f", 6) + " " + num(imu_p95, true, "%6.3f", 6);
     line += "  " + num(ready_ours, true, "%6.2f", 6) + " " + num(ready_lib, true, "%6.2f", 6);
     accuracy += line + "\n";
+
+    // Which track the raw angles support where the fused track and libsurvive's disagree: the
+    // residuals over the windows within 5 ms of a disagreeing reference sample, and over the
+    // other windows of libsurvive's span (the same windows for every track).
+    if (!c.stored_calibrations && fa.ok && !rec->poses.empty()) {
+        const int64_t lib_first = rec->poses.front().host_time_ns,
+                      lib_last = rec->poses.back().host_time_ns;
+        std::vector<std::vector<AngleSample>> apart, agree;
+        for (const std::vector<AngleSample>& w : windows) {
+            if (w.empty()) continue;
+            const int64_t t = w.back().device_time_ns + host_minus_device;
+            if (t < lib_first || t > lib_last || (first_good >= 0 && t < first_good)) continue;
+            auto it = std::lower_bound(fa.disagree_ns.begin(), fa.disagree_ns.end(), t - 5'000'000);
+            const bool near = it != fa.disagree_ns.end() && *it <= t + 5'000'000;
+            (near ? apart : agree).push_back(w);
+        }
+        auto rms3 = [&](const std::vector<std::vector<AngleSample>>& ws) {
+            std::string r;
+            for (const std::vector<SurvivePose>* tr : {&light_track, &fused, &rec->poses}) {
+                const double v = ws.empty() ? NAN
+                                            : best_residual_rms(*rec, *tr, ws, stations, layout,
+                                                                host_minus_device)
+                                                  .first;
+                r.push_back(' ');
+                r.append(num(v * 1e3, true, "%6.3f", 6));
+            }
+            return r;
+        };
+        char dl[256];
+        std::snprintf(
+            dl, sizeof dl, "%-26s %-4s %6zu %5.1f %% %7zu %7zu", c.file, c.device,
+            fa.disagree_ns.size(),
+            100.0 * double(fa.disagree_ns.size()) / double(std::max<size_t>(fa.samples, 1)),
+            apart.size(), agree.size());
+        disagree += std::string(dl) + " " + rms3(apart) + "  " + rms3(agree) + "\n";
+    }
     if (c.stored_calibrations) return true;
 
     // 5. No stored setup: the base stations placed inside the tracker from a still stretch.
@@ -624,6 +668,22 @@ int main(int argc, char** argv) {
         "placed: base stations placed in the tracker, of the recording's LH_POSE setup; ready: "
         "the first tracked pose placed in the tracker, with the stored (look-ahead) setup of the "
         "second table, and libsurvive's first POSE, seconds after the first light line.\n";
+    std::snprintf(
+        head, sizeof head, "%-26s %-4s %16s %15s  %20s  %20s\n%-26s %-4s %16s %15s  %20s  %20s\n",
+        "recording", "dev", "apart > 10 mm", "windows", "rms there (mrad)", "rms elsewhere", "", "",
+        "samples  share", "apart  agree", "light fused   lib", "light fused   lib");
+    const std::string disagree_table = std::string(head) + disagree;
+    out +=
+        "\nWhere the fused track and libsurvive's disagree, which one the raw angles "
+        "support:\n\n```\n" +
+        disagree_table + "```\n";
+    out +=
+        "apart: libsurvive's POSE samples more than 10 mm from the fused track (aligned as in "
+        "the second table) and their share; windows: the solve windows (one rotor turn) within "
+        "5 ms of such a sample, and the other windows of libsurvive's span once the fused track "
+        "is tracked; rms: each track's residual over those windows' raw angles (as in the "
+        "second table: calibrated model, the best lag), light-only solves, fused track, "
+        "libsurvive.\n";
     std::fputs(out.c_str(), stdout);
     if (write_docs &&
         !bench::write_result(
@@ -631,7 +691,10 @@ int main(int argc, char** argv) {
             "Settings: one thread.\n\n```\n" + out.substr(table, table_end - table) +
                 "```\n\nAgainst libsurvive's poses, aligned:\n\n```\n" + accuracy_table +
                 "```\n\nWithout a stored setup, the base stations placed in the tracker:\n\n```\n" +
-                placed_table + "```\n"))
+                placed_table +
+                "```\n\nWhere the fused track and libsurvive's disagree (more than 10 mm apart, "
+                "aligned), the residual of each over the raw angles there and elsewhere:\n\n```\n" +
+                disagree_table + "```\n"))
         return 1;
     return 0;
 }
