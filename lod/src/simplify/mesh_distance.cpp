@@ -18,8 +18,9 @@
 // the Lipschitz argument), without a query per vertex:
 // - every vertex v gets an upper bound u(v) = dist(v, tau) of its distance, tau a triangle of the
 //   other mesh: the nearest triangle of a sample on a triangle around it (propagated across
-//   triangles without samples), improved by a local descent over the triangles around tau's
-//   corners (point-triangle distances, no search). Only where u(v) exceeds the largest distance
+//   triangles without samples), improved by a local walk towards v's projection (descend():
+//   across the edges it lies beyond, else to the nearest triangle around tau's corners;
+//   point-triangle distances, no search). Only where u(v) exceeds the largest distance
 //   measured so far is v queried exactly, largest u first: a vertex with u(v) <= that maximum
 //   cannot hold the maximum, so the maximum over the vertices is still exact;
 // - a triangle's bound is the smaller of max_k u(p_k) + r (d is 1-Lipschitz and every point is
@@ -32,7 +33,8 @@
 //   refinement's query budget is spent; the top is the bound. The midpoints count for the lower
 //   bound too;
 // - with MeshDistanceOptions::prism_bounds, a triangle whose corners lie nearest to different
-//   triangles is bounded by the prism bound instead (prism_bound(): the distance along its normal
+//   triangles and whose convex bounds leave it above the largest distance measured is bounded by
+//   the prism bound where that is smaller (prism_bound(): the distance along its normal
 //   to the triangles of the other mesh over it, largest at a corner of their overlay), exact where
 //   the other mesh is flat over it and close where it turns little; each tight bound's peak is
 //   measured once, so the refinement closes the bracket without splitting the triangles down to
@@ -41,12 +43,12 @@
 // Nearest point: a BVH over the target's triangles (Morton order, split at the octree planes,
 // float boxes; built in O(T) after a radix sort), depth first, nearer child first, from a hint
 // triangle whose distance is the starting radius (the previous query's nearest: the queries run in
-// triangle order, so it is near), closest point on a triangle by C. Ericson, "Real-Time Collision
-// Detection", Morgan Kaufmann 2005, 5.1.5, in double precision.
-// Cost: O(T) per BVH (level 0's once per MeshDistanceReference), O(log T) per query typically;
-// time O((N + Q + R) log T + T) with Q the vertices queried (few: the descent settles most) and R
-// refinement queries, memory O(N + T + R); with prism bounds also O(k) per triangle, k the
-// triangles of the other mesh over it (the edge table O(T) per mesh).
+// the BVH's leaf order, in which each measured mesh is sampled and walked, so it is near), closest
+// point on a triangle by C. Ericson, "Real-Time Collision Detection", Morgan Kaufmann 2005, 5.1.5,
+// in double precision. Cost: O(T) per BVH (level 0's once per MeshDistanceReference), O(log T) per
+// query typically; time O((N + Q + R) log T + T) with Q the vertices queried (few: the descent
+// settles most) and R refinement queries, memory O(N + T + R); with prism bounds also O(k) per
+// triangle, k the triangles of the other mesh over it (the edge table O(T) per mesh).
 #include "hmdnode/lod/mesh_distance.hpp"
 
 #include <algorithm>
@@ -309,6 +311,10 @@ struct Surface {
                 n.hi = glm::max(nodes[n.first].hi, nodes[n.first + 1].hi);
             }
         }
+        // The view (what a measurement from this surface samples and walks) in leaf order too:
+        // neighbours follow each other, so consecutive queries read nearby parts of the other
+        // mesh (on the bunny about a fifth of the measurement's time).
+        indices = corners;
     }
     // The triangles sorted by the Morton code (10 bits an axis) of their centroids in the
     // centroids' bounding box: an LSD radix sort, 3 passes of 10 bits. `sorted` gets the codes
@@ -470,14 +476,57 @@ double distance_to(const Surface& s, const dvec3& p, uint32_t t) {
     return glm::length(c - p);
 }
 
-// Local descent from triangle `tau` at distance `e` from p: while a triangle around one of the
-// current one's corners is nearer, move to the nearest of them (at most 8 steps). The result is
-// still only an upper bound of p's distance (a local minimum), e and tau updated.
+// Whether p's projection onto triangle t's plane lies inside t (its nearest point of t is then
+// the foot of the perpendicular, in t's interior or on its boundary).
+// The edges of triangle t whose lines have p's projection onto t's plane outside (bit k: the edge
+// from corner k to corner k + 1); 0 when the projection lies inside t (its nearest point of t is
+// then the foot of the perpendicular).
+unsigned outside_edges(const Surface& s, const dvec3& p, uint32_t t) {
+    const Surface::Packed& q = s.packed[t];
+    return unsigned(glm::dot(glm::cross(q.b - q.a, p - q.a), q.n) < 0.0) |
+           unsigned(glm::dot(glm::cross(q.c - q.b, p - q.b), q.n) < 0.0) << 1 |
+           unsigned(glm::dot(glm::cross(q.a - q.c, p - q.c), q.n) < 0.0) << 2;
+}
+
+// The triangle across triangle t's edge from corner k to corner k + 1 (the first other one
+// around that corner that has the edge), or kNone.
+uint32_t across_edge(const Surface& s, uint32_t t, int k) {
+    const uint32_t v0 = s.corners[3 * size_t(t) + k], v1 = s.corners[3 * size_t(t) + (k + 1) % 3];
+    for (uint32_t f = s.fan_start[v0]; f < s.fan_start[v0 + 1]; ++f) {
+        const uint32_t j = s.fan[f];
+        if (j != t && (s.corners[3 * size_t(j)] == v1 || s.corners[3 * size_t(j) + 1] == v1 ||
+                       s.corners[3 * size_t(j) + 2] == v1))
+            return j;
+    }
+    return kNone;
+}
+
+// Local descent from triangle `tau` at distance `e` from p, towards p's projection: stop on a
+// triangle that p projects into (a local minimum of the distance in most cases, not where the
+// surface folds towards p); else move across an edge that the projection lies beyond where the
+// triangle there is nearer, and where none is, to the nearest triangle around the current one's
+// corners (at most 8 moves). The result is still only an upper bound of p's distance, e and tau
+// updated.
 void descend(const Surface& s, const dvec3& p, uint32_t& tau, double& e) {
+    // The corners whose fans were scanned: a triangle there was no nearer than the distance
+    // then, and the distance only falls, so each fan is scanned once.
+    uint32_t scanned[24];
+    int n_scanned = 0;
     for (int step = 0; step < 8; ++step) {
+        const unsigned out = outside_edges(s, p, tau);
+        if (out == 0) return;
         uint32_t best = tau;
         for (int k = 0; k < 3; ++k) {
+            if (!(out >> k & 1u)) continue;
+            const uint32_t t = across_edge(s, tau, k);
+            if (t == kNone) continue;
+            const double d = distance_to(s, p, t);
+            if (d < e) e = d, best = t;
+        }
+        for (int k = 0; k < 3 && best == tau; ++k) {
             const uint32_t v = s.corners[3 * size_t(tau) + k];
+            if (std::find(scanned, scanned + n_scanned, v) != scanned + n_scanned) continue;
+            scanned[n_scanned++] = v;
             for (uint32_t f = s.fan_start[v]; f < s.fan_start[v + 1]; ++f) {
                 const uint32_t t = s.fan[f];
                 if (t == tau) continue;
@@ -646,22 +695,12 @@ constexpr double kSettle = 1e-4;
 
 // Tightens c.upper (set by the caller: a bound it already has, or infinity): the Lipschitz bound,
 // then the convex bounds of the corners' triangles; with `prism`, where the corners were measured
-// to more than one triangle, the prism bound first and the convex bounds only where it does not
-// apply.
+// to more than one triangle and those bounds leave the cell above `lower`, the prism bound where
+// it is smaller.
 void bound_cell(Cell& c, const Surface& to, double lower, bool prism) {
     c.upper = std::min(c.upper, std::max({c.d[0], c.d[1], c.d[2]}) + c.r);
     if (c.upper <= lower) return;  // settled already
     const bool one = c.t[0] != kNone && c.t[0] == c.t[1] && c.t[1] == c.t[2];
-    if (prism && !one) {
-        for (int j = 0; j < 3; ++j)
-            if (c.t[j] != kNone) {
-                dvec3 peak;
-                const double b = prism_bound(c, to, c.t[j], peak);
-                if (b < c.upper) c.upper = b, c.peak = peak, c.probe = true;
-                if (b < std::numeric_limits<double>::infinity()) return;
-                break;
-            }
-    }
     for (int j = 0; j < 3; ++j) {
         const uint32_t t = c.t[j];
         if (t == kNone || (j > 0 && t == c.t[0]) || (j > 1 && t == c.t[1])) continue;
@@ -670,6 +709,14 @@ void bound_cell(Cell& c, const Surface& to, double lower, bool prism) {
             if (k != j) m = std::max(m, c.t[k] == t ? c.d[k] : distance_to(to, c.p[k], t));
         if (m < c.upper) c.upper = m, c.probe = false;
     }
+    if (!prism || one || c.upper <= lower) return;
+    for (int j = 0; j < 3; ++j)
+        if (c.t[j] != kNone) {
+            dvec3 peak;
+            const double b = prism_bound(c, to, c.t[j], peak);
+            if (b < c.upper) c.upper = b, c.peak = peak, c.probe = true;
+            break;
+        }
 }
 
 // What the refinement starts from: per vertex of `from` an upper bound of its distance, vd[v] =
