@@ -28,10 +28,12 @@
 //   tau of the other mesh (the distance to one triangle is convex: largest at a corner), tau its
 //   samples' and its corners' triangles;
 // - every triangle enters a max-heap with its cheap bound; the top is first tightened (the convex
-//   bounds), then split 1:4 at its edge midpoints (3 queries, each child's r half its parent's),
-//   until the top is the largest distance measured (the Hausdorff distance is then exact) or the
-//   refinement's query budget is spent; the top is the bound. The midpoints count for the lower
-//   bound too;
+//   bounds), then split 1:4 at its edge midpoints (each child's r half its parent's; each
+//   midpoint's distance bounded by a walk from its edge's corners' triangles, and queried where
+//   the walk did not end over a triangle or leaves it above the largest distance measured), until
+//   the top is the largest distance measured (the Hausdorff distance is then exact) or the
+//   refinement's budget of midpoints is spent; the top is the bound. The midpoints count for the
+//   lower bound too (exactly: one that could raise it is queried);
 // - with MeshDistanceOptions::prism_bounds, a triangle whose corners lie nearest to different
 //   triangles and whose convex bounds leave it above the largest distance measured is bounded by
 //   the prism bound where that is smaller (prism_bound(): the distance along its normal
@@ -506,15 +508,15 @@ uint32_t across_edge(const Surface& s, uint32_t t, int k) {
 // surface folds towards p); else move across an edge that the projection lies beyond where the
 // triangle there is nearer, and where none is, to the nearest triangle around the current one's
 // corners (at most 8 moves). The result is still only an upper bound of p's distance, e and tau
-// updated.
-void descend(const Surface& s, const dvec3& p, uint32_t& tau, double& e) {
+// updated; true where it ended on a triangle that p projects into.
+bool descend(const Surface& s, const dvec3& p, uint32_t& tau, double& e) {
     // The corners whose fans were scanned: a triangle there was no nearer than the distance
     // then, and the distance only falls, so each fan is scanned once.
     uint32_t scanned[24];
     int n_scanned = 0;
     for (int step = 0; step < 8; ++step) {
         const unsigned out = outside_edges(s, p, tau);
-        if (out == 0) return;
+        if (out == 0) return true;
         uint32_t best = tau;
         for (int k = 0; k < 3; ++k) {
             if (!(out >> k & 1u)) continue;
@@ -538,9 +540,10 @@ void descend(const Surface& s, const dvec3& p, uint32_t& tau, double& e) {
                 if (d2 < e * e) e = std::sqrt(d2), best = t;
             }
         }
-        if (best == tau) return;
+        if (best == tau) return false;
         tau = best;
     }
+    return outside_edges(s, p, tau) == 0;
 }
 
 // The prism bound of a cell C (corners p_k): every point x of C is at most |t(x)| from `to`, t(x)
@@ -731,11 +734,11 @@ struct VertexBounds {
 // The upper bound of the one-sided Hausdorff distance from `from` to `to`, best first: every
 // triangle enters a max-heap with its cheap bound (its samples' convex bound, the Lipschitz bound
 // of its corners' bounds); an entry at the top is first tightened (bound_cell: point-triangle
-// distances, no query), and a tight one at the top is split 1:4 (3 queries), while `budget`
-// lasts; what is left at the top is the bound. Raises `lower` with the midpoints measured.
-// With `prism` every triangle is tightened first, in order (bound_cell with its prism bound),
-// a tight entry whose prism bound's peak was not measured yet has it measured (1 query) before
-// it is split, and a cell within a relative kSettle of `lower` is let go.
+// distances, no query), and a tight one at the top is split 1:4 (3 midpoints), while `budget`
+// (points measured) lasts; what is left at the top is the bound. Raises `lower` with the
+// midpoints measured. With `prism` every triangle is tightened first, in order (bound_cell with
+// its prism bound), a tight entry whose prism bound's peak was not measured yet has it measured
+// (1 point) before it is split, and a cell within a relative kSettle of `lower` is let go.
 double hausdorff_upper_bound(const TriangleMeshView& from, const std::vector<float>& radii,
                              const VertexBounds& vb, const Surface& to, Querier& q, size_t budget,
                              bool prism, double& lower) {
@@ -769,6 +772,24 @@ double hausdorff_upper_bound(const TriangleMeshView& from, const std::vector<flo
         if (!prism || u > lower * (1.0 + kSettle)) return false;
         band = std::max(band, u);
         return true;
+    };
+    // The distance at x, exact wherever it could raise `lower`: a walk (descend()) from the nearer
+    // of the triangles t0 and t1, and a query where that leaves it above `lower` (a point whose
+    // walk ends at or below it cannot raise it) or the walk did not end over a triangle (it was
+    // still far: a large cell over a fine mesh); `t` the triangle it ended on.
+    auto measure = [&](const dvec3& x, uint32_t t0, uint32_t t1, uint32_t& t) {
+        double e = std::numeric_limits<double>::infinity();
+        t = kNone;
+        for (uint32_t s : {t0, t1})
+            if (s != kNone && s != t)
+                if (const double d = distance_to(to, x, s); d < e) e = d, t = s;
+        const bool over = t != kNone && descend(to, x, t, e);
+        if (e > lower || !over) {
+            e = q.distance(x, t);
+            t = q.nearest();
+            lower = std::max(lower, e);
+        }
+        return e;
     };
     std::vector<Entry> heap;
     auto push_piece = [&](const Cell& c) {
@@ -818,7 +839,8 @@ double hausdorff_upper_bound(const TriangleMeshView& from, const std::vector<flo
         }
         if (c.probe) {
             // The point where its prism bound is largest: measured, that bound is often closed.
-            lower = std::max(lower, q.distance(c.peak, c.t[0]));
+            uint32_t t;
+            measure(c.peak, c.t[0], c.t[1], t);
             ++spent;
             if (e.id < tris)
                 probes[e.id] = 0;
@@ -834,11 +856,7 @@ double hausdorff_upper_bound(const TriangleMeshView& from, const std::vector<flo
                             0.5 * (c.p[2] + c.p[0])};
         double dm[3];
         uint32_t tm[3];
-        for (int k = 0; k < 3; ++k) {
-            dm[k] = q.distance(m[k], c.t[k]);
-            tm[k] = q.nearest();
-            lower = std::max(lower, dm[k]);
-        }
+        for (int k = 0; k < 3; ++k) dm[k] = measure(m[k], c.t[k], c.t[(k + 1) % 3], tm[k]);
         spent += 3;
         const double r = 0.5 * c.r;  // the children are similar to the parent, half its size
         const double u = c.upper;    // each child lies in its parent

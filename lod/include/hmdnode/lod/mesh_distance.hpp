@@ -26,9 +26,10 @@ struct MeshDistanceOptions {
     // sampled mesh's triangle count, at least 1024. Every vertex is bounded too, and queried
     // where its bound could hold the maximum (so the maximum over the vertices is exact).
     size_t samples = 0;
-    // Extra queries per direction spent tightening the Hausdorff bracket (best-first subdivision
-    // of the triangles whose upper bound is largest); 0 = max(768, T / 16), T the larger triangle
-    // count of the two meshes.
+    // Extra points per direction measured to tighten the Hausdorff bracket (best-first
+    // subdivision of the triangles whose upper bound is largest; each point a local walk, and a
+    // nearest-point query where the walk could not settle it); 0 = max(768, T / 16), T the larger
+    // triangle count of the two meshes.
     size_t refine_queries = 0;
     // Seed of the stratified jitter, so that runs are reproducible.
     uint32_t seed = 1;
