@@ -9,14 +9,14 @@
 // enough for the edge-collapse engine, which needs at most two consistently oriented faces per
 // edge.
 //
-// Cost: O(V + F) expected time (hash maps on welded vertex ids and edges), O(V + F) memory.
+// Cost: O(V + F) expected time (open-addressing hash tables on positions, faces and directed
+// edges, sized up front: no allocation per entry), O(V + F) memory.
 #include "hmdnode/lod/mesh_repair.hpp"
 
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <unordered_map>
-#include <unordered_set>
+#include <vector>
 
 #include "hmdnode/core/str_cat.hpp"
 #include "position_set.hpp"
@@ -49,6 +49,52 @@ struct TripleHash {
 uint64_t edge_key(uint32_t a, uint32_t b) {
     return (uint64_t(a) << 32) | b;
 }
+
+struct EdgeHash {
+    size_t operator()(uint64_t x) const {  // splitmix64's finaliser
+        x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+        x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+        return size_t(x ^ (x >> 31));
+    }
+};
+
+// A hash map with linear probing in one array of keys and one of values, at most half full (its
+// capacity set from the most entries it will hold), without erasure; `empty` is a key that never
+// occurs. It replaces std::unordered_map here: a million-face mesh put 4 M nodes through the
+// allocator, the pass's main cost.
+template <class Key, class Value, class Hash>
+class FlatMap {
+  public:
+    FlatMap(size_t most, const Key& empty) : empty_(empty) {
+        size_t capacity = 16;
+        while (capacity < 2 * most) capacity <<= 1;
+        mask_ = capacity - 1;
+        keys_.assign(capacity, empty);
+        values_.resize(capacity);
+    }
+    // The value of `key`, inserted as `value` when absent (second: whether it was).
+    std::pair<Value*, bool> emplace(const Key& key, const Value& value) {
+        for (size_t i = Hash{}(key)&mask_;; i = (i + 1) & mask_) {
+            if (keys_[i] == key) return {&values_[i], false};
+            if (keys_[i] == empty_) {
+                keys_[i] = key, values_[i] = value;
+                return {&values_[i], true};
+            }
+        }
+    }
+    const Value* find(const Key& key) const {
+        for (size_t i = Hash{}(key)&mask_;; i = (i + 1) & mask_) {
+            if (keys_[i] == key) return &values_[i];
+            if (keys_[i] == empty_) return nullptr;
+        }
+    }
+
+  private:
+    Key empty_;
+    size_t mask_ = 0;
+    std::vector<Key> keys_;
+    std::vector<Value> values_;
+};
 
 template <class T>
 std::vector<T> remap(const std::vector<T>& v, const std::vector<uint32_t>& kept) {
@@ -93,24 +139,24 @@ Result<Primitive> repair_primitive(const Primitive& in, std::string_view label,
     // Weld bit-identical positions (-0 as +0).
     std::vector<uint32_t> weld(n);
     {
-        std::unordered_map<PositionKey, uint32_t, PositionHash> first;
-        first.reserve(n);
+        // note: the empty key's bits are a NaN, and the positions are finite.
+        FlatMap<PositionKey, uint32_t, PositionHash> first(n, {~0u, ~0u, ~0u});
         for (size_t v = 0; v < n; ++v)
-            weld[v] = first.emplace(lod_detail::PositionSet::key(in.positions[v]), uint32_t(v))
-                          .first->second;
+            weld[v] =
+                *first.emplace(lod_detail::PositionSet::key(in.positions[v]), uint32_t(v)).first;
     }
 
     const size_t faces = in.indices.size() / 3;
     size_t degenerate = 0, duplicate = 0, non_manifold = 0, reoriented = 0;
     std::vector<uint32_t> out_indices;
     out_indices.reserve(in.indices.size());
-    std::unordered_set<std::array<uint32_t, 3>, TripleHash> face_seen;  // sorted welded corners
-    std::unordered_map<uint64_t, uint32_t> directed;  // directed welded edge -> uses
-    face_seen.reserve(faces);
-    directed.reserve(faces * 3);
+    // Sorted welded corners of the faces kept so far, and the uses of each directed welded edge
+    // (its ends differ, so ~0 is never a key).
+    FlatMap<std::array<uint32_t, 3>, char, TripleHash> face_seen(faces, {~0u, ~0u, ~0u});
+    FlatMap<uint64_t, uint32_t, EdgeHash> directed(3 * faces, ~0ull);
     auto uses = [&](uint32_t a, uint32_t b) {
-        auto it = directed.find(edge_key(a, b));
-        return it == directed.end() ? 0u : it->second;
+        const uint32_t* u = directed.find(edge_key(a, b));
+        return u ? *u : 0u;
     };
     for (size_t f = 0; f < faces; ++f) {
         std::array<uint32_t, 3> c = {in.indices[3 * f], in.indices[3 * f + 1],
@@ -132,7 +178,7 @@ Result<Primitive> repair_primitive(const Primitive& in, std::string_view label,
         // 2. duplicate
         std::array<uint32_t, 3> sorted = w;
         std::sort(sorted.begin(), sorted.end());
-        if (!face_seen.insert(sorted).second) {
+        if (!face_seen.emplace(sorted, 1).second) {
             ++duplicate;
             continue;
         }
@@ -153,7 +199,7 @@ Result<Primitive> repair_primitive(const Primitive& in, std::string_view label,
             ++non_manifold;
             continue;
         }
-        for (int e = 0; e < 3; ++e) ++directed[edge_key(w[e], w[(e + 1) % 3])];
+        for (int e = 0; e < 3; ++e) ++*directed.emplace(edge_key(w[e], w[(e + 1) % 3]), 0).first;
         out_indices.insert(out_indices.end(), c.begin(), c.end());
     }
 
