@@ -6,12 +6,13 @@
 // thread's CPU time (CLOCK_THREAD_CPUTIME_ID: this machine is shared, CPU time is what the work
 // costs), medians of 5 runs. Target: measuring costs at most 1x simplifying.
 //
-// --big N: also the bunny split 1:4 N times (N = 2: 1.1 M faces, 3: 4.4 M), written as a binary
-// PLY to a scratch directory and put through `hmdnode lod` at its defaults under /usr/bin/time -v:
-// wall time, the breakdown from its --report (load, repair, simplify, measure per level, write)
-// and the peak resident memory.
+// --big N: also the bunny split 1:4 N times (N = 2: 1.1 M faces, 3: 4.4 M), with --half every
+// other face of that then split 1:3 at its centroid (N = 2: 2.2 M faces; still flat and closed),
+// written as a binary PLY to a scratch directory and put through `hmdnode lod` at its defaults
+// under /usr/bin/time -v: wall time, the breakdown from its --report (load, repair, simplify,
+// measure per level, write) and the peak resident memory.
 //
-// Usage: bench_lod_distance_bench [MESH_FILE...] [--big N] [--runs N] [--write-docs]
+// Usage: bench_lod_distance_bench [MESH_FILE...] [--big N [--half]] [--runs N] [--write-docs]
 //   --write-docs writes the table to docs/results/lod-distance-bench.md (and the --big figures to
 //   docs/results/lod-distance-big.md).
 #include <time.h>
@@ -129,14 +130,36 @@ Row measure_mesh(const std::string& name, const Primitive& in, int runs, bool pr
     return row;
 }
 
-// The --big run: the bunny split `splits` times through hmdnode lod; the table's text.
-std::string big_run(const fs::path& bunny, int splits) {
+// Every other face of p (the even ones) split 1:3 at its centroid: twice the faces, the surface
+// and its edges as they were (no T-junctions).
+Primitive half_centroid_split(Primitive p) {
+    const size_t faces = p.indices.size() / 3;
+    std::vector<uint32_t> out;
+    out.reserve(6 * faces);
+    for (size_t f = 0; f < faces; ++f) {
+        const uint32_t a = p.indices[3 * f], b = p.indices[3 * f + 1], c = p.indices[3 * f + 2];
+        if (f % 2) {
+            out.insert(out.end(), {a, b, c});
+            continue;
+        }
+        const uint32_t m = uint32_t(p.positions.size());
+        p.positions.push_back((p.positions[a] + p.positions[b] + p.positions[c]) / 3.0f);
+        out.insert(out.end(), {a, b, m, b, c, m, c, a, m});
+    }
+    p.indices = std::move(out);
+    return p;
+}
+
+// The --big run: the bunny split `splits` times (and with `half` every other face 1:3) through
+// hmdnode lod; the table's text.
+std::string big_run(const fs::path& bunny, int splits, bool half) {
     Result<Primitive> base = load(bunny);
     if (!base.ok()) {
         std::fprintf(stderr, "bench_lod_distance_bench: %s\n", base.error().message.c_str());
         std::exit(1);
     }
-    const Primitive big = test::subdivided_flat(std::move(*base), splits);
+    Primitive big = test::subdivided_flat(std::move(*base), splits);
+    if (half) big = half_centroid_split(std::move(big));
     const fs::path dir = fs::temp_directory_path() / "hmdnode_lod_big";
     fs::create_directories(dir);
     const fs::path ply = dir / "bunny-split.ply", glb = dir / "bunny-split.glb",
@@ -179,10 +202,12 @@ std::string big_run(const fs::path& bunny, int splits) {
     const nlohmann::json j = nlohmann::json::parse(std::ifstream(report));
     std::string out;
     appendf(out,
-            "`hmdnode lod --in bunny-split%d.ply --out ... --report ...` at its defaults (%zu "
-            "faces, the bunny split 1:4 %d times on its own faces; binary PLY): %.1f s wall, "
+            "`hmdnode lod --in bunny-split%d%s.ply --out ... --report ...` at its defaults (%zu "
+            "faces, the bunny split 1:4 %d times on its own faces%s; binary PLY): %.1f s wall, "
             "%.1f s user + %.1f s system CPU, peak resident memory %.0f MB.\n\n",
-            splits, big.triangle_count(), splits, wall_s, user_s, sys_s, double(rss_kb) / 1024.0);
+            splits, half ? "h" : "", big.triangle_count(), splits,
+            half ? ", then every other face 1:3 at its centroid" : "", wall_s, user_s, sys_s,
+            double(rss_kb) / 1024.0);
     appendf(out, "| step | wall ms | CPU ms |\n|---|---|---|\n");
     const nlohmann::json& tm = j["timing_ms"];
     for (const char* step : {"load", "repair"})
@@ -226,15 +251,19 @@ int main(int argc, char** argv) {
     const fs::path mesh_dir = fs::path(HMDNODE_SOURCE_DIR) / "data" / "meshes";
     std::vector<fs::path> files;
     int big = 0, runs = 5;
+    bool half = false;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--big" && i + 1 < argc) {
             big = std::atoi(argv[++i]);
+        } else if (a == "--half") {
+            half = true;
         } else if (a == "--runs" && i + 1 < argc) {
             runs = std::max(1, std::atoi(argv[++i]));
         } else if (a == "--write-docs") {
         } else if (!a.empty() && a[0] == '-') {
-            std::fprintf(stderr, "usage: %s [MESH_FILE...] [--big N] [--runs N] [--write-docs]\n",
+            std::fprintf(stderr,
+                         "usage: %s [MESH_FILE...] [--big N [--half]] [--runs N] [--write-docs]\n",
                          argv[0]);
             return 2;
         } else {
@@ -288,7 +317,7 @@ int main(int argc, char** argv) {
     std::printf("%s\n", out.c_str());
     std::string big_text;
     if (big > 0) {
-        big_text = big_run(mesh_dir / "stanford-bunny.obj", big);
+        big_text = big_run(mesh_dir / "stanford-bunny.obj", big, half);
         std::printf("%s\n", big_text.c_str());
     }
     if (write_docs) {

@@ -126,6 +126,33 @@ TEST(MeshDistance, IsReproducibleAndThreadIndependent) {
     EXPECT_NEAR(a.mean, b.mean, 1e-12);
 }
 
+TEST(MeshDistance, TwoThreadsGiveTheOneThreadFiguresBitForBit) {
+    // With two threads the directions run at once, each as it runs alone: every figure the same
+    // (hmdnode lod's output must not depend on --measure-threads 1 or 2), with prism bounds too.
+    const Primitive fine = test::unit_icosphere(4);
+    const size_t targets[] = {600, 60};
+    const Result<std::vector<SimplifiedLevel>> levels = simplify(fine, "qem", targets);
+    ASSERT_TRUE(levels.ok());
+    for (bool prism : {false, true})
+        for (const SimplifiedLevel& l : *levels) {
+            MeshDistanceOptions one;
+            one.threads = 1;
+            one.prism_bounds = prism;
+            MeshDistanceOptions two = one;
+            two.threads = 2;
+            const MeshDistance a = measure_mesh_distance(fine, l.primitive, one);
+            const MeshDistance b = measure_mesh_distance(fine, l.primitive, two);
+            EXPECT_GT(a.hausdorff, 0.0);
+            EXPECT_EQ(a.hausdorff, b.hausdorff);
+            EXPECT_EQ(a.hausdorff_upper, b.hausdorff_upper);
+            EXPECT_EQ(a.mean, b.mean);
+            EXPECT_EQ(a.mean_stderr, b.mean_stderr);
+            EXPECT_EQ(a.rms, b.rms);
+            EXPECT_EQ(a.forward.queries, b.forward.queries);
+            EXPECT_EQ(a.backward.max_upper, b.backward.max_upper);
+        }
+}
+
 // The unit square turned by `angle` about its edge on the x axis.
 Primitive tilted_square(double angle) {
     Primitive p = rectangle(1, 0);

@@ -47,7 +47,9 @@ struct LodArgs {
     std::vector<size_t> triangles;
     size_t step = 0;
     size_t samples = MeshDistanceOptions{}.samples;
-    unsigned measure_threads = 1;
+    // Measurement threads: the machine's cores, at most 2 (the two directions at once: the same
+    // figures as one thread, bit for bit).
+    unsigned measure_threads = std::clamp(std::thread::hardware_concurrency(), 1u, 2u);
     uint32_t seed = 1;
     // Simplification threads: the machine's cores, at most 2 (the engine uses one helper at most).
     unsigned threads = std::clamp(std::thread::hardware_concurrency(), 1u, 2u);

@@ -229,9 +229,11 @@ MeasuredLevel measure(BuiltLevel built, const Reference& base) {
     const Clock::time_point t0 = Clock::now();
     const double c0 = thread_cpu_ms();
     const Soup s = soup_of(built.primitives);
+    const double copy_cpu_ms = thread_cpu_ms() - c0;
     MeasuredLevel m{std::move(built), base.ref.measure(s.view()), 0.0, 0.0};
     m.measure_ms = ms_since(t0) + base.unpaid_ms;
-    m.measure_cpu_ms = thread_cpu_ms() - c0 + base.unpaid_cpu_ms;
+    // note: the measurement's CPU time on every thread it used, not only this one's.
+    m.measure_cpu_ms = copy_cpu_ms + m.distance.cpu_ms + base.unpaid_cpu_ms;
     base.unpaid_ms = base.unpaid_cpu_ms = 0.0;
     return m;
 }

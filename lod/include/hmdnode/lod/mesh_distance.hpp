@@ -40,8 +40,11 @@ struct MeshDistanceOptions {
     // without), at 1.6 to 3.5 times the measurement's time; creases and open borders across a
     // triangle leave it the default bounds (docs/lod-generation.md, "Error metric").
     bool prism_bounds = false;
-    // Threads for the sample queries (the refinement runs on the calling thread); 0 =
-    // std::thread::hardware_concurrency().
+    // Threads: with 2 or more the two directions run at once (each with the same figures as
+    // alone), each direction's sample queries on half of them (the vertex bounds and the
+    // refinement on its own thread); 0 = std::thread::hardware_concurrency(). 1 and 2 give the
+    // same figures bit for bit; 3 or more can move the upper bound in its last digits
+    // (ties between nearest triangles resolved by the query order).
     unsigned threads = 1;
 };
 
@@ -66,6 +69,7 @@ struct MeshDistance {
     double mean_stderr = 0.0;      // the standard error of the side `mean` comes from
     double rms = 0.0;              // max(forward.rms, backward.rms)
     double diagonal = 0.0;         // bounding-box diagonal of mesh a (for the % figures)
+    double cpu_ms = 0.0;  // CPU time of measure() on every thread it used (the caller's included)
 
     // The figures as a percentage of `diagonal` (0 when the diagonal is 0).
     double pct(double v) const { return diagonal > 0 ? 100.0 * v / diagonal : 0.0; }
