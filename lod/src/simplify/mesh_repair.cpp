@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <type_traits>
 #include <vector>
 
 #include "hmdnode/core/str_cat.hpp"
@@ -75,8 +76,8 @@ class FlatMap {
     // The value of `key`, inserted as `value` when absent (second: whether it was).
     std::pair<Value*, bool> emplace(const Key& key, const Value& value) {
         for (size_t i = Hash{}(key)&mask_;; i = (i + 1) & mask_) {
-            if (keys_[i] == key) return {&values_[i], false};
-            if (keys_[i] == empty_) {
+            if (same(keys_[i], key)) return {&values_[i], false};
+            if (same(keys_[i], empty_)) {
                 keys_[i] = key, values_[i] = value;
                 return {&values_[i], true};
             }
@@ -84,12 +85,19 @@ class FlatMap {
     }
     const Value* find(const Key& key) const {
         for (size_t i = Hash{}(key)&mask_;; i = (i + 1) & mask_) {
-            if (keys_[i] == key) return &values_[i];
-            if (keys_[i] == empty_) return nullptr;
+            if (same(keys_[i], key)) return &values_[i];
+            if (same(keys_[i], empty_)) return nullptr;
         }
     }
 
   private:
+    // note: element by element; std::array's == became a call to memcmp per probe.
+    static bool same(const Key& a, const Key& b) {
+        if constexpr (std::is_same_v<Key, std::array<uint32_t, 3>>)
+            return a[0] == b[0] && a[1] == b[1] && a[2] == b[2];
+        else
+            return a == b;
+    }
     Key empty_;
     size_t mask_ = 0;
     std::vector<Key> keys_;
