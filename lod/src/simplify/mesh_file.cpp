@@ -35,14 +35,15 @@ int64_t to_index(double v) {
     return v >= -1e18 && v <= 1e18 ? int64_t(v) : -1;
 }
 
-// Fan-triangulates a polygon; indices checked against `vertices`.
-Status add_polygon(const std::vector<int64_t>& poly, size_t vertices, Primitive& p,
-                   const std::string& where) {
-    if (poly.size() < 3) return make_error(cat(where, ": a face with ", poly.size(), " corners"));
+// Fan-triangulates a polygon; indices checked against `vertices`. where(): the file and the face
+// or line, for an error (made only then: a string per face was a third of loading a large PLY).
+template <class Where>
+Status add_polygon(const std::vector<int64_t>& poly, size_t vertices, Primitive& p, Where&& where) {
+    if (poly.size() < 3) return make_error(cat(where(), ": a face with ", poly.size(), " corners"));
     for (int64_t i : poly)
         if (i < 0 || uint64_t(i) >= vertices)
             return make_error(
-                cat(where, ": vertex index ", i, " out of range (", vertices, " vertices)"));
+                cat(where(), ": vertex index ", i, " out of range (", vertices, " vertices)"));
     for (size_t k = 1; k + 1 < poly.size(); ++k)
         p.indices.insert(p.indices.end(),
                          {uint32_t(poly[0]), uint32_t(poly[k]), uint32_t(poly[k + 1])});
@@ -381,7 +382,8 @@ Status read_ply_element(const std::string& file, const PlyElement& e, size_t fil
         } else if (is_face) {
             if (!m.have_vertices)
                 return make_error(cat(file, ": element face before element vertex"));
-            if (Status s = add_polygon(poly, m.vertex_count, m.prim, cat(file, ": face ", item));
+            if (Status s = add_polygon(poly, m.vertex_count, m.prim,
+                                       [&] { return cat(file, ": face ", item); });
                 !s.ok())
                 return s;
         }
@@ -465,8 +467,8 @@ Result<Scene> load_off(const std::filesystem::path& path, const std::string& byt
         }
         // Skip optional colour values up to the end of the face's line.
         while (k < tokens.size() && tokens[k].second == line_of_face) ++k;
-        if (Status s =
-                add_polygon(poly, prim.positions.size(), prim, cat(file, ": line ", line_of_face));
+        if (Status s = add_polygon(poly, prim.positions.size(), prim,
+                                   [&] { return cat(file, ": line ", line_of_face); });
             !s.ok())
             return s.error();
     }
