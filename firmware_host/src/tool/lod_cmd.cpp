@@ -393,11 +393,12 @@ void add_lod_command(CLI::App& app) {
                     "Write the table of levels as JSON here (all outputs are written only when "
                     "all can be)");
     lod->add_option("--samples", args->samples,
-                    "Surface samples per direction for the error measurement (0: one per "
-                    "triangle of the mesh, at least 4096)")
+                    "Surface samples per direction for the error measurement (0: an eighth of "
+                    "the sampled mesh's triangle count, at least 1024)")
         ->capture_default_str();
     lod->add_option("--measure-threads", args->measure_threads,
-                    "Threads for the error measurement (0: one per hardware thread)")
+                    "Threads for the error measurement (0: one per hardware thread; with 2 the "
+                    "two directions run at once, the same figures as with 1)")
         ->capture_default_str();
     lod->add_flag("--prism-bounds", args->prism_bounds,
                   "Bound each level's Hausdorff distance from above by the prism bound: within a "

@@ -37,7 +37,7 @@ struct MeshDistanceOptions {
     // by the prism bound (mesh_distance.cpp, prism_bound()): the distance along its normal to the
     // triangles of the other mesh over it. The upper bound then closes on the sampled maximum on
     // smooth meshes (the bunny at 50 %: 0.0403..0.0403 % of the diagonal against 0.0316..0.7850 %
-    // without), at 1.7 to 3.8 times the measurement's time; creases and open borders across a
+    // without), at 1.6 to 3.7 times the measurement's time; creases and open borders across a
     // triangle leave it the default bounds (docs/lod-generation.md, "Error metric").
     bool prism_bounds = false;
     // Threads: with 2 or more the two directions run at once (each with the same figures as
