@@ -29,11 +29,10 @@
 #include <optional>
 #include <set>
 
-#include <time.h>
-
 #include "hmdnode/core/str_cat.hpp"
 #include "hmdnode/lod/progressive_mesh.hpp"
 #include "position_set.hpp"
+#include "thread_cpu.hpp"
 
 namespace hmdnode {
 namespace {
@@ -44,11 +43,7 @@ double ms_since(Clock::time_point t0) {
     return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
 
-double thread_cpu_ms() {
-    timespec t{};
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-    return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
-}
+using lod_detail::thread_cpu_ms;
 
 // All primitives of a mesh as one triangle soup, for the distance measurement.
 struct Soup {

@@ -62,6 +62,8 @@
 #include <thread>
 #include <vector>
 
+#include "thread_cpu.hpp"
+
 namespace hmdnode {
 namespace {
 
@@ -427,12 +429,7 @@ class Querier {
     uint32_t hint_ = kNone;
 };
 
-// This thread's CPU time (named apart from lod_chain.cpp's for the unity build).
-double cpu_now_ms() {
-    timespec t{};
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-    return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
-}
+using lod_detail::thread_cpu_ms;
 
 // fn(begin, end, querier, worker) over [0, n) in chunks on `threads` threads (the caller's one
 // among them); returns the queries made, adds the CPU time of the threads it started to
@@ -447,7 +444,7 @@ size_t parallel_queries(size_t n, const Surface& to, unsigned threads, double& h
     std::vector<size_t> made(workers, 0);
     std::vector<double> cpu(workers, 0.0);
     auto work = [&](unsigned w) {
-        const double c0 = w > 0 ? cpu_now_ms() : 0.0;
+        const double c0 = w > 0 ? thread_cpu_ms() : 0.0;
         Querier q(to);
         for (;;) {
             const size_t begin = next.fetch_add(chunk);
@@ -455,7 +452,7 @@ size_t parallel_queries(size_t n, const Surface& to, unsigned threads, double& h
             fn(begin, std::min(n, begin + chunk), q, w);
         }
         made[w] = q.queries;
-        if (w > 0) cpu[w] = cpu_now_ms() - c0;
+        if (w > 0) cpu[w] = thread_cpu_ms() - c0;
     };
     std::vector<std::thread> pool;
     for (unsigned w = 1; w < workers; ++w) pool.emplace_back(work, w);
@@ -492,8 +489,6 @@ double distance_to(const Surface& s, const dvec3& p, uint32_t t) {
     return glm::length(c - p);
 }
 
-// Whether p's projection onto triangle t's plane lies inside t (its nearest point of t is then
-// the foot of the perpendicular, in t's interior or on its boundary).
 // The edges of triangle t whose lines have p's projection onto t's plane outside (bit k: the edge
 // from corner k to corner k + 1); 0 when the projection lies inside t (its nearest point of t is
 // then the foot of the perpendicular).
@@ -1100,7 +1095,7 @@ MeshDistance MeshDistanceReference::measure(TriangleMeshView b_view) const {
     for (uint32_t i : b_view.indices) assert(i < b_view.positions.size());
 #endif
     const Impl& r = *impl_;
-    const double c0 = cpu_now_ms();
+    const double c0 = thread_cpu_ms();
     double helper_cpu_ms[2] = {0.0, 0.0}, back_cpu_ms = 0.0;  // not on this thread
     const unsigned threads = thread_count(r.options);
     const Surface b(b_view, r.options.prism_bounds);
@@ -1128,13 +1123,13 @@ MeshDistance MeshDistanceReference::measure(TriangleMeshView b_view) const {
     } else {
         std::exception_ptr failed_back, failed_forward;
         std::thread back([&] {
-            const double b0 = cpu_now_ms();
+            const double b0 = thread_cpu_ms();
             try {
                 backward();
             } catch (...) {
                 failed_back = std::current_exception();
             }
-            back_cpu_ms = cpu_now_ms() - b0;
+            back_cpu_ms = thread_cpu_ms() - b0;
         });
         try {
             forward(threads - back_threads);
@@ -1151,7 +1146,7 @@ MeshDistance MeshDistanceReference::measure(TriangleMeshView b_view) const {
     out.mean = fwd ? out.forward.mean : out.backward.mean;
     out.mean_stderr = fwd ? out.forward.mean_stderr : out.backward.mean_stderr;
     out.rms = std::max(out.forward.rms, out.backward.rms);
-    out.cpu_ms = cpu_now_ms() - c0 + helper_cpu_ms[0] + helper_cpu_ms[1] + back_cpu_ms;
+    out.cpu_ms = thread_cpu_ms() - c0 + helper_cpu_ms[0] + helper_cpu_ms[1] + back_cpu_ms;
     return out;
 }
 
